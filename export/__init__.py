@@ -1,0 +1,1 @@
+"""citysynth export stage (see ../shared/DESIGN.md)."""

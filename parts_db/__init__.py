@@ -1,0 +1,1 @@
+"""citysynth parts_db stage (see ../shared/DESIGN.md)."""

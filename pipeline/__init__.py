@@ -1,0 +1,1 @@
+"""citysynth pipeline stage (see ../shared/DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""citysynth skeletons stage (see ../shared/DESIGN.md)."""

@@ -1,0 +1,91 @@
+"""Why a problem is infeasible, in the user's units.
+
+"Infeasible" is an answer, so it comes with a reason: which constraint cannot be met
+and the nearest values that can. For each constrained resource we relax its own
+bounds (lower bound to zero, upper bound extended by the largest element) and keep
+all the others, grow the graph forward only, and read off the totals that complete
+sequences reach. A resource whose interval none of them hits is a blocking
+constraint; its nearest achievable totals below and above are reported.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .compiled import Compiled, with_bounds
+from .graph import grow
+
+
+def _fmt(x: float) -> str:
+    return f"{round(x, 9):g}"
+
+
+def _interval_text(name: str, lo: float, hi: float) -> str:
+    if lo == hi:
+        return f"{name} = {_fmt(lo)}"
+    return f"{name} in [{_fmt(lo)}, {_fmt(hi)}]"
+
+
+def _reachable_totals(cp: Compiled, max_nodes: int) -> np.ndarray | None:
+    """Quantised totals (rows) of complete sequences meeting cp's upper bounds."""
+    out = grow(cp, dense=cp.S * cp.n <= (1 << 25), size_hint=min(cp.S * cp.n, 1 << 16),
+               max_nodes=max_nodes, forward_only=True)
+    status, nn, elem, state, _level, g = out[0], out[1], out[2], out[3], out[4], out[5]
+    if status != 0:
+        return None
+    elem, state, g = elem[:nn], state[:nn], g[:nn]
+    ok = (g < np.inf) & cp.back[elem]
+    st = state[ok]
+    return np.stack([(st // cp.stride[i]) % (cp.cap[i] + 1) for i in range(cp.R)], axis=1)
+
+
+def diagnose(cp: Compiled, max_nodes: int) -> tuple[str, list[dict]]:
+    """A one-line reason and per-constraint details for an infeasible problem."""
+    asked = [tuple(q.asked) for q in cp.quant]
+    details: list[dict] = []
+    blocking: list[str] = []
+    any_reach = False
+    for i, name in enumerate(cp.bounded):
+        lo = cp.lo.copy()
+        hi = cp.hi.copy()
+        lo[i] = 0
+        hi[i] = cp.hi[i] + int(cp.r[:, i].max())
+        totals = _reachable_totals(with_bounds(cp, lo, hi), max_nodes)
+        if totals is None:
+            continue
+        others = np.ones(len(totals), dtype=bool)
+        for j in range(cp.R):
+            if j != i:
+                others &= totals[:, j] >= cp.lo[j]
+        vals = np.unique(totals[others, i])
+        if len(vals) == 0:
+            continue
+        any_reach = True
+        q = cp.quant[i].quantum
+        inside = vals[(vals >= cp.lo[i]) & (vals <= cp.hi[i])]
+        if len(inside):
+            continue
+        below = vals[vals < cp.lo[i]]
+        above = vals[vals > cp.hi[i]]
+        d = {"constraint": name, "asked": [asked[i][0], asked[i][1]],
+             "nearest_below": round(float(below.max()) * q, 9) if len(below) else None,
+             "nearest_above": round(float(above.min()) * q, 9) if len(above) else None}
+        details.append(d)
+        near = []
+        if d["nearest_below"] is not None:
+            near.append(f"{_fmt(d['nearest_below'])} (below)")
+        if d["nearest_above"] is not None:
+            near.append(f"{_fmt(d['nearest_above'])} (above)")
+        why = "cannot be met together with the other constraints"
+        if cp.lo[i] > cp.hi[i]:
+            why = f"holds no multiple of its quantum {q:g}"
+        blocking.append(f"{_interval_text(name, *asked[i])} {why}; nearest achievable: "
+                        f"{', '.join(near) or 'none'}")
+    if blocking:
+        return "infeasible: " + "; ".join(blocking), details
+    if not any_reach:
+        return ("infeasible: no sequence leads from a front element to a back element "
+                "within the bounds; check the front/back lists and the transitions"), details
+    wanted = ", ".join(_interval_text(n, *asked[i]) for i, n in enumerate(cp.bounded))
+    return (f"infeasible: each constraint can be met alone but not all together "
+            f"({wanted}); relax one of them"), details

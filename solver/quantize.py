@@ -1,0 +1,97 @@
+"""Per-resource quantisation: real-valued resources become integers.
+
+The intermediate graph indexes nodes by integer resource consumption (paper §3.1,
+footnote 1), so every constrained resource needs a quantum q with each value an
+integer multiple of q. We prefer the *exact* common divisor of the element values and
+the bounds (0.2 m parts and an 83.4 m target give q = 0.2, nothing is rounded); only
+when none exists (within 1e-9) do we need a user quantum, and then we round values to
+the nearest multiple and report the largest rounding error. Bounds are always rounded
+inward, so a quantised solution never violates the original interval.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from fractions import Fraction
+
+from .errors import ProblemError
+
+TOL = 1e-9
+_MAX_DENOMINATOR = 10**6
+
+
+@dataclass(frozen=True)
+class Quantisation:
+    """How one constrained resource was quantised."""
+
+    resource: str
+    quantum: float
+    exact: bool          # every element value and bound is an integer multiple of quantum
+    max_error: float     # largest |value - rounded value| over element values (original units)
+    lo: int              # bounds in quanta, rounded inward
+    hi: int
+    asked: tuple[float, float]  # bounds as the user gave them
+
+    def to_dict(self) -> dict:
+        return {
+            "quantum": self.quantum,
+            "exact": self.exact,
+            "max_rounding_error": self.max_error,
+            "bounds_quantised": [self.lo, self.hi],
+        }
+
+
+def exact_divisor(values: list[float]) -> Fraction | None:
+    """The largest q with every value an integer multiple of q (within 1e-9), or None.
+
+    Values are read as rationals with denominators up to 10**6; the gcd of rationals
+    a_i/b_i is gcd(a_i * L/b_i) / L with L = lcm(b_i). All-zero input gives 1.
+    """
+    fracs = []
+    for v in values:
+        if v == 0:
+            continue
+        f = Fraction(v).limit_denominator(_MAX_DENOMINATOR)
+        if abs(float(f) - v) > TOL * max(1.0, abs(v)):
+            return None
+        fracs.append(f)
+    if not fracs:
+        return Fraction(1)
+    lcm = 1
+    for f in fracs:
+        lcm = lcm * f.denominator // math.gcd(lcm, f.denominator)
+    g = 0
+    for f in fracs:
+        g = math.gcd(g, f.numerator * (lcm // f.denominator))
+    return Fraction(g, lcm)
+
+
+def _is_multiple(v: float, q: float) -> bool:
+    m = v / q
+    return abs(m - round(m)) <= TOL * max(1.0, abs(m))
+
+
+def quantise_resource(
+    name: str, values: list[float], lo: float, hi: float, quantum: float | None
+) -> tuple[Quantisation, list[int]]:
+    """Quantise one resource's element values and bounds; returns the integer values too."""
+    if quantum is None:
+        q_exact = exact_divisor(values + [lo, hi])
+        if q_exact is None:
+            raise ProblemError(
+                f'resource "{name}": its values have no common divisor (within 1e-9); '
+                f'give one in "quantum", e.g. "quantum": {{"{name}": 0.1}}'
+            )
+        q = float(q_exact)
+    else:
+        q = float(quantum)
+    ints = [int(round(v / q)) for v in values]
+    max_err = max((abs(v - n * q) for v, n in zip(values, ints, strict=True)), default=0.0)
+    exact = all(_is_multiple(v, q) for v in values) and _is_multiple(lo, q) \
+        and _is_multiple(hi, q)
+    if all(_is_multiple(v, q) for v in values):
+        max_err = 0.0
+    qlo = int(math.ceil(lo / q - TOL * max(1.0, lo / q)))
+    qhi = int(math.floor(hi / q + TOL * max(1.0, hi / q)))
+    return Quantisation(name, q, exact, max_err, qlo, qhi, (lo, hi)), ints

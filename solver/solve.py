@@ -1,0 +1,146 @@
+"""The public entry point: ``solve(problem, k, method)``.
+
+A thin layer over the kernels (like shapely's Python API over its vectorised core):
+compile and quantise, estimate and refuse if too large, build the intermediate
+graph and enumerate the k best paths (``rcksp``) or run the baseline (``fgs``),
+then map indices back to ids, recompute every cost and resource total from the
+sequence itself in one canonical order, and explain infeasibility.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from .compiled import Compiled, compile_problem
+from .diagnose import diagnose
+from .errors import ProblemError, TooLargeError
+from .estimate import DEFAULT_MAX_MEMORY_MB, estimate, too_large_message
+from .fgs import fgs
+from .graph import build_graph
+from .kbest import k_best
+from .problem import Problem
+
+METHODS = ("rcksp", "fgs")
+
+
+@dataclass(frozen=True)
+class Solution:
+    sequence: list[str]
+    cost: float
+    resources: dict[str, float]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"sequence": list(self.sequence), "cost": self.cost,
+                "resources": dict(self.resources)}
+
+
+@dataclass
+class Result:
+    status: str                      # "ok" | "infeasible"
+    solutions: list[Solution]
+    stats: dict[str, Any]
+    reason: str | None = None        # why infeasible
+    details: list[dict] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "status": self.status,
+            "solutions": [s.to_dict() for s in self.solutions],
+            "stats": self.stats,
+        }
+        if self.reason is not None:
+            d["reason"] = self.reason
+            d["details"] = self.details
+        return d
+
+
+class _Evaluator:
+    """Cost and resource totals of a sequence, always summed front to back."""
+
+    def __init__(self, p: Problem):
+        self.p = p
+        self.omega = {e.id: e.cost for e in p.elements}
+        self.delta = {(a, b): c for a, b, c in p.transitions}
+        self.res = {e.id: e.resources for e in p.elements}
+
+    def cost(self, seq: list[str]) -> float:
+        c = self.omega[seq[0]]
+        for a, b in zip(seq, seq[1:], strict=False):
+            c += self.delta[(a, b)] + self.omega[b]
+        return c
+
+    def resources(self, seq: list[str]) -> dict[str, float]:
+        return {r: round(math.fsum(self.res[x][r] for x in seq), 9) for r in self.p.resources}
+
+
+def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
+          max_memory_mb: float = DEFAULT_MAX_MEMORY_MB) -> Result:
+    """The k cheapest distinct feasible sequences of ``problem`` in ascending cost.
+
+    ``k`` defaults to ``problem.k``. Raises :class:`ProblemError` for problems that
+    cannot be posed (unbounded elements, no common quantum) and
+    :class:`TooLargeError` when the state space exceeds ``max_memory_mb``.
+    """
+    if method not in METHODS:
+        raise ProblemError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    k = problem.k if k is None else int(k)
+    if k < 1:
+        raise ProblemError(f"k must be a positive integer, got {k}")
+    t0 = time.perf_counter()
+    cp = compile_problem(problem)
+    stats: dict[str, Any] = {
+        "method": method, "k": k, "elements": cp.n,
+        "quantisation": {q.resource: q.to_dict() for q in cp.quant},
+        "levels": cp.top + 1,
+    }
+    if cp.empty_bounds:
+        return _infeasible(cp, stats, t0, DEFAULT_MAX_MEMORY_MB)
+    est = estimate(cp, max_memory_mb)
+    stats["estimate"] = est.to_dict()
+    size_hint = min(est.nodes, 1 << 20)
+    if method == "rcksp":
+        graph = build_graph(cp, dense=est.dense, size_hint=size_hint, max_nodes=est.max_nodes)
+        if graph is None:
+            raise TooLargeError(too_large_message(cp, est.max_nodes, est.bytes,
+                                                  int(max_memory_mb * 2**20)))
+        t1 = time.perf_counter()
+        seqs, _, touched = k_best(graph, k)
+        t2 = time.perf_counter()
+        stats.update(nodes=graph.kept, nodes_generated=graph.nodes,
+                     meet_level=graph.meet_level, kbest_nodes=touched)
+    else:
+        t1 = time.perf_counter()
+        status, seqs, _, settled, labels = fgs(
+            cp, k, dense=est.dense, size_hint=size_hint,
+            max_labels=max(est.max_nodes // 2, 1024))
+        t2 = time.perf_counter()
+        if status != 0:
+            raise TooLargeError(
+                f"FGS stopped after {labels:,} labels: the search exceeds the memory "
+                f"budget of {max_memory_mb:,.0f} MB; use method rcksp or a smaller k")
+        stats.update(nodes=settled, labels=labels)
+    stats["setup_s"] = t1 - t0
+    stats["solve_s"] = t2 - t1
+    if not seqs:
+        return _infeasible(cp, stats, t0, max_memory_mb, est.max_nodes)
+    ev = _Evaluator(problem)
+    sols = []
+    for s in seqs:
+        ids = [cp.ids[i] for i in s]
+        sols.append((ev.cost(ids), s, Solution(ids, ev.cost(ids), ev.resources(ids))))
+    sols.sort(key=lambda t: (t[0], t[1]))
+    return Result("ok", [t[2] for t in sols], stats)
+
+
+def _infeasible(cp: Compiled, stats: dict, t0: float, max_memory_mb: float,
+                max_nodes: int | None = None) -> Result:
+    if max_nodes is None:
+        max_nodes = int(max_memory_mb * 2**20) // 64
+    stats.setdefault("nodes", 0)
+    stats.setdefault("setup_s", time.perf_counter() - t0)
+    stats.setdefault("solve_s", 0.0)
+    reason, details = diagnose(cp, max_nodes)
+    return Result("infeasible", [], stats, reason, details)
