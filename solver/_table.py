@@ -6,6 +6,11 @@ lookup, and successor lookups of one node stay in a few cache lines because the
 layout is state-major); otherwise it is an open-addressing hash table with linear
 probing, so memory follows the nodes actually created rather than the box.
 
+Lookups are written at each call site as ``v = tab[key] if dense else
+hash_find(...)``: numba-inlined helpers that branch on a runtime flag with arrays
+in both arms cost ~40 ns per call in reference counting (measured: 52 ms instead of
+6 ms for one 80 m street expansion), while a plain branch costs nothing.
+
 Kernels only; nothing outside ``solver/`` calls these.
 """
 
@@ -36,11 +41,9 @@ def table_new(dense, size_hint, dense_size):
     return np.full(1, -1, dtype=np.int32), keys, vals, 64 - bits
 
 
-@njit(cache=True, inline="always")
-def table_find(dense, tab, keys, vals, shift, key):
-    """Node id stored for ``key``, or -1."""
-    if dense:
-        return np.int64(tab[key])
+@njit(cache=True)
+def hash_find(keys, vals, shift, key):
+    """Node id stored for ``key`` in the hash table, or -1."""
     mask = len(keys) - 1
     i = _slot(key, shift)
     while True:
@@ -53,7 +56,8 @@ def table_find(dense, tab, keys, vals, shift, key):
 
 
 @njit(cache=True)
-def _rehash(keys, vals, shift):
+def table_rehash(keys, vals, shift):
+    """A hash table twice the size holding the same entries."""
     nkeys = np.full(2 * len(keys), -1, dtype=np.int64)
     nvals = np.full(2 * len(keys), -1, dtype=np.int32)
     nshift = shift - 1
@@ -70,22 +74,16 @@ def _rehash(keys, vals, shift):
 
 
 @njit(cache=True)
-def table_insert(dense, tab, keys, vals, shift, count, key, value):
-    """Insert a key known to be absent; ``count`` is the number of keys before it.
-
-    Returns (keys, vals, shift): the hash arrays are replaced when they grow."""
-    if dense:
-        tab[key] = value
-        return keys, vals, shift
-    if 2 * (count + 1) > len(keys):
-        keys, vals, shift = _rehash(keys, vals, shift)
+def hash_put(keys, vals, shift, key, value):
+    """Insert a key known to be absent. The table must have been given room
+    beforehand (load <= 1/2, see :func:`table_rehash`), so hot loops never
+    reallocate: numba keeps arrays that are never reassigned in registers."""
     mask = len(keys) - 1
     i = _slot(key, shift)
     while keys[i] != -1:
         i = (i + 1) & mask
     keys[i] = key
     vals[i] = value
-    return keys, vals, shift
 
 
 @njit(cache=True)

@@ -30,7 +30,7 @@ def _reachable_totals(cp: Compiled, max_nodes: int) -> np.ndarray | None:
     """Quantised totals (rows) of complete sequences meeting cp's upper bounds."""
     out = grow(cp, dense=cp.S * cp.n <= (1 << 25), size_hint=min(cp.S * cp.n, 1 << 16),
                max_nodes=max_nodes, forward_only=True)
-    status, nn, elem, state, _level, g = out[0], out[1], out[2], out[3], out[4], out[5]
+    status, nn, elem, state, g = out[0], out[1], out[2], out[3], out[4]
     if status != 0:
         return None
     elem, state, g = elem[:nn], state[:nn], g[:nn]

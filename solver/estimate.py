@@ -16,8 +16,8 @@ import numpy as np
 from .compiled import Compiled
 from .errors import TooLargeError
 
-BYTES_PER_NODE = 40          # elem, state, level, g, h, two bucket links
-BYTES_PER_HASH_NODE = 24     # key + value at load <= 1/2
+BYTES_PER_NODE = 36          # elem, state, g, h, two bucket links
+BYTES_PER_HASH_NODE = 48     # key + value at load 1/4..1/2
 DENSE_TABLE_MAX_BYTES = 1 << 27
 DEFAULT_MAX_MEMORY_MB = 2048
 

@@ -24,9 +24,10 @@ from ._table import (
     fits,
     grow_f64,
     grow_i64,
-    table_find,
-    table_insert,
+    hash_find,
+    hash_put,
     table_new,
+    table_rehash,
 )
 from .compiled import Compiled
 
@@ -78,46 +79,19 @@ def _pop(heap, hs, lab_cost):
 
 
 @njit(cache=True)
-def _fgs(K, n, r, lo, cap, stride, S, off, sptr, selem, sw, front_order, omega, back,
-         dense, size_hint, max_labels):
-    R = len(cap)
-    c = np.zeros(R, dtype=np.int64)
-    tab, keys, vals, shift = table_new(dense, size_hint, S * n if dense else 1)
-    pops = np.zeros(1024, dtype=np.int64)
-    nnodes = 0
-    # labels: cost, parent label, position j (in the parent's sorted successors, or in
-    # front_order for roots), element (-1 = the sink), state
-    lab_cost = np.empty(1024, dtype=np.float64)
-    lab_par = np.empty(1024, dtype=np.int64)
-    lab_j = np.empty(1024, dtype=np.int64)
-    lab_elem = np.empty(1024, dtype=np.int64)
-    lab_state = np.empty(1024, dtype=np.int64)
-    nl = 0
-    heap = np.empty(1024, dtype=np.int64)
-    hs = 0
-    results = np.empty(K, dtype=np.int64)
-    nres = 0
-    settled = 0
-
-    if len(front_order) > 0:
-        e = front_order[0]
-        lab_cost[0] = omega[e]
-        lab_par[0] = -1
-        lab_j[0] = 0
-        lab_elem[0] = e
-        lab_state[0] = off[e]
-        nl = 1
-        hs = _push(heap, hs, lab_cost, 0)
-
+def _fgs_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, front_order, omega, back,
+               dense, tab, keys, vals, shift, pops, lab_cost, lab_par, lab_j, lab_elem,
+               lab_state, heap, results, counters):
+    """Pop labels until done or until the arrays are nearly full (the driver then
+    grows them and calls again; nothing is reallocated in here, see graph.py).
+    counters = [labels, heap size, results, states, settled]."""
+    c = np.zeros(len(cap), dtype=np.int64)
+    nl, hs, nres, nnodes, settled = counters[0], counters[1], counters[2], counters[3], \
+        counters[4]
     while hs > 0 and nres < K:
-        if nl + 3 > len(lab_cost):
-            if nl > max_labels:
-                return STATUS_TOO_LARGE, results[:0], lab_par, lab_elem, settled, nl
-            m = 2 * len(lab_cost)
-            lab_cost, lab_par, lab_j = grow_f64(lab_cost, m), grow_i64(lab_par, m), \
-                grow_i64(lab_j, m)
-            lab_elem, lab_state = grow_i64(lab_elem, m), grow_i64(lab_state, m)
-            heap = grow_i64(heap, m)
+        if nl + 3 > len(lab_cost) or nnodes + 1 > len(pops) or \
+                (not dense and 2 * (nnodes + 1) > len(keys)):
+            break
         lab, hs = _pop(heap, hs, lab_cost)
         e = lab_elem[lab]
         if e < 0:
@@ -155,13 +129,17 @@ def _fgs(K, n, r, lo, cap, stride, S, off, sptr, selem, sw, front_order, omega, 
         # settle the state of this label at most K times
         s = lab_state[lab]
         key = s * n + e
-        v = table_find(dense, tab, keys, vals, shift, key)
+        if dense:
+            v = np.int64(tab[key])
+        else:
+            v = hash_find(keys, vals, shift, key)
         if v < 0:
-            if nnodes == len(pops):
-                pops = grow_i64(pops, 2 * nnodes)
             v = nnodes
             pops[v] = 0
-            keys, vals, shift = table_insert(dense, tab, keys, vals, shift, nnodes, key, v)
+            if dense:
+                tab[key] = v
+            else:
+                hash_put(keys, vals, shift, key, v)
             nnodes += 1
         if pops[v] >= K:
             continue
@@ -188,7 +166,54 @@ def _fgs(K, n, r, lo, cap, stride, S, off, sptr, selem, sw, front_order, omega, 
             lab_state[nl] = s + off[f]
             hs = _push(heap, hs, lab_cost, nl)
             nl += 1
-    return STATUS_OK, results[:nres], lab_par, lab_elem, nnodes, nl
+    counters[0], counters[1], counters[2], counters[3], counters[4] = nl, hs, nres, nnodes, \
+        settled
+
+
+@njit(cache=True)
+def _fgs(K, n, r, lo, cap, stride, S, off, sptr, selem, sw, front_order, omega, back,
+         dense, size_hint, max_labels):
+    tab, keys, vals, shift = table_new(dense, size_hint, S * n if dense else 1)
+    m = 1 << 16
+    pops = np.zeros(m, dtype=np.int64)
+    lab_cost = np.empty(m, dtype=np.float64)
+    lab_par = np.empty(m, dtype=np.int64)
+    lab_j = np.empty(m, dtype=np.int64)
+    lab_elem = np.empty(m, dtype=np.int64)
+    lab_state = np.empty(m, dtype=np.int64)
+    heap = np.empty(m, dtype=np.int64)
+    results = np.empty(K, dtype=np.int64)
+    counters = np.zeros(5, dtype=np.int64)  # labels, heap size, results, states, settled
+    if len(front_order) > 0:
+        e = front_order[0]
+        lab_cost[0] = omega[e]
+        lab_par[0] = -1
+        lab_j[0] = 0
+        lab_elem[0] = e
+        lab_state[0] = off[e]
+        heap[0] = 0
+        counters[0] = 1
+        counters[1] = 1
+    while True:
+        _fgs_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, front_order, omega, back,
+                   dense, tab, keys, vals, shift, pops, lab_cost, lab_par, lab_j, lab_elem,
+                   lab_state, heap, results, counters)
+        nl, hs, nres, nnodes = counters[0], counters[1], counters[2], counters[3]
+        if hs == 0 or nres >= K:
+            break
+        if nl + 3 > len(lab_cost):
+            if nl > max_labels:
+                return STATUS_TOO_LARGE, results[:0], lab_par, lab_elem, nnodes, nl
+            m = 2 * len(lab_cost)
+            lab_cost, lab_par, lab_j = grow_f64(lab_cost, m), grow_i64(lab_par, m), \
+                grow_i64(lab_j, m)
+            lab_elem, lab_state = grow_i64(lab_elem, m), grow_i64(lab_state, m)
+            heap = grow_i64(heap, m)
+        if nnodes + 1 > len(pops):
+            pops = grow_i64(pops, 2 * len(pops))
+        if not dense and 2 * (nnodes + 1) > len(keys):
+            keys, vals, shift = table_rehash(keys, vals, shift)
+    return STATUS_OK, results[:counters[2]], lab_par, lab_elem, counters[3], counters[0]
 
 
 def fgs(cp: Compiled, k: int, *, dense: bool, size_hint: int, max_labels: int):

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._table import admissible, decode, fits, grow_i64, table_find
+from ._table import admissible, decode, fits, grow_i64, hash_find
 
 TERM = -1
 # slot columns
@@ -40,7 +40,10 @@ def _choices(v, G, c, out_f, out_i):
         c[:] = 0
         for e in range(n):
             if front[e] and fits(c, r, e, cap):
-                x = table_find(dense, tab, keys, vals, shift, off[e] * n + e)
+                if dense:
+                    x = np.int64(tab[off[e] * n + e])
+                else:
+                    x = hash_find(keys, vals, shift, off[e] * n + e)
                 if x >= 0 and h[x] < np.inf:
                     out_f[m, 0] = omega[e] + h[x]
                     out_f[m, 1] = omega[e]
@@ -63,7 +66,10 @@ def _choices(v, G, c, out_f, out_i):
         f = succ_elem[j]
         if not fits(c, r, f, cap):
             continue
-        x = table_find(dense, tab, keys, vals, shift, (s + off[f]) * n + f)
+        if dense:
+            x = np.int64(tab[(s + off[f]) * n + f])
+        else:
+            x = hash_find(keys, vals, shift, (s + off[f]) * n + f)
         if x >= 0 and h[x] < np.inf:
             out_f[m, 0] = succ_w[j] + h[x]
             out_f[m, 1] = succ_w[j]
