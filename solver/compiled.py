@@ -44,6 +44,7 @@ class Compiled:
     pred_ptr: np.ndarray
     pred_elem: np.ndarray
     pred_w: np.ndarray     # float64   delta(p, e) + omega(e)
+    W: np.ndarray          # float64 [n, n]  W[f, e] = delta(e, f) + omega(f), inf if e->f
     front: np.ndarray      # bool [n]
     back: np.ndarray       # bool [n]
     max_len: int
@@ -112,6 +113,11 @@ def compile_problem(p: Problem) -> Compiled:
     w = d + omega[b]
     succ_ptr, succ_elem, succ_w = _csr(n, a, b, w)
     pred_ptr, pred_elem, pred_w = _csr(n, b, a, w)
+    # The same table dense and transposed: row f holds every way into f, so the
+    # kernels relax all transitions into f (or out of e, read as W[e, :] = "into e
+    # from p") as one contiguous vector operation.
+    W = np.full((n, n), np.inf)
+    W[b, a] = w
 
     front = np.zeros(n, dtype=np.bool_)
     front[[index[x] for x in p.front]] = True
@@ -122,7 +128,7 @@ def compile_problem(p: Problem) -> Compiled:
         ids=ids, bounded=bounded, quant=quant, r=r, lo=lo, hi=hi,
         lev=lev.astype(np.int64), omega=omega,
         succ_ptr=succ_ptr, succ_elem=succ_elem, succ_w=succ_w,
-        pred_ptr=pred_ptr, pred_elem=pred_elem, pred_w=pred_w,
+        pred_ptr=pred_ptr, pred_elem=pred_elem, pred_w=pred_w, W=W,
         front=front, back=back, **box,
     )
 

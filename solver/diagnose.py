@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .compiled import Compiled, with_bounds
+from .estimate import DENSE_TABLE_MAX_BYTES, row_bytes
 from .graph import grow
 
 
@@ -26,20 +27,20 @@ def _interval_text(name: str, lo: float, hi: float) -> str:
     return f"{name} in [{_fmt(lo)}, {_fmt(hi)}]"
 
 
-def _reachable_totals(cp: Compiled, max_nodes: int) -> np.ndarray | None:
+def _reachable_totals(cp: Compiled, max_rows: int) -> np.ndarray | None:
     """Quantised totals (rows) of complete sequences meeting cp's upper bounds."""
-    out = grow(cp, dense=cp.S * cp.n <= (1 << 25), size_hint=min(cp.S * cp.n, 1 << 16),
-               max_nodes=max_nodes, forward_only=True)
-    status, nn, elem, state, g = out[0], out[1], out[2], out[3], out[4]
+    dense = cp.S * row_bytes(cp.n, True) <= DENSE_TABLE_MAX_BYTES
+    (status, nrows, G, _H, row_state, *_), _table = grow(
+        cp, dense=dense, rows_hint=min(cp.S, 1 << 12), max_rows=max_rows,
+        forward_only=True, complete=False)
     if status != 0:
         return None
-    elem, state, g = elem[:nn], state[:nn], g[:nn]
-    ok = (g < np.inf) & cp.back[elem]
-    st = state[ok]
+    reached = (G[:nrows][:, cp.back] < np.inf).any(axis=1)
+    st = row_state[:nrows][reached]
     return np.stack([(st // cp.stride[i]) % (cp.cap[i] + 1) for i in range(cp.R)], axis=1)
 
 
-def diagnose(cp: Compiled, max_nodes: int) -> tuple[str, list[dict]]:
+def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
     """A one-line reason and per-constraint details for an infeasible problem."""
     asked = [tuple(q.asked) for q in cp.quant]
     details: list[dict] = []
@@ -50,7 +51,7 @@ def diagnose(cp: Compiled, max_nodes: int) -> tuple[str, list[dict]]:
         hi = cp.hi.copy()
         lo[i] = 0
         hi[i] = cp.hi[i] + int(cp.r[:, i].max())
-        totals = _reachable_totals(with_bounds(cp, lo, hi), max_nodes)
+        totals = _reachable_totals(with_bounds(cp, lo, hi), max_rows)
         if totals is None:
             continue
         others = np.ones(len(totals), dtype=bool)

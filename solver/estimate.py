@@ -1,10 +1,11 @@
 """How big a problem is before we allocate anything for it.
 
-The node count is bounded by (elements that fit) x (states in the box); the box is
-already tightened by the longest possible sequence (:mod:`solver.compiled`). We
-refuse when that bound, in bytes, exceeds the caller's budget, and say which
-resource makes the box large and what to change. Growth also stops at the same
-budget, so a loose estimate can never turn into an out-of-memory crash.
+The graph is stored as one row of n values per state reached (:mod:`solver.graph`),
+so memory is bounded by (states in the box) x (row size); the box is already
+tightened by the longest possible sequence (:mod:`solver.compiled`). We refuse when
+that bound exceeds the caller's budget, and say which resource makes the box large
+and what to change. Growth also stops at the same budget, so an estimate that is
+wrong can never turn into an out-of-memory crash.
 """
 
 from __future__ import annotations
@@ -16,35 +17,36 @@ import numpy as np
 from .compiled import Compiled
 from .errors import TooLargeError
 
-BYTES_PER_NODE = 36          # elem, state, g, h, two bucket links
-BYTES_PER_HASH_NODE = 48     # key + value at load 1/4..1/2
-DENSE_TABLE_MAX_BYTES = 1 << 27
+DENSE_TABLE_MAX_BYTES = 1 << 28    # rows indexed by state up to this size, else hashed
 DEFAULT_MAX_MEMORY_MB = 2048
 
 
 @dataclass(frozen=True)
 class Estimate:
-    nodes: int          # upper bound on nodes
-    bytes: int          # memory for that many nodes plus the node table
-    dense: bool         # dense node table (else hashed)
-    max_nodes: int      # node budget enforced during growth
+    nodes: int          # upper bound on nodes (elements x states)
+    bytes: int          # memory for every state row, the row table and W
+    dense: bool         # rows indexed by state (else hashed)
+    max_rows: int       # row budget enforced during growth
 
     def to_dict(self) -> dict:
         return {"nodes_bound": self.nodes, "bytes_bound": self.bytes,
                 "table": "dense" if self.dense else "hash"}
 
 
+def row_bytes(n: int, dense: bool) -> int:
+    """g and h for n elements, the state, two bucket links and flags (+ hash slot)."""
+    return 16 * n + 18 + (0 if dense else 48)
+
+
 def estimate(cp: Compiled, max_memory_mb: float = DEFAULT_MAX_MEMORY_MB) -> Estimate:
     budget = int(max_memory_mb * 2**20)
     fitting = int((cp.r <= cp.cap).all(axis=1).sum())
     nodes = max(fitting, 1) * cp.S
-    dense_bytes = cp.S * cp.n * 4
-    dense = dense_bytes <= DENSE_TABLE_MAX_BYTES
-    table = dense_bytes if dense else nodes * BYTES_PER_HASH_NODE
-    need = nodes * BYTES_PER_NODE + table
-    per_node = BYTES_PER_NODE + (0 if dense else BYTES_PER_HASH_NODE)
-    max_nodes = max((budget - (dense_bytes if dense else 0)) // per_node, 1)
-    est = Estimate(int(nodes), int(need), dense, int(max_nodes))
+    dense = cp.S * row_bytes(cp.n, True) <= DENSE_TABLE_MAX_BYTES
+    fixed = 8 * cp.n * cp.n
+    need = cp.S * row_bytes(cp.n, dense) + fixed
+    max_rows = max((budget - fixed) // row_bytes(cp.n, dense), 1)
+    est = Estimate(int(nodes), int(need), dense, int(max_rows))
     if need > budget:
         raise TooLargeError(too_large_message(cp, est.nodes, need, budget))
     return est

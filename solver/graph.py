@@ -15,156 +15,175 @@ Construction, as the paper describes it and as we make it fast:
   backward node's cost-to-sink h likewise, so the sweeps double as the two halves of
   the shortest-path dynamic program.
 * **Implicit edges.** An edge is (node, successor element); it is regenerated from
-  the element successor table whenever needed, so memory grows with nodes only.
-* **Pruning.** A final pass gives every forward-side node its exact h and every
-  backward-side node its exact g. A node lies on a source→sink path iff both are
-  finite; the rest are pruned (never visited by the k-best enumeration).
+  the element transition table whenever needed, so memory grows with nodes only.
+* **Pruning.** Two completing passes give every forward-side node its exact h and
+  every backward-side node its exact g. A node lies on a source→sink path iff both
+  are finite; the rest are pruned (the k-best enumeration never visits them).
 
-The node table is dense or hashed (:mod:`solver._table`). Kernels are numba-compiled
-over flat arrays; :func:`build_graph` is the only entry point.
+Storage is by *state row*: all nodes that share a consumed-resource vector c live in
+one row of n values (g and h per element), and rows are the unit of the bucket queue.
+Every node of a row has the same successor states, so a row is expanded with one
+contiguous vector operation per successor element (min over e of g[e] + W[f, e]) —
+the same inner loop as a plain dynamic program — instead of one table lookup per
+edge. Rows are indexed by the state itself when the state box is small ("dense"),
+else through a hash table that allocates rows only for states actually reached.
+Kernels are numba-compiled; :func:`build_graph` is the only entry point.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
 from ._table import (
-    admissible,
     covers,
     decode,
     fits,
-    grow_f64,
     grow_i32,
     grow_i64,
     hash_find,
     hash_put,
-    table_new,
     table_rehash,
 )
 from .compiled import Compiled
 
-INF = math.inf
 STATUS_OK = 0
 STATUS_TOO_LARGE = 1
+_FM = {"nnan", "nsz", "reassoc"}  # no NaNs ever occur; inf does, so no "ninf"
 
 
-@njit(cache=True)
-def _expand_forward(lf, lb, n, r, cap, stride, off, lev, succ_ptr, succ_elem, succ_w,
-                    elem, state, g, h, nxf, nxb, headF, nn, limit,
-                    dense, tab, keys, vals, shift, c):
-    """Expand every forward node on level lf; returns (nn, work, completed).
+@njit(cache=True, fastmath=_FM)
+def _forward_level(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, G, H,
+                   row_state, headF, nxtF, inF, nrows, limit, create, mask_h,
+                   dense, keys, vals, shift, c, gv, idx):
+    """Push g from every row listed at ``head[lvl]`` to successor nodes whose level
+    lies in [tmin, tmax]. Returns (nrows, work, completed).
 
-    The caller reserves room for ``limit`` nodes beforehand: arrays are never
-    reallocated in here (numba keeps arrays that are never reassigned in registers,
-    which is most of the speed of this loop). Reaching ``limit`` stops the expansion
-    and reports it unfinished."""
+    Rows are created (hash mode) only when ``create``; the caller has reserved room
+    for ``limit`` rows, so no array is reallocated in here (numba keeps arrays that
+    are never reassigned in registers — most of this loop's speed). With ``mask_h``
+    only nodes with a finite h push (the completing pass)."""
     work = 0
-    u = headF[lf]
+    u = head[lvl]
     while u >= 0:
-        e = elem[u]
-        s = state[u]
-        gu = g[u]
+        s = row_state[u]
         decode(s, cap, stride, c)
-        work += 1 + succ_ptr[e + 1] - succ_ptr[e]
-        for j in range(succ_ptr[e], succ_ptr[e + 1]):
-            f = succ_elem[j]
-            if not fits(c, r, f, cap):
-                continue
-            l2 = lf + lev[f]
-            if l2 > lb:
-                continue  # the backward side owns that level: the sweeps meet there
-            key = (s + off[f]) * n + f
-            if dense:
-                v = np.int64(tab[key])
-            else:
-                v = hash_find(keys, vals, shift, key)
-            if v < 0:
-                if nn >= limit:
-                    return nn, work, False
-                v = nn
-                elem[v] = f
-                state[v] = s + off[f]
-                g[v] = np.inf
-                h[v] = np.inf
-                nxb[v] = -1
-                if dense:
-                    tab[key] = v
+        m = 0
+        for e in range(n):
+            x = G[u, e]
+            if mask_h and H[u, e] == np.inf:
+                x = np.inf
+            gv[e] = x
+            if x < np.inf:
+                idx[m] = e
+                m += 1
+        if m > 0:
+            sparse = 4 * m < n
+            for f in range(n):
+                l2 = lvl + lev[f]
+                if l2 > tmax or l2 < tmin or not fits(c, r, f, cap):
+                    continue
+                best = np.inf
+                if sparse:
+                    for t in range(m):
+                        v = gv[idx[t]] + W[f, idx[t]]
+                        best = min(best, v)
+                    work += m
                 else:
-                    hash_put(keys, vals, shift, key, v)
-                nn += 1
-            ng = gu + succ_w[j]
-            if ng < g[v]:
-                if g[v] == np.inf:
-                    nxf[v] = headF[l2]
-                    headF[l2] = v
-                g[v] = ng
-        u = nxf[u]
-    return nn, work, True
+                    for e in range(n):
+                        best = min(best, gv[e] + W[f, e])
+                    work += n
+                if best == np.inf:
+                    continue
+                s2 = s + off[f]
+                if dense:
+                    u2 = s2
+                else:
+                    u2 = hash_find(keys, vals, shift, s2)
+                    if u2 < 0:
+                        if not create:
+                            continue
+                        if nrows >= limit:
+                            return nrows, work, False
+                        u2 = nrows
+                        nrows += 1
+                        row_state[u2] = s2
+                        G[u2, :] = np.inf
+                        H[u2, :] = np.inf
+                        inF[u2] = 0
+                        hash_put(keys, vals, shift, s2, u2)
+                if best < G[u2, f]:
+                    G[u2, f] = best
+                    if inF[u2] == 0:
+                        inF[u2] = 1
+                        nxtF[u2] = headF[l2]
+                        headF[l2] = u2
+        u = nxt[u]
+    return nrows, work, True
 
 
-@njit(cache=True)
-def _expand_backward(lb, lf, n, r, cap, stride, off, lev, pred_ptr, pred_elem, pred_w,
-                     elem, state, g, h, nxf, nxb, headB, nn, limit,
-                     dense, tab, keys, vals, shift, c, cp):
-    """Expand every backward node on level lb; returns (nn, work, completed). Same
-    contract as :func:`_expand_forward`."""
+@njit(cache=True, fastmath=_FM)
+def _backward_level(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, G, H,
+                    row_state, headB, nxtB, inB, npred, nrows, limit, create, mask_g,
+                    dense, keys, vals, shift, c):
+    """Push h from every row listed at ``head[lvl]`` to predecessor nodes whose level
+    lies in [tmin, tmax]; the mirror of :func:`_forward_level` (``mask_g``: only nodes
+    with a finite g push). A predecessor p is relaxed at state c - r(e) even when p
+    alone exceeds that state: such a node can never get a finite g, is pruned, and
+    checking it per p would cost the vector loop its speed."""
     R = len(cap)
     work = 0
-    v = headB[lb]
-    while v >= 0:
-        e = elem[v]
-        s = state[v]
-        hv = h[v]
+    u = head[lvl]
+    while u >= 0:
+        s = row_state[u]
         decode(s, cap, stride, c)
-        work += 1 + pred_ptr[e + 1] - pred_ptr[e]
-        # the predecessor state is c - r(e); nothing precedes when it is negative
-        neg = False
-        for i in range(R):
-            cp[i] = c[i] - r[e, i]
-            if cp[i] < 0:
-                neg = True
-        lp = lb - lev[e]
-        if not neg and lp >= lf:
+        for e in range(n):
+            he = H[u, e]
+            if he == np.inf or npred[e] == 0:
+                continue
+            if mask_g and G[u, e] == np.inf:
+                continue
+            lp = lvl - lev[e]
+            if lp < tmin or lp > tmax:
+                continue
+            ok = True
+            for i in range(R):
+                if c[i] < r[e, i]:
+                    ok = False
+            if not ok:
+                continue
             sp = s - off[e]
-            for j in range(pred_ptr[e], pred_ptr[e + 1]):
-                p = pred_elem[j]
-                if not covers(cp, r, p):
-                    continue
-                key = sp * n + p
-                if dense:
-                    u = np.int64(tab[key])
-                else:
-                    u = hash_find(keys, vals, shift, key)
-                if u < 0:
-                    if nn >= limit:
-                        return nn, work, False
-                    u = nn
-                    elem[u] = p
-                    state[u] = sp
-                    g[u] = np.inf
-                    h[u] = np.inf
-                    nxf[u] = -1
-                    if dense:
-                        tab[key] = u
-                    else:
-                        hash_put(keys, vals, shift, key, u)
-                    nn += 1
-                nh = pred_w[j] + hv
-                if nh < h[u]:
-                    if h[u] == np.inf:
-                        nxb[u] = headB[lp]
-                        headB[lp] = u
-                    h[u] = nh
-        v = nxb[v]
-    return nn, work, True
+            if dense:
+                up = sp
+            else:
+                up = hash_find(keys, vals, shift, sp)
+                if up < 0:
+                    if not create:
+                        continue
+                    if nrows >= limit:
+                        return nrows, work, False
+                    up = nrows
+                    nrows += 1
+                    row_state[up] = sp
+                    G[up, :] = np.inf
+                    H[up, :] = np.inf
+                    inB[up] = 0
+                    hash_put(keys, vals, shift, sp, up)
+            for p in range(n):
+                H[up, p] = min(H[up, p], W[e, p] + he)
+            work += n
+            if inB[up] == 0:
+                inB[up] = 1
+                nxtB[up] = headB[lp]
+                headB[lp] = up
+        u = nxt[u]
+    return nrows, work, True
 
 
 @njit(cache=True)
-def _level_size(head, nxt, lvl):
+def _level_rows(head, nxt, lvl):
     m = 0
     u = head[lvl]
     while u >= 0:
@@ -174,56 +193,99 @@ def _level_size(head, nxt, lvl):
 
 
 @njit(cache=True)
-def _grow_graph(n, r, lo, cap, stride, S, off, lev, top,
-                succ_ptr, succ_elem, succ_w, pred_ptr, pred_elem, pred_w,
-                front, back, omega, dense, size_hint, max_nodes, forward_only):
+def _reserve(need, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift):
+    """Room for ``need`` more rows (arrays and hash table) before a level is expanded."""
+    if dense:
+        return G, H, row_state, nxtF, nxtB, inF, inB, keys, vals, shift
+    if nrows + need > G.shape[0]:
+        m = max(2 * G.shape[0], nrows + need)
+        G2 = np.empty((m, G.shape[1]))
+        G2[:nrows] = G[:nrows]
+        H2 = np.empty((m, G.shape[1]))
+        H2[:nrows] = H[:nrows]
+        G, H = G2, H2
+        row_state = grow_i64(row_state, m)
+        nxtF, nxtB = grow_i32(nxtF, m), grow_i32(nxtB, m)
+        inF2 = np.zeros(m, dtype=np.uint8)
+        inF2[:nrows] = inF[:nrows]
+        inB2 = np.zeros(m, dtype=np.uint8)
+        inB2[:nrows] = inB[:nrows]
+        inF, inB = inF2, inB2
+    while 2 * (nrows + need) > len(keys):
+        keys, vals, shift = table_rehash(keys, vals, shift)
+    return G, H, row_state, nxtF, nxtB, inF, inB, keys, vals, shift
+
+
+@njit(cache=True)
+def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,
+                front, back, omega, dense, rows_hint, max_rows, forward_only, complete):
     R = len(cap)
-    tab, keys, vals, shift = table_new(dense, size_hint, S * n if dense else 1)
-    m0 = max(1024, min(size_hint, max_nodes) + 1)
-    elem = np.empty(m0, dtype=np.int32)
-    state = np.empty(m0, dtype=np.int64)
-    g = np.empty(m0, dtype=np.float64)
-    h = np.empty(m0, dtype=np.float64)
-    nxf = np.empty(m0, dtype=np.int32)
-    nxb = np.empty(m0, dtype=np.int32)
+    if dense:
+        m0 = S
+    else:
+        m0 = max(64, min(rows_hint, max_rows))
+    G = np.empty((m0, n))
+    H = np.empty((m0, n))
+    row_state = np.empty(m0, dtype=np.int64)
+    nxtF = np.full(m0, -1, dtype=np.int32)
+    nxtB = np.full(m0, -1, dtype=np.int32)
+    inF = np.zeros(m0, dtype=np.uint8)
+    inB = np.zeros(m0, dtype=np.uint8)
+    if dense:
+        G[:, :] = np.inf
+        H[:, :] = np.inf
+        for i in range(S):
+            row_state[i] = i
+        keys = np.full(1, -1, dtype=np.int64)
+        vals = np.full(1, -1, dtype=np.int32)
+        shift = 0
+        nrows = S
+    else:
+        bits = 6
+        while (1 << bits) < 2 * m0:
+            bits += 1
+        keys = np.full(1 << bits, -1, dtype=np.int64)
+        vals = np.full(1 << bits, -1, dtype=np.int32)
+        shift = 64 - bits
+        nrows = 0
     headF = np.full(top + 1, -1, dtype=np.int32)
     headB = np.full(top + 1, -1, dtype=np.int32)
-    nn = 0
     c = np.zeros(R, dtype=np.int64)
-    cp = np.zeros(R, dtype=np.int64)
-    deg_f = np.max(succ_ptr[1:] - succ_ptr[:-1])
-    deg_b = np.max(pred_ptr[1:] - pred_ptr[:-1])
+    gv = np.empty(n)
+    idx = np.empty(n, dtype=np.int64)
+    maxlev = np.max(lev)
 
-    # Roots: front nodes forward, back nodes on every admissible total backward. We
-    # count them first so the arrays are sized once.
+    # Roots: front nodes forward; back nodes backward on every admissible total.
     n_adm = 1
     for i in range(R):
         n_adm *= max(cap[i] - lo[i] + 1, 0)
     if forward_only:
         n_adm = 0
-    need = n + n_adm * n
-    if need > max_nodes:
-        return (STATUS_TOO_LARGE, nn, elem, state, g, h, headF, headB, nxf, nxb,
-                tab, keys, vals, shift, 0, 0, 0)
-    elem, state, g, h, nxf, nxb, keys, vals, shift = _reserve(
-        need, nn, elem, state, g, h, nxf, nxb, dense, keys, vals, shift)
-
-    for i in range(R):
-        c[i] = 0
+    if n + n_adm > max_rows:
+        return (STATUS_TOO_LARGE, nrows, G, H, row_state, 0, 0, 0), (keys, vals, shift)
+    G, H, row_state, nxtF, nxtB, inF, inB, keys, vals, shift = _reserve(
+        n + n_adm, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift)
     for e in range(n):
-        if front[e] and fits(c, r, e, cap):
-            elem[nn] = e
-            state[nn] = off[e]
-            g[nn] = omega[e]
-            h[nn] = np.inf
-            nxf[nn] = headF[lev[e]]
-            headF[lev[e]] = nn
-            nxb[nn] = -1
-            if dense:
-                tab[off[e] * n + e] = nn
-            else:
-                hash_put(keys, vals, shift, off[e] * n + e, nn)
-            nn += 1
+        c[:] = 0
+        if not (front[e] and fits(c, r, e, cap)):
+            continue
+        s = off[e]
+        if dense:
+            u = s
+        else:
+            u = hash_find(keys, vals, shift, s)
+            if u < 0:
+                u = nrows
+                nrows += 1
+                row_state[u] = s
+                G[u, :] = np.inf
+                H[u, :] = np.inf
+                hash_put(keys, vals, shift, s, u)
+        G[u, e] = omega[e]
+        if inF[u] == 0:
+            inF[u] = 1
+            nxtF[u] = headF[lev[e]]
+            headF[lev[e]] = u
     if n_adm > 0:
         for i in range(R):
             c[i] = lo[i]
@@ -233,27 +295,24 @@ def _grow_graph(n, r, lo, cap, stride, S, off, lev, top,
             for i in range(R):
                 s += c[i] * stride[i]
                 lvl += c[i]
+            if dense:
+                u = s
+            else:
+                u = hash_find(keys, vals, shift, s)
+                if u < 0:
+                    u = nrows
+                    nrows += 1
+                    row_state[u] = s
+                    G[u, :] = np.inf
+                    H[u, :] = np.inf
+                    hash_put(keys, vals, shift, s, u)
             for e in range(n):
                 if back[e] and covers(c, r, e):
-                    key = s * n + e
-                    if dense:
-                        v = np.int64(tab[key])
-                    else:
-                        v = hash_find(keys, vals, shift, key)
-                    if v < 0:
-                        v = nn
-                        elem[v] = e
-                        state[v] = s
-                        g[v] = np.inf
-                        nxf[v] = -1
-                        if dense:
-                            tab[key] = v
-                        else:
-                            hash_put(keys, vals, shift, key, v)
-                        nn += 1
-                    nxb[v] = headB[lvl]
-                    headB[lvl] = v
-                    h[v] = 0.0
+                    H[u, e] = 0.0
+                    if inB[u] == 0:
+                        inB[u] = 1
+                        nxtB[u] = headB[lvl]
+                        headB[lvl] = u
             i = 0  # next admissible total: a mixed-radix counter over [lo, cap]
             while i < R:
                 c[i] += 1
@@ -272,132 +331,83 @@ def _grow_graph(n, r, lo, cap, stride, S, off, lev, top,
     while lf <= lb:
         fwd = forward_only or work_f <= work_b
         if fwd:
-            need = _level_size(headF, nxf, lf) * deg_f
+            need = _level_rows(headF, nxtF, lf) * n
         else:
-            need = _level_size(headB, nxb, lb) * deg_b
-        need = min(need, max_nodes - nn)  # the worst case rarely happens; the
-        elem, state, g, h, nxf, nxb, keys, vals, shift = _reserve(  # limit guards it
-            need, nn, elem, state, g, h, nxf, nxb, dense, keys, vals, shift)
-        limit = nn + need
+            need = _level_rows(headB, nxtB, lb) * n
+        need = min(need, max_rows - nrows)  # the worst case is rare; `limit` guards it
+        G, H, row_state, nxtF, nxtB, inF, inB, keys, vals, shift = _reserve(
+            need, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift)
+        limit = nrows + need
         if fwd:
-            nn, work, done = _expand_forward(lf, lb, n, r, cap, stride, off, lev, succ_ptr,
-                                             succ_elem, succ_w, elem, state, g, h, nxf, nxb,
-                                             headF, nn, limit, dense, tab, keys, vals, shift,
-                                             c)
+            nrows, work, done = _forward_level(
+                lf, 0, lb, headF, nxtF, n, r, cap, stride, off, lev, W, G, H, row_state,
+                headF, nxtF, inF, nrows, limit, True, False, dense, keys, vals, shift,
+                c, gv, idx)
             work_f += work
             lf += 1
         else:
-            nn, work, done = _expand_backward(lb, lf, n, r, cap, stride, off, lev, pred_ptr,
-                                              pred_elem, pred_w, elem, state, g, h, nxf, nxb,
-                                              headB, nn, limit, dense, tab, keys, vals, shift,
-                                              c, cp)
+            nrows, work, done = _backward_level(
+                lb, lf, top, headB, nxtB, n, r, cap, stride, off, lev, W, G, H, row_state,
+                headB, nxtB, inB, npred, nrows, limit, True, False, dense, keys, vals, shift,
+                c)
             work_b += work
             lb -= 1
         if not done:
-            return (STATUS_TOO_LARGE, nn, elem, state, g, h, headF, headB, nxf, nxb,
-                    tab, keys, vals, shift, 0, 0, 0)
+            return (STATUS_TOO_LARGE, nrows, G, H, row_state, 0, 0, 0), (keys, vals, shift)
     lam = lf  # levels < lam were expanded forward, levels >= lam backward
-    return (STATUS_OK, nn, elem, state, g, h, headF, headB, nxf, nxb,
-            tab, keys, vals, shift, lam, work_f, work_b)
+
+    if complete:
+        # exact h below λ: first the edges that cross λ, then downwards
+        for lvl in range(lam, min(top, lam + maxlev - 1) + 1):
+            _backward_level(lvl, 0, lam - 1, headB, nxtB, n, r, cap, stride, off, lev, W,
+                            G, H, row_state, headB, nxtB, inB, npred, nrows, nrows, False,
+                            False, dense, keys, vals, shift, c)
+        for lvl in range(lam - 1, -1, -1):
+            _backward_level(lvl, 0, top, headF, nxtF, n, r, cap, stride, off, lev, W,
+                            G, H, row_state, headB, nxtB, inB, npred, nrows, nrows, False,
+                            True, dense, keys, vals, shift, c)
+        # exact g from λ up: first the edges that cross λ, then upwards
+        for lvl in range(max(0, lam - maxlev), lam):
+            _forward_level(lvl, lam, top, headF, nxtF, n, r, cap, stride, off, lev, W, G, H,
+                           row_state, headF, nxtF, inF, nrows, nrows, False, False, dense,
+                           keys, vals, shift, c, gv, idx)
+        for lvl in range(lam, top + 1):
+            _forward_level(lvl, 0, top, headB, nxtB, n, r, cap, stride, off, lev, W, G, H,
+                           row_state, headF, nxtF, inF, nrows, nrows, False, True, dense,
+                           keys, vals, shift, c, gv, idx)
+    return (STATUS_OK, nrows, G, H, row_state, lam, work_f, work_b), (keys, vals, shift)
 
 
 @njit(cache=True)
-def _reserve(need, nn, elem, state, g, h, nxf, nxb, dense, keys, vals, shift):
-    """Make room for ``need`` more nodes (arrays and hash table) before a level."""
-    if nn + need > len(elem):
-        m = max(2 * len(elem), nn + need)
-        elem, state = grow_i32(elem, m), grow_i64(state, m)
-        g, h = grow_f64(g, m), grow_f64(h, m)
-        nxf, nxb = grow_i32(nxf, m), grow_i32(nxb, m)
-    if not dense:
-        while 2 * (nn + need) > len(keys):
-            keys, vals, shift = table_rehash(keys, vals, shift)
-    return elem, state, g, h, nxf, nxb, keys, vals, shift
-
-
-@njit(cache=True)
-def _complete(n, r, lo, cap, stride, off, top, succ_ptr, succ_elem, succ_w,
-              pred_ptr, pred_elem, pred_w, front, back, omega,
-              elem, state, g, h, headF, headB, nxf, nxb, nn,
-              dense, tab, keys, vals, shift, lam):
-    """Exact h below λ (descending) and exact g from λ up (ascending); count kept nodes."""
-    R = len(cap)
-    c = np.zeros(R, dtype=np.int64)
-    cp = np.zeros(R, dtype=np.int64)
-    for lvl in range(min(lam, top + 1) - 1, -1, -1):
-        u = headF[lvl]
-        while u >= 0:
-            e = elem[u]
-            s = state[u]
-            decode(s, cap, stride, c)
-            best = np.inf
-            if back[e] and admissible(c, lo):
-                best = 0.0
-            for j in range(succ_ptr[e], succ_ptr[e + 1]):
-                f = succ_elem[j]
-                if not fits(c, r, f, cap):
-                    continue
-                if dense:
-                    v = np.int64(tab[(s + off[f]) * n + f])
-                else:
-                    v = hash_find(keys, vals, shift, (s + off[f]) * n + f)
-                if v >= 0:
-                    val = succ_w[j] + h[v]
-                    if val < best:
-                        best = val
-            h[u] = best
-            u = nxf[u]
-    for lvl in range(lam, top + 1):
-        v = headB[lvl]
-        while v >= 0:
-            e = elem[v]
-            s = state[v]
-            decode(s, cap, stride, c)
-            best = np.inf
-            if front[e] and s == off[e]:
-                best = omega[e]
-            neg = False
-            for i in range(R):
-                cp[i] = c[i] - r[e, i]
-                if cp[i] < 0:
-                    neg = True
-            if not neg:
-                sp = s - off[e]
-                for j in range(pred_ptr[e], pred_ptr[e + 1]):
-                    p = pred_elem[j]
-                    if not covers(cp, r, p):
-                        continue
-                    if dense:
-                        u = np.int64(tab[sp * n + p])
-                    else:
-                        u = hash_find(keys, vals, shift, sp * n + p)
-                    if u >= 0:
-                        val = g[u] + pred_w[j]
-                        if val < best:
-                            best = val
-            g[v] = best
-            v = nxb[v]
+def _count(G, H, row_state, nrows, r, cap, stride, c):
+    """(nodes generated, nodes kept): valid nodes with g or h, and with both."""
+    gen = 0
     kept = 0
-    for u in range(nn):
-        if g[u] < np.inf and h[u] < np.inf:
-            kept += 1
-    return kept
+    n = G.shape[1]
+    for u in range(nrows):
+        decode(row_state[u], cap, stride, c)
+        for e in range(n):
+            if G[u, e] < np.inf or H[u, e] < np.inf:
+                if covers(c, r, e):
+                    gen += 1
+                    if G[u, e] < np.inf and H[u, e] < np.inf:
+                        kept += 1
+    return gen, kept
 
 
 @dataclass
 class Graph:
-    """The grown, pruned intermediate graph (node arrays + the node table)."""
+    """The grown, pruned intermediate graph: state rows of g and h, and the row table."""
 
     cp: Compiled
     nodes: int            # nodes generated
     kept: int             # nodes on a source→sink path
     meet_level: int       # λ
-    elem: np.ndarray
-    state: np.ndarray
-    g: np.ndarray
-    h: np.ndarray
+    rows: int
+    G: np.ndarray         # [rows, n] cost from the source (inf: unreachable)
+    H: np.ndarray         # [rows, n] cost to the sink (inf: no way to the sink)
+    row_state: np.ndarray
     dense: bool
-    tab: np.ndarray
     keys: np.ndarray
     vals: np.ndarray
     shift: int
@@ -405,29 +415,25 @@ class Graph:
     work_b: int
 
 
-def grow(cp: Compiled, *, dense: bool, size_hint: int, max_nodes: int,
-         forward_only: bool = False):
-    """Run the growth kernel; returns the raw tuple (status first)."""
+def grow(cp: Compiled, *, dense: bool, rows_hint: int, max_rows: int,
+         forward_only: bool = False, complete: bool = True):
+    """Run the growth kernel; returns ((status, rows, G, H, row_state, λ, work_f,
+    work_b), hash_table)."""
+    npred = np.diff(cp.pred_ptr).astype(np.int64)
     return _grow_graph(
-        cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.S, cp.off, cp.lev, cp.top,
-        cp.succ_ptr, cp.succ_elem, cp.succ_w, cp.pred_ptr, cp.pred_elem, cp.pred_w,
-        cp.front, cp.back, cp.omega, dense, size_hint, max_nodes, forward_only,
+        cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.S, cp.off, cp.lev, cp.top, cp.W, npred,
+        cp.front, cp.back, cp.omega, dense, rows_hint, max_rows, forward_only, complete,
     )
 
 
-def build_graph(cp: Compiled, *, dense: bool, size_hint: int, max_nodes: int) -> Graph | None:
-    """Grow, meet and prune. Returns None when the node budget was exceeded."""
-    (status, nn, elem, state, g, h, headF, headB, nxf, nxb,
-     tab, keys, vals, shift, lam, work_f, work_b) = grow(
-        cp, dense=dense, size_hint=size_hint, max_nodes=max_nodes)
+def build_graph(cp: Compiled, *, dense: bool, rows_hint: int, max_rows: int) -> Graph | None:
+    """Grow, meet and prune. Returns None when the row budget was exceeded."""
+    (status, nrows, G, H, row_state, lam, work_f, work_b), table = grow(
+        cp, dense=dense, rows_hint=rows_hint, max_rows=max_rows)
     if status != STATUS_OK:
         return None
-    kept = _complete(
-        cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.off, cp.top,
-        cp.succ_ptr, cp.succ_elem, cp.succ_w, cp.pred_ptr, cp.pred_elem, cp.pred_w,
-        cp.front, cp.back, cp.omega, elem, state, g, h, headF, headB, nxf, nxb, nn,
-        dense, tab, keys, vals, shift, lam,
-    )
-    return Graph(cp, int(nn), int(kept), int(lam), elem[:nn], state[:nn],
-                 g[:nn], h[:nn], bool(dense), tab, keys, vals, int(shift),
-                 int(work_f), int(work_b))
+    keys, vals, shift = table
+    gen, kept = _count(G, H, row_state, nrows, cp.r, cp.cap, cp.stride,
+                       np.zeros(cp.R, dtype=np.int64))
+    return Graph(cp, int(gen), int(kept), int(lam), int(nrows), G, H, row_state,
+                 bool(dense), keys, vals, int(shift), int(work_f), int(work_b))

@@ -6,14 +6,17 @@ of Huang & Chiang's lazy k-best Algorithm 3 ("Better k-best parsing", 2005), run
 suffixes: every node v keeps the list P_v of its best paths to the sink found so
 far, P_v[0] being the one through the exact cost-to-go h. The next path of v comes
 from a heap of candidates "go to successor x, then take P_x[j]"; popping (x, j)
-adds (x, j+1), which may ask x for its own next path (an explicit stack replaces the
-recursion). Only nodes on the paths actually enumerated are touched, so k = 100
-costs little more than k = 1 once the graph is built.
+adds (x, j+1), which may first ask x for its own next path (an explicit stack
+replaces the recursion). Only nodes on the paths actually enumerated are touched,
+so k = 100 costs little more than k = 1 once the graph is built.
+
+A path is stored as one entry: (cost, edge weight, successor node x, the entry of
+P_x it continues with, next element); the entries of one node are chained in order,
+so "P_x[j+1]" is one pointer away and nothing is ever copied.
 
 Ties are broken by the element index of the next element (ending the sequence ranks
-first), then by the position in P_x, so sequences of equal cost come out in
-lexicographic order of element indices: deterministic, and independent of how the
-graph was grown.
+first), so sequences of equal cost come out in lexicographic order of element
+indices: deterministic, and independent of how the graph was grown.
 """
 
 from __future__ import annotations
@@ -21,78 +24,72 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._table import admissible, decode, fits, grow_i64, hash_find
+from ._table import admissible, decode, fits, hash_find, hash_put, table_rehash
 
 TERM = -1
-# slot columns
-_PBASE, _PLEN, _PCAP, _HBASE, _HSIZE = 0, 1, 2, 3, 4
+_FIRST, _LAST, _LEN, _HBASE, _HSIZE = 0, 1, 2, 3, 4   # slot columns
+_X, _PTR, _KEY, _NEXT = 0, 1, 2, 3                      # entry int columns (ef: cost, w)
 _EXHAUSTED = -1
 
 
 @njit(cache=True)
-def _choices(v, G, c, out_f, out_i):
-    """Write the out-choices of node v (G[0] = nn is the virtual source) as rows
-    (cost, w) / (node, 0, key); return their count."""
-    (nn, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, front, back, omega,
-     elem, state, h, dense, tab, keys, vals, shift) = G
+def _choices(v, src, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, front, back,
+             omega, H, row_state, dense, keys, vals, shift, c, out_f, out_i):
+    """Write the out-choices of node v (``src`` is the virtual source) as rows
+    (cost, w) / (node, -1, key); return their count. Node id = row * n + element."""
     m = 0
-    if v == nn:
+    if v == src:
         c[:] = 0
         for e in range(n):
             if front[e] and fits(c, r, e, cap):
-                if dense:
-                    x = np.int64(tab[off[e] * n + e])
-                else:
-                    x = hash_find(keys, vals, shift, off[e] * n + e)
-                if x >= 0 and h[x] < np.inf:
-                    out_f[m, 0] = omega[e] + h[x]
+                s = off[e]
+                row = s if dense else hash_find(keys, vals, shift, s)
+                if row >= 0 and H[row, e] < np.inf:
+                    out_f[m, 0] = omega[e] + H[row, e]
                     out_f[m, 1] = omega[e]
-                    out_i[m, 0] = x
-                    out_i[m, 1] = 0
-                    out_i[m, 2] = e
+                    out_i[m, _X] = row * n + e
+                    out_i[m, _PTR] = -1
+                    out_i[m, _KEY] = e
                     m += 1
         return m
-    e = elem[v]
-    s = state[v]
+    row = v // n
+    e = v % n
+    s = row_state[row]
     decode(s, cap, stride, c)
     if back[e] and admissible(c, lo):
         out_f[m, 0] = 0.0
         out_f[m, 1] = 0.0
-        out_i[m, 0] = TERM
-        out_i[m, 1] = 0
-        out_i[m, 2] = -1
+        out_i[m, _X] = TERM
+        out_i[m, _PTR] = -1
+        out_i[m, _KEY] = -1
         m += 1
     for j in range(succ_ptr[e], succ_ptr[e + 1]):
         f = succ_elem[j]
         if not fits(c, r, f, cap):
             continue
-        if dense:
-            x = np.int64(tab[(s + off[f]) * n + f])
-        else:
-            x = hash_find(keys, vals, shift, (s + off[f]) * n + f)
-        if x >= 0 and h[x] < np.inf:
-            out_f[m, 0] = succ_w[j] + h[x]
+        s2 = s + off[f]
+        row2 = s2 if dense else hash_find(keys, vals, shift, s2)
+        if row2 >= 0 and H[row2, f] < np.inf:
+            out_f[m, 0] = succ_w[j] + H[row2, f]
             out_f[m, 1] = succ_w[j]
-            out_i[m, 0] = x
-            out_i[m, 1] = 0
-            out_i[m, 2] = f
+            out_i[m, _X] = row2 * n + f
+            out_i[m, _PTR] = -1
+            out_i[m, _KEY] = f
             m += 1
     return m
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _less(af, ai, a, bf, bi, b):
-    """Order of rows a and b: cost, then next element, then index into P_x."""
+    """Order of candidate rows: cost, then next element (a node's candidates always
+    lead to distinct successors, so this is a total order)."""
     if af[a, 0] != bf[b, 0]:
         return af[a, 0] < bf[b, 0]
-    if ai[a, 2] != bi[b, 2]:
-        return ai[a, 2] < bi[b, 2]
-    return ai[a, 1] < bi[b, 1]
+    return ai[a, _KEY] < bi[b, _KEY]
 
 
 @njit(cache=True)
 def _heap_push(qf, qi, hb, hs, rf, ri, row):
-    """Push row ``row`` of (rf, ri) onto the heap at qf/qi[hb : hb+hs]; returns hs+1."""
     pos = hs
     while pos > 0:
         par = (pos - 1) // 2
@@ -109,14 +106,15 @@ def _heap_push(qf, qi, hb, hs, rf, ri, row):
 
 @njit(cache=True)
 def _heap_pop(qf, qi, hb, hs, outf, outi):
-    """Move the minimum into row 0 of outf/outi; returns hs-1."""
+    """Move the minimum into row 0 of outf/outi; returns the new size."""
     outf[0] = qf[hb]
     outi[0] = qi[hb]
     hs -= 1
     if hs == 0:
         return 0
-    lastf = qf[hb + hs].copy()
-    lasti = qi[hb + hs].copy()
+    # sift the last row down from the root, holding it in row 1 of outf/outi
+    outf[1] = qf[hb + hs]
+    outi[1] = qi[hb + hs]
     pos = 0
     while True:
         ch = 2 * pos + 1
@@ -124,192 +122,205 @@ def _heap_pop(qf, qi, hb, hs, outf, outi):
             break
         if ch + 1 < hs and _less(qf, qi, hb + ch + 1, qf, qi, hb + ch):
             ch += 1
-        if qf[hb + ch, 0] < lastf[0] or (
-            qf[hb + ch, 0] == lastf[0] and (
-                qi[hb + ch, 2] < lasti[2]
-                or (qi[hb + ch, 2] == lasti[2] and qi[hb + ch, 1] < lasti[1]))):
+        if _less(qf, qi, hb + ch, outf, outi, 1):
             qf[hb + pos] = qf[hb + ch]
             qi[hb + pos] = qi[hb + ch]
             pos = ch
         else:
             break
-    qf[hb + pos] = lastf
-    qi[hb + pos] = lasti
+    qf[hb + pos] = outf[1]
+    qi[hb + pos] = outi[1]
     return hs
 
 
 @njit(cache=True)
-def _grow_rows_f(a, rows):
-    b = np.empty((rows, a.shape[1]), dtype=a.dtype)
-    b[: a.shape[0]] = a
-    return b
-
-
-@njit(cache=True)
-def _grow_rows_i(a, rows):
-    b = np.empty((rows, a.shape[1]), dtype=a.dtype)
-    b[: a.shape[0]] = a
-    return b
-
-
-@njit(cache=True)
-def _append_path(slots, sl, pf, pi, pn, rf, ri, row):
-    """Append row to the path vector of slot sl, relocating it when full."""
-    if slots[sl, _PLEN] == slots[sl, _PCAP]:
-        ncap = max(2, 2 * slots[sl, _PCAP])
-        if pn + ncap > pf.shape[0]:
-            pf = _grow_rows_f(pf, 2 * (pn + ncap))
-            pi = _grow_rows_i(pi, 2 * (pn + ncap))
-        ob = slots[sl, _PBASE]
-        for t in range(slots[sl, _PLEN]):
-            pf[pn + t] = pf[ob + t]
-            pi[pn + t] = pi[ob + t]
-        slots[sl, _PBASE] = pn
-        slots[sl, _PCAP] = ncap
-        pn += ncap
-    b = slots[sl, _PBASE] + slots[sl, _PLEN]
-    pf[b] = rf[row]
-    pi[b] = ri[row]
-    slots[sl, _PLEN] += 1
-    return pf, pi, pn
-
-
-@njit(cache=True)
-def _ensure_slot(v, G, slot_of, slots, ns, pf, pi, pn, c, chf, chi):
-    """Give node v a slot holding its first path (the argmin of its choices)."""
-    if slot_of[v] >= 0:
-        return slots, ns, pf, pi, pn
-    if ns == slots.shape[0]:
-        slots = _grow_rows_i(slots, 2 * ns)
-    sl = ns
-    ns += 1
-    slot_of[v] = sl
-    slots[sl, _PBASE] = 0
-    slots[sl, _PLEN] = 0
-    slots[sl, _PCAP] = 0
+def _slot(v, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi):
+    """The slot of node v, created with its first path (argmin of its choices) when
+    new. Capacity is reserved by the caller; cnt = [slots, entries, heap rows]."""
+    sl = hash_find(skeys, svals, sshift, v)
+    if sl >= 0:
+        return sl
+    (src, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, front, back, omega,
+     H, row_state, dense, keys, vals, shift) = G
+    sl = cnt[0]
+    cnt[0] += 1
+    hash_put(skeys, svals, sshift, v, sl)
     slots[sl, _HBASE] = -1
     slots[sl, _HSIZE] = 0
-    m = _choices(v, G, c, chf, chi)
+    m = _choices(v, src, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, front,
+                 back, omega, H, row_state, dense, keys, vals, shift, c, chf, chi)
     best = -1
     for t in range(m):
         if best < 0 or _less(chf, chi, t, chf, chi, best):
             best = t
     if best < 0:
+        slots[sl, _FIRST] = -1
+        slots[sl, _LAST] = -1
+        slots[sl, _LEN] = 0
         slots[sl, _HSIZE] = _EXHAUSTED
-    else:
-        pf, pi, pn = _append_path(slots, sl, pf, pi, pn, chf, chi, best)
-    return slots, ns, pf, pi, pn
+        return sl
+    en = cnt[1]
+    cnt[1] += 1
+    ef[en] = chf[best]
+    ei[en] = chi[best]
+    ei[en, _NEXT] = -1
+    slots[sl, _FIRST] = en
+    slots[sl, _LAST] = en
+    slots[sl, _LEN] = 1
+    return sl
 
 
 @njit(cache=True)
-def _kbest(K, G, max_deg):
-    nn = G[0]
+def _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, stack, c,
+                      chf, chi, rowf, rowi):
+    """Append the next path of the source to its list (or mark it exhausted)."""
+    src = G[0]
+    stack[0] = src
+    sp = 1
+    while sp > 0:
+        v = stack[sp - 1]
+        sl = _slot(v, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi)
+        last = slots[sl, _LAST]
+        x = ei[last, _X]
+        cur = -1
+        if x != TERM:
+            sx = _slot(x, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi)
+            cur = ei[last, _PTR]
+            if cur < 0:
+                cur = slots[sx, _FIRST]
+            if ei[cur, _NEXT] < 0 and slots[sx, _HSIZE] != _EXHAUSTED:
+                stack[sp] = x  # x must find its next path first
+                sp += 1
+                continue
+        sp -= 1
+        if slots[sl, _HBASE] < 0:
+            # first use: a heap of every choice but the one P_v[0] took
+            (src_, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, front, back,
+             omega, H, row_state, dense, keys, vals, shift) = G
+            m = _choices(v, src_, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w,
+                         front, back, omega, H, row_state, dense, keys, vals, shift, c,
+                         chf, chi)
+            hb = cnt[2]
+            cnt[2] += m
+            slots[sl, _HBASE] = hb
+            hs = 0
+            for t in range(m):
+                if chi[t, _X] != x:
+                    hs = _heap_push(qf, qi, hb, hs, chf, chi, t)
+            slots[sl, _HSIZE] = hs
+        hb = slots[sl, _HBASE]
+        hs = slots[sl, _HSIZE]
+        if x != TERM:
+            nxt = ei[cur, _NEXT]
+            if nxt >= 0:
+                rowf[2, 0] = ef[last, 1] + ef[nxt, 0]
+                rowf[2, 1] = ef[last, 1]
+                rowi[2, _X] = x
+                rowi[2, _PTR] = nxt
+                rowi[2, _KEY] = ei[last, _KEY]
+                hs = _heap_push(qf, qi, hb, hs, rowf, rowi, 2)
+        if hs == 0:
+            slots[sl, _HSIZE] = _EXHAUSTED
+            continue
+        hs = _heap_pop(qf, qi, hb, hs, rowf, rowi)
+        slots[sl, _HSIZE] = hs
+        en = cnt[1]
+        cnt[1] += 1
+        ef[en] = rowf[0]
+        ei[en] = rowi[0]
+        ei[en, _NEXT] = -1
+        ei[last, _NEXT] = en
+        slots[sl, _LAST] = en
+        slots[sl, _LEN] += 1
+
+
+@njit(cache=True)
+def _grow_rows(a, rows):
+    b = np.empty((rows, a.shape[1]), dtype=a.dtype)
+    b[: a.shape[0]] = a
+    return b
+
+
+@njit(cache=True)
+def _kbest(K, G, max_len):
+    src = G[0]
+    n = G[1]
     R = len(G[4])
     c = np.zeros(R, dtype=np.int64)
-    chf = np.empty((max_deg + 1, 2), dtype=np.float64)
-    chi = np.empty((max_deg + 1, 3), dtype=np.int64)
-    rowf = np.empty((1, 2), dtype=np.float64)
-    rowi = np.empty((1, 3), dtype=np.int64)
-    slot_of = np.full(nn + 1, -1, dtype=np.int64)
-    slots = np.empty((64, 5), dtype=np.int64)
-    ns = 0
-    pf = np.empty((256, 2), dtype=np.float64)
-    pi = np.empty((256, 3), dtype=np.int64)
-    pn = 0
-    qf = np.empty((256, 2), dtype=np.float64)
-    qi = np.empty((256, 3), dtype=np.int64)
-    qn = 0
-    stack = np.empty(64, dtype=np.int64)
+    chf = np.empty((n + 1, 2))
+    chi = np.empty((n + 1, 4), dtype=np.int64)
+    rowf = np.empty((3, 2))
+    rowi = np.empty((3, 4), dtype=np.int64)
+    depth = max_len + 3
+    stack = np.empty(depth, dtype=np.int64)
+    cnt = np.zeros(3, dtype=np.int64)
+    slots = np.empty((256, 5), dtype=np.int64)
+    ef = np.empty((256, 2))
+    ei = np.empty((256, 4), dtype=np.int64)
+    qf = np.empty((256, 2))
+    qi = np.empty((256, 4), dtype=np.int64)
+    skeys = np.full(1024, -1, dtype=np.int64)
+    svals = np.full(1024, -1, dtype=np.int32)
+    sshift = 64 - 10
 
-    slots, ns, pf, pi, pn = _ensure_slot(nn, G, slot_of, slots, ns, pf, pi, pn, c, chf, chi)
-    src = slot_of[nn]
-    while slots[src, _PLEN] < K and slots[src, _HSIZE] != _EXHAUSTED:
-        # compute the next path of the source; a node whose last path continues into
-        # x with P_x[j] needs P_x[j+1] first, so x goes on the stack
-        stack[0] = nn
-        sp = 1
-        while sp > 0:
-            v = stack[sp - 1]
-            sl = slot_of[v]
-            last = slots[sl, _PBASE] + slots[sl, _PLEN] - 1
-            x = pi[last, 0]
-            j = pi[last, 1]
-            if x != TERM:
-                slots, ns, pf, pi, pn = _ensure_slot(x, G, slot_of, slots, ns, pf, pi, pn,
-                                                     c, chf, chi)
-                sx = slot_of[x]
-                if slots[sx, _HSIZE] != _EXHAUSTED and slots[sx, _PLEN] <= j + 1:
-                    if sp == len(stack):
-                        stack = grow_i64(stack, 2 * sp)
-                    stack[sp] = x
-                    sp += 1
-                    continue
-            sp -= 1
-            if slots[sl, _HBASE] < 0:
-                # first use: a heap with every choice but the one of P_v[0]
-                m = _choices(v, G, c, chf, chi)
-                if qn + m + 1 > qf.shape[0]:
-                    qf = _grow_rows_f(qf, 2 * (qn + m + 1))
-                    qi = _grow_rows_i(qi, 2 * (qn + m + 1))
-                slots[sl, _HBASE] = qn
-                qn += m + 1
-                hs = 0
-                for t in range(m):
-                    if chi[t, 0] != x:
-                        hs = _heap_push(qf, qi, slots[sl, _HBASE], hs, chf, chi, t)
-                slots[sl, _HSIZE] = hs
-            hb = slots[sl, _HBASE]
-            hs = slots[sl, _HSIZE]
-            if x != TERM:
-                sx = slot_of[x]
-                if slots[sx, _PLEN] > j + 1:
-                    nxt = slots[sx, _PBASE] + j + 1
-                    rowf[0, 0] = pf[last, 1] + pf[nxt, 0]
-                    rowf[0, 1] = pf[last, 1]
-                    rowi[0, 0] = x
-                    rowi[0, 1] = j + 1
-                    rowi[0, 2] = pi[last, 2]
-                    hs = _heap_push(qf, qi, hb, hs, rowf, rowi, 0)
-            if hs == 0:
-                slots[sl, _HSIZE] = _EXHAUSTED
-                continue
-            hs = _heap_pop(qf, qi, hb, hs, rowf, rowi)
-            slots[sl, _HSIZE] = hs
-            pf, pi, pn = _append_path(slots, sl, pf, pi, pn, rowf, rowi, 0)
+    paths = 0
+    while True:
+        # room for one more source path: at most `depth` new slots, entries and heaps
+        # (and, at the end, `depth` per path for reading them out)
+        need = depth * (K + 1) if paths == K else depth
+        if cnt[0] + 2 * need > slots.shape[0]:
+            slots = _grow_rows(slots, 2 * (cnt[0] + 2 * need))
+        if cnt[1] + 2 * need > ef.shape[0]:
+            ef = _grow_rows(ef, 2 * (cnt[1] + 2 * need))
+            ei = _grow_rows(ei, 2 * (cnt[1] + 2 * need))
+        if cnt[2] + need * (n + 1) > qf.shape[0]:
+            qf = _grow_rows(qf, 2 * (cnt[2] + need * (n + 1)))
+            qi = _grow_rows(qi, 2 * (cnt[2] + need * (n + 1)))
+        while 2 * (cnt[0] + 2 * need) > len(skeys):
+            skeys, svals, sshift = table_rehash(skeys, svals, sshift)
+        if paths == K:
+            break
+        ss = _slot(src, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi)
+        paths = slots[ss, _LEN]
+        if paths >= K or slots[ss, _HSIZE] == _EXHAUSTED:
+            paths = K
+            continue
+        _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, stack, c,
+                          chf, chi, rowf, rowi)
 
     # read the paths of the source out
-    npaths = min(slots[src, _PLEN], K)
-    costs = np.empty(npaths, dtype=np.float64)
+    ss = _slot(src, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi)
+    npaths = min(slots[ss, _LEN], K)
+    costs = np.empty(npaths)
     offs = np.zeros(npaths + 1, dtype=np.int64)
-    seq = np.empty(16, dtype=np.int64)
+    seq = np.empty(npaths * max_len + 1, dtype=np.int64)
     sn = 0
-    elem = G[13]
+    top = slots[ss, _FIRST]
     for i in range(npaths):
-        ent = slots[src, _PBASE] + i
-        costs[i] = pf[ent, 0]
-        while True:
-            x = pi[ent, 0]
-            if x == TERM:
-                break
-            if sn == len(seq):
-                seq = grow_i64(seq, 2 * sn)
-            seq[sn] = elem[x]
+        costs[i] = ef[top, 0]
+        ent = top
+        while ei[ent, _X] != TERM:
+            x = ei[ent, _X]
+            seq[sn] = x % n
             sn += 1
-            slots, ns, pf, pi, pn = _ensure_slot(x, G, slot_of, slots, ns, pf, pi, pn,
-                                                 c, chf, chi)
-            ent = slots[slot_of[x], _PBASE] + pi[ent, 1]
+            ptr = ei[ent, _PTR]
+            if ptr < 0:
+                ptr = slots[_slot(x, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf,
+                                  chi), _FIRST]
+            ent = ptr
         offs[i + 1] = sn
-    return costs, offs, seq[:sn], ns
+        top = ei[top, _NEXT]
+    return costs, offs, seq[:sn], cnt[0]
 
 
 def k_best(graph, k: int) -> tuple[list[list[int]], list[float], int]:
     """The k cheapest sequences (element indices) on ``graph``, with their path costs
     and the number of nodes the enumeration touched."""
     cp = graph.cp
-    G = (graph.nodes, cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.off, cp.succ_ptr,
-         cp.succ_elem, cp.succ_w, cp.front, cp.back, cp.omega, graph.elem, graph.state,
-         graph.h, graph.dense, graph.tab, graph.keys, graph.vals, graph.shift)
-    max_deg = max(int(np.diff(cp.succ_ptr).max()), cp.n)
-    costs, offs, seq, touched = _kbest(int(k), G, max_deg)
+    src = graph.rows * cp.n  # one past every node id
+    G = (src, cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.off, cp.succ_ptr, cp.succ_elem,
+         cp.succ_w, cp.front, cp.back, cp.omega, graph.H, graph.row_state, graph.dense,
+         graph.keys, graph.vals, graph.shift)
+    costs, offs, seq, touched = _kbest(int(k), G, int(cp.max_len))
     seqs = [seq[offs[i]:offs[i + 1]].tolist() for i in range(len(costs))]
     return seqs, costs.tolist(), int(touched)

@@ -77,12 +77,14 @@ class _Evaluator:
 
 
 def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
-          max_memory_mb: float = DEFAULT_MAX_MEMORY_MB) -> Result:
+          max_memory_mb: float = DEFAULT_MAX_MEMORY_MB, table: str = "auto") -> Result:
     """The k cheapest distinct feasible sequences of ``problem`` in ascending cost.
 
     ``k`` defaults to ``problem.k``. Raises :class:`ProblemError` for problems that
     cannot be posed (unbounded elements, no common quantum) and
     :class:`TooLargeError` when the state space exceeds ``max_memory_mb``.
+    ``table`` forces the graph's row table ("dense" or "hash"; tests and benchmarks
+    use it, "auto" picks dense when the state box is small).
     """
     if method not in METHODS:
         raise ProblemError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
@@ -99,12 +101,15 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
     if cp.empty_bounds:
         return _infeasible(cp, stats, t0, DEFAULT_MAX_MEMORY_MB)
     est = estimate(cp, max_memory_mb)
+    if table not in ("auto", "dense", "hash"):
+        raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
+    dense = est.dense if table == "auto" else table == "dense"
     stats["estimate"] = est.to_dict()
-    size_hint = min(est.nodes, 1 << 20)
     if method == "rcksp":
-        graph = build_graph(cp, dense=est.dense, size_hint=size_hint, max_nodes=est.max_nodes)
+        graph = build_graph(cp, dense=dense, rows_hint=min(cp.S, 1 << 12),
+                            max_rows=est.max_rows)
         if graph is None:
-            raise TooLargeError(too_large_message(cp, est.max_nodes, est.bytes,
+            raise TooLargeError(too_large_message(cp, est.nodes, est.bytes,
                                                   int(max_memory_mb * 2**20)))
         t1 = time.perf_counter()
         seqs, _, touched = k_best(graph, k)
@@ -114,8 +119,8 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
     else:
         t1 = time.perf_counter()
         status, seqs, _, settled, labels = fgs(
-            cp, k, dense=est.dense, size_hint=size_hint,
-            max_labels=max(est.max_nodes // 2, 1024))
+            cp, k, dense=dense, size_hint=min(est.nodes, 1 << 20),
+            max_labels=max(int(max_memory_mb * 2**20) // 64, 1024))
         t2 = time.perf_counter()
         if status != 0:
             raise TooLargeError(
@@ -125,7 +130,7 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
     stats["setup_s"] = t1 - t0
     stats["solve_s"] = t2 - t1
     if not seqs:
-        return _infeasible(cp, stats, t0, max_memory_mb, est.max_nodes)
+        return _infeasible(cp, stats, t0, max_memory_mb, est.max_rows)
     ev = _Evaluator(problem)
     sols = []
     for s in seqs:
@@ -136,11 +141,11 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
 
 
 def _infeasible(cp: Compiled, stats: dict, t0: float, max_memory_mb: float,
-                max_nodes: int | None = None) -> Result:
-    if max_nodes is None:
-        max_nodes = int(max_memory_mb * 2**20) // 64
+                max_rows: int | None = None) -> Result:
+    if max_rows is None:
+        max_rows = int(max_memory_mb * 2**20) // (16 * cp.n + 64)
     stats.setdefault("nodes", 0)
     stats.setdefault("setup_s", time.perf_counter() - t0)
     stats.setdefault("solve_s", 0.0)
-    reason, details = diagnose(cp, max_nodes)
+    reason, details = diagnose(cp, max_rows)
     return Result("infeasible", [], stats, reason, details)
