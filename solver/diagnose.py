@@ -40,6 +40,17 @@ def _reachable_totals(cp: Compiled, max_rows: int) -> np.ndarray | None:
     return np.stack([(st // cp.stride[i]) % (cp.cap[i] + 1) for i in range(cp.R)], axis=1)
 
 
+def _alone_blocks(cp: Compiled, i: int, max_rows: int) -> bool:
+    """True when resource i's interval is missed even with every other lower bound
+    dropped (so the other constraints are not to blame)."""
+    lo = np.zeros_like(cp.lo)
+    totals = _reachable_totals(with_bounds(cp, lo, cp.hi.copy()), max_rows)
+    if totals is None:
+        return False
+    hit = (totals[:, i] >= cp.lo[i]) & (totals[:, i] <= cp.hi[i])
+    return not hit.any()
+
+
 def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
     """A one-line reason and per-constraint details for an infeasible problem."""
     asked = [tuple(q.asked) for q in cp.quant]
@@ -78,15 +89,17 @@ def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
         if d["nearest_above"] is not None:
             near.append(f"{_fmt(d['nearest_above'])} (above)")
         why = "cannot be met together with the other constraints"
+        if _alone_blocks(cp, i, max_rows):
+            why = "is out of reach even ignoring the other minimums"
         if cp.lo[i] > cp.hi[i]:
             why = f"holds no multiple of its quantum {q:g}"
         blocking.append(f"{_interval_text(name, *asked[i])} {why}; nearest achievable: "
                         f"{', '.join(near) or 'none'}")
     if blocking:
-        return "infeasible: " + "; ".join(blocking), details
+        return "; ".join(blocking), details
     if not any_reach:
-        return ("infeasible: no sequence leads from a front element to a back element "
+        return ("no sequence leads from a front element to a back element "
                 "within the bounds; check the front/back lists and the transitions"), details
     wanted = ", ".join(_interval_text(n, *asked[i]) for i, n in enumerate(cp.bounded))
-    return (f"infeasible: each constraint can be met alone but not all together "
+    return (f"each constraint can be met alone but not all together "
             f"({wanted}); relax one of them"), details

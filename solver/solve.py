@@ -17,7 +17,7 @@ from typing import Any
 from .compiled import Compiled, compile_problem
 from .diagnose import diagnose
 from .errors import ProblemError, TooLargeError
-from .estimate import DEFAULT_MAX_MEMORY_MB, estimate, too_large_message
+from .estimate import DEFAULT_MAX_MEMORY_MB, estimate, row_bytes, too_large_message
 from .fgs import fgs
 from .graph import build_graph
 from .kbest import k_best
@@ -99,12 +99,16 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
         "levels": cp.top + 1,
     }
     if cp.empty_bounds:
-        return _infeasible(cp, stats, t0, DEFAULT_MAX_MEMORY_MB)
+        return _infeasible(cp, stats, t0, max_memory_mb)
     est = estimate(cp, max_memory_mb)
     if table not in ("auto", "dense", "hash"):
         raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
     dense = est.dense if table == "auto" else table == "dense"
+    if dense and cp.S * row_bytes(cp.n, True) > max_memory_mb * 2**20:
+        raise TooLargeError(too_large_message(cp, est.nodes, cp.S * row_bytes(cp.n, True),
+                                              int(max_memory_mb * 2**20)))
     stats["estimate"] = est.to_dict()
+    stats["estimate"]["table"] = "dense" if dense else "hash"
     if method == "rcksp":
         graph = build_graph(cp, dense=dense, rows_hint=min(cp.S, 1 << 12),
                             max_rows=est.max_rows)

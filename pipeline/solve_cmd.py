@@ -1,0 +1,42 @@
+"""``citysynth solve FILE``: solve one problem file (the JSON of ``Problem.from_dict``)."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from solver import METHODS, Problem, solve
+from solver.estimate import DEFAULT_MAX_MEMORY_MB
+
+from .report import format_result
+
+
+def register(sub) -> None:
+    p = sub.add_parser("solve", help="solve one sequence problem file",
+                       description="Solve one problem file and print the k best sequences. "
+                                   "Exit 0 with solutions, 1 when infeasible, 2 on bad input.")
+    p.add_argument("file", help="problem JSON (see README, 'Problem files')")
+    p.add_argument("--k", type=int, default=None, help="number of solutions (default: the "
+                   "file's k, else 1)")
+    p.add_argument("--method", choices=METHODS, default="rcksp",
+                   help="rcksp: the intermediate graph (default); fgs: the baseline")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--max-memory", type=float, default=DEFAULT_MAX_MEMORY_MB, metavar="MB",
+                   help=f"refuse problems estimated above this (default {DEFAULT_MAX_MEMORY_MB})")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    problem = Problem.load(args.file)
+    if args.k is not None and args.k < 1:
+        from solver import ProblemError
+        raise ProblemError(f"--k must be a positive integer, got {args.k}")
+    result = solve(problem, k=args.k, method=args.method, max_memory_mb=args.max_memory)
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=2))
+    else:
+        print(format_result(result))
+    if result.status != "ok":
+        print(f"citysynth solve: {result.reason}", file=sys.stderr)
+        return 1
+    return 0
