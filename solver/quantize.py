@@ -18,7 +18,7 @@ from fractions import Fraction
 from .errors import ProblemError
 
 TOL = 1e-9
-_MAX_DENOMINATOR = 10**6
+_MAX_DENOMINATOR = 10**4  # 0.1 mm on metres; finer "divisors" are noise
 
 
 @dataclass(frozen=True)
@@ -45,7 +45,7 @@ class Quantisation:
 def exact_divisor(values: list[float]) -> Fraction | None:
     """The largest q with every value an integer multiple of q (within 1e-9), or None.
 
-    Values are read as rationals with denominators up to 10**6; the gcd of rationals
+    Values are read as rationals with denominators up to 10**4; the gcd of rationals
     a_i/b_i is gcd(a_i * L/b_i) / L with L = lcm(b_i). All-zero input gives 1.
     """
     fracs = []

@@ -1,0 +1,79 @@
+"""The command line: exit codes 0/1/2, JSON output, one-line errors."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from pipeline.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "examples"
+
+
+def test_solve_prints_solutions(capsys):
+    assert main(["solve", str(EXAMPLES / "facade_small.json")]) == 0
+    out = capsys.readouterr().out
+    assert "status: ok" in out and "A B A B" in out
+
+
+def test_solve_json(capsys):
+    assert main(["solve", str(EXAMPLES / "facade_small.json"), "--json", "--k", "2"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["status"] == "ok"
+    assert [s["sequence"] for s in d["solutions"]] == [["A", "B", "A", "B"],
+                                                       ["A", "B", "B", "A"]]
+    assert d["solutions"][0]["cost"] == 1.25
+    assert d["solutions"][0]["resources"] == {"length": 20.4, "doors": 2.0}
+    assert {"nodes", "setup_s", "solve_s"} <= set(d["stats"])
+
+
+def test_infeasible_exits_1_with_reason(capsys):
+    assert main(["solve", str(EXAMPLES / "facade_infeasible.json"), "--json"]) == 1
+    cap = capsys.readouterr()
+    d = json.loads(cap.out)
+    assert d["status"] == "infeasible" and d["solutions"] == []
+    assert "length = 20" in d["reason"] and "20.4" in d["reason"]
+    assert "length = 20" in cap.err
+
+
+@pytest.mark.parametrize("content, fragment", [
+    ("{not json", "not valid JSON at line 1"),
+    ('{"resources": ["length"], "elements": []}', '"elements" must be a non-empty list'),
+])
+def test_bad_input_exits_2_with_one_line(tmp_path, capsys, content, fragment):
+    f = tmp_path / "p.json"
+    f.write_text(content)
+    assert main(["solve", str(f)]) == 2
+    err = capsys.readouterr().err
+    assert fragment in err and str(f) in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_too_large_exits_2(tmp_path, capsys):
+    d = json.loads((EXAMPLES / "street_front.json").read_text())
+    d["quantum"] = {"length": 0.0001}
+    f = tmp_path / "big.json"
+    f.write_text(json.dumps(d))
+    assert main(["solve", str(f), "--max-memory", "64"]) == 2
+    err = capsys.readouterr().err
+    assert "problem too large" in err and "coarser quantum" in err
+
+
+def test_console_script_runs_as_a_process():
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    p = subprocess.run([sys.executable, "-m", "pipeline.cli", "solve",
+                        str(EXAMPLES / "street_front.json"), "--k", "3", "--json"],
+                       capture_output=True, text=True, env=env, cwd=ROOT, timeout=300)
+    assert p.returncode == 0, p.stderr
+    sols = json.loads(p.stdout)["solutions"]
+    assert len(sols) == 3 and all(s["resources"]["length"] == 83.4 for s in sols)
+
+
+def test_demo(capsys):
+    assert main(["demo"]) == 0
+    out = capsys.readouterr().out
+    assert "83.4 m street front" in out and out.count("length 83.4") == 3

@@ -1,0 +1,66 @@
+import json
+
+import pytest
+
+from solver import Problem, ProblemError
+
+BASE = {
+    "resources": ["length", "doors"],
+    "elements": [{"id": "A", "resources": {"length": 4.0, "doors": 1}},
+                 {"id": "B", "resources": {"length": 6.2}}],
+    "transitions": [["A", "B", 0.5]],
+    "constraints": {"length": [10.2, 10.2]},
+}
+
+
+def with_(**kw):
+    d = json.loads(json.dumps(BASE))
+    d.update(kw)
+    return d
+
+
+@pytest.mark.parametrize("data, fragment", [
+    (with_(colour="red"), "unknown key(s) ['colour']"),
+    (with_(resources=[]), '"resources" must be a non-empty list'),
+    (with_(elements=[{"id": "A", "resources": {"length": 1}},
+                     {"id": "A", "resources": {"length": 2}}]), 'duplicate element id "A"'),
+    (with_(elements=[{"id": "A", "resources": {"length": -1}}]),
+     "elements[0].resources.length: must be >= 0"),
+    (with_(elements=[{"id": "A", "resources": {"height": 1}}]),
+     "elements[0].resources.height: unknown resource"),
+    (with_(elements=[{"id": "A", "resources": {"length": 1}, "cost": float("nan")}]),
+     "elements[0].cost: expected a finite number"),
+    (with_(transitions=[["A", "Z", 1.0]]), "transitions[0]: unknown to element 'Z'"),
+    (with_(transitions=[["A", "B"]]), "transitions[0]: must be [from_id, to_id, cost]"),
+    (with_(transitions=[["A", "B", 1], ["A", "B", 2]]), "duplicate transition"),
+    (with_(transitions=[["A", "B", -1]]), "transitions[0] cost: must be >= 0"),
+    (with_(constraints={"length": [5, 4]}), "min 5 is greater than max 4"),
+    (with_(constraints={}), "no constraints"),
+    (with_(constraints={"width": [1, 2]}), "constraints.width: unknown resource"),
+    (with_(front=[]), '"front" must be a non-empty list'),
+    (with_(back=["Q"]), "back: unknown element 'Q'"),
+    (with_(k=0), '"k" must be a positive integer'),
+    (with_(quantum={"length": 0}), "quantum.length: must be > 0"),
+])
+def test_bad_input_names_the_place(data, fragment):
+    with pytest.raises(ProblemError) as exc:
+        Problem.from_dict(data)
+    assert fragment in str(exc.value)
+
+
+def test_defaults():
+    p = Problem.from_dict(BASE)
+    assert p.front == ("A", "B") and p.back == ("A", "B") and p.k == 1
+    assert p.elements[1].resources == {"length": 6.2, "doors": 0.0}
+    assert p.elements[1].cost == 0.0
+    assert Problem.from_dict(p.to_dict()) == p
+
+
+def test_load_reports_file_and_position(tmp_path):
+    f = tmp_path / "broken.json"
+    f.write_text('{"resources": ["length"],\n "elements": [}')
+    with pytest.raises(ProblemError) as exc:
+        Problem.load(f)
+    assert str(f) in str(exc.value) and "line 2" in str(exc.value)
+    with pytest.raises(ProblemError, match="cannot read the problem file"):
+        Problem.load(tmp_path / "missing.json")

@@ -1,0 +1,56 @@
+import math
+from fractions import Fraction
+
+import pytest
+
+from solver import Problem, ProblemError, solve
+from solver.quantize import exact_divisor, quantise_resource
+
+
+def test_exact_divisor_of_decimal_lengths():
+    assert exact_divisor([4.0, 6.2, 83.4]) == Fraction(1, 5)
+    assert exact_divisor([2, 4, 6]) == Fraction(2)
+    assert exact_divisor([0.0, 0.0]) == Fraction(1)
+    assert exact_divisor([0.25, 1.5]) == Fraction(1, 4)
+
+
+def test_no_exact_divisor():
+    assert exact_divisor([math.pi, 1.0]) is None
+
+
+def test_exact_quantisation_reports_no_error():
+    q, ints = quantise_resource("length", [4.0, 6.2], 83.4, 83.4, None)
+    assert q.quantum == pytest.approx(0.2) and q.exact and q.max_error == 0.0
+    assert ints == [20, 31] and (q.lo, q.hi) == (417, 417)
+
+
+def test_given_quantum_rounds_values_and_bounds_inward():
+    q, ints = quantise_resource("length", [4.03, 6.2], 83.3, 83.5, 0.2)
+    assert not q.exact
+    assert q.max_error == pytest.approx(0.03)
+    assert ints == [20, 31]
+    assert (q.lo, q.hi) == (417, 417)  # 83.3 up to 83.4, 83.5 down to 83.4
+
+
+def test_interval_with_no_multiple_is_infeasible_with_nearest_values():
+    p = Problem.from_dict({
+        "resources": ["length"], "quantum": {"length": 0.2},
+        "elements": [{"id": "a", "resources": {"length": 0.2}}],
+        "transitions": [["a", "a", 0.0]],
+        "constraints": {"length": [83.3, 83.3]},
+    })
+    r = solve(p)
+    assert r.status == "infeasible" and not r.solutions
+    assert "quantum" in r.reason and "83.2" in r.reason and "83.4" in r.reason
+
+
+def test_values_without_common_divisor_ask_for_a_quantum():
+    p = Problem.from_dict({
+        "resources": ["length"],
+        "elements": [{"id": "a", "resources": {"length": math.pi}},
+                     {"id": "b", "resources": {"length": 1.0}}],
+        "transitions": [["a", "b", 0.0]],
+        "constraints": {"length": [10, 10]},
+    })
+    with pytest.raises(ProblemError, match='give one in "quantum"'):
+        solve(p)

@@ -1,0 +1,101 @@
+"""Each refusal of the solver, and real-valued lengths met exactly."""
+
+import math
+
+import numpy as np
+import pytest
+
+from solver import Problem, ProblemError, TooLargeError, solve
+from solver.compiled import compile_problem
+from solver.graph import build_graph
+
+
+def test_element_consuming_nothing_is_refused():
+    p = Problem.from_dict({
+        "resources": ["length", "doors"],
+        "elements": [{"id": "wall", "resources": {"length": 3.0}},
+                     {"id": "ghost", "resources": {"doors": 1}}],
+        "transitions": [["wall", "ghost", 0.0], ["ghost", "wall", 0.0]],
+        "constraints": {"length": [9, 9]},
+    })
+    with pytest.raises(ProblemError) as exc:
+        solve(p)
+    msg = str(exc.value)
+    assert '"ghost"' in msg and "consumes nothing" in msg and "length" in msg
+
+
+def test_too_large_is_refused_with_estimate_and_advice():
+    p = Problem.from_dict({
+        "resources": ["length", "floor_area"],
+        "quantum": {"length": 0.001, "floor_area": 0.01},
+        "elements": [{"id": f"p{i}", "resources": {"length": 4.0 + i,
+                                                   "floor_area": 100.0 + i}}
+                     for i in range(20)],
+        "transitions": [[f"p{i}", f"p{j}", 0.0] for i in range(20) for j in range(20)],
+        "constraints": {"length": [2000, 2000], "floor_area": [0, 50000]},
+    })
+    with pytest.raises(TooLargeError) as exc:
+        solve(p, max_memory_mb=512)
+    msg = str(exc.value)
+    assert "graph states" in msg and "512 MB" in msg
+    assert "coarser quantum" in msg and "--max-memory" in msg
+
+
+def test_growth_stops_at_the_row_budget():
+    from pipeline.samples import street_front
+    cp = compile_problem(Problem.from_dict(street_front(40.0, resources=3)))
+    assert build_graph(cp, dense=False, rows_hint=16, max_rows=50) is None
+    assert build_graph(cp, dense=False, rows_hint=16, max_rows=10**6) is not None
+
+
+def test_infeasible_says_which_constraint_and_nearest_values():
+    p = Problem.from_dict({
+        "resources": ["length"],
+        "elements": [{"id": "a", "resources": {"length": 4.0}},
+                     {"id": "b", "resources": {"length": 6.2}}],
+        "transitions": [[x, y, 1.0] for x in "ab" for y in "ab"],
+        "constraints": {"length": [9.0, 9.0]},
+    })
+    r = solve(p)
+    assert r.status == "infeasible" and r.solutions == []
+    assert "length = 9" in r.reason
+    (d,) = r.details
+    assert d["constraint"] == "length"
+    assert d["nearest_below"] == 8.0 and d["nearest_above"] == 10.2
+
+
+def test_infeasible_combination_blames_the_right_constraint():
+    p = Problem.from_dict({
+        "resources": ["length", "doors"],
+        "elements": [{"id": "door", "resources": {"length": 4.0, "doors": 1}},
+                     {"id": "wall", "resources": {"length": 2.0}}],
+        "transitions": [[x, y, 0.0] for x in ("door", "wall") for y in ("door", "wall")],
+        "constraints": {"length": [8, 8], "doors": [3, 5]},
+    })
+    r = solve(p)
+    assert r.status == "infeasible"
+    blamed = {d["constraint"]: d for d in r.details}
+    assert blamed["doors"]["nearest_below"] == 2
+    assert "doors in [3, 5]" in r.reason
+
+
+def test_83_4_m_from_0_2_m_parts_is_exact():
+    lengths = [round(0.2 * k, 1) for k in range(20, 101, 7)]  # 4.0 .. 19.4 m
+    p = Problem.from_dict({
+        "resources": ["length"],
+        "elements": [{"id": f"b{L}", "resources": {"length": L}} for L in lengths],
+        "transitions": [[f"b{a}", f"b{b}", abs(a - b) / 10] for a in lengths
+                        for b in lengths],
+        "constraints": {"length": [83.4, 83.4]},
+    })
+    r = solve(p, k=20)
+    assert r.status == "ok" and len(r.solutions) == 20
+    assert r.stats["quantisation"]["length"]["exact"]
+    assert r.stats["quantisation"]["length"]["quantum"] == pytest.approx(0.2)
+    for s in r.solutions:
+        assert s.resources["length"] == 83.4
+        assert math.isclose(math.fsum(float(x[1:]) for x in s.sequence), 83.4,
+                            abs_tol=1e-9)
+    assert np.all(np.diff([s.cost for s in r.solutions]) >= 0)
+    fgs = solve(p, k=20, method="fgs")
+    assert [s.cost for s in fgs.solutions] == [s.cost for s in r.solutions]
