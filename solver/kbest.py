@@ -79,13 +79,38 @@ def _choices(v, src, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, fr
     return m
 
 
+@njit(cache=True, inline="always")
+def _lt(c1, k1, c2, k2):
+    """Candidate order: cost, then next element (a node's candidates always lead to
+    distinct successors, so this is a total order)."""
+    return c1 < c2 or (c1 == c2 and k1 < k2)
+
+
 @njit(cache=True)
-def _less(af, ai, a, bf, bi, b):
-    """Order of candidate rows: cost, then next element (a node's candidates always
-    lead to distinct successors, so this is a total order)."""
-    if af[a, 0] != bf[b, 0]:
-        return af[a, 0] < bf[b, 0]
-    return ai[a, _KEY] < bi[b, _KEY]
+def _sift_down(qf, qi, hb, hs, pos):
+    cf0, cf1 = qf[hb + pos, 0], qf[hb + pos, 1]
+    c0, c1, c2, c3 = qi[hb + pos, 0], qi[hb + pos, 1], qi[hb + pos, 2], qi[hb + pos, 3]
+    while True:
+        ch = 2 * pos + 1
+        if ch >= hs:
+            break
+        if ch + 1 < hs and _lt(qf[hb + ch + 1, 0], qi[hb + ch + 1, _KEY],
+                               qf[hb + ch, 0], qi[hb + ch, _KEY]):
+            ch += 1
+        if _lt(qf[hb + ch, 0], qi[hb + ch, _KEY], cf0, c2):
+            qf[hb + pos, 0] = qf[hb + ch, 0]
+            qf[hb + pos, 1] = qf[hb + ch, 1]
+            for t in range(4):
+                qi[hb + pos, t] = qi[hb + ch, t]
+            pos = ch
+        else:
+            break
+    qf[hb + pos, 0] = cf0
+    qf[hb + pos, 1] = cf1
+    qi[hb + pos, 0] = c0
+    qi[hb + pos, 1] = c1
+    qi[hb + pos, 2] = c2
+    qi[hb + pos, 3] = c3
 
 
 @njit(cache=True)
@@ -93,43 +118,35 @@ def _heap_push(qf, qi, hb, hs, rf, ri, row):
     pos = hs
     while pos > 0:
         par = (pos - 1) // 2
-        if _less(rf, ri, row, qf, qi, hb + par):
-            qf[hb + pos] = qf[hb + par]
-            qi[hb + pos] = qi[hb + par]
+        if _lt(rf[row, 0], ri[row, _KEY], qf[hb + par, 0], qi[hb + par, _KEY]):
+            qf[hb + pos, 0] = qf[hb + par, 0]
+            qf[hb + pos, 1] = qf[hb + par, 1]
+            for t in range(4):
+                qi[hb + pos, t] = qi[hb + par, t]
             pos = par
         else:
             break
-    qf[hb + pos] = rf[row]
-    qi[hb + pos] = ri[row]
+    qf[hb + pos, 0] = rf[row, 0]
+    qf[hb + pos, 1] = rf[row, 1]
+    for t in range(4):
+        qi[hb + pos, t] = ri[row, t]
     return hs + 1
 
 
 @njit(cache=True)
 def _heap_pop(qf, qi, hb, hs, outf, outi):
     """Move the minimum into row 0 of outf/outi; returns the new size."""
-    outf[0] = qf[hb]
-    outi[0] = qi[hb]
+    outf[0, 0] = qf[hb, 0]
+    outf[0, 1] = qf[hb, 1]
+    for t in range(4):
+        outi[0, t] = qi[hb, t]
     hs -= 1
-    if hs == 0:
-        return 0
-    # sift the last row down from the root, holding it in row 1 of outf/outi
-    outf[1] = qf[hb + hs]
-    outi[1] = qi[hb + hs]
-    pos = 0
-    while True:
-        ch = 2 * pos + 1
-        if ch >= hs:
-            break
-        if ch + 1 < hs and _less(qf, qi, hb + ch + 1, qf, qi, hb + ch):
-            ch += 1
-        if _less(qf, qi, hb + ch, outf, outi, 1):
-            qf[hb + pos] = qf[hb + ch]
-            qi[hb + pos] = qi[hb + ch]
-            pos = ch
-        else:
-            break
-    qf[hb + pos] = outf[1]
-    qi[hb + pos] = outi[1]
+    if hs > 0:
+        qf[hb, 0] = qf[hb + hs, 0]
+        qf[hb, 1] = qf[hb + hs, 1]
+        for t in range(4):
+            qi[hb, t] = qi[hb + hs, t]
+        _sift_down(qf, qi, hb, hs, 0)
     return hs
 
 
@@ -151,7 +168,7 @@ def _slot(v, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi):
                  back, omega, H, row_state, dense, keys, vals, shift, c, chf, chi)
     best = -1
     for t in range(m):
-        if best < 0 or _less(chf, chi, t, chf, chi, best):
+        if best < 0 or _lt(chf[t, 0], chi[t, _KEY], chf[best, 0], chi[best, _KEY]):
             best = t
     if best < 0:
         slots[sl, _FIRST] = -1
@@ -179,12 +196,14 @@ def _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, stack
     sp = 1
     while sp > 0:
         v = stack[sp - 1]
-        sl = _slot(v, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi)
+        sl = hash_find(skeys, svals, sshift, v)  # v already has a slot
         last = slots[sl, _LAST]
         x = ei[last, _X]
         cur = -1
         if x != TERM:
-            sx = _slot(x, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi)
+            sx = hash_find(skeys, svals, sshift, x)
+            if sx < 0:
+                sx = _slot(x, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi)
             cur = ei[last, _PTR]
             if cur < 0:
                 cur = slots[sx, _FIRST]
@@ -206,7 +225,13 @@ def _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, stack
             hs = 0
             for t in range(m):
                 if chi[t, _X] != x:
-                    hs = _heap_push(qf, qi, hb, hs, chf, chi, t)
+                    qf[hb + hs, 0] = chf[t, 0]
+                    qf[hb + hs, 1] = chf[t, 1]
+                    for q in range(4):
+                        qi[hb + hs, q] = chi[t, q]
+                    hs += 1
+            for pos in range(hs // 2 - 1, -1, -1):  # heapify
+                _sift_down(qf, qi, hb, hs, pos)
             slots[sl, _HSIZE] = hs
         hb = slots[sl, _HBASE]
         hs = slots[sl, _HSIZE]

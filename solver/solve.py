@@ -57,23 +57,18 @@ class Result:
         return d
 
 
-class _Evaluator:
-    """Cost and resource totals of a sequence, always summed front to back."""
+def _sequence_cost(cp: Compiled, seq: list[int]) -> float:
+    """Eq. (4) of the paper summed front to back: omega(e1) + sum(delta + omega); one
+    canonical order, so both methods report bit-identical costs."""
+    c = float(cp.omega[seq[0]])
+    for a, b in zip(seq, seq[1:], strict=False):
+        c += float(cp.W[b, a])  # delta(a, b) + omega(b), added as one term
+    return c
 
-    def __init__(self, p: Problem):
-        self.p = p
-        self.omega = {e.id: e.cost for e in p.elements}
-        self.delta = {(a, b): c for a, b, c in p.transitions}
-        self.res = {e.id: e.resources for e in p.elements}
 
-    def cost(self, seq: list[str]) -> float:
-        c = self.omega[seq[0]]
-        for a, b in zip(seq, seq[1:], strict=False):
-            c += self.delta[(a, b)] + self.omega[b]
-        return c
-
-    def resources(self, seq: list[str]) -> dict[str, float]:
-        return {r: round(math.fsum(self.res[x][r] for x in seq), 9) for r in self.p.resources}
+def _sequence_resources(p: Problem, ids: list[str]) -> dict[str, float]:
+    res = {e.id: e.resources for e in p.elements}
+    return {r: round(math.fsum(res[x][r] for x in ids), 9) for r in p.resources}
 
 
 def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
@@ -135,11 +130,11 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
     stats["solve_s"] = t2 - t1
     if not seqs:
         return _infeasible(cp, stats, t0, max_memory_mb, est.max_rows)
-    ev = _Evaluator(problem)
     sols = []
     for s in seqs:
         ids = [cp.ids[i] for i in s]
-        sols.append((ev.cost(ids), s, Solution(ids, ev.cost(ids), ev.resources(ids))))
+        cost = _sequence_cost(cp, s)
+        sols.append((cost, s, Solution(ids, cost, _sequence_resources(problem, ids))))
     sols.sort(key=lambda t: (t[0], t[1]))
     return Result("ok", [t[2] for t in sols], stats)
 
