@@ -151,7 +151,7 @@ def _heap_pop(qf, qi, hb, hs, outf, outi):
 
 
 @njit(cache=True)
-def _slot(v, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi):
+def _slot(v, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, c):
     """The slot of node v, created with its first path (argmin of its choices) when
     new. Capacity is reserved by the caller; cnt = [slots, entries, heap rows]."""
     sl = hash_find(skeys, svals, sshift, v)
@@ -162,13 +162,17 @@ def _slot(v, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi):
     sl = cnt[0]
     cnt[0] += 1
     hash_put(skeys, svals, sshift, v, sl)
-    slots[sl, _HBASE] = -1
-    slots[sl, _HSIZE] = 0
+    # the choices go straight into this slot's heap area: the first path is their
+    # minimum, and the heap is built from the rest only if a second path is asked
+    hb = cnt[2]
     m = _choices(v, src, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, front,
-                 back, omega, H, row_state, dense, keys, vals, shift, c, chf, chi)
+                 back, omega, H, row_state, dense, keys, vals, shift, c, qf[hb:], qi[hb:])
+    cnt[2] += m
+    slots[sl, _HBASE] = hb
+    slots[sl, _HSIZE] = -2 - m  # not yet a heap: -2 - (number of stored choices)
     best = -1
-    for t in range(m):
-        if best < 0 or _lt(chf[t, 0], chi[t, _KEY], chf[best, 0], chi[best, _KEY]):
+    for t in range(hb, hb + m):
+        if best < 0 or _lt(qf[t, 0], qi[t, _KEY], qf[best, 0], qi[best, _KEY]):
             best = t
     if best < 0:
         slots[sl, _FIRST] = -1
@@ -178,18 +182,28 @@ def _slot(v, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi):
         return sl
     en = cnt[1]
     cnt[1] += 1
-    ef[en] = chf[best]
-    ei[en] = chi[best]
+    ef[en] = qf[best]
+    ei[en] = qi[best]
     ei[en, _NEXT] = -1
     slots[sl, _FIRST] = en
     slots[sl, _LAST] = en
     slots[sl, _LEN] = 1
+    # move the chosen one to the end, outside the future heap
+    last = hb + m - 1
+    for q in range(2):
+        tmp = qf[best, q]
+        qf[best, q] = qf[last, q]
+        qf[last, q] = tmp
+    for q in range(4):
+        tmp2 = qi[best, q]
+        qi[best, q] = qi[last, q]
+        qi[last, q] = tmp2
     return sl
 
 
 @njit(cache=True)
 def _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, stack, c,
-                      chf, chi, rowf, rowi):
+                      rowf, rowi):
     """Append the next path of the source to its list (or mark it exhausted)."""
     src = G[0]
     stack[0] = src
@@ -203,7 +217,7 @@ def _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, stack
         if x != TERM:
             sx = hash_find(skeys, svals, sshift, x)
             if sx < 0:
-                sx = _slot(x, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi)
+                sx = _slot(x, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, c)
             cur = ei[last, _PTR]
             if cur < 0:
                 cur = slots[sx, _FIRST]
@@ -212,26 +226,11 @@ def _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, stack
                 sp += 1
                 continue
         sp -= 1
-        if slots[sl, _HBASE] < 0:
-            # first use: a heap of every choice but the one P_v[0] took
-            (src_, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, front, back,
-             omega, H, row_state, dense, keys, vals, shift) = G
-            m = _choices(v, src_, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w,
-                         front, back, omega, H, row_state, dense, keys, vals, shift, c,
-                         chf, chi)
-            hb = cnt[2]
-            cnt[2] += m
-            slots[sl, _HBASE] = hb
-            hs = 0
-            for t in range(m):
-                if chi[t, _X] != x:
-                    qf[hb + hs, 0] = chf[t, 0]
-                    qf[hb + hs, 1] = chf[t, 1]
-                    for q in range(4):
-                        qi[hb + hs, q] = chi[t, q]
-                    hs += 1
-            for pos in range(hs // 2 - 1, -1, -1):  # heapify
-                _sift_down(qf, qi, hb, hs, pos)
+        if slots[sl, _HSIZE] <= -2:
+            # first use: heapify the stored choices but the one P_v[0] took
+            hs = -2 - slots[sl, _HSIZE] - 1
+            for pos in range(hs // 2 - 1, -1, -1):
+                _sift_down(qf, qi, slots[sl, _HBASE], hs, pos)
             slots[sl, _HSIZE] = hs
         hb = slots[sl, _HBASE]
         hs = slots[sl, _HSIZE]
@@ -272,8 +271,6 @@ def _kbest(K, G, max_len):
     n = G[1]
     R = len(G[4])
     c = np.zeros(R, dtype=np.int64)
-    chf = np.empty((n + 1, 2))
-    chi = np.empty((n + 1, 4), dtype=np.int64)
     rowf = np.empty((3, 2))
     rowi = np.empty((3, 4), dtype=np.int64)
     depth = max_len + 3
@@ -288,40 +285,41 @@ def _kbest(K, G, max_len):
     svals = np.full(1024, -1, dtype=np.int32)
     sshift = 64 - 10
 
-    paths = 0
-    while True:
-        # room for one more source path: at most `depth` new slots, entries and heaps
-        # (and, at the end, `depth` per path for reading them out)
-        need = depth * (K + 1) if paths == K else depth
-        if cnt[0] + 2 * need > slots.shape[0]:
-            slots = _grow_rows(slots, 2 * (cnt[0] + 2 * need))
-        if cnt[1] + 2 * need > ef.shape[0]:
-            ef = _grow_rows(ef, 2 * (cnt[1] + 2 * need))
-            ei = _grow_rows(ei, 2 * (cnt[1] + 2 * need))
-        if cnt[2] + need * (n + 1) > qf.shape[0]:
-            qf = _grow_rows(qf, 2 * (cnt[2] + need * (n + 1)))
-            qi = _grow_rows(qi, 2 * (cnt[2] + need * (n + 1)))
-        while 2 * (cnt[0] + 2 * need) > len(skeys):
-            skeys, svals, sshift = table_rehash(skeys, svals, sshift)
-        if paths == K:
-            break
-        ss = _slot(src, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi)
-        paths = slots[ss, _LEN]
-        if paths >= K or slots[ss, _HSIZE] == _EXHAUSTED:
-            paths = K
-            continue
-        _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, stack, c,
-                          chf, chi, rowf, rowi)
-
-    # read the paths of the source out
-    ss = _slot(src, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf, chi)
-    npaths = min(slots[ss, _LEN], K)
-    costs = np.empty(npaths)
-    offs = np.zeros(npaths + 1, dtype=np.int64)
-    seq = np.empty(npaths * max_len + 1, dtype=np.int64)
+    # phase 1: enumerate the source's paths; phase 2: read them out. Before every
+    # step the pools get room for one step: at most `depth` new slots, entries and
+    # heap areas (a step follows one chain of strictly rising levels).
+    ss = -1
+    npaths = 0
     sn = 0
-    top = slots[ss, _FIRST]
-    for i in range(npaths):
+    costs = np.empty(K)
+    offs = np.zeros(K + 1, dtype=np.int64)
+    seq = np.empty(K * max_len + 1, dtype=np.int64)
+    top = -1
+    i = 0
+    while True:
+        if cnt[0] + 2 * depth > slots.shape[0]:
+            slots = _grow_rows(slots, 2 * (cnt[0] + 2 * depth))
+        if cnt[1] + 2 * depth > ef.shape[0]:
+            ef = _grow_rows(ef, 2 * (cnt[1] + 2 * depth))
+            ei = _grow_rows(ei, 2 * (cnt[1] + 2 * depth))
+        if cnt[2] + depth * (n + 1) > qf.shape[0]:
+            qf = _grow_rows(qf, 2 * (cnt[2] + depth * (n + 1)))
+            qi = _grow_rows(qi, 2 * (cnt[2] + depth * (n + 1)))
+        while 2 * (cnt[0] + 2 * depth) > len(skeys):
+            skeys, svals, sshift = table_rehash(skeys, svals, sshift)
+        if ss < 0:
+            ss = _slot(src, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, c)
+            continue
+        if top < 0:  # phase 1
+            if slots[ss, _LEN] < K and slots[ss, _HSIZE] != _EXHAUSTED:
+                _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift,
+                                  stack, c, rowf, rowi)
+                continue
+            npaths = min(slots[ss, _LEN], K)
+            top = slots[ss, _FIRST]
+            if npaths == 0:
+                break
+        # phase 2: path i, following the entry chain down to the sink
         costs[i] = ef[top, 0]
         ent = top
         while ei[ent, _X] != TERM:
@@ -330,12 +328,15 @@ def _kbest(K, G, max_len):
             sn += 1
             ptr = ei[ent, _PTR]
             if ptr < 0:
-                ptr = slots[_slot(x, G, slots, ef, ei, cnt, skeys, svals, sshift, c, chf,
-                                  chi), _FIRST]
+                ptr = slots[_slot(x, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift,
+                                  c), _FIRST]
             ent = ptr
         offs[i + 1] = sn
         top = ei[top, _NEXT]
-    return costs, offs, seq[:sn], cnt[0]
+        i += 1
+        if i == npaths:
+            break
+    return costs[:npaths], offs[:npaths + 1], seq[:sn], cnt[0]
 
 
 def k_best(graph, k: int) -> tuple[list[list[int]], list[float], int]:

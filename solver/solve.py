@@ -66,9 +66,10 @@ def _sequence_cost(cp: Compiled, seq: list[int]) -> float:
     return c
 
 
-def _sequence_resources(p: Problem, ids: list[str]) -> dict[str, float]:
-    res = {e.id: e.resources for e in p.elements}
-    return {r: round(math.fsum(res[x][r] for x in ids), 9) for r in p.resources}
+def _sequence_resources(p: Problem, seq: list[int]) -> dict[str, float]:
+    """Totals in original units: exact sums (fsum) of the elements' own values."""
+    el = p.elements
+    return {r: round(math.fsum(el[i].resources[r] for i in seq), 9) for r in p.resources}
 
 
 def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
@@ -134,7 +135,7 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
     for s in seqs:
         ids = [cp.ids[i] for i in s]
         cost = _sequence_cost(cp, s)
-        sols.append((cost, s, Solution(ids, cost, _sequence_resources(problem, ids))))
+        sols.append((cost, s, Solution(ids, cost, _sequence_resources(problem, s))))
     sols.sort(key=lambda t: (t[0], t[1]))
     return Result("ok", [t[2] for t in sols], stats)
 
