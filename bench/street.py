@@ -8,7 +8,7 @@ the plain compiled DP over (length, last element) (k=1 only: the floor), FGS for
 k=1 and k=100, and the ratios, all measured in the same run: a warm-up, then the
 median of --runs runs, the methods interleaved. The growth exponent is the slope of
 log(time) over log(length). Peak memory of the 200 m three-resource case is the
-maximum RSS of a child process that solves only that case.
+peak RSS (VmHWM) of a child process that solves only that case.
 
     python -m bench.street [--runs 5] [--quick]
 """
@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import resource
 import statistics
 import subprocess
 import sys
@@ -34,14 +33,19 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def timed(fn, runs: int):
-    """Median wall time of fn() over `runs` calls after one warm-up; and its result."""
-    out = fn()
+    """Median wall time of fn() over `runs` calls after one warm-up, and the results."""
+    outs = [fn()]
     ts = []
     for _ in range(runs):
         t = time.perf_counter()
-        out = fn()
+        outs.append(fn())
         ts.append(time.perf_counter() - t)
-    return statistics.median(ts), out
+    return statistics.median(ts), outs[1:]
+
+
+def stat_median(results, key: str) -> float:
+    """Median of one timing the solver reports (setup_s / solve_s) over the runs."""
+    return statistics.median(r.stats[key] for r in results)
 
 
 def ms(x: float | None) -> str:
@@ -62,7 +66,7 @@ def slope(xs, ys) -> float:
 
 def fgs_time(p: Problem, k: int, runs: int, budget_mb: float) -> float | None:
     try:
-        t, r = timed(lambda: solve(p, k=k, method="fgs", max_memory_mb=budget_mb), runs)
+        t, _ = timed(lambda: solve(p, k=k, method="fgs", max_memory_mb=budget_mb), runs)
     except TooLargeError:
         return None
     return t
@@ -81,12 +85,11 @@ def one_resource(lengths, runs: int) -> None:
         t1, r1 = timed(lambda p=p: solve(p, k=1), runs)
         t100, _ = timed(lambda p=p: solve(p, k=100), runs)
         tdp, cdp = timed(lambda cp=cp: dp_cost(cp), runs)
-        assert abs(cdp - r1.solutions[0].cost) < 1e-9, (cdp, r1.solutions[0].cost)
+        assert abs(cdp[0] - r1[0].solutions[0].cost) < 1e-9, (cdp[0], r1[0].solutions[0].cost)
         f1 = fgs_time(p, 1, runs, 4096)
         f100 = fgs_time(p, 100, max(1, runs // 2), 4096)
-        # setup/solve split from the stats of a fresh run (the medians above are totals)
-        st = solve(p, k=1).stats
-        print(f"{L:6.0f} {r1.stats['nodes']:8,} | {ms(st['setup_s'])} {ms(st['solve_s'])} "
+        setup, solve1 = stat_median(r1, "setup_s"), stat_median(r1, "solve_s")
+        print(f"{L:6.0f} {r1[0].stats['nodes']:8,} | {ms(setup)} {ms(solve1)} "
               f"{ms(t1)} {ms(t100)} {ratio(t100, t1):>7} | {ms(tdp)} {ratio(t1, tdp):>6} | "
               f"{ms(f1)} {ms(f100)} {ratio(f1, t1):>7} {ratio(f100, t100):>11}")
         t1s.append(t1)
@@ -98,7 +101,8 @@ def one_resource(lengths, runs: int) -> None:
 def three_resources(lengths, runs: int) -> None:
     print("\n== three resources: length equality, doors and balconies intervals ==")
     head = (f"{'length':>6} {'doors':>8} {'balc.':>8} {'nodes':>11} | {'setup1':>8} "
-            f"{'solve1':>8} {'total1':>9} {'total100':>9} {'k100/k1':>7} | {'FGS1':>9}")
+            f"{'solve1':>8} {'total1':>9} {'total100':>9} {'k100/k1':>7} | {'FGS1':>9} "
+            f"{'FGS100':>9}")
     print(head + "\n" + "-" * len(head))
     for L in lengths:
         d = street_front(L, resources=3)
@@ -106,28 +110,33 @@ def three_resources(lengths, runs: int) -> None:
         n = runs if L <= 100 else max(1, runs // 2)
         t1, r1 = timed(lambda p=p: solve(p, k=1), n)
         t100, _ = timed(lambda p=p: solve(p, k=100), n)
-        f1 = fgs_time(p, 1, n, 4096) if L <= 120 else None
-        st = r1.stats
+        f1 = fgs_time(p, 1, n, 4096)
+        f100 = fgs_time(p, 100, 1, 4096) if L <= 80 else None
         c = d["constraints"]
-        print(f"{L:6.0f} {str(c['doors']):>8} {str(c['balconies']):>8} {st['nodes']:11,} | "
-              f"{ms(st['setup_s'])} {ms(st['solve_s'])} {ms(t1):>9} {ms(t100):>9} "
-              f"{ratio(t100, t1):>7} | {ms(f1):>9}")
+        print(f"{L:6.0f} {str(c['doors']):>8} {str(c['balconies']):>8} "
+              f"{r1[0].stats['nodes']:11,} | {ms(stat_median(r1, 'setup_s'))} "
+              f"{ms(stat_median(r1, 'solve_s'))} {ms(t1):>9} {ms(t100):>9} "
+              f"{ratio(t100, t1):>7} | {ms(f1):>9} {ms(f100):>9}")
 
 
 _CHILD = """
-import json, resource, sys, time
+import json, sys, time
 sys.path.insert(0, {root!r})
 from pipeline.samples import street_front
 from solver import Problem, solve
+
+def hwm():  # peak RSS of this process image (VmHWM; ru_maxrss survives exec)
+    for line in open("/proc/self/status"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+
 p = Problem.from_dict(street_front({length}, resources=3))
-small = Problem.from_dict(street_front(20.0, resources=3))
-solve(small)
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+solve(Problem.from_dict(street_front(20.0, resources=3)))
+base = hwm()
 t = time.perf_counter()
 r = solve(p, k={k})
 t = time.perf_counter() - t
-peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print(json.dumps({{"base_mb": base / 1024, "peak_mb": peak / 1024, "s": t,
+print(json.dumps({{"base_mb": base, "peak_mb": hwm(), "s": t,
                   "nodes": r.stats["nodes"], "table": r.stats["estimate"]["table"]}}))
 """
 
@@ -154,12 +163,10 @@ def main(argv=None) -> None:
         one, three = [20, 80, 200], [20, 40]
     print(f"citysynth bench/street.py — median of {args.runs} runs after warm-up; "
           "times in ms; k1 = rcksp k=1 total, k100 = rcksp k=100 total")
-    one_resource(one, args.runs)
-    three_resources(three, args.runs)
     if not args.quick:
         peak_memory(200.0, 1)
-    print(f"\n(ru_maxrss of this process: "
-          f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024:,.0f} MB)")
+    one_resource(one, args.runs)
+    three_resources(three, args.runs)
 
 
 if __name__ == "__main__":
