@@ -54,6 +54,27 @@ STATUS_TOO_LARGE = 1
 _FM = {"nnan", "nsz", "reassoc"}  # no NaNs ever occur; inf does, so no "ninf"
 
 
+_SKIP, _FULL = -1, -2
+
+
+@njit(cache=True)
+def _row_of(s, create, nrows, limit, row_state, G, H, keys, vals, shift):
+    """Hash mode: the row of state s, created empty when ``create`` (else _SKIP when
+    absent; _FULL when ``limit`` rows exist). Returns (row, nrows)."""
+    u = hash_find(keys, vals, shift, s)
+    if u >= 0:
+        return u, nrows
+    if not create:
+        return _SKIP, nrows
+    if nrows >= limit:
+        return _FULL, nrows
+    row_state[nrows] = s
+    G[nrows, :] = np.inf
+    H[nrows, :] = np.inf
+    hash_put(keys, vals, shift, s, nrows)
+    return nrows, nrows + 1
+
+
 @njit(cache=True, fastmath=_FM)
 def _forward_level(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, G, H,
                    row_state, headF, nxtF, inF, nrows, limit, create, mask_h,
@@ -101,19 +122,12 @@ def _forward_level(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, G
                 if dense:
                     u2 = s2
                 else:
-                    u2 = hash_find(keys, vals, shift, s2)
-                    if u2 < 0:
-                        if not create:
-                            continue
-                        if nrows >= limit:
-                            return nrows, work, False
-                        u2 = nrows
-                        nrows += 1
-                        row_state[u2] = s2
-                        G[u2, :] = np.inf
-                        H[u2, :] = np.inf
-                        inF[u2] = 0
-                        hash_put(keys, vals, shift, s2, u2)
+                    u2, nrows = _row_of(s2, create, nrows, limit, row_state, G, H,
+                                        keys, vals, shift)
+                    if u2 == _SKIP:
+                        continue
+                    if u2 == _FULL:
+                        return nrows, work, False
                 if best < G[u2, f]:
                     G[u2, f] = best
                     if inF[u2] == 0:
@@ -158,19 +172,12 @@ def _backward_level(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, 
             if dense:
                 up = sp
             else:
-                up = hash_find(keys, vals, shift, sp)
-                if up < 0:
-                    if not create:
-                        continue
-                    if nrows >= limit:
-                        return nrows, work, False
-                    up = nrows
-                    nrows += 1
-                    row_state[up] = sp
-                    G[up, :] = np.inf
-                    H[up, :] = np.inf
-                    inB[up] = 0
-                    hash_put(keys, vals, shift, sp, up)
+                up, nrows = _row_of(sp, create, nrows, limit, row_state, G, H,
+                                    keys, vals, shift)
+                if up == _SKIP:
+                    continue
+                if up == _FULL:
+                    return nrows, work, False
             for p in range(n):
                 H[up, p] = min(H[up, p], W[e, p] + he)
             work += n
@@ -273,14 +280,7 @@ def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,
         if dense:
             u = s
         else:
-            u = hash_find(keys, vals, shift, s)
-            if u < 0:
-                u = nrows
-                nrows += 1
-                row_state[u] = s
-                G[u, :] = np.inf
-                H[u, :] = np.inf
-                hash_put(keys, vals, shift, s, u)
+            u, nrows = _row_of(s, True, nrows, max_rows, row_state, G, H, keys, vals, shift)
         G[u, e] = omega[e]
         if inF[u] == 0:
             inF[u] = 1
@@ -298,14 +298,8 @@ def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,
             if dense:
                 u = s
             else:
-                u = hash_find(keys, vals, shift, s)
-                if u < 0:
-                    u = nrows
-                    nrows += 1
-                    row_state[u] = s
-                    G[u, :] = np.inf
-                    H[u, :] = np.inf
-                    hash_put(keys, vals, shift, s, u)
+                u, nrows = _row_of(s, True, nrows, max_rows, row_state, G, H, keys, vals,
+                                   shift)
             for e in range(n):
                 if back[e] and covers(c, r, e):
                     H[u, e] = 0.0

@@ -86,6 +86,15 @@ def _lt(c1, k1, c2, k2):
     return c1 < c2 or (c1 == c2 and k1 < k2)
 
 
+@njit(cache=True, inline="always")
+def _move(qf, qi, dst, sf, si, src):
+    """Copy candidate row src of (sf, si) into row dst of (qf, qi)."""
+    qf[dst, 0] = sf[src, 0]
+    qf[dst, 1] = sf[src, 1]
+    for t in range(4):
+        qi[dst, t] = si[src, t]
+
+
 @njit(cache=True)
 def _sift_down(qf, qi, hb, hs, pos):
     cf0, cf1 = qf[hb + pos, 0], qf[hb + pos, 1]
@@ -98,10 +107,7 @@ def _sift_down(qf, qi, hb, hs, pos):
                                qf[hb + ch, 0], qi[hb + ch, _KEY]):
             ch += 1
         if _lt(qf[hb + ch, 0], qi[hb + ch, _KEY], cf0, c2):
-            qf[hb + pos, 0] = qf[hb + ch, 0]
-            qf[hb + pos, 1] = qf[hb + ch, 1]
-            for t in range(4):
-                qi[hb + pos, t] = qi[hb + ch, t]
+            _move(qf, qi, hb + pos, qf, qi, hb + ch)
             pos = ch
         else:
             break
@@ -119,33 +125,21 @@ def _heap_push(qf, qi, hb, hs, rf, ri, row):
     while pos > 0:
         par = (pos - 1) // 2
         if _lt(rf[row, 0], ri[row, _KEY], qf[hb + par, 0], qi[hb + par, _KEY]):
-            qf[hb + pos, 0] = qf[hb + par, 0]
-            qf[hb + pos, 1] = qf[hb + par, 1]
-            for t in range(4):
-                qi[hb + pos, t] = qi[hb + par, t]
+            _move(qf, qi, hb + pos, qf, qi, hb + par)
             pos = par
         else:
             break
-    qf[hb + pos, 0] = rf[row, 0]
-    qf[hb + pos, 1] = rf[row, 1]
-    for t in range(4):
-        qi[hb + pos, t] = ri[row, t]
+    _move(qf, qi, hb + pos, rf, ri, row)
     return hs + 1
 
 
 @njit(cache=True)
 def _heap_pop(qf, qi, hb, hs, outf, outi):
     """Move the minimum into row 0 of outf/outi; returns the new size."""
-    outf[0, 0] = qf[hb, 0]
-    outf[0, 1] = qf[hb, 1]
-    for t in range(4):
-        outi[0, t] = qi[hb, t]
+    _move(outf, outi, 0, qf, qi, hb)
     hs -= 1
     if hs > 0:
-        qf[hb, 0] = qf[hb + hs, 0]
-        qf[hb, 1] = qf[hb + hs, 1]
-        for t in range(4):
-            qi[hb, t] = qi[hb + hs, t]
+        _move(qf, qi, hb, qf, qi, hb + hs)
         _sift_down(qf, qi, hb, hs, 0)
     return hs
 
