@@ -23,6 +23,9 @@ from .problem import Problem
 from .quantize import Quantisation, quantise_resource
 
 
+MAX_DENSE_TRANSITIONS_BYTES = 1 << 30
+
+
 @dataclass
 class Compiled:
     ids: list[str]
@@ -113,6 +116,11 @@ def compile_problem(p: Problem) -> Compiled:
     w = d + omega[b]
     succ_ptr, succ_elem, succ_w = _csr(n, a, b, w)
     pred_ptr, pred_elem, pred_w = _csr(n, b, a, w)
+    if n * n * 8 > MAX_DENSE_TRANSITIONS_BYTES:
+        raise ProblemError(
+            f"{n:,} elements need a {n * n * 8 / 2**30:.1f} GB dense transition table, "
+            f"more than the {MAX_DENSE_TRANSITIONS_BYTES / 2**30:.0f} GB allowed; split the "
+            "library by style or class so each problem holds fewer elements")
     # The same table dense and transposed: row f holds every way into f, so the
     # kernels relax all transitions into f (or out of e, read as W[e, :] = "into e
     # from p") as one contiguous vector operation.

@@ -99,3 +99,14 @@ def test_83_4_m_from_0_2_m_parts_is_exact():
     assert np.all(np.diff([s.cost for s in r.solutions]) >= 0)
     fgs = solve(p, k=20, method="fgs")
     assert [s.cost for s in fgs.solutions] == [s.cost for s in r.solutions]
+
+
+def test_too_many_elements_for_the_transition_table_is_refused():
+    p = Problem.from_dict({
+        "resources": ["length"],
+        "elements": [{"id": str(i), "resources": {"length": 1}} for i in range(12000)],
+        "transitions": [],
+        "constraints": {"length": [1, 1]},
+    })
+    with pytest.raises(ProblemError, match="dense transition table"):
+        solve(p)
