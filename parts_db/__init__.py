@@ -1,1 +1,11 @@
-"""citysynth parts_db stage (see ../shared/DESIGN.md)."""
+"""citysynth part libraries: segmented building-part meshes -> a part database.
+
+``load_library(path)`` returns a :class:`PartDB` (ingesting and caching as needed);
+``ingest(path, out)`` forces the choice of output. See the README, "Part libraries".
+This package knows nothing of skeletons or the solver.
+"""
+
+from .errors import LibraryError
+from .library import Part, PartDB, ingest, load_db, load_library
+
+__all__ = ["LibraryError", "Part", "PartDB", "ingest", "load_db", "load_library"]

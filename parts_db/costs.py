@@ -1,0 +1,57 @@
+"""The transition-cost table: how well part f fits after part e.
+
+Cost (paper eq. 3, as area): the area where the out-section of e and the in-section of
+f disagree (their symmetric difference), plus class rules for what may follow what.
+Parts in different groups (facade parts, complete buildings, tower floors) never
+follow each other. Sections shared by many parts are compared once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+
+from .sections import disagreement
+
+GROUPS = {
+    "end_left": "facade", "middle": "facade", "corner": "facade", "t_junction": "facade",
+    "end_right": "facade", "building": "building",
+    "ground_floor": "tower", "floor": "tower", "roof": "tower",
+}
+FIRST_ONLY = {"end_left", "ground_floor"}   # nothing may precede these
+LAST_ONLY = {"end_right", "roof"}           # nothing may follow these
+
+
+def allowed_matrix(classes: list[str]) -> np.ndarray:
+    """allowed[e, f]: may f directly follow e (class rules only)."""
+    g = np.array([GROUPS[c] for c in classes])
+    first = np.array([c in FIRST_ONLY for c in classes])
+    last = np.array([c in LAST_ONLY for c in classes])
+    return (g[:, None] == g[None, :]) & ~last[:, None] & ~first[None, :]
+
+
+def cost_matrix(out_secs: list, in_secs: list, allowed: np.ndarray) -> np.ndarray:
+    """cost[e, f] = area(out_e xor in_f) where allowed, else inf."""
+    n = len(out_secs)
+    cost = np.full((n, n), np.inf)
+    uo, io = _unique(out_secs)
+    ui, ii = _unique(in_secs)
+    e, f = np.nonzero(allowed)
+    if len(e) == 0:
+        return cost
+    pairs = np.unique(np.stack([io[e], ii[f]], axis=1), axis=0)
+    areas = disagreement(uo[pairs[:, 0]], ui[pairs[:, 1]])
+    table = {(a, b): x for (a, b), x in zip(pairs.tolist(), areas.tolist(), strict=True)}
+    cost[e, f] = [table[(a, b)] for a, b in zip(io[e].tolist(), ii[f].tolist(), strict=True)]
+    return cost
+
+
+def _unique(geoms: list):
+    """Distinct geometries (by WKB) and the index of each input among them."""
+    keys = [shapely.to_wkb(g) for g in geoms]
+    first: dict[bytes, int] = {}
+    inv = np.array([first.setdefault(k, len(first)) for k in keys], dtype=np.int64)
+    uniq = np.empty(len(first), dtype=object)
+    for k, i in first.items():
+        uniq[i] = shapely.from_wkb(k)
+    return uniq, inv

@@ -1,0 +1,232 @@
+"""Ingest a part library into a :class:`PartDB`, cached by content hash.
+
+``ingest`` reads the manifest, loads and measures every mesh, snaps lengths to the
+library quantum, computes the transition-cost table and writes the database (JSON
+metadata + an npz of arrays) atomically. The database records the sha256 of the
+manifest and every mesh (and of this format); an unchanged library is a cache hit
+and is only read back. Any bad part stops the ingest before anything is written.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import shapely
+
+from .costs import allowed_matrix, cost_matrix
+from .errors import LibraryError
+from .manifest import Manifest, read_manifest
+from .measure import STACKED, STRAIGHT, measure
+from .meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh
+
+FORMAT_VERSION = 1
+DB_JSON = "partdb.json"
+DB_NPZ = "partdb.npz"
+DEFAULT_OUT = ".citysynth"  # inside the library folder
+
+
+@dataclass
+class Part:
+    """One measured part. Lengths in metres; ``legs`` snapped to the quantum."""
+
+    id: str
+    cls: str
+    style: str
+    file: str
+    attributes: dict[str, float]
+    legs: list[float]             # snapped primary extents (one per leg for key parts)
+    legs_measured: list[float]
+    directions: list[list[float]]
+    scale: float                  # stretch along the primary axis that realises `legs`
+    height: float
+    floor_area: float | None
+    angle: float | None = None
+    convex: bool | None = None
+    sec_in: object = None         # shapely geometry
+    sec_out: object = None
+    sec_branch: object = None
+
+    @property
+    def length(self) -> float:
+        return float(sum(self.legs))
+
+
+@dataclass
+class PartDB:
+    """The compiled part database: parts, class rules and transition costs."""
+
+    name: str
+    library_hash: str
+    quantum: float
+    parts: list[Part]
+    allowed: np.ndarray           # bool [n, n]
+    cost: np.ndarray              # float [n, n], inf where not allowed
+    cost_branch: np.ndarray       # float [n, n]: T part's branch leg -> f, inf elsewhere
+    warnings: list[str] = field(default_factory=list)
+    path: Path | None = None
+    cache_hit: bool = False
+
+    @property
+    def ids(self) -> list[str]:
+        return [p.id for p in self.parts]
+
+    def index(self) -> dict[str, int]:
+        return {p.id: i for i, p in enumerate(self.parts)}
+
+    def select(self, cls: str | None = None, style: str | None = None) -> list[Part]:
+        return [p for p in self.parts if (cls is None or p.cls == cls)
+                and (style is None or p.style == style)]
+
+
+def library_hash(m: Manifest) -> str:
+    h = hashlib.sha256(f"citysynth-partdb-{FORMAT_VERSION}\n".encode())
+    h.update(m.path.read_bytes())
+    root = m.path.parent
+    for spec in m.parts:
+        f = root / spec.file
+        h.update(spec.file.encode() + b"\0")
+        try:
+            h.update(f.read_bytes())
+        except OSError as exc:
+            raise LibraryError(f'part "{spec.id}" ({f}): cannot read the mesh file '
+                               f"({exc.strerror})") from None
+    return h.hexdigest()
+
+
+def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: bool = False,
+           progress: Callable[[int, int, str], None] | None = None) -> PartDB:
+    """Ingest ``library_dir`` into ``out`` (default: ``<library>/.citysynth``)."""
+    m = read_manifest(library_dir)
+    root = m.path.parent
+    out_dir = Path(out) if out is not None else root / DEFAULT_OUT
+    digest = library_hash(m)
+    if not force:
+        cached = _read_cached(out_dir, digest)
+        if cached is not None:
+            return cached
+    parts, warnings = [], []
+    for i, spec in enumerate(m.parts):
+        if progress:
+            progress(i, len(m.parts), spec.id)
+        parts.append(_ingest_part(root, m, spec, warnings))
+    classes = [p.cls for p in parts]
+    allowed = allowed_matrix(classes)
+    cost = cost_matrix([p.sec_out for p in parts], [p.sec_in for p in parts], allowed)
+    is_t = np.array([c == "t_junction" for c in classes])
+    branch_ok = allowed & is_t[:, None]
+    cost_branch = cost_matrix([p.sec_branch if p.sec_branch is not None else p.sec_out
+                               for p in parts], [p.sec_in for p in parts], branch_ok)
+    db = PartDB(m.name, digest, m.quantum, parts, allowed, cost, cost_branch, warnings,
+                out_dir, False)
+    save(db, out_dir)
+    return db
+
+
+def _ingest_part(root: Path, m: Manifest, spec, warnings: list[str]) -> Part:
+    f = root / spec.file
+    where = f'part "{spec.id}" ({f})'
+    mesh, counts = load_part_mesh(f, spec.id, m.meters_per_unit)
+    meas = measure(mesh, spec, where)
+    q = m.quantum
+    legs_q = [max(round(leg / q), 1) * q for leg in meas.legs]
+    legs_q = [round(x, 9) for x in legs_q]
+    scale = 1.0
+    if m.rescale and (spec.cls in STRAIGHT or spec.cls in STACKED):
+        scale = legs_q[0] / meas.legs[0]
+    change = max(abs(a - b) for a, b in zip(legs_q, meas.legs, strict=True))
+    if change > 0.25 * q:
+        warnings.append(f"{spec.id}: snapped by {change:.3f} m to the {q:g} m grid")
+    attrs = dict(spec.attributes)
+    for k in COUNTED:  # named sub-meshes count where the manifest is silent
+        key = COUNT_ATTRIBUTE[k]
+        if key not in attrs and counts[k]:
+            attrs[key] = float(counts[k])
+    if meas.floor_area is not None:
+        attrs.setdefault("floor_area", round(meas.floor_area, 6))
+    return Part(spec.id, spec.cls, spec.style, spec.file, attrs, legs_q, meas.legs,
+                [list(d) for d in meas.directions], scale, meas.height, meas.floor_area,
+                spec.angle, spec.convex, meas.sec_in, meas.sec_out, meas.sec_branch)
+
+
+# --- storage ------------------------------------------------------------------------------
+
+def _part_json(p: Part) -> dict:
+    d = {k: getattr(p, k) for k in ("id", "cls", "style", "file", "attributes", "legs",
+                                     "legs_measured", "directions", "scale", "height",
+                                     "floor_area", "angle", "convex")}
+    for k in ("sec_in", "sec_out", "sec_branch"):
+        g = getattr(p, k)
+        d[k] = None if g is None else shapely.to_wkt(g, rounding_precision=6)
+    return d
+
+
+def save(db: PartDB, out_dir: Path) -> None:
+    """Write npz then JSON (the JSON carries the hash, so it is written last); each
+    through a temporary file and an atomic rename."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    meta = {"format": FORMAT_VERSION, "name": db.name, "library_hash": db.library_hash,
+            "quantum": db.quantum, "warnings": db.warnings,
+            "parts": [_part_json(p) for p in db.parts]}
+    _atomic(out_dir / DB_NPZ, lambda f: np.savez_compressed(
+        f, allowed=db.allowed, cost=db.cost, cost_branch=db.cost_branch))
+    text = json.dumps(meta, indent=1, sort_keys=True)
+    _atomic(out_dir / DB_JSON, lambda f: f.write(text.encode("utf-8")))
+
+
+def _atomic(path: Path, write) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            write(f)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def load_db(out_dir: str | Path) -> PartDB:
+    out_dir = Path(out_dir)
+    meta = json.loads((out_dir / DB_JSON).read_text(encoding="utf-8"))
+    arrays = np.load(out_dir / DB_NPZ)
+    parts = []
+    for d in meta["parts"]:
+        secs = {k: None if d[k] is None else shapely.from_wkt(d[k])
+                for k in ("sec_in", "sec_out", "sec_branch")}
+        parts.append(Part(d["id"], d["cls"], d["style"], d["file"], d["attributes"],
+                          d["legs"], d["legs_measured"], d["directions"], d["scale"],
+                          d["height"], d["floor_area"], d["angle"], d["convex"], **secs))
+    return PartDB(meta["name"], meta["library_hash"], meta["quantum"], parts,
+                  arrays["allowed"], arrays["cost"], arrays["cost_branch"],
+                  meta["warnings"], out_dir, True)
+
+
+def _read_cached(out_dir: Path, digest: str) -> PartDB | None:
+    try:
+        meta = json.loads((out_dir / DB_JSON).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if meta.get("format") != FORMAT_VERSION or meta.get("library_hash") != digest:
+        return None
+    try:
+        return load_db(out_dir)
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def load_library(path: str | Path) -> PartDB:
+    """The database of a library folder (ingesting it, or reading the cache), or of a
+    database folder written by ``citysynth ingest -o``."""
+    p = Path(path)
+    if (p / "manifest.toml").is_file():
+        return ingest(p)
+    if (p / DB_JSON).is_file():
+        return load_db(p)
+    raise LibraryError(f"{p}: neither a library (no manifest.toml) nor a part database "
+                       f"(no {DB_JSON})")

@@ -1,0 +1,135 @@
+"""The library manifest (``manifest.toml``): what each mesh file is.
+
+A manifest labels parts; measurement (:mod:`parts_db.measure`) then checks the labels
+against the geometry. Every error names the part and the manifest so the user can fix
+the file. The format is documented in the README ("Part libraries").
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import LibraryError
+
+CLASSES = ("end_left", "end_right", "middle", "corner", "t_junction", "floor",
+           "ground_floor", "roof", "building")
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048, "in": 0.0254}
+_PART_KEYS = {"id", "file", "class", "style", "angle", "convex", "length", "attributes"}
+_LIB_KEYS = {"name", "quantum", "units", "rescale"}
+
+
+@dataclass(frozen=True)
+class PartSpec:
+    id: str
+    file: str
+    cls: str
+    style: str
+    angle: float | None = None       # corners: the angle between the two legs (degrees)
+    convex: bool | None = None       # corners: True for an outer corner
+    length: float | None = None      # optional nominal length, checks the units
+    attributes: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Manifest:
+    path: Path
+    name: str
+    quantum: float
+    meters_per_unit: float
+    rescale: bool
+    parts: tuple[PartSpec, ...]
+
+
+def read_manifest(library_dir: str | Path) -> Manifest:
+    root = Path(library_dir)
+    path = root / "manifest.toml"
+    if not root.is_dir():
+        raise LibraryError(f"{root}: not a folder; a library is a folder with manifest.toml "
+                           "and mesh files")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise LibraryError(f"{path}: missing; a library needs a manifest.toml "
+                           "(see README, 'Part libraries')") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise LibraryError(f"{path}: not valid TOML: {exc}") from None
+
+    lib = data.get("library", {})
+    unknown = sorted(set(lib) - _LIB_KEYS)
+    if unknown:
+        raise LibraryError(f"{path}: [library] has unknown key(s) {unknown}; "
+                           f"allowed: {sorted(_LIB_KEYS)}")
+    quantum = _positive(lib.get("quantum", 0.2), f"{path}: [library] quantum")
+    units = lib.get("units", "m")
+    if units not in UNITS:
+        raise LibraryError(f"{path}: [library] units {units!r} unknown; use one of "
+                           f"{sorted(UNITS)}")
+    extra = sorted(set(data) - {"library", "part"})
+    if extra:
+        raise LibraryError(f"{path}: unknown table(s) {extra}; use [library] and [[part]]")
+    parts_in = data.get("part", [])
+    if not isinstance(parts_in, list) or not parts_in:
+        raise LibraryError(f"{path}: no parts; add [[part]] tables")
+    parts: list[PartSpec] = []
+    seen: set[str] = set()
+    for i, p in enumerate(parts_in):
+        parts.append(_part(p, i, path, seen))
+    return Manifest(path, str(lib.get("name", root.name)), quantum, UNITS[units],
+                    bool(lib.get("rescale", True)), tuple(parts))
+
+
+def _positive(v, where: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
+        raise LibraryError(f"{where}: must be a positive number, got {v!r}")
+    return float(v)
+
+
+def _part(p: dict, i: int, path: Path, seen: set[str]) -> PartSpec:
+    pid = p.get("id")
+    where = f"{path}: part #{i + 1}" + (f' "{pid}"' if isinstance(pid, str) else "")
+    if not isinstance(pid, str) or not pid:
+        raise LibraryError(f"{where}: needs an id (a non-empty string)")
+    if pid in seen:
+        raise LibraryError(f'{where}: duplicate id "{pid}"')
+    seen.add(pid)
+    unknown = sorted(set(p) - _PART_KEYS)
+    if unknown:
+        raise LibraryError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(_PART_KEYS)}")
+    f = p.get("file")
+    if not isinstance(f, str) or not f:
+        raise LibraryError(f"{where}: needs a file (path of its mesh, relative to the library)")
+    cls = p.get("class")
+    if cls not in CLASSES:
+        raise LibraryError(f"{where}: unknown class {cls!r}; classes are {', '.join(CLASSES)}")
+    style = p.get("style", "default")
+    if not isinstance(style, str) or not style:
+        raise LibraryError(f"{where}: style must be a non-empty string")
+    angle = convex = None
+    if cls == "corner":
+        if "angle" not in p:
+            raise LibraryError(f"{where}: a corner needs an angle (degrees between its legs, "
+                               "e.g. angle = 90) and convex = true|false")
+        angle = _positive(p["angle"], f"{where}: angle")
+        if not 0 < angle < 180:
+            raise LibraryError(f"{where}: angle must lie between 0 and 180 degrees "
+                               f"(the angle between the legs), got {angle:g}")
+        convex = p.get("convex")
+        if not isinstance(convex, bool):
+            raise LibraryError(f"{where}: a corner needs convex = true (outer corner) or "
+                               "false (inner corner)")
+    length = _positive(p["length"], f"{where}: length") if "length" in p else None
+    attrs_in = p.get("attributes", {})
+    if not isinstance(attrs_in, dict):
+        raise LibraryError(f"{where}: attributes must be a table, e.g. "
+                           "attributes = {doors = 1, windows = 4}")
+    attrs = {}
+    for k, v in attrs_in.items():
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
+                or v < 0:
+            raise LibraryError(f"{where}: attribute {k} must be a non-negative number, "
+                               f"got {v!r}")
+        attrs[k] = float(v)
+    return PartSpec(pid, f, cls, style, angle, convex, length, attrs)

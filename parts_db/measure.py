@@ -1,0 +1,117 @@
+"""Measure a part instead of trusting its label.
+
+Conventions (the canonical frame, documented in the README): facade and building
+parts run along +X with the facade toward -Y and +Z up; floors stack along +Z.
+Key-point parts have the key point at the origin and one leg per incident skeleton
+edge: a corner's incoming leg along -X and its outgoing leg along the direction the
+skeleton turns to (left by 180 - angle for a convex corner, right for a concave one);
+a T part's legs along -X, +X and +Y. A leg's length is how far the part reaches
+along its direction. Sections are taken 5 mm inside each end.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from shapely.geometry.base import BaseGeometry
+
+from .errors import LibraryError
+from .manifest import PartSpec
+from .sections import plane_section
+
+EPS = 0.005
+STRAIGHT = ("middle", "building", "end_left", "end_right")
+STACKED = ("floor", "ground_floor", "roof")
+PLAUSIBLE_LENGTH = (0.2, 150.0)  # metres along the primary axis
+PLAUSIBLE_STOREY = (0.5, 30.0)   # metres of a floor, ground floor or roof
+
+
+@dataclass
+class Measured:
+    legs: list[float]                 # primary extents: 1 for straight/stacked parts
+    directions: list[tuple[float, float]]
+    height: float
+    floor_area: float | None
+    sec_in: BaseGeometry
+    sec_out: BaseGeometry
+    sec_branch: BaseGeometry | None = None   # T parts: across the branch leg
+    warnings: list[str] = field(default_factory=list)
+
+
+def leg_directions(spec: PartSpec) -> list[tuple[float, float]]:
+    if spec.cls == "corner":
+        turn = math.radians(180.0 - spec.angle) * (1 if spec.convex else -1)
+        return [(-1.0, 0.0), (math.cos(turn), math.sin(turn))]
+    if spec.cls == "t_junction":
+        return [(-1.0, 0.0), (1.0, 0.0), (0.0, 1.0)]
+    if spec.cls in STACKED:
+        return []
+    return [(1.0, 0.0)]
+
+
+def _facade_section(mesh, direction, dist, outward_end: bool):
+    """Section across a leg at distance ``dist`` along ``direction`` from the origin,
+    seen along the direction of travel of the sequence (into the part on an incoming
+    leg, out of it on an outgoing one): u = the facade's outward normal (to the right
+    of travel), v = up. In- and out-sections of all parts are then comparable."""
+    d = np.array([direction[0], direction[1], 0.0])
+    travel = d if outward_end else -d
+    u = np.array([travel[1], -travel[0], 0.0])
+    return plane_section(mesh, d * dist, travel, u, np.array([0.0, 0.0, 1.0]))
+
+
+def measure(mesh, spec: PartSpec, where: str) -> Measured:
+    v = mesh.vertices
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    height = float(hi[2] - lo[2])
+    if spec.cls in STACKED:
+        lo_ok, hi_ok = PLAUSIBLE_STOREY
+        if not lo_ok <= height <= hi_ok:
+            raise LibraryError(f"{where}: {height:g} units tall along +Z, implausible for a "
+                               f"{spec.cls} (expected {lo_ok:g}-{hi_ok:g} m); check "
+                               "[library] units and that +Z is up")
+        xy = (np.eye(3)[0], np.eye(3)[1])
+        sec_in = plane_section(mesh, [0, 0, lo[2] + EPS], [0, 0, 1], *xy)
+        sec_out = plane_section(mesh, [0, 0, hi[2] - EPS], [0, 0, 1], *xy)
+        mid = plane_section(mesh, [0, 0, (lo[2] + hi[2]) / 2], [0, 0, 1], *xy)
+        m = Measured([height], [], height, float(mid.area), sec_in, sec_out)
+    elif spec.cls in STRAIGHT:
+        length = float(hi[0] - lo[0])
+        d = (1.0, 0.0)
+        sec_in = _facade_section(mesh, d, lo[0] + EPS, outward_end=True)
+        sec_out = _facade_section(mesh, d, hi[0] - EPS, outward_end=True)
+        m = Measured([length], [d], height, None, sec_in, sec_out)
+    else:
+        dirs = leg_directions(spec)
+        legs = [float(max((v[:, :2] @ np.array(d)).max(), 0.0)) for d in dirs]
+        for d, leg in zip(dirs, legs, strict=True):
+            if leg < EPS * 4:
+                raise LibraryError(
+                    f"{where}: reaches only {leg:g} along its leg direction "
+                    f"({d[0]:.3g}, {d[1]:.3g}); a {spec.cls} needs geometry along each leg "
+                    "(see README, canonical frame)")
+        sec_in = _facade_section(mesh, dirs[0], legs[0] - EPS, outward_end=False)
+        sec_out = _facade_section(mesh, dirs[1], legs[1] - EPS, outward_end=True)
+        m = Measured(legs, dirs, height, None, sec_in, sec_out)
+        if spec.cls == "t_junction":
+            m.sec_branch = _facade_section(mesh, dirs[2], legs[2] - EPS, outward_end=True)
+    for name, sec in (("in", m.sec_in), ("out", m.sec_out)):
+        if sec.is_empty or sec.area <= 0:
+            raise LibraryError(f"{where}: no cross-section at its {name}-end; the mesh must "
+                               "be closed and reach both ends of its primary axis")
+    if spec.cls not in STACKED:
+        total = sum(m.legs)
+        if spec.length is not None and not 0.8 <= total / spec.length <= 1.25:
+            ratio = total / spec.length
+            hint = " (it looks like centimetres: set units = \"cm\")" if 50 < ratio < 200 \
+                else ""
+            raise LibraryError(f"{where}: measures {total:g} m along its primary axis but the "
+                               f"manifest says {spec.length:g} m{hint}; check [library] "
+                               "units and the canonical frame")
+        lo_ok, hi_ok = PLAUSIBLE_LENGTH
+        if not lo_ok <= total <= hi_ok:
+            raise LibraryError(f"{where}: {total:g} m along its primary axis is implausible "
+                               f"(expected {lo_ok:g}-{hi_ok:g} m); check [library] units")
+    return m

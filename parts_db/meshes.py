@@ -1,0 +1,54 @@
+"""Loading part meshes with trimesh (GLB/glTF, OBJ, PLY, STL), like trimesh's own
+``exchange/load.py``: one entry point, the format chosen by the file extension.
+
+A glTF scene may name its sub-meshes ("window_3", "door", "balcony_1" ...); those
+names are counted so a manifest need not repeat what the model already says.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from .errors import LibraryError
+
+FORMATS = {".glb", ".gltf", ".obj", ".ply", ".stl"}
+COUNTED = ("window", "door", "balcony")
+COUNT_ATTRIBUTE = {"window": "windows", "door": "doors", "balcony": "balconies"}
+_NAME = re.compile(r"^(window|door|balcony)s?(?:[_\-.\s]|\d|$)", re.IGNORECASE)
+
+
+def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
+    """(mesh in metres, counts of named sub-meshes). Raises LibraryError naming the part."""
+    where = f'part "{part_id}" ({path})'
+    if path.suffix.lower() not in FORMATS:
+        raise LibraryError(f"{where}: unsupported mesh format {path.suffix!r}; use one of "
+                           f"{', '.join(sorted(FORMATS))}")
+    if not path.is_file():
+        raise LibraryError(f"{where}: mesh file not found")
+    try:
+        loaded = trimesh.load(str(path), force=None)
+    except Exception as exc:  # trimesh raises many kinds for unreadable files
+        raise LibraryError(f"{where}: cannot read the mesh ({type(exc).__name__}: {exc})") \
+            from None
+    counts = {k: 0 for k in COUNTED}
+    if isinstance(loaded, trimesh.Scene):
+        for node in loaded.graph.nodes_geometry:
+            _, geom_name = loaded.graph[node]
+            m = _NAME.match(str(node)) or _NAME.match(str(geom_name))
+            if m:
+                counts[m.group(1).lower()] += 1
+        mesh = loaded.dump(concatenate=True) if loaded.geometry else None
+    else:
+        mesh = loaded
+    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+        raise LibraryError(f"{where}: the mesh is empty (no triangles)")
+    if not np.isfinite(mesh.vertices).all():
+        raise LibraryError(f"{where}: the mesh has non-finite vertex coordinates")
+    if meters_per_unit != 1.0:
+        mesh = mesh.copy()
+        mesh.apply_scale(meters_per_unit)
+    return mesh, counts
