@@ -19,7 +19,7 @@ from shapely.geometry.base import BaseGeometry
 
 from .errors import LibraryError
 from .manifest import PartSpec
-from .sections import plane_section
+from .sections import body_labels, plane_section
 
 EPS = 0.005
 STRAIGHT = ("middle", "building", "end_left", "end_right")
@@ -51,7 +51,7 @@ def leg_directions(spec: PartSpec) -> list[tuple[float, float]]:
     return [(1.0, 0.0)]
 
 
-def _facade_section(mesh, direction, dist, outward_end: bool):
+def _facade_section(mesh, direction, dist, outward_end: bool, labels):
     """Section across a leg at distance ``dist`` along ``direction`` from the origin,
     seen along the direction of travel of the sequence (into the part on an incoming
     leg, out of it on an outgoing one): u = the facade's outward normal (to the right
@@ -59,12 +59,13 @@ def _facade_section(mesh, direction, dist, outward_end: bool):
     d = np.array([direction[0], direction[1], 0.0])
     travel = d if outward_end else -d
     u = np.array([travel[1], -travel[0], 0.0])
-    return plane_section(mesh, d * dist, travel, u, np.array([0.0, 0.0, 1.0]))
+    return plane_section(mesh, d * dist, travel, u, np.array([0.0, 0.0, 1.0]), labels)
 
 
 def measure(mesh, spec: PartSpec, where: str) -> Measured:
     v = mesh.vertices
     lo, hi = v.min(axis=0), v.max(axis=0)
+    labels = body_labels(mesh)
     height = float(hi[2] - lo[2])
     if spec.cls in STACKED:
         lo_ok, hi_ok = PLAUSIBLE_STOREY
@@ -73,15 +74,15 @@ def measure(mesh, spec: PartSpec, where: str) -> Measured:
                                f"{spec.cls} (expected {lo_ok:g}-{hi_ok:g} m); check "
                                "[library] units and that +Z is up")
         xy = (np.eye(3)[0], np.eye(3)[1])
-        sec_in = plane_section(mesh, [0, 0, lo[2] + EPS], [0, 0, 1], *xy)
-        sec_out = plane_section(mesh, [0, 0, hi[2] - EPS], [0, 0, 1], *xy)
-        mid = plane_section(mesh, [0, 0, (lo[2] + hi[2]) / 2], [0, 0, 1], *xy)
+        sec_in = plane_section(mesh, [0, 0, lo[2] + EPS], [0, 0, 1], *xy, labels)
+        sec_out = plane_section(mesh, [0, 0, hi[2] - EPS], [0, 0, 1], *xy, labels)
+        mid = plane_section(mesh, [0, 0, (lo[2] + hi[2]) / 2], [0, 0, 1], *xy, labels)
         m = Measured([height], [], height, float(mid.area), sec_in, sec_out)
     elif spec.cls in STRAIGHT:
         length = float(hi[0] - lo[0])
         d = (1.0, 0.0)
-        sec_in = _facade_section(mesh, d, lo[0] + EPS, outward_end=True)
-        sec_out = _facade_section(mesh, d, hi[0] - EPS, outward_end=True)
+        sec_in = _facade_section(mesh, d, lo[0] + EPS, True, labels)
+        sec_out = _facade_section(mesh, d, hi[0] - EPS, True, labels)
         m = Measured([length], [d], height, None, sec_in, sec_out)
     else:
         dirs = leg_directions(spec)
@@ -92,11 +93,11 @@ def measure(mesh, spec: PartSpec, where: str) -> Measured:
                     f"{where}: reaches only {leg:g} along its leg direction "
                     f"({d[0]:.3g}, {d[1]:.3g}); a {spec.cls} needs geometry along each leg "
                     "(see README, canonical frame)")
-        sec_in = _facade_section(mesh, dirs[0], legs[0] - EPS, outward_end=False)
-        sec_out = _facade_section(mesh, dirs[1], legs[1] - EPS, outward_end=True)
+        sec_in = _facade_section(mesh, dirs[0], legs[0] - EPS, False, labels)
+        sec_out = _facade_section(mesh, dirs[1], legs[1] - EPS, True, labels)
         m = Measured(legs, dirs, height, None, sec_in, sec_out)
         if spec.cls == "t_junction":
-            m.sec_branch = _facade_section(mesh, dirs[2], legs[2] - EPS, outward_end=True)
+            m.sec_branch = _facade_section(mesh, dirs[2], legs[2] - EPS, True, labels)
     for name, sec in (("in", m.sec_in), ("out", m.sec_out)):
         if sec.is_empty or sec.area <= 0:
             raise LibraryError(f"{where}: no cross-section at its {name}-end; the mesh must "

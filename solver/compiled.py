@@ -22,7 +22,6 @@ from .errors import ProblemError
 from .problem import Problem
 from .quantize import Quantisation, quantise_resource
 
-
 MAX_DENSE_TRANSITIONS_BYTES = 1 << 30
 
 
