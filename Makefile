@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint bench examples clean
+.PHONY: demo test lint bench examples library clean
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -31,3 +31,8 @@ examples: $(STAMP)
 clean:
 	rm -rf $(VENV) out .pytest_cache .ruff_cache .hypothesis
 	find . -name __pycache__ -prune -exec rm -rf {} +
+
+# The sample part library: regenerate the meshes and manifest, then the contact sheet.
+library: $(STAMP)
+	$(BIN)/python -m parts_db.sample
+	$(BIN)/python -m export.preview examples/library docs/library.png

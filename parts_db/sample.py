@@ -172,8 +172,8 @@ def facade_chunk(style: Style, x0: float, x1: float, storeys: int, *, door: int 
     if roof and s.pitched:
         ridge = Polygon([(t, z), (D, z), (D, z + 0.2), ((t + D) / 2, z + 3.2), (t, z + 0.2)])
         P.add("wall", _along_x(ridge, x0, x1, ROOF))
-    elif roof:
-        P.add("wall", _box(x0, x1, D - 0.3, D, z, z + 0.9, s.wall))
+    elif roof:  # a parapet at the back, as high as the front cornice
+        P.add("wall", _box(x0, x1, D - 0.3, D, H, z, s.wall))
     return P
 
 
@@ -305,9 +305,9 @@ def generate(out: Path = OUT) -> list[dict]:
 
     names = list(FOOTPRINTS)
     for i, name in enumerate(names[:3]):
-        write(f"tower_ground_{name}", ground_floor(FOOTPRINTS[name], 4.5 + 0.25 * i),
+        write(f"tower_ground_{name}", ground_floor(FOOTPRINTS[name], 4.6 + 0.2 * i),
               cls="ground_floor", style="tower")
-    heights = (3.0, 3.2, 3.4, 3.6, 3.8, 4.0, 4.2, 4.5, 4.8, 5.0, 3.5)
+    heights = (3.0, 3.2, 3.4, 3.6, 3.8, 4.0, 4.2, 4.4, 4.6, 4.8, 5.0)
     for name, h in zip(names, heights, strict=True):
         write(f"tower_floor_{name}_{h:.1f}", floor_part(FOOTPRINTS[name], h, (110, 115, 120)),
               cls="floor", style="tower")

@@ -1,0 +1,87 @@
+"""PNG previews rendered off screen with pyvista.
+
+For now: the contact sheet of a part library (every part, coloured as authored, from
+a three-quarter view with soft lighting), used in the README. Block and city previews
+come with the export stage.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pyvista as pv
+import trimesh
+
+from parts_db import PartDB
+
+pv.OFF_SCREEN = True
+
+
+def to_polydata(mesh: trimesh.Trimesh) -> pv.PolyData:
+    faces = np.hstack([np.full((len(mesh.faces), 1), 3), mesh.faces]).ravel()
+    poly = pv.PolyData(np.asarray(mesh.vertices, dtype=float), faces)
+    colors = getattr(mesh.visual, "face_colors", None)
+    if colors is not None and len(colors) == len(mesh.faces):
+        poly.cell_data["rgb"] = np.asarray(colors)[:, :3].astype(np.uint8)
+    return poly
+
+
+def three_quarter_view(plotter: pv.Plotter, poly: pv.PolyData, zoom: float = 1.1) -> None:
+    """Look at the facade (toward -Y in the canonical frame) from the front right,
+    slightly from above."""
+    lo = np.array(poly.bounds[::2])
+    hi = np.array(poly.bounds[1::2])
+    centre = (lo + hi) / 2
+    direction = np.array([0.55, -1.0, 0.45])
+    dist = 2.2 * float(np.linalg.norm(hi - lo))
+    plotter.camera_position = [tuple(centre + dist * direction / np.linalg.norm(direction)),
+                               tuple(centre), (0, 0, 1)]
+    plotter.reset_camera()
+    plotter.camera.zoom(zoom)
+
+
+def contact_sheet(db: PartDB, library_dir: str | Path, out_png: str | Path, *,
+                  columns: int = 12, tile: int = 200) -> Path:
+    """Render every part of ``db`` into one PNG grid, labelled with id and length."""
+    root = Path(library_dir)
+    n = len(db.parts)
+    rows = math.ceil(n / columns)
+    plotter = pv.Plotter(off_screen=True, shape=(rows, columns),
+                         window_size=(columns * tile, rows * tile), border=False)
+    plotter.set_background("white")
+    for i, part in enumerate(db.parts):
+        plotter.subplot(i // columns, i % columns)
+        mesh = trimesh.load(str(root / part.file), force="mesh")
+        poly = to_polydata(mesh)
+        if "rgb" in poly.cell_data:
+            plotter.add_mesh(poly, scalars="rgb", rgb=True, smooth_shading=False)
+        else:
+            plotter.add_mesh(poly, color="tan")
+        plotter.add_text(f"{part.id}\n{part.cls}, {part.length:g} m", font_size=7,
+                         color="black", position="upper_left")
+        plotter.enable_lightkit()
+        three_quarter_view(plotter, poly)
+    out = Path(out_png)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    plotter.screenshot(str(out))
+    plotter.close()
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    """``python -m export.preview LIBRARY OUT.png``: the contact sheet of a library."""
+    import sys
+
+    from parts_db import load_library
+
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 2:
+        raise SystemExit("usage: python -m export.preview LIBRARY_DIR OUT.png")
+    out = contact_sheet(load_library(args[0]), args[0], args[1], tile=170)
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main()
