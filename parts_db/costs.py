@@ -40,7 +40,8 @@ def cost_matrix(out_secs: list, in_secs: list, allowed: np.ndarray) -> np.ndarra
     if len(e) == 0:
         return cost
     pairs = np.unique(np.stack([io[e], ii[f]], axis=1), axis=0)
-    areas = disagreement(uo[pairs[:, 0]], ui[pairs[:, 1]])
+    # rounded to 1 cm²: below that the difference is the noise of cutting meshes
+    areas = np.round(disagreement(uo[pairs[:, 0]], ui[pairs[:, 1]]), 4)
     table = {(a, b): x for (a, b), x in zip(pairs.tolist(), areas.tolist(), strict=True)}
     cost[e, f] = [table[(a, b)] for a, b in zip(io[e].tolist(), ii[f].tolist(), strict=True)]
     return cost

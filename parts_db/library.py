@@ -92,6 +92,8 @@ def library_hash(m: Manifest) -> str:
     for spec in m.parts:
         f = root / spec.file
         h.update(spec.file.encode() + b"\0")
+        if not f.is_file():
+            raise LibraryError(f'part "{spec.id}" ({f}): mesh file not found')
         try:
             h.update(f.read_bytes())
         except OSError as exc:

@@ -30,7 +30,7 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
     if not path.is_file():
         raise LibraryError(f"{where}: mesh file not found")
     try:
-        loaded = trimesh.load(str(path), force=None)
+        loaded = trimesh.load(str(path), force=None, process=False)
     except Exception as exc:  # trimesh raises many kinds for unreadable files
         raise LibraryError(f"{where}: cannot read the mesh ({type(exc).__name__}: {exc})") \
             from None
@@ -41,13 +41,14 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
             m = _NAME.match(str(node)) or _NAME.match(str(geom_name))
             if m:
                 counts[m.group(1).lower()] += 1
-        mesh = loaded.dump(concatenate=True) if loaded.geometry else None
+        mesh = loaded.to_geometry() if loaded.geometry else None
     else:
         mesh = loaded
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
         raise LibraryError(f"{where}: the mesh is empty (no triangles)")
     if not np.isfinite(mesh.vertices).all():
         raise LibraryError(f"{where}: the mesh has non-finite vertex coordinates")
+    mesh.process()  # merge duplicate vertices: sections find bodies by shared edges
     if meters_per_unit != 1.0:
         mesh = mesh.copy()
         mesh.apply_scale(meters_per_unit)

@@ -1,0 +1,218 @@
+"""Part libraries: hand-made meshes with known sections, the shipped sample library,
+the cache, and every kind of bad input (one message naming part and file, exit 2,
+nothing written)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+import trimesh
+
+from parts_db import LibraryError, ingest, load_library
+from parts_db.costs import allowed_matrix
+from parts_db.library import DB_JSON, DB_NPZ
+from pipeline.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+SAMPLE = ROOT / "examples" / "library"
+
+
+def _box(x0, x1, y0, y1, z0, z1):
+    m = trimesh.creation.box(extents=[x1 - x0, y1 - y0, z1 - z0])
+    m.apply_translation([(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2])
+    return m
+
+
+def _library(tmp: Path, parts: list[tuple[str, str, object, str]], extra: str = "",
+             library: str = "") -> Path:
+    """parts: (id, file name, mesh or bytes, extra toml lines)."""
+    lib = tmp / "lib"
+    lib.mkdir(exist_ok=True)
+    lines = ["[library]", 'name = "test"', library, ""]
+    for pid, fname, mesh, more in parts:
+        if isinstance(mesh, bytes):
+            (lib / fname).write_bytes(mesh)
+        elif mesh is not None:
+            mesh.export(lib / fname)
+        lines += ["[[part]]", f'id = "{pid}"', f'file = "{fname}"', more, ""]
+    (lib / "manifest.toml").write_text("\n".join(lines) + extra)
+    return lib
+
+
+def test_two_boxes_of_known_profiles_give_a_known_cost(tmp_path):
+    lib = _library(tmp_path, [
+        ("A", "a.stl", _box(0, 4, 0, 10, 0, 6), 'class = "building"'),
+        ("B", "b.obj", _box(0, 3, 0, 10, 0, 9), 'class = "building"'),
+        ("C", "c.ply", _box(0, 5, 0, 8, 0, 6), 'class = "building"'),
+    ])
+    db = ingest(lib, tmp_path / "db")
+    i = db.index()
+    a, b, c = db.parts[i["A"]], db.parts[i["B"]], db.parts[i["C"]]
+    assert a.legs == [4.0] and b.legs == [3.0] and c.legs == [5.0]
+    assert a.sec_out.area == pytest.approx(60) and b.sec_in.area == pytest.approx(90)
+    assert a.sec_in.bounds == pytest.approx((-10, 0, 0, 6))  # u = -y (facade out), v = z
+    assert db.cost[i["A"], i["B"]] == pytest.approx(30)      # 10 x 3 m more of B
+    assert db.cost[i["A"], i["C"]] == pytest.approx(12)      # 2 x 6 m less of C
+    assert db.cost[i["A"], i["A"]] == pytest.approx(0)
+
+
+def test_tower_floors_stack_along_z(tmp_path):
+    lower = _box(-5, 5, -5, 5, 0, 3.2)
+    upper = _box(-4, 4, -4, 4, 0, 3.6)
+    lib = _library(tmp_path, [
+        ("G", "g.stl", lower, 'class = "ground_floor"\nstyle = "t"'),
+        ("F", "f.stl", upper, 'class = "floor"\nstyle = "t"'),
+        ("R", "r.stl", _box(-4, 4, -4, 4, 0, 1.0), 'class = "roof"\nstyle = "t"'),
+    ])
+    db = ingest(lib, tmp_path / "db")
+    i = db.index()
+    g, f = db.parts[i["G"]], db.parts[i["F"]]
+    assert g.legs == [3.2] and f.legs == [3.6]
+    assert f.attributes["floor_area"] == pytest.approx(64)
+    assert db.cost[i["G"], i["F"]] == pytest.approx(100 - 64)
+    assert not db.allowed[i["F"], i["G"]] and not db.allowed[i["R"], i["F"]]
+
+
+def test_class_rules():
+    cls = ["end_left", "middle", "end_right", "corner", "building", "floor", "roof"]
+    a = allowed_matrix(cls)
+    assert not a[:, 0].any()                   # nothing precedes an end_left
+    assert not a[2, :].any()                   # nothing follows an end_right
+    assert a[0, 1] and a[1, 3] and a[3, 2]
+    assert not a[1, 4] and not a[4, 1]         # groups never mix
+    assert a[4, 4] and a[5, 6] and not a[6, 5]
+
+
+@pytest.fixture(scope="module")
+def sample_db(tmp_path_factory):
+    return ingest(SAMPLE, tmp_path_factory.mktemp("sampledb"))
+
+
+def test_sample_library_contents(sample_db):
+    db = sample_db
+    by = {}
+    for p in db.parts:
+        by.setdefault((p.cls, p.style), []).append(p)
+    facade_styles = {s for (c, s) in by if c == "middle"}
+    assert len(facade_styles) >= 2
+    for s in facade_styles:
+        mids = by[("middle", s)]
+        assert len({p.length for p in mids}) >= 6
+        # geometry differs: many distinct cross-sections, so costs mean something
+        assert len({shapely.to_wkb(p.sec_out) for p in mids}) >= 4
+        assert by[("end_left", s)] and by[("end_right", s)] and by[("t_junction", s)]
+        corners = {(p.angle, p.convex) for p in by[("corner", s)]}
+        assert {(90, True), (90, False)} <= corners
+        assert any(a != 90 for a, _ in corners)
+    floors = [p for p in db.parts if p.cls == "floor"]
+    assert len(floors) >= 10
+    assert all(3.0 <= p.height <= 5.0 for p in floors)
+    assert len({round(p.floor_area) for p in floors}) >= 8
+    assert db.select("ground_floor") and db.select("roof")
+    buildings = db.select("building")
+    assert len(buildings) >= 70
+    assert min(p.length for p in buildings) >= 6 and max(p.length for p in buildings) <= 24
+    assert len({round(p.height, 1) for p in buildings}) >= 5
+
+
+def test_sample_attributes_come_from_named_submeshes(sample_db):
+    b = sample_db.select("building")[0]
+    scene = trimesh.load(SAMPLE / b.file)
+    names = [str(n) for n in scene.graph.nodes_geometry]
+    assert b.attributes["windows"] == sum(n.startswith("window") for n in names) > 0
+    assert b.attributes["doors"] == 1
+
+
+def test_sample_costs_and_lengths(sample_db):
+    db = sample_db
+    q = db.quantum
+    for p in db.parts:
+        for leg in p.legs:
+            assert abs(leg / q - round(leg / q)) < 1e-9
+    i = db.index()
+    finite = db.cost[db.allowed]
+    assert np.isfinite(finite).all() and (finite >= 0).all()
+    assert not np.isfinite(db.cost[~db.allowed]).any()
+    mids = [p for p in db.parts if p.cls == "middle"]
+    # a straight part fits itself (same section at both ends)
+    assert all(db.cost[i[p.id], i[p.id]] < 1e-6 for p in mids)
+    t = db.select("t_junction")[0]
+    assert t.sec_branch is not None and len(t.legs) == 3
+    assert np.isfinite(db.cost_branch[i[t.id]]).any()
+
+
+def test_cache_hit_and_invalidation(tmp_path):
+    lib = tmp_path / "lib"
+    shutil.copytree(SAMPLE, lib, ignore=shutil.ignore_patterns(".citysynth"))
+    first = ingest(lib)
+    assert not first.cache_hit and (lib / ".citysynth" / DB_JSON).is_file()
+    again = load_library(lib)
+    assert again.cache_hit and again.library_hash == first.library_hash
+    assert np.array_equal(again.cost, first.cost)
+    assert [p.attributes for p in again.parts] == [p.attributes for p in first.parts]
+    mesh_file = lib / first.parts[0].file
+    mesh_file.write_bytes(mesh_file.read_bytes() + b"\0")  # changed content
+    assert not ingest(lib).cache_hit
+
+
+GOOD = _box(0, 3, 0, 10, 0, 6)
+
+
+@pytest.mark.parametrize("parts, extra_lib, fragment", [
+    ([("A", "missing.stl", None, 'class = "middle"')], "", "mesh file not found"),
+    ([("A", "bad.glb", b"glTF this is not a binary gltf", 'class = "middle"')], "",
+     "cannot read the mesh"),
+    ([("A", "empty.obj", b"# no geometry\n", 'class = "middle"')], "", "empty"),
+    ([("A", "nan.obj", b"v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", 'class = "middle"')], "",
+     "non-finite"),
+    ([("A", "flat.obj", b"v 0 0 0\nv 3 0 0\nv 3 0 6\nv 0 0 6\nf 1 2 3\nf 1 3 4\n",
+       'class = "middle"')], "", "no cross-section"),
+    ([("A", "a.stl", _box(0, 300, 0, 1000, 0, 600), 'class = "middle"\nlength = 3.0')], "",
+     "centimetres"),
+    ([("A", "a.stl", GOOD, 'class = "middle"'), ("A", "b.stl", GOOD, 'class = "middle"')],
+     "", 'duplicate id "A"'),
+    ([("A", "a.stl", GOOD, 'class = "window"')], "", "unknown class 'window'"),
+    ([("A", "a.stl", GOOD, 'class = "corner"')], "", "a corner needs an angle"),
+    ([("A", "a.stl", GOOD, 'class = "middle"')], 'units = "furlong"', "units 'furlong'"),
+])
+def test_bad_input_is_one_message_exit_2_nothing_written(tmp_path, capsys, parts, extra_lib,
+                                                         fragment):
+    lib = _library(tmp_path, parts, library=extra_lib)
+    out = tmp_path / "db"
+    with pytest.raises(LibraryError) as exc:
+        ingest(lib, out)
+    msg = str(exc.value)
+    assert fragment in msg
+    if "duplicate" not in fragment and "units" not in fragment:
+        assert '"A"' in msg
+    assert main(["ingest", str(lib), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert fragment in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (out / DB_JSON).exists() and not (out / DB_NPZ).exists()
+
+
+def test_ingest_cli_summary(tmp_path, capsys):
+    lib = _library(tmp_path, [("A", "a.stl", GOOD, 'class = "middle"\nstyle = "s"'),
+                              ("B", "b.stl", _box(0, 4.1, 0, 10, 0, 7), 'class = "middle"')])
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 0
+    out = capsys.readouterr().out
+    assert "2 parts" in out and "middle" in out and "transition costs" in out
+    assert "B: snapped by 0.100 m" in out
+    meta = json.loads((tmp_path / "db" / DB_JSON).read_text())
+    assert [p["legs"] for p in meta["parts"]] == [[3.0], [4.0]]
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 0
+    assert "cache hit" in capsys.readouterr().out
+
+
+def test_sample_library_files_match_the_generator(tmp_path):
+    from parts_db.sample import generate
+    generate(tmp_path)
+    for f in sorted(tmp_path.rglob("*")):
+        if f.is_file():
+            rel = f.relative_to(tmp_path)
+            assert (SAMPLE / rel).read_bytes() == f.read_bytes(), rel
