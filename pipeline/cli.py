@@ -1,9 +1,9 @@
 """``citysynth``: the command line.
 
 Every sub-command maps user errors (:class:`solver.ProblemError`,
-:class:`parts_db.LibraryError` and their kin) to one line on stderr and exit code 2, with no traceback; an infeasible problem is an
-answer, not an error, and exits 1 with its reason. Sub-commands live in their own
-modules and register themselves here.
+:class:`parts_db.LibraryError` and their kin) to one line on stderr and exit code 2,
+with no traceback; an infeasible problem is an answer, not an error, and exits 1
+with its reason. Sub-commands live in their own modules and register themselves here.
 """
 
 from __future__ import annotations
