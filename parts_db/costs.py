@@ -8,6 +8,9 @@ follow each other. Sections shared by many parts are compared once.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ProcessPoolExecutor
+
 import numpy as np
 import shapely
 
@@ -41,10 +44,33 @@ def cost_matrix(out_secs: list, in_secs: list, allowed: np.ndarray) -> np.ndarra
         return cost
     pairs = np.unique(np.stack([io[e], ii[f]], axis=1), axis=0)
     # rounded to 1 cm²: below that the difference is the noise of cutting meshes
-    areas = np.round(disagreement(uo[pairs[:, 0]], ui[pairs[:, 1]]), 4)
+    areas = np.round(_areas(uo, ui, pairs), 4)
     table = {(a, b): x for (a, b), x in zip(pairs.tolist(), areas.tolist(), strict=True)}
     cost[e, f] = [table[(a, b)] for a, b in zip(io[e].tolist(), ii[f].tolist(), strict=True)]
     return cost
+
+
+PAIRS_PER_WORKER = 20_000  # below this a process pool costs more than it saves
+
+
+def _areas(uo: np.ndarray, ui: np.ndarray, pairs: np.ndarray) -> np.ndarray:
+    """Disagreement areas of the given (out, in) index pairs; big tables on all cores
+    (the sections travel as WKB, each worker rebuilds them once)."""
+    workers = min(os.cpu_count() or 1, len(pairs) // PAIRS_PER_WORKER)
+    if workers <= 1:
+        return disagreement(uo[pairs[:, 0]], ui[pairs[:, 1]])
+    wo = shapely.to_wkb(uo)
+    wi = shapely.to_wkb(ui)
+    chunks = np.array_split(pairs, workers * 4)
+    with ProcessPoolExecutor(workers) as pool:
+        parts = pool.map(_areas_job, [(wo, wi, c) for c in chunks])
+        return np.concatenate(list(parts))
+
+
+def _areas_job(job) -> np.ndarray:
+    wo, wi, pairs = job
+    uo, ui = shapely.from_wkb(wo), shapely.from_wkb(wi)
+    return disagreement(uo[pairs[:, 0]], ui[pairs[:, 1]])
 
 
 def _unique(geoms: list):

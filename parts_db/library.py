@@ -14,6 +14,7 @@ import json
 import os
 import tempfile
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,6 +31,7 @@ FORMAT_VERSION = 1
 DB_JSON = "partdb.json"
 DB_NPZ = "partdb.npz"
 DEFAULT_OUT = ".citysynth"  # inside the library folder
+PARTS_PER_WORKER = 100      # below this a process pool costs more than it saves
 
 
 @dataclass
@@ -114,10 +116,11 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
         if cached is not None:
             return cached
     parts, warnings = [], []
-    for i, spec in enumerate(m.parts):
+    for i, (part, part_warnings) in enumerate(_measure_all(root, m)):
         if progress:
-            progress(i, len(m.parts), spec.id)
-        parts.append(_ingest_part(root, m, spec, warnings))
+            progress(i, len(m.parts), part.id)
+        parts.append(part)
+        warnings += part_warnings
     classes = [p.cls for p in parts]
     allowed = allowed_matrix(classes)
     cost = cost_matrix([p.sec_out for p in parts], [p.sec_in for p in parts], allowed)
@@ -129,6 +132,24 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
                 out_dir, False)
     save(db, out_dir)
     return db
+
+
+def _measure_all(root: Path, m: Manifest):
+    """Measure every part, in manifest order; large libraries on all cores (each part is
+    independent, and a bad part's error travels back unchanged)."""
+    workers = min(os.cpu_count() or 1, len(m.parts) // PARTS_PER_WORKER)
+    jobs = [(root, m, spec) for spec in m.parts]
+    if workers <= 1:
+        yield from map(_measure_job, jobs)
+        return
+    with ProcessPoolExecutor(workers) as pool:
+        yield from pool.map(_measure_job, jobs, chunksize=8)
+
+
+def _measure_job(job) -> tuple[Part, list[str]]:
+    root, m, spec = job
+    warnings: list[str] = []
+    return _ingest_part(root, m, spec, warnings), warnings
 
 
 def _ingest_part(root: Path, m: Manifest, spec, warnings: list[str]) -> Part:

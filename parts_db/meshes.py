@@ -41,7 +41,7 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
             m = _NAME.match(str(node)) or _NAME.match(str(geom_name))
             if m:
                 counts[m.group(1).lower()] += 1
-        mesh = loaded.to_geometry() if loaded.geometry else None
+        mesh = _flatten(loaded)
     else:
         mesh = loaded
     if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
@@ -53,3 +53,20 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
         mesh = mesh.copy()
         mesh.apply_scale(meters_per_unit)
     return mesh, counts
+
+
+def _flatten(scene: trimesh.Scene):
+    """All triangle geometry of a scene in world coordinates, as one mesh (colours are
+    not needed for measuring; this is several times faster than Scene.to_geometry)."""
+    verts, faces, offset = [], [], 0
+    for node in scene.graph.nodes_geometry:
+        transform, geom_name = scene.graph[node]
+        g = scene.geometry.get(geom_name)
+        if not isinstance(g, trimesh.Trimesh) or len(g.faces) == 0:
+            continue
+        verts.append(trimesh.transform_points(g.vertices, transform))
+        faces.append(g.faces + offset)
+        offset += len(g.vertices)
+    if not verts:
+        return None
+    return trimesh.Trimesh(np.vstack(verts), np.vstack(faces), process=False)

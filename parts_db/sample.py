@@ -199,13 +199,12 @@ def corner(style: Style, angle: float, convex: bool, storeys: int) -> Parts:
 
 
 def t_junction(style: Style, storeys: int) -> Parts:
-    """Main chunk along X through the origin, a wing along +Y behind it."""
-    leg = 2 * style.bay_w + 1.0
+    """Main chunk along X through the origin, a wing along +Y behind it (its facade
+    facing +X, its mass on the -X side, like any leg's)."""
+    leg = style.depth + 2 * style.bay_w
     P = facade_chunk(style, -leg, leg, storeys, door=None, balconies=set())
-    wing = facade_chunk(style, 0.0, style.depth + 2 * style.bay_w, storeys, door=None,
-                        balconies=set())
+    wing = facade_chunk(style, 0.0, leg, storeys, door=None, balconies=set())
     wing.transform(_rot(90.0))
-    wing.transform(trimesh.transformations.translation_matrix([style.depth, 0, 0]))
     P.extend(wing)
     return P
 

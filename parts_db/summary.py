@@ -28,6 +28,10 @@ def summary(db: PartDB, seconds: float | None = None) -> str:
                      f"  {min(hs):>4.1f} – {max(hs):<4.1f}")
     finite = db.cost[np.isfinite(db.cost)]
     lines.append("")
+    snap, who = max(((max(abs(a - b) for a, b in zip(p.legs, p.legs_measured, strict=True)),
+                      p.id) for p in db.parts), default=(0.0, ""))
+    lines.append(f"largest change from snapping to the {db.quantum:g} m grid: {snap:.3f} m"
+                 + (f" ({who})" if snap > 1e-9 else ""))
     if len(finite):
         lines.append(f"transition costs (section disagreement, m²): {len(finite):,} allowed "
                      f"pairs; min {finite.min():.2f}, median {np.median(finite):.2f}, "

@@ -216,3 +216,29 @@ def test_sample_library_files_match_the_generator(tmp_path):
         if f.is_file():
             rel = f.relative_to(tmp_path)
             assert (SAMPLE / rel).read_bytes() == f.read_bytes(), rel
+
+
+def test_parallel_measurement_matches_serial_and_reports_bad_parts(tmp_path, monkeypatch):
+    import parts_db.library as library
+    parts = [(f"P{i}", f"p{i}.stl", _box(0, 3 + 0.2 * i, 0, 10, 0, 6 + i), 'class = "middle"')
+             for i in range(6)]
+    lib = _library(tmp_path, parts)
+    serial = ingest(lib, tmp_path / "serial")
+    monkeypatch.setattr(library, "PARTS_PER_WORKER", 1)  # a real process pool
+    parallel = ingest(lib, tmp_path / "parallel", force=True)
+    assert [p.legs for p in parallel.parts] == [p.legs for p in serial.parts]
+    assert np.array_equal(parallel.cost, serial.cost)
+    (lib / "p3.stl").write_bytes(b"")
+    with pytest.raises(LibraryError, match='"P3"'):
+        ingest(lib, tmp_path / "broken", force=True)
+    assert not (tmp_path / "broken" / DB_JSON).exists()
+
+
+def test_parallel_cost_table_matches_serial(monkeypatch):
+    import parts_db.costs as costs
+    rng = np.random.default_rng(3)
+    secs = [shapely.box(0, 0, float(w), float(h)) for w, h in rng.uniform(1, 5, (30, 2))]
+    allowed = np.ones((30, 30), dtype=bool)
+    serial = costs.cost_matrix(secs, secs[::-1], allowed)
+    monkeypatch.setattr(costs, "PAIRS_PER_WORKER", 100)  # a real process pool
+    assert np.array_equal(costs.cost_matrix(secs, secs[::-1], allowed), serial)
