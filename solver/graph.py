@@ -60,7 +60,11 @@ _SKIP, _FULL = -1, -2
 @njit(cache=True)
 def _row_of(s, create, nrows, limit, row_state, G, H, keys, vals, shift):
     """Hash mode: the row of state s, created empty when ``create`` (else _SKIP when
-    absent; _FULL when ``limit`` rows exist). Returns (row, nrows)."""
+    absent; _FULL when ``limit`` rows exist). Returns (row, nrows).
+
+    Dense tables skip this call at each site (``row = state``): the call passes five
+    arrays, and doing it once per (row, successor) measurably slowed the dense sweeps
+    (80 m street: 1.5 -> 2.4 ms)."""
     u = hash_find(keys, vals, shift, s)
     if u >= 0:
         return u, nrows
