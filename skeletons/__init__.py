@@ -1,1 +1,22 @@
-"""citysynth skeletons stage (see ../shared/DESIGN.md)."""
+"""citysynth skeletons: street networks, footprints and building skeletons (GeoJSON)
+-> skeletons of key points and edges in a local metric frame.
+
+``read_geojson`` projects the input; ``skeleton_from_lines`` (building skeletons),
+``skeletons_from_polygons`` (footprints, blocks; one cycle per ring) and
+``blocks_from_streets`` (centre lines -> inset blocks) build the skeletons. This
+package knows nothing of part libraries or the solver.
+"""
+
+from .build import (
+    blocks_from_streets,
+    describe,
+    skeleton_from_lines,
+    skeletons_from_polygons,
+)
+from .errors import SkeletonError
+from .geojson import Feature, Frame, parse_geojson, read_geojson
+from .model import Edge, KeyPoint, Skeleton
+
+__all__ = ["Edge", "Feature", "Frame", "KeyPoint", "Skeleton", "SkeletonError",
+           "blocks_from_streets", "describe", "parse_geojson", "read_geojson",
+           "skeleton_from_lines", "skeletons_from_polygons"]

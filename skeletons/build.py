@@ -1,0 +1,302 @@
+"""Turn input geometry into skeletons: building skeleton lines, footprint and block
+polygons, and street centre lines (polygonised into blocks).
+
+Key points get their class from degree and angle: one edge is an end, two edges a
+corner of the angle between them (convex when the facade turns around the building
+mass), or a bend when they are within ``straight_tol`` degrees of straight, three
+edges a T junction (the two most nearly collinear edges form the main line). Bad
+geometry is refused with a message naming the feature and the place.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import networkx as nx
+import numpy as np
+import shapely
+from shapely.geometry import LineString, MultiLineString, MultiPolygon, Polygon
+from shapely.validation import explain_validity
+
+from .errors import SkeletonError
+from .geojson import Feature, Frame, angle_between
+from .model import Edge, KeyPoint, Skeleton
+
+SNAP = 0.01            # metres: endpoints closer than this are the same key point
+STRAIGHT_TOL = 15.0    # degrees: a smaller turn is a bend, not a corner
+
+
+def _constraints(props: dict, where: str) -> dict[str, tuple[float, float]]:
+    c = props.get("constraints", {}) or {}
+    if not isinstance(c, dict):
+        raise SkeletonError(f"{where}: constraints must be an object like "
+                            '{"doors": [1, 2]}')
+    out = {}
+    for k, v in c.items():
+        if (not isinstance(v, list | tuple) or len(v) != 2
+                or not all(isinstance(x, int | float) and not isinstance(x, bool) for x in v)
+                or v[0] > v[1] or v[0] < 0):
+            raise SkeletonError(f"{where}: constraint {k} must be [min, max] with "
+                                f"0 <= min <= max, got {v!r}")
+        out[str(k)] = (float(v[0]), float(v[1]))
+    return out
+
+
+def _front(props: dict, where: str) -> str:
+    f = props.get("front", "right")
+    if f not in ("left", "right"):
+        raise SkeletonError(f'{where}: front must be "left" or "right" (of the line '
+                            f"direction), got {f!r}")
+    return f
+
+
+def _classify(ids, xy: dict[int, np.ndarray], g: nx.Graph, edges: list[Edge],
+              straight_tol: float, where) -> list[KeyPoint]:
+    kps = []
+    for v in ids:
+        nbrs = list(g.neighbors(v))
+        d = len(nbrs)
+        p = tuple(float(x) for x in xy[v])
+        if d == 1:
+            kps.append(KeyPoint(v, p, "end", 1))
+        elif d == 2:
+            e_in = edges[g[nbrs[0]][v]["index"]]
+            e_out = edges[g[v][nbrs[1]]["index"]]
+            # traverse nbrs[0] -> v -> nbrs[1]; fronts as seen along that traversal
+            f_in = e_in.front if e_in.b == v else _flip(e_in.front)
+            f_out = e_out.front if e_out.a == v else _flip(e_out.front)
+            if f_in != f_out:
+                raise SkeletonError(f"{where(v)}: the facades of its two edges face opposite "
+                                    "sides; give both edges the same front")
+            turn = angle_between(xy[v] - xy[nbrs[0]], xy[nbrs[1]] - xy[v])
+            if abs(turn) < straight_tol:
+                kps.append(KeyPoint(v, p, "bend", 2, turn=turn))
+            else:
+                convex = turn > 0 if f_in == "right" else turn < 0
+                kps.append(KeyPoint(v, p, "corner", 2, angle=180.0 - abs(turn),
+                                    convex=convex, turn=turn))
+        elif d == 3:
+            dirs = [(xy[u] - xy[v]) / np.linalg.norm(xy[u] - xy[v]) for u in nbrs]
+            pairs = [(0, 1, 2), (0, 2, 1), (1, 2, 0)]
+            i, j, k = min(pairs, key=lambda t: float(dirs[t[0]] @ dirs[t[1]]))
+            kps.append(KeyPoint(v, p, "t_junction", 3, branch=g[v][nbrs[k]]["index"]))
+        else:
+            raise SkeletonError(f"{where(v)}: {d} edges meet here; a key point joins at most "
+                                "3 (end, corner, T); split the junction into two T junctions")
+    return kps
+
+
+def _flip(side: str) -> str:
+    return "left" if side == "right" else "right"
+
+
+def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "skeleton",
+                        *, min_edge: float = 0.0, straight_tol: float = STRAIGHT_TOL
+                        ) -> Skeleton:
+    """A building skeleton from LineStrings that meet at shared endpoints. A line with
+    inner vertices is split there (each piece keeps the line's front and constraints)."""
+    keys: dict[tuple[int, int], int] = {}
+    xy: dict[int, np.ndarray] = {}
+    edges: list[Edge] = []
+    geoms: list[LineString] = []
+
+    def node(p) -> int:
+        k = (round(p[0] / SNAP), round(p[1] / SNAP))
+        if k not in keys:
+            keys[k] = len(keys)
+            xy[keys[k]] = np.array([float(p[0]), float(p[1])])
+        return keys[k]
+
+    for f in features:
+        lines = list(f.geometry.geoms) if isinstance(f.geometry, MultiLineString) \
+            else [f.geometry]
+        for line in lines:
+            if not isinstance(line, LineString):
+                raise SkeletonError(f"{f.name}: a skeleton is made of LineStrings, got "
+                                    f"{f.geometry.geom_type}")
+            front = _front(f.properties, f.name)
+            cons = _constraints(f.properties, f.name)
+            pts = np.asarray(line.coords)[:, :2]
+            for p, q in zip(pts[:-1], pts[1:], strict=True):
+                a, b = node(p), node(q)
+                length = float(np.linalg.norm(xy[b] - xy[a]))
+                if a == b or length < SNAP:
+                    raise SkeletonError(f"{f.name}: a zero-length edge at "
+                                        f"({p[0]:.2f}, {p[1]:.2f}); remove the repeated point")
+                if length < min_edge:
+                    raise SkeletonError(
+                        f"{f.name}: edge of {length:.2f} m at ({p[0]:.2f}, {p[1]:.2f}) is "
+                        f"shorter than the smallest part ({min_edge:.2f} m)")
+                edges.append(Edge(a, b, length, front, cons, f.name))
+                geoms.append(LineString([xy[a], xy[b]]))
+    if not edges:
+        raise SkeletonError("no skeleton edges in the input")
+    edges, geoms = _split_at_touching_ends(edges, xy)
+    _check_crossings(edges, geoms, xy)
+    g = nx.Graph()
+    g.add_nodes_from(xy)
+    for i, e in enumerate(edges):
+        if g.has_edge(e.a, e.b):
+            raise SkeletonError(f"{e.source}: two edges join the same key points "
+                                f"({xy[e.a][0]:.2f}, {xy[e.a][1]:.2f}) and "
+                                f"({xy[e.b][0]:.2f}, {xy[e.b][1]:.2f})")
+        g.add_edge(e.a, e.b, index=i)
+    parts = list(nx.connected_components(g))
+    if len(parts) > 1:
+        sizes = sorted((len(c) for c in parts), reverse=True)
+        raise SkeletonError(f"the skeleton is disconnected: {len(parts)} separate pieces "
+                            f"(key points per piece: {sizes}); connect them or give them "
+                            "as separate buildings")
+
+    def where(v):
+        return f"key point at ({xy[v][0]:.2f}, {xy[v][1]:.2f})"
+
+    kps = _classify(sorted(xy), xy, g, edges, straight_tol, where)
+    closed = all(k.degree == 2 for k in kps)
+    return Skeleton(name, kps, edges, closed, frame)
+
+
+def _split_at_touching_ends(edges: list[Edge], xy: dict[int, np.ndarray]):
+    """A line that ends on the inside of another (a wing drawn up to the main line)
+    splits that line there, making the contact a key point."""
+    out: list[Edge] = []
+    for e in edges:
+        a, b = xy[e.a], xy[e.b]
+        seg = b - a
+        L2 = float(seg @ seg)
+        inner = []
+        for v, p in xy.items():
+            if v in (e.a, e.b):
+                continue
+            t = float((p - a) @ seg) / L2
+            if 0 < t < 1 and np.linalg.norm(a + t * seg - p) < SNAP:
+                inner.append((t, v))
+        chain = [e.a] + [v for _, v in sorted(inner)] + [e.b]
+        for u, w in zip(chain[:-1], chain[1:], strict=True):
+            out.append(Edge(u, w, float(np.linalg.norm(xy[w] - xy[u])), e.front,
+                            e.constraints, e.source))
+    return out, [LineString([xy[e.a], xy[e.b]]) for e in out]
+
+
+def _check_crossings(edges: list[Edge], geoms: list[LineString], xy) -> None:
+    tree = shapely.STRtree(geoms)
+    left, right = tree.query(geoms, predicate="intersects")
+    for i, j in zip(left.tolist(), right.tolist(), strict=True):
+        if i >= j:
+            continue
+        shared = {edges[i].a, edges[i].b} & {edges[j].a, edges[j].b}
+        inter = geoms[i].intersection(geoms[j])
+        if shared and inter.geom_type == "Point":
+            continue
+        p = shapely.get_coordinates(inter)[0]
+        raise SkeletonError(f"{edges[i].source} and {edges[j].source}: edges cross at "
+                            f"({p[0]:.2f}, {p[1]:.2f}) without a shared key point; split "
+                            "them there or move them apart")
+
+
+def skeletons_from_polygons(features: Iterable[Feature], frame: Frame, *,
+                            min_edge: float = 0.0, straight_tol: float = STRAIGHT_TOL,
+                            min_area: float = 1.0) -> list[Skeleton]:
+    """One closed skeleton per ring: footprint or block outlines and their holes
+    (courtyards). Rings are oriented so the mass lies to the left; facades face right."""
+    out = []
+    for f in features:
+        polys = list(f.geometry.geoms) if isinstance(f.geometry, MultiPolygon) \
+            else [f.geometry]
+        for k, poly in enumerate(polys):
+            if not isinstance(poly, Polygon):
+                raise SkeletonError(f"{f.name}: expected a Polygon, got {poly.geom_type}")
+            where = f.name + (f" part {k}" if len(polys) > 1 else "")
+            if not poly.is_valid:
+                raise SkeletonError(f"{where}: invalid polygon ({explain_validity(poly)}); "
+                                    "fix the outline so it does not cross itself")
+            if poly.area < min_area:
+                raise SkeletonError(f"{where}: degenerate polygon (area {poly.area:.2f} m²)")
+            poly = shapely.orient_polygons(poly) if hasattr(shapely, "orient_polygons") \
+                else shapely.geometry.polygon.orient(poly, 1.0)
+            rings = [poly.exterior, *poly.interiors]
+            for r, ring in enumerate(rings):
+                label = where + ("" if r == 0 else f" courtyard {r}")
+                out.append(_ring_skeleton(ring, f, label, frame, min_edge, straight_tol))
+    return out
+
+
+def _ring_skeleton(ring, f: Feature, label: str, frame: Frame, min_edge: float,
+                   straight_tol: float) -> Skeleton:
+    pts = np.asarray(ring.coords)[:-1, :2]
+    keep = [0]
+    for i in range(1, len(pts)):  # drop repeated points
+        if np.linalg.norm(pts[i] - pts[keep[-1]]) >= SNAP:
+            keep.append(i)
+    pts = pts[keep]
+    if len(pts) >= 2 and np.linalg.norm(pts[0] - pts[-1]) < SNAP:
+        pts = pts[:-1]
+    if len(pts) < 3:
+        raise SkeletonError(f"{label}: degenerate outline ({len(pts)} distinct points)")
+    n = len(pts)
+    cons = _constraints(f.properties, f.name)
+    edges = []
+    for i in range(n):
+        a, b = i, (i + 1) % n
+        length = float(np.linalg.norm(pts[b] - pts[a]))
+        if length < min_edge:
+            raise SkeletonError(
+                f"{label}: edge of {length:.2f} m at ({pts[a][0]:.2f}, {pts[a][1]:.2f}) is "
+                f"shorter than the smallest part ({min_edge:.2f} m)")
+        edges.append(Edge(a, b, length, "right", cons, f.name))
+    kps = []
+    for v in range(n):
+        prev, nxt = (v - 1) % n, (v + 1) % n
+        turn = angle_between(pts[v] - pts[prev], pts[nxt] - pts[v])
+        p = (float(pts[v][0]), float(pts[v][1]))
+        if abs(turn) < straight_tol:
+            kps.append(KeyPoint(v, p, "bend", 2, turn=turn))
+        else:
+            kps.append(KeyPoint(v, p, "corner", 2, angle=180.0 - abs(turn), convex=turn > 0,
+                                turn=turn))
+    return Skeleton(label, kps, edges, True, frame)
+
+
+def blocks_from_streets(features: Iterable[Feature], *, setback: float = 6.0,
+                        min_area: float = 50.0) -> tuple[list[Polygon], list[str]]:
+    """Blocks enclosed by street centre lines, inset by ``setback`` metres. Returns the
+    blocks and the reasons for the pieces skipped (slivers and tiny blocks)."""
+    lines = []
+    for f in features:
+        g = f.geometry
+        if isinstance(g, LineString | MultiLineString):
+            lines.append(g)
+        else:
+            raise SkeletonError(f"{f.name}: street centre lines must be LineStrings, got "
+                                f"{g.geom_type}")
+    if not lines:
+        raise SkeletonError("no street centre lines in the input")
+    noded = shapely.union_all(lines)
+    faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
+    blocks, skipped = [], []
+    for i, face in enumerate(sorted(faces, key=lambda p: (p.centroid.x, p.centroid.y))):
+        inset = face.buffer(-setback, join_style="mitre", mitre_limit=3.0)
+        parts = [p for p in shapely.get_parts(inset) if not p.is_empty]
+        if not parts:
+            skipped.append(f"block {i} at ({face.centroid.x:.1f}, {face.centroid.y:.1f}): "
+                           f"nothing left after the {setback:g} m setback")
+            continue
+        for p in parts:
+            if p.area < min_area:
+                skipped.append(f"block {i} at ({p.centroid.x:.1f}, {p.centroid.y:.1f}): "
+                               f"{p.area:.1f} m² after the setback, below {min_area:g} m²")
+            else:
+                blocks.append(shapely.normalize(p))
+    return blocks, skipped
+
+
+def describe(s: Skeleton) -> str:
+    kinds = {}
+    for k in s.keypoints:
+        label = k.kind if k.kind != "corner" else \
+            f"corner {k.angle:.0f}° {'convex' if k.convex else 'concave'}"
+        kinds[label] = kinds.get(label, 0) + 1
+    parts = ", ".join(f"{v} {k}" for k, v in sorted(kinds.items()))
+    shape_ = "cycle" if s.closed else "tree"
+    return (f"{s.name}: {shape_}, {len(s.edges)} edges, {s.length:.1f} m; key points: "
+            f"{parts}")

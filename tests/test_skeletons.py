@@ -1,0 +1,172 @@
+"""Skeleton inputs: projection, key-point classes, footprints and courtyards, street
+blocks, and every kind of bad geometry (one message naming the feature)."""
+
+from __future__ import annotations
+
+import json
+
+import pyproj
+import pytest
+
+from skeletons import (
+    SkeletonError,
+    blocks_from_streets,
+    parse_geojson,
+    read_geojson,
+    skeleton_from_lines,
+    skeletons_from_polygons,
+)
+
+GEOD = pyproj.Geod(ellps="WGS84")
+LON, LAT = 7.1, 50.73
+
+
+def fc(*features):
+    return {"type": "FeatureCollection", "features": list(features)}
+
+
+def feat(geom_type, coords, **props):
+    return {"type": "Feature", "properties": props,
+            "geometry": {"type": geom_type, "coordinates": coords}}
+
+
+def walk(lon, lat, az, dist):
+    x, y, _ = GEOD.fwd(lon, lat, az, dist)
+    return [x, y]
+
+
+def metres(points_xy):
+    """Local metric points (x east, y north) -> lon/lat around (LON, LAT)."""
+    out = []
+    for x, y in points_xy:
+        p = walk(LON, LAT, 90.0, x) if x else [LON, LAT]
+        p = walk(p[0], p[1], 0.0, y) if y else p
+        out.append(p)
+    return out
+
+
+def test_lon_lat_is_projected_to_true_metres():
+    a = [LON, LAT]
+    b = walk(LON, LAT, 63.0, 137.25)
+    feats, frame = parse_geojson(fc(feat("LineString", [a, b])))
+    assert feats[0].geometry.length == pytest.approx(137.25, abs=1e-3)
+    assert "transverse Mercator" in frame.crs
+
+
+def test_projected_input_needs_and_honours_an_explicit_crs(tmp_path):
+    data = fc(feat("LineString", [[365000.0, 5621000.0], [365030.0, 5621040.0]]))
+    with pytest.raises(SkeletonError, match="--crs EPSG"):
+        parse_geojson(data)
+    feats, frame = parse_geojson(data, crs="EPSG:25832")
+    assert feats[0].geometry.length == pytest.approx(50.0)
+    data["crs"] = {"type": "name", "properties": {"name": "EPSG:25832"}}
+    f = tmp_path / "p.geojson"
+    f.write_text(json.dumps(data))
+    feats, _ = read_geojson(f)
+    assert feats[0].geometry.length == pytest.approx(50.0)
+    with pytest.raises(SkeletonError, match="unknown CRS"):
+        parse_geojson(data, crs="EPSG:999999")
+
+
+def test_t_shaped_building_skeleton():
+    main = metres([(0, 0), (40, 0)])
+    wing = metres([(20, 0), (20, 25), (35, 25)])
+    feats, frame = parse_geojson(fc(feat("LineString", main, constraints={"doors": [1, 2]}),
+                                    feat("LineString", wing, front="left")))
+    sk = skeleton_from_lines(feats, frame)
+    kinds = sorted(k.kind for k in sk.keypoints)
+    assert kinds == ["corner", "end", "end", "end", "t_junction"]
+    assert not sk.closed and len(sk.edges) == 4
+    t = next(k for k in sk.keypoints if k.kind == "t_junction")
+    assert sk.edges[t.branch].source.startswith("feature 1")
+    corner = next(k for k in sk.keypoints if k.kind == "corner")
+    assert corner.angle == pytest.approx(90, abs=0.01)
+    # the wing turns right with its facade on the left: around the mass, convex
+    assert corner.convex is True
+    main_edges = [e for e in sk.edges if e.source.startswith("feature 0")]
+    assert [e.constraints for e in main_edges] == [{"doors": (1.0, 2.0)}] * 2
+    assert sum(e.length for e in main_edges) == pytest.approx(40, abs=1e-3)
+
+
+def test_corner_angles_convexity_and_bends():
+    pts = metres([(0, 0), (30, 0), (30 + 20 * 0.7071, 20 * 0.7071), (70, 20 * 0.7071),
+                  (90, 20 * 0.7071 + 1)])
+    feats, frame = parse_geojson(fc(feat("LineString", pts)))
+    sk = skeleton_from_lines(feats, frame)
+    inner = [k for k in sk.keypoints if k.degree == 2]
+    by_x = sorted(inner, key=lambda k: k.xy[0])
+    assert by_x[0].kind == "corner" and by_x[0].angle == pytest.approx(135, abs=0.05)
+    assert by_x[0].convex is True          # left turn, facade on the right
+    assert by_x[1].kind == "corner" and by_x[1].convex is False
+    assert by_x[2].kind == "bend"          # 2.9 degrees off straight
+
+
+def test_footprint_with_courtyard_gives_two_cycles():
+    outer = metres([(0, 0), (40, 0), (40, 30), (20, 30), (20, 50), (0, 50), (0, 0)])
+    hole = metres([(5, 5), (15, 5), (15, 15), (5, 15), (5, 5)])
+    feats, frame = parse_geojson(fc(feat("Polygon", [outer, hole[::-1]], id="house")))
+    outline, court = skeletons_from_polygons(feats, frame)
+    assert outline.closed and court.closed
+    assert sorted(k.convex for k in outline.keypoints) == [False] + [True] * 5
+    assert all(k.kind == "corner" and k.convex is False for k in court.keypoints)
+    assert outline.length == pytest.approx(180, abs=0.01)
+    assert "courtyard" in court.name and all(e.front == "right" for e in court.edges)
+
+
+def test_streets_polygonise_into_inset_blocks():
+    lines = [feat("LineString", metres([(x, -10), (x, 310)])) for x in (0, 100, 200, 300)]
+    lines += [feat("LineString", metres([(-10, y), (310, y)])) for y in (0, 100, 200, 300)]
+    lines.append(feat("LineString", metres([(-10, 95), (110, 95)])))  # a sliver block
+    feats, frame = parse_geojson(fc(*lines))
+    blocks, skipped = blocks_from_streets(feats, setback=6.0)
+    assert len(blocks) == 9
+    areas = sorted(round(b.area) for b in blocks)
+    assert areas[0] == pytest.approx(83 * 88, rel=0.01)   # the block next to the sliver
+    assert areas[-1] == pytest.approx(88 * 88, rel=0.01)
+    assert len(skipped) == 1 and "setback" in skipped[0]
+    cycles = skeletons_from_polygons(
+        [type(feats[0])(i, b, {}) for i, b in enumerate(blocks)], frame)
+    assert all(len(c.edges) == 4 and c.closed for c in cycles)
+
+
+@pytest.mark.parametrize("features, kind, fragment", [
+    ([feat("Polygon", [metres([(0, 0), (10, 10), (10, 0), (0, 10), (0, 0)])], id="bow")],
+     "poly", "invalid polygon"),
+    ([feat("Polygon", [metres([(0, 0), (10, 0), (20, 0), (0, 0)])])], "poly", "degenerate"),
+    ([feat("LineString", metres([(0, 0), (2, 0), (30, 0)]))], "lines", "shorter than the "
+     "smallest part"),
+    ([feat("LineString", metres([(0, 0), (30, 0)])),
+      feat("LineString", metres([(50, 0), (80, 0)]))], "lines", "disconnected"),
+    ([feat("LineString", metres([(0, 0), (30, 0)])),
+      feat("LineString", metres([(15, -10), (15, 10)]))], "lines", "cross"),
+    ([feat("LineString", metres([(0, 0), (20, 0)])),
+      feat("LineString", metres([(20, 0), (40, 0)])),
+      feat("LineString", metres([(20, 0), (20, 20)])),
+      feat("LineString", metres([(20, 0), (20, -20)]))], "lines", "4 edges meet"),
+    ([feat("LineString", metres([(0, 0), (20, 0)])),
+      feat("LineString", metres([(20, 0), (20, 20)]), front="left")], "lines",
+     "face opposite sides"),
+    ([feat("Point", [LON, LAT])], "lines", "LineStrings"),
+    ([feat("LineString", metres([(0, 0), (30, 0)]), constraints={"doors": [3, 1]})], "lines",
+     "constraint doors"),
+])
+def test_bad_geometry_is_one_message(features, kind, fragment):
+    feats, frame = parse_geojson(fc(*features))
+    with pytest.raises(SkeletonError) as exc:
+        if kind == "poly":
+            skeletons_from_polygons(feats, frame)
+        else:
+            skeleton_from_lines(feats, frame, min_edge=3.0)
+    assert fragment in str(exc.value)
+
+
+def test_malformed_geojson(tmp_path):
+    f = tmp_path / "x.geojson"
+    f.write_text("{nope")
+    with pytest.raises(SkeletonError, match="not valid JSON at line 1"):
+        read_geojson(f)
+    with pytest.raises(SkeletonError, match="not a GeoJSON FeatureCollection"):
+        parse_geojson({"type": "Topology"})
+    with pytest.raises(SkeletonError, match="feature 0: malformed geometry"):
+        parse_geojson(fc({"type": "Feature", "properties": {},
+                          "geometry": {"type": "LineString", "coordinates": [[1]]}}))
