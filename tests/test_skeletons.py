@@ -170,3 +170,22 @@ def test_malformed_geojson(tmp_path):
     with pytest.raises(SkeletonError, match="feature 0: malformed geometry"):
         parse_geojson(fc({"type": "Feature", "properties": {},
                           "geometry": {"type": "LineString", "coordinates": [[1]]}}))
+
+
+def test_skeleton_cli(capsys, tmp_path):
+    from pathlib import Path
+
+    from pipeline.cli import main
+    examples = Path(__file__).resolve().parent.parent / "examples" / "skeletons"
+    assert main(["skeleton", str(examples / "t_building.geojson")]) == 0
+    out = capsys.readouterr().out
+    assert "tree, 4 edges, 80.0 m" in out and "1 t_junction" in out
+    assert main(["skeleton", str(examples / "footprint_courtyard.geojson"), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert [len(s["edges"]) for s in d["skeletons"]] == [6, 4]
+    bad = tmp_path / "bad.geojson"
+    bad.write_text(json.dumps(fc(feat("LineString", metres([(0, 0), (30, 0)])),
+                                 feat("LineString", metres([(15, -10), (15, 10)])))))
+    assert main(["skeleton", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "cross" in err and len(err.strip().splitlines()) == 1
