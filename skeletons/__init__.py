@@ -7,6 +7,7 @@
 package knows nothing of part libraries or the solver.
 """
 
+from .angles import match_corner_angles
 from .build import (
     blocks_from_streets,
     describe,
@@ -18,5 +19,6 @@ from .geojson import Feature, Frame, parse_geojson, read_geojson
 from .model import Edge, KeyPoint, Skeleton
 
 __all__ = ["Edge", "Feature", "Frame", "KeyPoint", "Skeleton", "SkeletonError",
-           "blocks_from_streets", "describe", "parse_geojson", "read_geojson",
+           "blocks_from_streets", "describe", "match_corner_angles", "parse_geojson",
+           "read_geojson",
            "skeleton_from_lines", "skeletons_from_polygons"]

@@ -189,3 +189,17 @@ def test_skeleton_cli(capsys, tmp_path):
     assert main(["skeleton", str(bad)]) == 2
     err = capsys.readouterr().err
     assert "cross" in err and len(err.strip().splitlines()) == 1
+
+
+def test_corner_angles_match_the_library_within_a_tolerance():
+    from skeletons import match_corner_angles
+    outer = metres([(0, 0), (40, 0), (40, 30), (20, 30), (20, 50), (0, 50), (0, 0)])
+    feats, frame = parse_geojson(fc(feat("Polygon", [outer])))
+    (sk,) = skeletons_from_polygons(feats, frame)
+    lib = [(90, True), (90, False), (135, True)]
+    chosen = match_corner_angles(sk, lib)
+    assert sorted(chosen.values()) == [(90.0, False)] + [(90.0, True)] * 5
+    with pytest.raises(SkeletonError) as exc:
+        match_corner_angles(sk, [(90, True), (135, False)])
+    msg = str(exc.value)
+    assert "concave corner of 90.0°" in msg and "90° convex, 135° concave" in msg
