@@ -112,21 +112,35 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
             raise TooLargeError(too_large_message(cp, est.nodes, est.bytes,
                                                   int(max_memory_mb * 2**20)))
         t1 = time.perf_counter()
-        seqs, _, touched = k_best(graph, k)
+        touched = 0
+
+        def enumerate_k(kk: int) -> list[list[int]]:
+            nonlocal touched
+            seqs, _, touched = k_best(graph, kk)
+            return seqs
+
+        seqs = _truly_feasible(problem, cp, k, enumerate_k, stats)
         t2 = time.perf_counter()
         stats.update(nodes=graph.kept, nodes_generated=graph.nodes,
                      meet_level=graph.meet_level, kbest_nodes=touched)
     else:
         t1 = time.perf_counter()
-        status, seqs, _, settled, labels = fgs(
-            cp, k, dense=dense, size_hint=min(est.nodes, 1 << 20),
-            max_labels=max(int(max_memory_mb * 2**20) // 64, 1024))
+        counters = {}
+
+        def enumerate_k(kk: int) -> list[list[int]]:
+            status, seqs, _, settled, labels = fgs(
+                cp, kk, dense=dense, size_hint=min(est.nodes, 1 << 20),
+                max_labels=max(int(max_memory_mb * 2**20) // 64, 1024))
+            if status != 0:
+                raise TooLargeError(
+                    f"FGS stopped after {labels:,} labels: the search exceeds the memory "
+                    f"budget of {max_memory_mb:,.0f} MB; use method rcksp or a smaller k")
+            counters.update(nodes=settled, labels=labels)
+            return seqs
+
+        seqs = _truly_feasible(problem, cp, k, enumerate_k, stats)
         t2 = time.perf_counter()
-        if status != 0:
-            raise TooLargeError(
-                f"FGS stopped after {labels:,} labels: the search exceeds the memory "
-                f"budget of {max_memory_mb:,.0f} MB; use method rcksp or a smaller k")
-        stats.update(nodes=settled, labels=labels)
+        stats.update(counters)
     stats["setup_s"] = t1 - t0
     stats["solve_s"] = t2 - t1
     if not seqs:
@@ -138,6 +152,35 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
         sols.append((cost, s, Solution(ids, cost, _sequence_resources(problem, s))))
     sols.sort(key=lambda t: (t[0], t[1]))
     return Result("ok", [t[2] for t in sols], stats)
+
+
+def _truly_feasible(problem: Problem, cp: Compiled, k: int, enumerate_k, stats: dict
+                    ) -> list[list[int]]:
+    """The k best sequences whose totals *in original units* meet the constraints.
+
+    With an exact quantum the quantised model is the problem itself. With a rounding
+    quantum, totals of rounded values can stray outside the asked interval (27 floors
+    each rounded by up to 5 m² add up); such sequences are dropped and the enumeration
+    is continued until k valid ones are found or none are left. The count dropped is
+    reported as ``stats["rejected_by_rounding"]``."""
+    if all(q.exact for q in cp.quant):
+        return enumerate_k(k)
+    want, rejected = k, 0
+    while True:
+        seqs = enumerate_k(want)
+        valid = [s for s in seqs if _meets(problem, s)]
+        rejected = len(seqs) - len(valid)
+        if len(valid) >= k or len(seqs) < want:
+            break
+        want = 2 * want + (k - len(valid))
+    stats["rejected_by_rounding"] = rejected
+    return valid[:k]
+
+
+def _meets(problem: Problem, seq: list[int]) -> bool:
+    totals = _sequence_resources(problem, seq)
+    return all(lo - 1e-9 * max(1.0, abs(lo)) <= totals[r] <= hi + 1e-9 * max(1.0, abs(hi))
+               for r, (lo, hi) in problem.constraints.items())
 
 
 def _infeasible(cp: Compiled, stats: dict, t0: float, max_memory_mb: float,

@@ -1,0 +1,75 @@
+"""Solver problems built from a part database (the pipeline's job: parts_db and the
+solver know nothing of each other).
+
+A problem's elements are parts, their resources the parts' snapped lengths (legs) and
+attributes, their transitions the database's allowed pairs with the section
+disagreement as cost. Two builders for now: a street front of complete buildings and
+a tower of stacked floors with a floor-area interval (the paper's Fig. 4).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from parts_db import Part, PartDB
+
+
+def _transitions(db: PartDB, parts: list[Part]) -> list[list]:
+    idx = db.index()
+    out = []
+    for a in parts:
+        for b in parts:
+            i, j = idx[a.id], idx[b.id]
+            if db.allowed[i, j]:
+                out.append([a.id, b.id, float(db.cost[i, j])])
+    return out
+
+
+def street_front_problem(db: PartDB, length: float, *, style: str | None = None,
+                         constraints: dict[str, list[float]] | None = None,
+                         k: int = 1) -> dict:
+    """Complete buildings (class ``building``) filling exactly ``length`` metres, with
+    optional intervals on attributes such as doors or balconies."""
+    parts = db.select("building", style)
+    if not parts:
+        raise ValueError(f"the library has no buildings{f' of style {style}' if style else ''}")
+    attrs = sorted({a for p in parts for a in p.attributes})
+    cons = {"length": [length, length], **(constraints or {})}
+    return {
+        "resources": ["length", *attrs],
+        "quantum": {"length": db.quantum},
+        "elements": [{"id": p.id, "resources": {"length": p.length, **p.attributes}}
+                     for p in parts],
+        "transitions": _transitions(db, parts),
+        "constraints": cons,
+        "k": k,
+    }
+
+
+def tower_problem(db: PartDB, height: float, floor_area: tuple[float, float], *,
+                  style: str | None = None, area_quantum: float = 10.0, k: int = 1) -> dict:
+    """A ground floor, floors and a roof stacked to exactly ``height`` metres, with the
+    total floor area (ground floor and floors; roofs count none) inside ``floor_area``.
+    Floor areas are not multiples of anything, so they are quantised to
+    ``area_quantum`` m² and the rounding error is reported by the solver."""
+    parts = [p for p in db.parts if p.cls in ("ground_floor", "floor", "roof")
+             and (style is None or p.style == style)]
+    if not any(p.cls == "ground_floor" for p in parts) or not any(
+            p.cls == "roof" for p in parts):
+        raise ValueError("a tower needs ground_floor, floor and roof parts")
+
+    def area(p: Part) -> float:
+        return 0.0 if p.cls == "roof" else float(np.round(p.floor_area or 0.0, 3))
+
+    return {
+        "resources": ["height", "floor_area"],
+        "quantum": {"height": db.quantum, "floor_area": area_quantum},
+        "elements": [{"id": p.id, "resources": {"height": p.length, "floor_area": area(p)}}
+                     for p in parts],
+        "transitions": _transitions(db, parts),
+        "front": [p.id for p in parts if p.cls == "ground_floor"],
+        "back": [p.id for p in parts if p.cls == "roof"],
+        "constraints": {"height": [height, height],
+                        "floor_area": [float(floor_area[0]), float(floor_area[1])]},
+        "k": k,
+    }
