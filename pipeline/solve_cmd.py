@@ -5,8 +5,10 @@ from __future__ import annotations
 import json
 import sys
 
-from solver import METHODS, Problem, solve
+from solver import METHODS, Problem, ProblemError, solve
 from solver.estimate import DEFAULT_MAX_MEMORY_MB
+from solver.problem import load_json
+from solver.structure import Structure, solve_structure
 
 from .report import format_result
 
@@ -27,15 +29,42 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    problem = Problem.load(args.file)
     if args.k is not None and args.k < 1:
-        from solver import ProblemError
         raise ProblemError(f"--k must be a positive integer, got {args.k}")
+    data = load_json(args.file)
+    if isinstance(data, dict) and "stages" in data:
+        return run_structure(args, Structure.from_dict(data, args.file))
+    problem = Problem.from_dict(data, args.file)
     result = solve(problem, k=args.k, method=args.method, max_memory_mb=args.max_memory)
     if args.json:
         print(json.dumps(result.to_dict(), indent=2))
     else:
         print(format_result(result))
+    if result.status != "ok":
+        print(f"citysynth solve: {result.reason}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def run_structure(args, st: Structure) -> int:
+    """A structure file (it has "stages"): chains and cycles of substructures."""
+    result = solve_structure(st, args.k, method=args.method, max_memory_mb=args.max_memory)
+    if args.json:
+        print(json.dumps({"status": result.status, "reason": result.reason,
+                          "solutions": [vars(s) for s in result.solutions],
+                          "stats": result.stats}, indent=2))
+    else:
+        print(f"status: {result.status}  (structure: {len(st.stages)} stages, "
+              f"{'cycle' if st.closed else 'chain'})")
+        if result.reason:
+            print(f"reason: {result.reason}")
+        for i, sol in enumerate(result.solutions, 1):
+            print(f"#{i:<3} cost {round(sol.cost, 6):g}")
+            for j, fill in enumerate(sol.stages):
+                res = ", ".join(f"{k} {round(v, 6):g}" for k, v in sol.resources[j].items())
+                print(f"     [{sol.keys[j]}] {' '.join(fill)}  ({res})")
+            end = sol.keys[0] if st.closed else sol.keys[-1]
+            print(f"     [{end}]")
     if result.status != "ok":
         print(f"citysynth solve: {result.reason}", file=sys.stderr)
         return 1

@@ -55,18 +55,7 @@ class Problem:
     @classmethod
     def load(cls, path: str | Path) -> Problem:
         """Read a JSON problem file; every error names the file."""
-        p = Path(path)
-        try:
-            text = p.read_text(encoding="utf-8")
-        except OSError as exc:
-            raise ProblemError(f"{p}: cannot read the problem file ({exc.strerror})") from None
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise ProblemError(
-                f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
-            ) from None
-        return _parse(data, str(p))
+        return _parse(load_json(path), str(path))
 
     def to_dict(self) -> dict[str, Any]:
         """The inverse of :meth:`from_dict` (round-trips exactly)."""
@@ -86,6 +75,21 @@ class Problem:
 
     def element_index(self) -> dict[str, int]:
         return {e.id: i for i, e in enumerate(self.elements)}
+
+
+def load_json(path: str | Path) -> Any:
+    """The JSON in ``path``; unreadable files and syntax errors become one message."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ProblemError(f"{p}: cannot read the problem file ({exc.strerror})") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ProblemError(
+            f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
+        ) from None
 
 
 def _number(value: Any, where: str, *, minimum: float | None = 0.0) -> float:

@@ -1,0 +1,111 @@
+"""Chain and cycle structures against exhaustive enumeration."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from solver import ProblemError
+from solver.structure import Structure, solve_structure
+from tests.bruteforce_structure import enumerate_structure
+
+COSTS = st.sampled_from([0.0, 0.25, 0.5, 1.0, 2.0])
+
+
+@st.composite
+def structures(draw):
+    n_fill = draw(st.integers(1, 3))
+    n_key = draw(st.integers(1, 3))
+    closed = draw(st.booleans())
+    m = draw(st.integers(1, 3))
+    fill = [{"id": f"f{i}", "resources": {"length": draw(st.integers(1, 3)),
+                                          "doors": draw(st.integers(0, 1))},
+             "cost": draw(COSTS)} for i in range(n_fill)]
+    keys = [{"id": f"k{i}", "resources": {},
+             "legs": [{"length": draw(st.integers(1, 2))}, {"length": draw(st.integers(1, 2))}],
+             "cost": draw(COSTS)} for i in range(n_key)]
+    ids = [e["id"] for e in fill + keys]
+    trans = [[a, b, draw(COSTS)] for a in ids for b in ids if draw(st.integers(0, 3)) > 0]
+    n_kp = m if closed else m + 1
+    kps = [{"elements": draw(st.lists(st.sampled_from([k["id"] for k in keys]), min_size=1,
+                                      unique=True))} for _ in range(n_kp)]
+    stages = []
+    for _ in range(m):
+        lo = draw(st.integers(2, 7))
+        cons = {"length": [lo, lo + draw(st.sampled_from([0, 0, 1, 2]))]}
+        if draw(st.booleans()):
+            cons["doors"] = [0, draw(st.integers(0, 2))]
+        stages.append({"constraints": cons})
+    return {"resources": ["length", "doors"], "elements": fill + keys, "transitions": trans,
+            "keypoints": kps, "stages": stages, "closed": closed}
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(structures(), st.integers(1, 6))
+def test_structures_match_enumeration(d, k):
+    expected = enumerate_structure(d)
+    r = solve_structure(Structure.from_dict(d), k)
+    assert [s.cost for s in r.solutions] == expected[:k]
+    assert r.status == ("ok" if expected else "infeasible")
+    for s in r.solutions:
+        assert len(s.stages) == len(d["stages"]) and len(s.keys) == len(d["keypoints"])
+        for sol_stage, stage in zip(s.resources, d["stages"], strict=True):
+            for name, (lo, hi) in stage["constraints"].items():
+                assert lo - 1e-9 <= sol_stage[name] <= hi + 1e-9
+
+
+def test_block_cycle_with_corners():
+    d = {
+        "resources": ["length"],
+        "elements": [
+            {"id": "wide", "resources": {"length": 6.0}, "cost": 0.0},
+            {"id": "narrow", "resources": {"length": 4.0}, "cost": 0.0},
+            {"id": "corner_a", "legs": [{"length": 3.0}, {"length": 3.0}], "cost": 1.0},
+            {"id": "corner_b", "legs": [{"length": 2.0}, {"length": 2.0}], "cost": 0.0},
+        ],
+        "transitions": [[a, b, 0.5 if a == b else 0.0] for a in
+                        ("wide", "narrow", "corner_a", "corner_b")
+                        for b in ("wide", "narrow", "corner_a", "corner_b")],
+        "keypoints": [{"elements": ["corner_a", "corner_b"]}] * 4,
+        "stages": [{"constraints": {"length": [L, L]}} for L in (20.0, 14.0, 20.0, 14.0)],
+        "closed": True,
+    }
+    r = solve_structure(Structure.from_dict(d), 3)
+    assert r.status == "ok"
+    assert [s.cost for s in r.solutions] == enumerate_structure(d)[:3]
+    best = r.solutions[0]
+    assert len(best.keys) == 4 and all(s["length"] == L for s, L in
+                                       zip(best.resources, (20, 14, 20, 14), strict=True))
+
+
+def test_structure_refusals():
+    base = {"resources": ["length"], "elements": [
+        {"id": "f", "resources": {"length": 1}},
+        {"id": "k", "legs": [{"length": 1}, {"length": 1}]}],
+        "transitions": [["k", "f", 0], ["f", "k", 0]],
+        "keypoints": [{"elements": ["k"]}, {"elements": ["k"]}],
+        "stages": [{"constraints": {"length": [3, 3]}}]}
+    with pytest.raises(ProblemError, match="structure-wide constraints"):
+        Structure.from_dict({**base, "constraints": {"length": [1, 9]}})
+    with pytest.raises(ProblemError, match="not a key element"):
+        Structure.from_dict({**base, "keypoints": [{"elements": ["f"]}] * 2})
+    with pytest.raises(ProblemError, match="1 stages need 2 key points"):
+        Structure.from_dict({**base, "keypoints": [{"elements": ["k"]}]})
+    assert solve_structure(Structure.from_dict(base)).status == "ok"
+
+
+def test_solve_cli_runs_structure_files(capsys):
+    import json
+    from pathlib import Path
+
+    from pipeline.cli import main
+    f = Path(__file__).resolve().parent.parent / "examples" / "block_cycle.json"
+    assert main(["solve", str(f), "--json", "--k", "2"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["status"] == "ok" and len(d["solutions"]) == 2
+    for s in d["solutions"]:
+        assert [r["length"] for r in s["resources"]] == [37.4, 22.0, 37.4, 22.0]
+        assert 2 <= s["resources"][0]["doors"] <= 4
+    expected = enumerate_structure(json.loads(f.read_text()))
+    assert [s["cost"] for s in d["solutions"]] == pytest.approx(expected[:2])
