@@ -1,21 +1,25 @@
-"""Structures of the paper's §3.2, first version: chains and cycles of substructures
+"""Structures of the paper's §3.2, first version: trees and cycles of substructures
 solved by decomposition.
 
-A structure is a sequence of substructures (stages) between key points. A key point
-admits a set of key elements (a corner class, an end class, ...). A key element has
-two legs, the in-leg counting toward the stage before it and the out-leg toward the
-stage after it. Each stage has its own resource intervals (local, reset at every key
-point). A closed structure (a cycle) starts and ends at key point 0 with the same
-element, and the closing transition is paid for.
+A structure is a graph of key points joined by substructures (stages). A key point
+admits a set of key elements (a corner class, an end class, a T class ...). A key
+element has one leg per incident stage: leg 0 counts toward the stage that ends at
+the key point, leg 1 toward the stage that starts there, and leg 2 toward the branch
+stage of a T junction. Each stage has its own resource intervals (local, reset at
+every key point). A structure is a tree (one stage fewer than key points, stages
+pointing away from the root) or one cycle through key point 0 with trees hanging off
+it; the cycle is cut at key point 0, whose element is the same at both ends of the
+unrolled sequence, and its closing transition is paid for.
 
-This version decomposes: for every stage and every pair of key elements at its two
+This version decomposes. For every stage and every pair of key elements at its two
 ends, the k best fillings come from :func:`solver.solve` on a one-stage problem (the
-key elements enter as their legs), and a k-best merge over the key choices combines
-the stages. That is exact: a structure's cost is the sum of independent stage costs
-once the key elements are fixed. The paper's single merged graph (with trees
-spliced in through virtual T duplicates, and structure-wide intervals) is the next
-step; this solver is its reference and second opinion. Trees and structure-wide
-intervals are refused for now with that message.
+key elements enter as their legs). A k-best dynamic program over the tree of key
+points then combines them: below a key point with a given element, the k best
+completions are the k smallest sums over its outgoing stages. That is exact, because
+once the key elements are fixed a structure's cost is the sum of independent stage
+costs. The paper's single merged graph (with virtual T duplicates, and structure-wide
+intervals, which are refused for now) is the next step; this solver is its reference
+and second opinion.
 """
 
 from __future__ import annotations
@@ -29,14 +33,16 @@ from .errors import ProblemError
 from .problem import Problem, _number
 from .solve import solve
 
-_KEYS = {"resources", "quantum", "elements", "transitions", "keypoints", "stages",
-         "closed", "k", "constraints"}
+_KEYS = {"resources", "quantum", "elements", "transitions", "branch_transitions",
+         "keypoints", "stages", "closed", "k", "constraints"}
 
 
 @dataclass(frozen=True)
 class Stage:
     constraints: dict[str, tuple[float, float]]
     elements: tuple[str, ...] | None = None   # fillers; None: every non-key element
+    start: int = 0                            # key point it leaves
+    end: int = 1                              # key point it reaches
 
 
 @dataclass(frozen=True)
@@ -45,9 +51,11 @@ class Structure:
     quantum: dict[str, float]
     elements: dict[str, dict[str, float]]            # id -> resources (fillers)
     costs: dict[str, float]                          # id -> unary cost
-    legs: dict[str, tuple[dict, dict]]               # key element id -> (in-leg, out-leg)
+    legs: dict[str, tuple[dict, ...]]                # key element id -> its legs
     transitions: dict[tuple[str, str], float]
+    branch_transitions: dict[tuple[str, str], float]  # from a T's branch leg
     keypoints: tuple[tuple[str, ...], ...]
+    branch: dict[int, int]                           # T key point -> its branch stage
     stages: tuple[Stage, ...]
     closed: bool
     k: int = 1
@@ -81,9 +89,10 @@ class Structure:
                 continue
             lg = e["legs"]
             where = f"elements[{i}].legs"
-            if not isinstance(lg, list) or len(lg) != 2 or not all(isinstance(x, dict)
-                                                                  for x in lg):
-                raise err(f"{where}: a key element needs [in-leg, out-leg] resource objects")
+            if not isinstance(lg, list) or not 2 <= len(lg) <= 3 or not all(
+                    isinstance(x, dict) for x in lg):
+                raise err(f"{where}: a key element needs [in-leg, out-leg] (and a branch leg "
+                          "for T parts) as resource objects")
             pair = []
             for leg in lg:
                 vals = {}
@@ -92,12 +101,12 @@ class Structure:
                         raise err(f"{where}: unknown resource {r!r}")
                     vals[r] = _number(v, f"{source}: {where}.{r}")
                 pair.append({r: vals.get(r, 0.0) for r in base.resources})
-            legs[e["id"]] = (pair[0], pair[1])
+            legs[e["id"]] = tuple(pair)
         ids = {e.id for e in base.elements}
         kps = d.get("keypoints")
         if not isinstance(kps, list) or not kps:
             raise err('"keypoints" must be a non-empty list of {"elements": [...]}')
-        keypoints = []
+        keypoints, branch = [], {}
         for j, kp in enumerate(kps):
             els = kp.get("elements") if isinstance(kp, dict) else None
             if not isinstance(els, list) or not els:
@@ -106,14 +115,18 @@ class Structure:
                 if x not in legs:
                     raise err(f"keypoints[{j}]: {x!r} is not a key element (it needs legs)")
             keypoints.append(tuple(els))
+            if "branch" in kp:
+                branch[j] = kp["branch"]
         st_in = d.get("stages")
         if not isinstance(st_in, list) or not st_in:
             raise err('"stages" must be a non-empty list of {"constraints": {...}}')
         closed = bool(d.get("closed", False))
-        need = len(st_in) if closed else len(st_in) + 1
-        if len(keypoints) != need:
-            raise err(f"{len(st_in)} stages need {need} key points "
-                      f"({'a cycle' if closed else 'a chain'}), got {len(keypoints)}")
+        explicit = any(isinstance(s, dict) and ("from" in s or "to" in s) for s in st_in)
+        if not explicit:
+            need = len(st_in) if closed else len(st_in) + 1
+            if len(keypoints) != need:
+                raise err(f"{len(st_in)} stages need {need} key points "
+                          f"({'a cycle' if closed else 'a chain'}), got {len(keypoints)}")
         stages = []
         for i, s in enumerate(st_in):
             if not isinstance(s, dict):
@@ -135,21 +148,40 @@ class Structure:
                     if x not in ids:
                         raise err(f"stages[{i}].elements: unknown element {x!r}")
                 els = tuple(els)
-            stages.append(Stage(cons, els))
+            if explicit:
+                a, b = s.get("from"), s.get("to")
+                for v, name in ((a, "from"), (b, "to")):
+                    if isinstance(v, bool) or not isinstance(v, int) or not \
+                            0 <= v < len(keypoints):
+                        raise err(f"stages[{i}].{name}: must be a key point index, got {v!r}")
+                if a == b:
+                    raise err(f"stages[{i}]: from and to are the same key point")
+            else:
+                a, b = i, (i + 1) % len(keypoints)
+            stages.append(Stage(cons, els, a, b))
         k = d.get("k", 1)
         if isinstance(k, bool) or not isinstance(k, int) or k < 1:
             raise err(f'"k" must be a positive integer, got {k!r}')
+        transitions = {(a, b): c for a, b, c in base.transitions}
+        bt = transitions
+        if "branch_transitions" in d:
+            bt = {(a, b): c for a, b, c in Problem.from_dict({
+                "resources": list(base.resources),
+                "elements": [{"id": e.id} for e in base.elements],
+                "transitions": d["branch_transitions"],
+                "constraints": {base.resources[0]: [0, 0]}}, source).transitions}
+        closed = _check_shape(stages, keypoints, branch, legs, err)
         return cls(
             resources=base.resources, quantum=dict(base.quantum),
             elements={e.id: dict(e.resources) for e in base.elements},
             costs={e.id: e.cost for e in base.elements}, legs=legs,
-            transitions={(a, b): c for a, b, c in base.transitions},
-            keypoints=tuple(keypoints), stages=tuple(stages), closed=closed, k=k)
+            transitions=transitions, branch_transitions=bt, keypoints=tuple(keypoints),
+            branch=branch, stages=tuple(stages), closed=closed, k=k)
 
 
 @dataclass
 class StructureSolution:
-    keys: list[str]                  # the element at each key point (cycles: once)
+    keys: list[str]                  # the element at each key point
     stages: list[list[str]]          # the fillers of each stage
     cost: float
     resources: list[dict[str, float]]   # per stage, legs included
@@ -163,20 +195,75 @@ class StructureResult:
     reason: str | None = None
 
 
+def _check_shape(stages, keypoints, branch, legs, err) -> bool:
+    """A tree with stages pointing away from its root, or one cycle through key point 0
+    (every key point entered exactly once); returns True for the cycle."""
+    n = len(keypoints)
+    indeg = [0] * n
+    out: list[list[int]] = [[] for _ in range(n)]
+    for i, s in enumerate(stages):
+        indeg[s.end] += 1
+        out[s.start].append(i)
+    if len(stages) == n - 1:
+        roots = [v for v in range(n) if indeg[v] == 0]
+        if len(roots) != 1 or any(x > 1 for x in indeg):
+            raise err("a tree structure needs its stages to point away from one root key "
+                      "point (each other key point entered by exactly one stage)")
+        closed = False
+    elif len(stages) == n:
+        if any(x != 1 for x in indeg):
+            raise err("a cyclic structure needs every key point entered by exactly one "
+                      "stage (the cycle through key point 0, branches pointing away)")
+        closed = True
+    else:
+        raise err(f"{len(stages)} stages and {n} key points form neither a tree "
+                  f"({n - 1} stages) nor one cycle ({n} stages)")
+    seen, todo = {0 if closed else indeg.index(0)}, [0 if closed else indeg.index(0)]
+    while todo:
+        v = todo.pop()
+        for i in out[v]:
+            if stages[i].end not in seen:
+                seen.add(stages[i].end)
+                todo.append(stages[i].end)
+    if len(seen) != n:
+        raise err("the structure is disconnected (or its cycle does not pass key point 0)")
+    for v in range(n):
+        deg = len(out[v]) + indeg[v]
+        if deg > 3:
+            raise err(f"keypoints[{v}]: {deg} stages meet there; at most 3 (a T junction)")
+        if len(out[v]) == 2:
+            if branch.get(v) not in out[v]:
+                raise err(f"keypoints[{v}]: two stages leave it; name the one that branches "
+                          f'off with "branch": <stage index>')
+            for x in keypoints[v]:
+                if len(legs[x]) < 3:
+                    raise err(f"keypoints[{v}]: {x!r} has no branch leg (a T part needs 3 "
+                              "legs)")
+    return closed
+
+
+def _start_leg(st: Structure, s: int) -> int:
+    """The leg of the element at stage s's start that counts toward s: the branch leg
+    (2) for a T's branch stage, else the out-leg (1). The end always uses leg 0."""
+    return 2 if st.branch.get(st.stages[s].start) == s else 1
+
+
 def _stage_problem(st: Structure, i: int, a: str, b: str, k: int) -> Problem:
+    """Stage i between key elements a (at its start) and b (at its end); the keys'
+    unary costs are counted at their key points, not here."""
     stage = st.stages[i]
     keyset = set(st.legs)
     fillers = [x for x in (stage.elements or st.elements) if x not in keyset]
     A, B = "^" + a, "$" + b
-    elements = [{"id": A, "resources": st.legs[a][1], "cost": 0.0},
-                {"id": B, "resources": st.legs[b][0], "cost": st.costs[b]}]
+    leg_a = _start_leg(st, i)
+    elements = [{"id": A, "resources": st.legs[a][leg_a], "cost": 0.0},
+                {"id": B, "resources": st.legs[b][0], "cost": 0.0}]
     elements += [{"id": f, "resources": st.elements[f], "cost": st.costs[f]} for f in fillers]
-    trans = []
-    for (x, y), c in st.transitions.items():
-        xs = A if x == a else x if x in fillers else None
-        ys = B if y == b else y if y in fillers else None
-        if xs is not None and ys is not None:
-            trans.append([xs, ys, c])
+    from_a = st.branch_transitions if leg_a == 2 else st.transitions
+    trans = [[A, y if y != b else B, c] for (x, y), c in from_a.items()
+             if x == a and (y in fillers or y == b)]
+    trans += [[x, B if y == b else y, c] for (x, y), c in st.transitions.items()
+              if x in fillers and (y in fillers or y == b)]
     return Problem.from_dict({
         "resources": list(st.resources), "quantum": st.quantum, "elements": elements,
         "transitions": trans, "front": [A], "back": [B],
@@ -184,84 +271,100 @@ def _stage_problem(st: Structure, i: int, a: str, b: str, k: int) -> Problem:
     }, f"stage {i} ({a} -> {b})")
 
 
-def _k_smallest_sums(lists: list[tuple[float, object, list]], k: int):
-    """k smallest (x + y) over (base cost x with payload, sorted list ys) pairs."""
-    heap = []
-    for n, (x, _payload, ys) in enumerate(lists):
-        if ys:
-            heap.append((x + ys[0][0], n, 0))
-    heapq.heapify(heap)
+def _ksum(A: list, B: list, k: int) -> list:
+    """The k smallest a + b over two cost-sorted lists of (cost, payload); payloads
+    pair up."""
+    if not A or not B:
+        return []
+    heap = [(A[0][0] + B[0][0], 0, 0)]
+    seen = {(0, 0)}
     out = []
     while heap and len(out) < k:
-        c, n, j = heapq.heappop(heap)
-        x, payload, ys = lists[n]
-        out.append((c, payload, ys[j]))
-        if j + 1 < len(ys):
-            heapq.heappush(heap, (x + ys[j + 1][0], n, j + 1))
+        c, i, j = heapq.heappop(heap)
+        out.append((c, (A[i][1], B[j][1])))
+        for i2, j2 in ((i + 1, j), (i, j + 1)):
+            if i2 < len(A) and j2 < len(B) and (i2, j2) not in seen:
+                seen.add((i2, j2))
+                heapq.heappush(heap, (A[i2][0] + B[j2][0], i2, j2))
     return out
 
 
 def solve_structure(st: Structure, k: int | None = None, **solve_kw) -> StructureResult:
-    """The k cheapest distinct fillings of a chain or cycle structure."""
+    """The k cheapest distinct fillings of a tree or cycle structure."""
     k = st.k if k is None else int(k)
     t0 = time.perf_counter()
-    m = len(st.stages)
-    K = [list(x) for x in st.keypoints]
-    if st.closed:
-        K.append(list(K[0]))
-    cache: dict[tuple[int, str, str], list] = {}
+    n = len(st.keypoints)
+    out: list[list[int]] = [[] for _ in range(n)]
+    for i, s in enumerate(st.stages):
+        out[s.start].append(i)
+    stage_cache: dict[tuple[int, str, str], list] = {}
 
     def stage_list(i: int, a: str, b: str) -> list:
-        key = (i, a, b)
-        if key not in cache:
+        if (i, a, b) not in stage_cache:
             r = solve(_stage_problem(st, i, a, b, k), k, **solve_kw)
-            cache[key] = [(s.cost, [x for x in s.sequence[1:-1]], s.resources)
-                          for s in r.solutions]
-        return cache[key]
+            stage_cache[(i, a, b)] = [(s.cost, (s.sequence[1:-1], s.resources))
+                                      for s in r.solutions]
+        return stage_cache[(i, a, b)]
+
+    if st.closed:
+        root = 0
+        closing = next(i for i, s in enumerate(st.stages) if s.end == 0)
+    else:
+        root = [v for v in range(n) if all(s.end != v for s in st.stages)][0]
+        closing = -1
+
+    def below(v: int, e: str, fixed_root: str | None, memo: dict) -> list:
+        """k best completions of everything after key point v holding element e:
+        (cost, payload) with payload {stage: (element at its end, fillers, totals,
+        payload below that end)}."""
+        key = (v, e)
+        if key in memo:
+            return memo[key]
+        acc = [(0.0, {})]
+        for s in out[v]:
+            w = st.stages[s].end
+            options = []
+            if s == closing:  # the cycle closes on key point 0's element, paid there
+                for c, (fill, res) in stage_list(s, e, fixed_root):
+                    options.append((c, (fixed_root, fill, res, {})))
+            else:
+                for f in st.keypoints[w]:
+                    for c, ((fill, res), sub) in _ksum(
+                            stage_list(s, e, f),
+                            [(cc + st.costs[f], p) for cc, p in below(w, f, fixed_root, memo)],
+                            k):
+                        options.append((c, (f, fill, res, sub)))
+            options.sort(key=lambda t: t[0])
+            merged = _ksum(acc, options[:k], k)
+            acc = [(c, {**pa, s: pb}) for c, (pa, pb) in merged]
+            if not acc:
+                break
+        memo[key] = acc
+        return acc
 
     results = []
-    starts = [[x] for x in K[0]] if st.closed else [K[0]]
-    for first in starts:
-        # layer j: for each key element, its k best partial paths
-        # entry: (cost, (prev entry, stage fillers, stage resources, key))
-        layer = {a: [(0.0 if st.closed else st.costs[a], (None, None, None, a))]
-                 for a in first}
-        for i in range(m):
-            nxt = {}
-            targets = [first[0]] if (st.closed and i == m - 1) else K[i + 1]
-            for b in targets:
-                lists = []
-                for a, entries in layer.items():
-                    ys = stage_list(i, a, b)
-                    for e in entries:
-                        lists.append((e[0], e, ys))
-                picked = _k_smallest_sums(lists, k)
-                if picked:
-                    nxt[b] = [(c, (prev, y[1], y[2], b)) for c, prev, y in picked]
-            layer = nxt
-            if not layer:
-                break
-        for entries in layer.values():
-            results.extend(entries)
+    for e in st.keypoints[root]:
+        memo: dict = {}
+        for c, payload in below(root, e, e if st.closed else None, memo):
+            results.append((c + st.costs[e], e, payload))
     results.sort(key=lambda t: t[0])
     sols = []
-    for cost, node in results[:k]:
-        keys, stages, res = [], [], []
-        entry = (cost, node)
-        while entry is not None:
-            prev, fillers, resources, key = entry[1]
-            keys.append(key)
-            if fillers is not None:
-                stages.append(fillers)
-                res.append(resources)
-            entry = prev
-        keys.reverse()
-        stages.reverse()
-        res.reverse()
-        if st.closed:
-            keys = keys[:-1]
-        sols.append(StructureSolution(keys, stages, cost, res))
-    stats = {"stage_problems": len(cache), "solve_s": time.perf_counter() - t0}
+    for cost, e, payload in results[:k]:
+        keys: list[str | None] = [None] * n
+        fills: list[list[str]] = [[] for _ in st.stages]
+        totals: list[dict] = [{} for _ in st.stages]
+        keys[root] = e
+        todo = [payload]
+        while todo:
+            p = todo.pop()
+            for s, (f, fill, res, sub) in p.items():
+                if s != closing:
+                    keys[st.stages[s].end] = f
+                fills[s] = list(fill)
+                totals[s] = res
+                todo.append(sub)
+        sols.append(StructureSolution(keys, fills, cost, totals))
+    stats = {"stage_problems": len(stage_cache), "solve_s": time.perf_counter() - t0}
     if not sols:
         return StructureResult("infeasible", [], stats,
                                "no choice of key elements lets every stage meet its "

@@ -1,6 +1,8 @@
-"""Exhaustive enumeration of every feasible filling of a small chain or cycle
-structure: the oracle for the structure solver. Independent of it: every choice of
-key elements, every filler sequence of every stage, summed as the README defines."""
+"""Exhaustive enumeration of every feasible filling of a small structure (chain,
+cycle or tree with T junctions): the oracle for the structure solver. Independent of
+it: every choice of key elements, every filler sequence of every stage, summed as the
+README defines (each key element's unary cost once, the closing transition of a cycle
+included)."""
 
 from __future__ import annotations
 
@@ -18,44 +20,47 @@ def enumerate_structure(d: dict, max_fill: int = 6) -> list[float]:
     legs = {i: [{r: float(x.get(r, 0.0)) for r in res} for x in e["legs"]]
             for i, e in el.items() if "legs" in e}
     delta = {(a, b): float(c) for a, b, c in d["transitions"]}
-    kps = [k["elements"] for k in d["keypoints"]]
-    closed = d.get("closed", False)
-    stages = d["stages"]
+    bdelta = {(a, b): float(c) for a, b, c in d.get("branch_transitions", d["transitions"])}
+    kps = d["keypoints"]
+    n = len(kps)
+    stages = []
+    for i, s in enumerate(d["stages"]):
+        a, b = (s["from"], s["to"]) if "from" in s else (i, (i + 1) % n)
+        stages.append((a, b, s))
     fillers_all = [i for i in el if i not in legs]
 
-    def fillings(i, a, b):
-        cons = stages[i]["constraints"]
-        fillers = [x for x in stages[i].get("elements", fillers_all) if x not in legs]
+    def fillings(s_index, a, b):
+        start, _end, spec = stages[s_index]
+        branch_leg = kps[start].get("branch") == s_index
+        first = bdelta if branch_leg else delta
+        cons = spec["constraints"]
+        fillers = [x for x in spec.get("elements", fillers_all) if x not in legs]
         out = []
 
         def ok(tot, final):
-            for r, (lo, hi) in cons.items():
-                if tot[r] > hi + EPS or (final and tot[r] < lo - EPS):
-                    return False
-            return True
+            return all(tot[r] <= hi + EPS and (not final or tot[r] >= lo - EPS)
+                       for r, (lo, hi) in cons.items())
 
-        def rec(last, seq, cost, tot):
-            if (last, b) in delta:
+        def rec(last, trans, seq, cost, tot):
+            if (last, b) in trans:
                 t2 = {r: tot[r] + legs[b][0][r] for r in res}
                 if ok(t2, True):
-                    out.append(cost + delta[(last, b)] + omega[b])
+                    out.append(cost + trans[(last, b)])
             if len(seq) >= max_fill:
                 return
             for f in fillers:
-                if (last, f) in delta:
+                if (last, f) in trans:
                     t2 = {r: tot[r] + vals[f][r] for r in res}
                     if ok(t2, False):
-                        rec(f, seq + [f], cost + delta[(last, f)] + omega[f], t2)
+                        rec(f, delta, seq + [f], cost + trans[(last, f)] + omega[f], t2)
 
-        rec(a, [], 0.0, dict(legs[a][1]))
+        rec(a, first, [], 0.0, dict(legs[a][2 if branch_leg else 1]))
         return out
 
     totals = []
-    choices = [kps[j] for j in range(len(kps))]
-    for keys in itertools.product(*choices):
-        seq_keys = list(keys) + ([keys[0]] if closed else [])
-        parts = [fillings(i, seq_keys[i], seq_keys[i + 1]) for i in range(len(stages))]
-        start = 0.0 if closed else omega[seq_keys[0]]
+    for keys in itertools.product(*[k["elements"] for k in kps]):
+        parts = [fillings(i, keys[a], keys[b]) for i, (a, b, _s) in enumerate(stages)]
+        base = sum(omega[x] for x in keys)
         for combo in itertools.product(*parts):
-            totals.append(start + sum(combo))
+            totals.append(base + sum(combo))
     return sorted(totals)

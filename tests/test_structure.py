@@ -109,3 +109,118 @@ def test_solve_cli_runs_structure_files(capsys):
         assert 2 <= s["resources"][0]["doors"] <= 4
     expected = enumerate_structure(json.loads(f.read_text()))
     assert [s["cost"] for s in d["solutions"]] == pytest.approx(expected[:2])
+
+
+@st.composite
+def trees(draw):
+    """Random trees (and cycles with trees hanging off) with T junctions."""
+    n_fill = draw(st.integers(1, 3))
+    fill = [{"id": f"f{i}", "resources": {"length": draw(st.integers(1, 3)),
+                                          "doors": draw(st.integers(0, 1))},
+             "cost": draw(COSTS)} for i in range(n_fill)]
+    keys = [{"id": f"k{i}", "cost": draw(COSTS),
+             "legs": [{"length": draw(st.integers(1, 2))} for _ in range(3)]}
+            for i in range(draw(st.integers(1, 3)))]
+    ids = [e["id"] for e in fill + keys]
+    trans = [[a, b, draw(COSTS)] for a in ids for b in ids if draw(st.integers(0, 3)) > 0]
+    btrans = [[a, b, draw(COSTS)] for a in ids for b in ids if draw(st.integers(0, 2)) > 0]
+    closed = draw(st.booleans())
+    # grow a tree: each new key point hangs off an existing one with fewer than 2 children
+    n = draw(st.integers(2 if not closed else 3, 5))
+    edges = [(0, 1)] if not closed else [(0, 1), (1, 2), (2, 0)]
+    first_new = 2 if not closed else 3
+    for v in range(first_new, n):
+        deg = {u: sum(u in e for e in edges) for u in range(v)}
+        parents = [u for u in range(v) if deg[u] < 3 and sum(a == u for a, _ in edges) < 2]
+        edges.append((draw(st.sampled_from(parents)), v))
+    kps = [{"elements": draw(st.lists(st.sampled_from([k["id"] for k in keys]), min_size=1,
+                                      unique=True))} for _ in range(n)]
+    for u in range(n):
+        outs = [i for i, (a, _) in enumerate(edges) if a == u]
+        if len(outs) == 2:
+            kps[u]["branch"] = draw(st.sampled_from(outs))
+    stages = [{"from": a, "to": b,
+               "constraints": {"length": (lambda lo: [lo, lo + draw(st.sampled_from([0, 1, 2]))])(
+                   draw(st.integers(2, 6)))}} for a, b in edges]
+    return {"resources": ["length", "doors"], "elements": fill + keys, "transitions": trans,
+            "branch_transitions": btrans, "keypoints": kps, "stages": stages}
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(trees(), st.integers(1, 6))
+def test_trees_and_cycles_with_branches_match_enumeration(d, k):
+    expected = enumerate_structure(d)
+    r = solve_structure(Structure.from_dict(d), k)
+    assert [s.cost for s in r.solutions] == pytest.approx(expected[:k])
+    for s in r.solutions:
+        assert all(key is not None for key in s.keys)
+        for res, stage in zip(s.resources, d["stages"], strict=True):
+            for name, (lo, hi) in stage["constraints"].items():
+                assert lo - 1e-9 <= res[name] <= hi + 1e-9
+
+
+def fig1c_like() -> dict:
+    """A cycle of four corners with a wing at key point 1 whose end has a T of its own
+    (nested T junctions hanging off a cycle), as in the paper's Fig. 1(c)."""
+    fill = [{"id": f"m{L}", "resources": {"length": L}, "cost": 0.0} for L in (2, 3)]
+    keys = [
+        {"id": "corner", "legs": [{"length": 1}, {"length": 1}]},
+        {"id": "corner_alt", "legs": [{"length": 1}, {"length": 1}], "cost": 0.25},
+        {"id": "t_plain", "legs": [{"length": 1}, {"length": 1}, {"length": 1}]},
+        {"id": "t_portal", "legs": [{"length": 1}, {"length": 1}, {"length": 1}],
+         "cost": 0.125},
+        {"id": "end", "legs": [{"length": 1}, {"length": 1}]},
+    ]
+    ids = [e["id"] for e in fill + keys]
+    trans = [[a, b, 0.5 if a == b else 0.375 if (a, b) == ("m3", "m2") else 0.0]
+             for a in ids for b in ids]
+    btrans = [[a, b, 0.25] for a in ids for b in ids]
+    T = ["t_plain", "t_portal"]
+    return {
+        "resources": ["length"], "elements": fill + keys, "transitions": trans,
+        "branch_transitions": btrans,
+        "keypoints": [{"elements": ["corner", "corner_alt"]},
+                      {"elements": T, "branch": 4},
+                      {"elements": ["corner", "corner_alt"]},
+                      {"elements": ["corner", "corner_alt"]},
+                      {"elements": T, "branch": 6},
+                      {"elements": ["end"]}, {"elements": ["end"]}],
+        "stages": [{"from": 0, "to": 1, "constraints": {"length": [7, 7]}},
+                   {"from": 1, "to": 2, "constraints": {"length": [6, 6]}},
+                   {"from": 2, "to": 3, "constraints": {"length": [9, 9]}},
+                   {"from": 3, "to": 0, "constraints": {"length": [8, 8]}},
+                   {"from": 1, "to": 4, "constraints": {"length": [6, 7]}},
+                   {"from": 4, "to": 5, "constraints": {"length": [5, 5]}},
+                   {"from": 4, "to": 6, "constraints": {"length": [4, 4]}}],
+    }
+
+
+def test_fig1c_like_building_k3_differs_locally_and_at_a_t_joint():
+    d = fig1c_like()
+    r = solve_structure(Structure.from_dict(d), 3)
+    assert r.status == "ok"
+    assert [s.cost for s in r.solutions] == pytest.approx(enumerate_structure(d)[:3])
+    sols = r.solutions
+    for s in sols:
+        assert [res["length"] for res in s.resources][:4] == [7, 6, 9, 8]
+        assert s.keys[5] == s.keys[6] == "end"
+    # the k results differ locally: few stages or key points change between them
+    for a, b in zip(sols, sols[1:], strict=False):
+        changed = sum(x != y for x, y in zip(a.stages, b.stages, strict=True)) + \
+            sum(x != y for x, y in zip(a.keys, b.keys, strict=True))
+        assert 1 <= changed <= 3
+    assert len({(s.keys[1], s.keys[4]) for s in sols}) > 1  # a T joint changes
+
+
+def test_37_3_m_edge_within_half_a_quantum():
+    d = {"resources": ["length"], "quantum": {"length": 0.2},
+         "elements": [{"id": f"m{L}", "resources": {"length": L}} for L in (4.2, 5.8, 7.4)]
+         + [{"id": "end", "legs": [{"length": 1.2}, {"length": 1.2}]}],
+         "transitions": [[a, b, 0.0] for a in ("m4.2", "m5.8", "m7.4", "end")
+                         for b in ("m4.2", "m5.8", "m7.4", "end")],
+         "keypoints": [{"elements": ["end"]}, {"elements": ["end"]}],
+         "stages": [{"constraints": {"length": [37.3 - 0.1, 37.3 + 0.1]}}]}
+    r = solve_structure(Structure.from_dict(d), 5)
+    assert r.status == "ok"
+    for s in r.solutions:
+        assert abs(s.resources[0]["length"] - 37.3) <= 0.1 + 1e-9
