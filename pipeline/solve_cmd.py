@@ -54,17 +54,16 @@ def run_structure(args, st: Structure) -> int:
                           "solutions": [vars(s) for s in result.solutions],
                           "stats": result.stats}, indent=2))
     else:
-        print(f"status: {result.status}  (structure: {len(st.stages)} stages, "
-              f"{'cycle' if st.closed else 'chain'})")
+        print(f"status: {result.status}  (structure: {len(st.keypoints)} key points, "
+              f"{len(st.stages)} stages, {'with a cycle' if st.closed else 'a tree'})")
         if result.reason:
             print(f"reason: {result.reason}")
         for i, sol in enumerate(result.solutions, 1):
             print(f"#{i:<3} cost {round(sol.cost, 6):g}")
-            for j, fill in enumerate(sol.stages):
+            for j, (stage, fill) in enumerate(zip(st.stages, sol.stages, strict=True)):
                 res = ", ".join(f"{k} {round(v, 6):g}" for k, v in sol.resources[j].items())
-                print(f"     [{sol.keys[j]}] {' '.join(fill)}  ({res})")
-            end = sol.keys[0] if st.closed else sol.keys[-1]
-            print(f"     [{end}]")
+                print(f"     stage {j}: [{sol.keys[stage.start]}] {' '.join(fill)} "
+                      f"[{sol.keys[stage.end]}]  ({res})")
     if result.status != "ok":
         print(f"citysynth solve: {result.reason}", file=sys.stderr)
         return 1
