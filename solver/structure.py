@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import ProblemError
-from .problem import Problem, _number
+from .problem import Element, Problem, _number
 from .solve import solve
 
 _KEYS = {"resources", "quantum", "elements", "transitions", "branch_transitions",
@@ -248,27 +248,55 @@ def _start_leg(st: Structure, s: int) -> int:
     return 2 if st.branch.get(st.stages[s].start) == s else 1
 
 
+class _StageBuilder:
+    """One-stage problems of a structure, built straight from validated data (no
+    re-parsing: a 40-corner block needs hundreds of them)."""
+
+    def __init__(self, st: Structure, k: int):
+        self.st, self.k = st, k
+        keyset = set(st.legs)
+        self._inner: dict[tuple[str, ...], tuple] = {}
+        self._keyset = keyset
+
+    def fillers(self, i: int) -> tuple[str, ...]:
+        stage = self.st.stages[i]
+        return tuple(x for x in (stage.elements or self.st.elements) if x not in self._keyset)
+
+    def inner(self, fillers: tuple[str, ...]):
+        """Filler elements and filler-to-filler transitions, shared by every stage with
+        the same fillers."""
+        if fillers not in self._inner:
+            st, fs = self.st, set(fillers)
+            els = tuple(Element(f, st.elements[f], st.costs[f]) for f in fillers)
+            trans = tuple((x, y, c) for (x, y), c in st.transitions.items()
+                          if x in fs and y in fs)
+            self._inner[fillers] = (els, trans)
+        return self._inner[fillers]
+
+    def problem(self, i: int, a: str, b: str) -> Problem:
+        """Stage i between key elements a (at its start) and b (at its end); the keys'
+        unary costs are counted at their key points, not here."""
+        st = self.st
+        stage = st.stages[i]
+        fillers = self.fillers(i)
+        fs = set(fillers)
+        els, inner = self.inner(fillers)
+        A, B = "^" + a, "$" + b
+        leg_a = _start_leg(st, i)
+        from_a = st.branch_transitions if leg_a == 2 else st.transitions
+        trans = [(A, B if y == b else y, c) for (x, y), c in from_a.items()
+                 if x == a and (y in fs or y == b)]
+        trans += [(x, B, c) for (x, y), c in st.transitions.items() if y == b and x in fs]
+        return Problem(
+            resources=st.resources,
+            elements=(Element(A, st.legs[a][leg_a], 0.0), Element(B, st.legs[b][0], 0.0))
+            + els,
+            transitions=tuple(trans) + inner, front=(A,), back=(B,),
+            constraints=dict(stage.constraints), quantum=dict(st.quantum), k=self.k)
+
+
 def _stage_problem(st: Structure, i: int, a: str, b: str, k: int) -> Problem:
-    """Stage i between key elements a (at its start) and b (at its end); the keys'
-    unary costs are counted at their key points, not here."""
-    stage = st.stages[i]
-    keyset = set(st.legs)
-    fillers = [x for x in (stage.elements or st.elements) if x not in keyset]
-    A, B = "^" + a, "$" + b
-    leg_a = _start_leg(st, i)
-    elements = [{"id": A, "resources": st.legs[a][leg_a], "cost": 0.0},
-                {"id": B, "resources": st.legs[b][0], "cost": 0.0}]
-    elements += [{"id": f, "resources": st.elements[f], "cost": st.costs[f]} for f in fillers]
-    from_a = st.branch_transitions if leg_a == 2 else st.transitions
-    trans = [[A, y if y != b else B, c] for (x, y), c in from_a.items()
-             if x == a and (y in fillers or y == b)]
-    trans += [[x, B if y == b else y, c] for (x, y), c in st.transitions.items()
-              if x in fillers and (y in fillers or y == b)]
-    return Problem.from_dict({
-        "resources": list(st.resources), "quantum": st.quantum, "elements": elements,
-        "transitions": trans, "front": [A], "back": [B],
-        "constraints": {r: list(iv) for r, iv in stage.constraints.items()}, "k": k,
-    }, f"stage {i} ({a} -> {b})")
+    return _StageBuilder(st, k).problem(i, a, b)
 
 
 def _ksum(A: list, B: list, k: int) -> list:
@@ -298,12 +326,16 @@ def solve_structure(st: Structure, k: int | None = None, **solve_kw) -> Structur
     for i, s in enumerate(st.stages):
         out[s.start].append(i)
     stage_cache: dict[tuple[int, str, str], list] = {}
+    why: list[str] = []
+    builder = _StageBuilder(st, k)
 
     def stage_list(i: int, a: str, b: str) -> list:
         if (i, a, b) not in stage_cache:
-            r = solve(_stage_problem(st, i, a, b, k), k, **solve_kw)
+            r = solve(builder.problem(i, a, b), k, **solve_kw)
             stage_cache[(i, a, b)] = [(s.cost, (s.sequence[1:-1], s.resources))
                                       for s in r.solutions]
+            if r.status != "ok":
+                why.append(f"stage {i} between {a} and {b}: {r.reason}")
         return stage_cache[(i, a, b)]
 
     if st.closed:
@@ -366,7 +398,8 @@ def solve_structure(st: Structure, k: int | None = None, **solve_kw) -> Structur
         sols.append(StructureSolution(keys, fills, cost, totals))
     stats = {"stage_problems": len(stage_cache), "solve_s": time.perf_counter() - t0}
     if not sols:
+        detail = f"; e.g. {why[0]}" if why else ""
         return StructureResult("infeasible", [], stats,
                                "no choice of key elements lets every stage meet its "
-                               "constraints")
+                               f"constraints{detail}")
     return StructureResult("ok", sols, stats)

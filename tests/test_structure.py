@@ -6,6 +6,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from pipeline.samples import fig1c_like
 from solver import ProblemError
 from solver.structure import Structure, solve_structure
 from tests.bruteforce_structure import enumerate_structure
@@ -157,42 +158,6 @@ def test_trees_and_cycles_with_branches_match_enumeration(d, k):
         for res, stage in zip(s.resources, d["stages"], strict=True):
             for name, (lo, hi) in stage["constraints"].items():
                 assert lo - 1e-9 <= res[name] <= hi + 1e-9
-
-
-def fig1c_like() -> dict:
-    """A cycle of four corners with a wing at key point 1 whose end has a T of its own
-    (nested T junctions hanging off a cycle), as in the paper's Fig. 1(c)."""
-    fill = [{"id": f"m{L}", "resources": {"length": L}, "cost": 0.0} for L in (2, 3)]
-    keys = [
-        {"id": "corner", "legs": [{"length": 1}, {"length": 1}]},
-        {"id": "corner_alt", "legs": [{"length": 1}, {"length": 1}], "cost": 0.25},
-        {"id": "t_plain", "legs": [{"length": 1}, {"length": 1}, {"length": 1}]},
-        {"id": "t_portal", "legs": [{"length": 1}, {"length": 1}, {"length": 1}],
-         "cost": 0.125},
-        {"id": "end", "legs": [{"length": 1}, {"length": 1}]},
-    ]
-    ids = [e["id"] for e in fill + keys]
-    trans = [[a, b, 0.5 if a == b else 0.375 if (a, b) == ("m3", "m2") else 0.0]
-             for a in ids for b in ids]
-    btrans = [[a, b, 0.25] for a in ids for b in ids]
-    T = ["t_plain", "t_portal"]
-    return {
-        "resources": ["length"], "elements": fill + keys, "transitions": trans,
-        "branch_transitions": btrans,
-        "keypoints": [{"elements": ["corner", "corner_alt"]},
-                      {"elements": T, "branch": 4},
-                      {"elements": ["corner", "corner_alt"]},
-                      {"elements": ["corner", "corner_alt"]},
-                      {"elements": T, "branch": 6},
-                      {"elements": ["end"]}, {"elements": ["end"]}],
-        "stages": [{"from": 0, "to": 1, "constraints": {"length": [7, 7]}},
-                   {"from": 1, "to": 2, "constraints": {"length": [6, 6]}},
-                   {"from": 2, "to": 3, "constraints": {"length": [9, 9]}},
-                   {"from": 3, "to": 0, "constraints": {"length": [8, 8]}},
-                   {"from": 1, "to": 4, "constraints": {"length": [6, 7]}},
-                   {"from": 4, "to": 5, "constraints": {"length": [5, 5]}},
-                   {"from": 4, "to": 6, "constraints": {"length": [4, 4]}}],
-    }
 
 
 def test_fig1c_like_building_k3_differs_locally_and_at_a_t_joint():
