@@ -103,15 +103,46 @@ def _number(value: Any, where: str, *, minimum: float | None = 0.0) -> float:
     return v
 
 
+def check_object(d: Any, allowed: set[str], what: str, source: str) -> None:
+    """``d`` is a JSON object with only ``allowed`` keys (typos are caught here)."""
+    if not isinstance(d, dict):
+        raise ProblemError(f"{source}: the {what} must be a JSON object")
+    unknown = sorted(set(d) - allowed)
+    if unknown:
+        raise ProblemError(f"{source}: unknown key(s) {unknown}; allowed keys are "
+                           f"{sorted(allowed)}")
+
+
+def parse_intervals(c_in: Any, resources, where: str, source: str
+                    ) -> dict[str, tuple[float, float]]:
+    """``{resource: [min, max]}`` validated against the resource names."""
+    if c_in is None:
+        return {}
+    if not isinstance(c_in, dict):
+        raise ProblemError(f'{source}: "{where}" must be an object like '
+                           '{"length": [20.0, 20.0]}')
+    out: dict[str, tuple[float, float]] = {}
+    for rname, iv in c_in.items():
+        at = f"{where}.{rname}"
+        if rname not in resources:
+            raise ProblemError(f"{source}: {at}: unknown resource; resources are "
+                               f"{list(resources)}")
+        if not isinstance(iv, list | tuple) or len(iv) != 2:
+            raise ProblemError(f"{source}: {at}: must be [min, max] (equal for an "
+                               f"equality), got {iv!r}")
+        lo = _number(iv[0], f"{source}: {at}[0]")
+        hi = _number(iv[1], f"{source}: {at}[1]")
+        if lo > hi:
+            raise ProblemError(f"{source}: {at}: min {lo:g} is greater than max {hi:g}")
+        out[rname] = (lo, hi)
+    return out
+
+
 def _parse(d: Any, source: str) -> Problem:
     def err(msg: str) -> ProblemError:
         return ProblemError(f"{source}: {msg}")
 
-    if not isinstance(d, dict):
-        raise err("the problem must be a JSON object")
-    unknown = sorted(set(d) - _TOP_KEYS)
-    if unknown:
-        raise err(f"unknown key(s) {unknown}; allowed keys are {sorted(_TOP_KEYS)}")
+    check_object(d, _TOP_KEYS, "problem", source)
 
     resources = d.get("resources")
     if (not isinstance(resources, list) or not resources
@@ -197,21 +228,7 @@ def _parse(d: Any, source: str) -> Problem:
 
     front, back = ids("front"), ids("back")
 
-    c_in = d.get("constraints", {}) or {}
-    if not isinstance(c_in, dict):
-        raise err('"constraints" must be an object like {"length": [20.0, 20.0]}')
-    constraints: dict[str, tuple[float, float]] = {}
-    for rname, iv in c_in.items():
-        where = f"constraints.{rname}"
-        if rname not in rset:
-            raise err(f"{where}: unknown resource; resources are {resources}")
-        if not isinstance(iv, list | tuple) or len(iv) != 2:
-            raise err(f"{where}: must be [min, max] (equal for an equality), got {iv!r}")
-        lo = _number(iv[0], f"{source}: {where}[0]")
-        hi = _number(iv[1], f"{source}: {where}[1]")
-        if lo > hi:
-            raise err(f"{where}: min {lo:g} is greater than max {hi:g}")
-        constraints[rname] = (lo, hi)
+    constraints = parse_intervals(d.get("constraints", {}), resources, "constraints", source)
     if not constraints:
         raise err('no constraints: give at least one [min, max] interval, e.g. '
                   '"constraints": {"length": [20.0, 20.0]}')

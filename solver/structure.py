@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import ProblemError
-from .problem import Element, Problem, _number
+from .problem import Element, Problem, _number, check_object, parse_intervals
 from .solve import solve
 
 _KEYS = {"resources", "quantum", "elements", "transitions", "branch_transitions",
@@ -65,11 +65,7 @@ class Structure:
         def err(msg: str) -> ProblemError:
             return ProblemError(f"{source}: {msg}")
 
-        if not isinstance(d, dict):
-            raise err("a structure must be a JSON object")
-        unknown = sorted(set(d) - _KEYS)
-        if unknown:
-            raise err(f"unknown key(s) {unknown}; allowed: {sorted(_KEYS)}")
+        check_object(d, _KEYS, "structure", source)
         if d.get("constraints"):
             raise err("structure-wide constraints are not supported yet (they need the "
                       "merged graph of the paper); give per-stage constraints")
@@ -131,15 +127,8 @@ class Structure:
         for i, s in enumerate(st_in):
             if not isinstance(s, dict):
                 raise err(f"stages[{i}]: must be an object")
-            cons = {}
-            for r, iv in (s.get("constraints") or {}).items():
-                if r not in base.resources or not isinstance(iv, list | tuple) or len(iv) != 2:
-                    raise err(f"stages[{i}].constraints.{r}: must be [min, max] of a resource")
-                lo = _number(iv[0], f"{source}: stages[{i}].constraints.{r}[0]")
-                hi = _number(iv[1], f"{source}: stages[{i}].constraints.{r}[1]")
-                if lo > hi:
-                    raise err(f"stages[{i}].constraints.{r}: min {lo:g} > max {hi:g}")
-                cons[r] = (lo, hi)
+            cons = parse_intervals(s.get("constraints"), base.resources,
+                                   f"stages[{i}].constraints", source)
             if not cons:
                 raise err(f"stages[{i}]: needs at least one constraint")
             els = s.get("elements")
