@@ -73,14 +73,16 @@ def _sequence_resources(p: Problem, seq: list[int]) -> dict[str, float]:
 
 
 def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
-          max_memory_mb: float = DEFAULT_MAX_MEMORY_MB, table: str = "auto") -> Result:
+          max_memory_mb: float = DEFAULT_MAX_MEMORY_MB, table: str = "auto",
+          explain: bool = True) -> Result:
     """The k cheapest distinct feasible sequences of ``problem`` in ascending cost.
 
     ``k`` defaults to ``problem.k``. Raises :class:`ProblemError` for problems that
     cannot be posed (unbounded elements, no common quantum) and
     :class:`TooLargeError` when the state space exceeds ``max_memory_mb``.
     ``table`` forces the graph's row table ("dense" or "hash"; tests and benchmarks
-    use it, "auto" picks dense when the state box is small).
+    use it, "auto" picks dense when the state box is small). ``explain=False`` skips
+    the diagnosis of an infeasible problem (callers that solve many sub-problems).
     """
     if method not in METHODS:
         raise ProblemError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
@@ -95,7 +97,7 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
         "levels": cp.top + 1,
     }
     if cp.empty_bounds:
-        return _infeasible(cp, stats, t0, max_memory_mb)
+        return _infeasible(cp, stats, t0, max_memory_mb, explain=explain)
     est = estimate(cp, max_memory_mb)
     if table not in ("auto", "dense", "hash"):
         raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
@@ -144,7 +146,7 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
     stats["setup_s"] = t1 - t0
     stats["solve_s"] = t2 - t1
     if not seqs:
-        return _infeasible(cp, stats, t0, max_memory_mb, est.max_rows)
+        return _infeasible(cp, stats, t0, max_memory_mb, est.max_rows, explain=explain)
     sols = []
     for s in seqs:
         ids = [cp.ids[i] for i in s]
@@ -184,11 +186,13 @@ def _meets(problem: Problem, seq: list[int]) -> bool:
 
 
 def _infeasible(cp: Compiled, stats: dict, t0: float, max_memory_mb: float,
-                max_rows: int | None = None) -> Result:
+                max_rows: int | None = None, *, explain: bool = True) -> Result:
     if max_rows is None:
         max_rows = int(max_memory_mb * 2**20) // (16 * cp.n + 64)
     stats.setdefault("nodes", 0)
     stats.setdefault("setup_s", time.perf_counter() - t0)
     stats.setdefault("solve_s", 0.0)
+    if not explain:
+        return Result("infeasible", [], stats, "infeasible (not diagnosed)", [])
     reason, details = diagnose(cp, max_rows)
     return Result("infeasible", [], stats, reason, details)

@@ -25,12 +25,15 @@ and second opinion.
 from __future__ import annotations
 
 import heapq
+import itertools
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import ProblemError
 from .problem import Element, Problem, _number, check_object, parse_intervals
+from .quantize import exact_divisor
 from .solve import solve
 
 _KEYS = {"resources", "quantum", "elements", "transitions", "branch_transitions",
@@ -59,6 +62,7 @@ class Structure:
     stages: tuple[Stage, ...]
     closed: bool
     k: int = 1
+    global_constraints: dict[str, tuple[float, float]] = field(default_factory=dict)
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "structure") -> Structure:
@@ -66,9 +70,6 @@ class Structure:
             return ProblemError(f"{source}: {msg}")
 
         check_object(d, _KEYS, "structure", source)
-        if d.get("constraints"):
-            raise err("structure-wide constraints are not supported yet (they need the "
-                      "merged graph of the paper); give per-stage constraints")
         # validate elements, transitions and quantum through the one-stage model
         base = Problem.from_dict({
             "resources": d.get("resources"), "quantum": d.get("quantum", {}),
@@ -160,12 +161,14 @@ class Structure:
                 "transitions": d["branch_transitions"],
                 "constraints": {base.resources[0]: [0, 0]}}, source).transitions}
         closed = _check_shape(stages, keypoints, branch, legs, err)
+        glob = parse_intervals(d.get("constraints"), base.resources, "constraints", source)
         return cls(
             resources=base.resources, quantum=dict(base.quantum),
             elements={e.id: dict(e.resources) for e in base.elements},
             costs={e.id: e.cost for e in base.elements}, legs=legs,
             transitions=transitions, branch_transitions=bt, keypoints=tuple(keypoints),
-            branch=branch, stages=tuple(stages), closed=closed, k=k)
+            branch=branch, stages=tuple(stages), closed=closed, k=k,
+            global_constraints=glob)
 
 
 @dataclass
@@ -262,7 +265,7 @@ class _StageBuilder:
             self._inner[fillers] = (els, trans)
         return self._inner[fillers]
 
-    def problem(self, i: int, a: str, b: str) -> Problem:
+    def problem(self, i: int, a: str, b: str, extra: dict | None = None) -> Problem:
         """Stage i between key elements a (at its start) and b (at its end); the keys'
         unary costs are counted at their key points, not here."""
         st = self.st
@@ -281,7 +284,8 @@ class _StageBuilder:
             elements=(Element(A, st.legs[a][leg_a], 0.0), Element(B, st.legs[b][0], 0.0))
             + els,
             transitions=tuple(trans) + inner, front=(A,), back=(B,),
-            constraints=dict(stage.constraints), quantum=dict(st.quantum), k=self.k)
+            constraints={**stage.constraints, **(extra or {})}, quantum=dict(st.quantum),
+            k=self.k)
 
 
 def _stage_problem(st: Structure, i: int, a: str, b: str, k: int) -> Problem:
@@ -306,25 +310,68 @@ def _ksum(A: list, B: list, k: int) -> list:
     return out
 
 
+def _global_grid(st: Structure) -> tuple[list[str], list[float], list[int], list[int]]:
+    """Structure-wide resources on an exact integer grid: names, quanta, bounds."""
+    names, qs, los, his = [], [], [], []
+    for r, (lo, hi) in st.global_constraints.items():
+        values = [v[r] for v in st.elements.values()] + [leg[r] for legs in st.legs.values()
+                                                         for leg in legs]
+        q = st.quantum.get(r)
+        if q is None:
+            frac = exact_divisor(values + [lo, hi])
+            if frac is None:
+                raise ProblemError(f'structure-wide constraint on "{r}": its values have no '
+                                   "common divisor; give a quantum")
+            q = float(frac)
+        if any(abs(v / q - round(v / q)) > 1e-9 for v in values):
+            raise ProblemError(f'structure-wide constraint on "{r}": every value must be a '
+                               f"multiple of its quantum {q:g} (sums are split between "
+                               "stages exactly)")
+        names.append(r)
+        qs.append(q)
+        los.append(int(math.ceil(lo / q - 1e-9)))
+        his.append(int(math.floor(hi / q + 1e-9)))
+    return names, qs, los, his
+
+
 def solve_structure(st: Structure, k: int | None = None, **solve_kw) -> StructureResult:
-    """The k cheapest distinct fillings of a tree or cycle structure."""
+    """The k cheapest distinct fillings of a tree or cycle structure.
+
+    Structure-wide intervals are handled exactly: every stage is solved once per
+    possible share of each structure-wide resource (an equality added to its
+    problem), and the dynamic program keeps k best completions per partial total."""
     k = st.k if k is None else int(k)
     t0 = time.perf_counter()
     n = len(st.keypoints)
     out: list[list[int]] = [[] for _ in range(n)]
     for i, s in enumerate(st.stages):
         out[s.start].append(i)
-    stage_cache: dict[tuple[int, str, str], list] = {}
+    gnames, gq, glo, ghi = _global_grid(st)
+    shares = list(itertools.product(*[range(h + 1) for h in ghi]))
+    stage_cache: dict[tuple[int, str, str], dict] = {}
     why: list[str] = []
     builder = _StageBuilder(st, k)
 
-    def stage_list(i: int, a: str, b: str) -> list:
+    def fits(g) -> bool:
+        return all(x <= h for x, h in zip(g, ghi, strict=True))
+
+    def add(g1, g2):
+        return tuple(x + y for x, y in zip(g1, g2, strict=True))
+
+    def stage_lists(i: int, a: str, b: str) -> dict:
+        """share of the structure-wide resources -> k best fillings of stage i"""
         if (i, a, b) not in stage_cache:
-            r = solve(builder.problem(i, a, b), k, **solve_kw)
-            stage_cache[(i, a, b)] = [(s.cost, (s.sequence[1:-1], s.resources))
-                                      for s in r.solutions]
-            if r.status != "ok":
-                why.append(f"stage {i} between {a} and {b}: {r.reason}")
+            lists = {}
+            for g in shares:
+                extra = {r: (x * q, x * q) for r, x, q in zip(gnames, g, gq, strict=True)}
+                r = solve(builder.problem(i, a, b, extra), k,
+                          **{"explain": not gnames, **solve_kw})
+                if r.solutions:
+                    lists[g] = [(x.cost, (x.sequence[1:-1], x.resources))
+                                for x in r.solutions]
+                elif r.reason and not gnames:
+                    why.append(f"stage {i} between {a} and {b}: {r.reason}")
+            stage_cache[(i, a, b)] = lists
         return stage_cache[(i, a, b)]
 
     if st.closed:
@@ -333,31 +380,44 @@ def solve_structure(st: Structure, k: int | None = None, **solve_kw) -> Structur
     else:
         root = [v for v in range(n) if all(s.end != v for s in st.stages)][0]
         closing = -1
+    zero = tuple(0 for _ in gnames)
 
-    def below(v: int, e: str, fixed_root: str | None, memo: dict) -> list:
-        """k best completions of everything after key point v holding element e:
-        (cost, payload) with payload {stage: (element at its end, fillers, totals,
+    def below(v: int, e: str, fixed_root: str | None, memo: dict) -> dict:
+        """share -> k best completions of everything after key point v holding e, as
+        (cost, payload); payload = {stage: (element at its end, fillers, totals,
         payload below that end)}."""
         key = (v, e)
         if key in memo:
             return memo[key]
-        acc = [(0.0, {})]
+        acc = {zero: [(0.0, {})]}
         for s in out[v]:
             w = st.stages[s].end
-            options = []
+            options: dict = {}
             if s == closing:  # the cycle closes on key point 0's element, paid there
-                for c, (fill, res) in stage_list(s, e, fixed_root):
-                    options.append((c, (fixed_root, fill, res, {})))
+                for g, ls in stage_lists(s, e, fixed_root).items():
+                    options.setdefault(g, []).extend(
+                        (c, (fixed_root, fill, res, {})) for c, (fill, res) in ls)
             else:
                 for f in st.keypoints[w]:
-                    for c, ((fill, res), sub) in _ksum(
-                            stage_list(s, e, f),
-                            [(cc + st.costs[f], p) for cc, p in below(w, f, fixed_root, memo)],
-                            k):
-                        options.append((c, (f, fill, res, sub)))
-            options.sort(key=lambda t: t[0])
-            merged = _ksum(acc, options[:k], k)
-            acc = [(c, {**pa, s: pb}) for c, (pa, pb) in merged]
+                    sub = below(w, f, fixed_root, memo)
+                    for g1, ls in stage_lists(s, e, f).items():
+                        for g2, lw in sub.items():
+                            g = add(g1, g2)
+                            if not fits(g):
+                                continue
+                            lw_f = [(cc + st.costs[f], p) for cc, p in lw]
+                            options.setdefault(g, []).extend(
+                                (c, (f, fill, res, p2))
+                                for c, ((fill, res), p2) in _ksum(ls, lw_f, k))
+            nxt: dict = {}
+            for g1, la in acc.items():
+                for g2, lb in options.items():
+                    g = add(g1, g2)
+                    if fits(g):
+                        lb.sort(key=lambda t: t[0])
+                        nxt.setdefault(g, []).extend(
+                            (c, {**pa, s: pb}) for c, (pa, pb) in _ksum(la, lb[:k], k))
+            acc = {g: sorted(ls, key=lambda t: t[0])[:k] for g, ls in nxt.items()}
             if not acc:
                 break
         memo[key] = acc
@@ -366,8 +426,9 @@ def solve_structure(st: Structure, k: int | None = None, **solve_kw) -> Structur
     results = []
     for e in st.keypoints[root]:
         memo: dict = {}
-        for c, payload in below(root, e, e if st.closed else None, memo):
-            results.append((c + st.costs[e], e, payload))
+        for g, ls in below(root, e, e if st.closed else None, memo).items():
+            if all(x >= lo for x, lo in zip(g, glo, strict=True)):
+                results.extend((c + st.costs[e], e, payload) for c, payload in ls)
     results.sort(key=lambda t: t[0])
     sols = []
     for cost, e, payload in results[:k]:
@@ -385,10 +446,12 @@ def solve_structure(st: Structure, k: int | None = None, **solve_kw) -> Structur
                 totals[s] = res
                 todo.append(sub)
         sols.append(StructureSolution(keys, fills, cost, totals))
-    stats = {"stage_problems": len(stage_cache), "solve_s": time.perf_counter() - t0}
+    stats = {"stage_problems": sum(len(shares) for _ in stage_cache),
+             "solve_s": time.perf_counter() - t0}
     if not sols:
         detail = f"; e.g. {why[0]}" if why else ""
+        wide = " and the structure-wide intervals" if gnames else ""
         return StructureResult("infeasible", [], stats,
-                               "no choice of key elements lets every stage meet its "
-                               f"constraints{detail}")
+                               f"no choice of key elements lets every stage meet its "
+                               f"constraints{wide}{detail}")
     return StructureResult("ok", sols, stats)

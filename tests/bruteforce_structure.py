@@ -2,7 +2,7 @@
 cycle or tree with T junctions): the oracle for the structure solver. Independent of
 it: every choice of key elements, every filler sequence of every stage, summed as the
 README defines (each key element's unary cost once, the closing transition of a cycle
-included)."""
+included), structure-wide intervals checked on the sum of all stage totals."""
 
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ def enumerate_structure(d: dict, max_fill: int = 6) -> list[float]:
             if (last, b) in trans:
                 t2 = {r: tot[r] + legs[b][0][r] for r in res}
                 if ok(t2, True):
-                    out.append(cost + trans[(last, b)])
+                    out.append((cost + trans[(last, b)], t2))
             if len(seq) >= max_fill:
                 return
             for f in fillers:
@@ -57,10 +57,13 @@ def enumerate_structure(d: dict, max_fill: int = 6) -> list[float]:
         rec(a, first, [], 0.0, dict(legs[a][2 if branch_leg else 1]))
         return out
 
+    wide = d.get("constraints", {})
     totals = []
     for keys in itertools.product(*[k["elements"] for k in kps]):
         parts = [fillings(i, keys[a], keys[b]) for i, (a, b, _s) in enumerate(stages)]
         base = sum(omega[x] for x in keys)
         for combo in itertools.product(*parts):
-            totals.append(base + sum(combo))
+            if all(lo - EPS <= sum(t[r] for _c, t in combo) <= hi + EPS
+                   for r, (lo, hi) in wide.items()):
+                totals.append(base + sum(c for c, _t in combo))
     return sorted(totals)

@@ -87,8 +87,8 @@ def test_structure_refusals():
         "transitions": [["k", "f", 0], ["f", "k", 0]],
         "keypoints": [{"elements": ["k"]}, {"elements": ["k"]}],
         "stages": [{"constraints": {"length": [3, 3]}}]}
-    with pytest.raises(ProblemError, match="structure-wide constraints"):
-        Structure.from_dict({**base, "constraints": {"length": [1, 9]}})
+    with pytest.raises(ProblemError, match="constraints.width: unknown resource"):
+        Structure.from_dict({**base, "constraints": {"width": [1, 9]}})
     with pytest.raises(ProblemError, match="not a key element"):
         Structure.from_dict({**base, "keypoints": [{"elements": ["f"]}] * 2})
     with pytest.raises(ProblemError, match="1 stages need 2 key points"):
@@ -108,8 +108,9 @@ def test_solve_cli_runs_structure_files(capsys):
     for s in d["solutions"]:
         assert [r["length"] for r in s["resources"]] == [37.4, 22.0, 37.4, 22.0]
         assert 2 <= s["resources"][0]["doors"] <= 4
-    expected = enumerate_structure(json.loads(f.read_text()))
-    assert [s["cost"] for s in d["solutions"]] == pytest.approx(expected[:2])
+        assert 8 <= sum(r["doors"] for r in s["resources"]) <= 10  # structure-wide
+    api = solve_structure(Structure.from_dict(json.loads(f.read_text())), 2)
+    assert [s["cost"] for s in d["solutions"]] == [s.cost for s in api.solutions]
 
 
 @st.composite
@@ -189,3 +190,15 @@ def test_37_3_m_edge_within_half_a_quantum():
     assert r.status == "ok"
     for s in r.solutions:
         assert abs(s.resources[0]["length"] - 37.3) <= 0.1 + 1e-9
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(trees(), st.integers(1, 5), st.integers(0, 3), st.integers(0, 2))
+def test_structure_wide_intervals_match_enumeration(d, k, lo, width):
+    d = {**d, "constraints": {"doors": [lo, lo + width]}}
+    expected = enumerate_structure(d)
+    r = solve_structure(Structure.from_dict(d), k)
+    assert [s.cost for s in r.solutions] == pytest.approx(expected[:k])
+    for s in r.solutions:
+        total = sum(res["doors"] for res in s.resources)
+        assert lo <= total <= lo + width
