@@ -12,7 +12,7 @@ along its direction. Sections are taken 5 mm inside each end.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from shapely.geometry.base import BaseGeometry
@@ -37,7 +37,6 @@ class Measured:
     sec_in: BaseGeometry
     sec_out: BaseGeometry
     sec_branch: BaseGeometry | None = None   # T parts: across the branch leg
-    warnings: list[str] = field(default_factory=list)
 
 
 def leg_directions(spec: PartSpec) -> list[tuple[float, float]]:

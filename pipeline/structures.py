@@ -101,9 +101,7 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
     keys = [keys[j] for j in order]
     oriented = {s: (renum[a], renum[b]) for s, (a, b) in oriented.items()}
 
-    facade = [p for p in db.parts if p.style == style and p.cls in
-              ("middle", "corner", "t_junction", "end_left", "end_right")]
-    fillers = [p for p in facade if p.cls == "middle"]
+    fillers = db.select("middle", style)
     if not fillers:
         raise SkeletonError(f"the library has no middle parts of style {style!r}")
     attrs = sorted({a for p in fillers for a in p.attributes})

@@ -67,7 +67,8 @@ def exact_divisor(values: list[float]) -> Fraction | None:
     return Fraction(g, lcm)
 
 
-def _is_multiple(v: float, q: float) -> bool:
+def is_multiple(v: float, q: float) -> bool:
+    """v is an integer multiple of q (within 1e-9, relative to the multiple)."""
     m = v / q
     return abs(m - round(m)) <= TOL * max(1.0, abs(m))
 
@@ -88,9 +89,9 @@ def quantise_resource(
         q = float(quantum)
     ints = [int(round(v / q)) for v in values]
     max_err = max((abs(v - n * q) for v, n in zip(values, ints, strict=True)), default=0.0)
-    exact = all(_is_multiple(v, q) for v in values) and _is_multiple(lo, q) \
-        and _is_multiple(hi, q)
-    if all(_is_multiple(v, q) for v in values):
+    exact = all(is_multiple(v, q) for v in values) and is_multiple(lo, q) \
+        and is_multiple(hi, q)
+    if all(is_multiple(v, q) for v in values):
         max_err = 0.0
     qlo = int(math.ceil(lo / q - TOL * max(1.0, lo / q)))
     qhi = int(math.floor(hi / q + TOL * max(1.0, hi / q)))

@@ -17,9 +17,10 @@ key elements enter as their legs). A k-best dynamic program over the tree of key
 points then combines them: below a key point with a given element, the k best
 completions are the k smallest sums over its outgoing stages. That is exact, because
 once the key elements are fixed a structure's cost is the sum of independent stage
-costs. The paper's single merged graph (with virtual T duplicates, and structure-wide
-intervals, which are refused for now) is the next step; this solver is its reference
-and second opinion.
+costs. Structure-wide intervals are met by solving each stage once per share of the
+structure-wide resource. The paper's single merged graph (one k-shortest-path search
+with virtual T duplicates) is the next step; this solver is its reference and second
+opinion.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from typing import Any
 
 from .errors import ProblemError
 from .problem import Element, Problem, _number, check_object, parse_intervals
-from .quantize import exact_divisor
+from .quantize import exact_divisor, is_multiple
 from .solve import solve
 
 _KEYS = {"resources", "quantum", "elements", "transitions", "branch_transitions",
@@ -288,10 +289,6 @@ class _StageBuilder:
             k=self.k)
 
 
-def _stage_problem(st: Structure, i: int, a: str, b: str, k: int) -> Problem:
-    return _StageBuilder(st, k).problem(i, a, b)
-
-
 def _ksum(A: list, B: list, k: int) -> list:
     """The k smallest a + b over two cost-sorted lists of (cost, payload); payloads
     pair up."""
@@ -323,7 +320,7 @@ def _global_grid(st: Structure) -> tuple[list[str], list[float], list[int], list
                 raise ProblemError(f'structure-wide constraint on "{r}": its values have no '
                                    "common divisor; give a quantum")
             q = float(frac)
-        if any(abs(v / q - round(v / q)) > 1e-9 for v in values):
+        if not all(is_multiple(v, q) for v in values):
             raise ProblemError(f'structure-wide constraint on "{r}": every value must be a '
                                f"multiple of its quantum {q:g} (sums are split between "
                                "stages exactly)")
@@ -409,14 +406,14 @@ def solve_structure(st: Structure, k: int | None = None, **solve_kw) -> Structur
                             options.setdefault(g, []).extend(
                                 (c, (f, fill, res, p2))
                                 for c, ((fill, res), p2) in _ksum(ls, lw_f, k))
+            options = {g: sorted(ls, key=lambda t: t[0])[:k] for g, ls in options.items()}
             nxt: dict = {}
             for g1, la in acc.items():
                 for g2, lb in options.items():
                     g = add(g1, g2)
                     if fits(g):
-                        lb.sort(key=lambda t: t[0])
                         nxt.setdefault(g, []).extend(
-                            (c, {**pa, s: pb}) for c, (pa, pb) in _ksum(la, lb[:k], k))
+                            (c, {**pa, s: pb}) for c, (pa, pb) in _ksum(la, lb, k))
             acc = {g: sorted(ls, key=lambda t: t[0])[:k] for g, ls in nxt.items()}
             if not acc:
                 break
@@ -446,7 +443,7 @@ def solve_structure(st: Structure, k: int | None = None, **solve_kw) -> Structur
                 totals[s] = res
                 todo.append(sub)
         sols.append(StructureSolution(keys, fills, cost, totals))
-    stats = {"stage_problems": sum(len(shares) for _ in stage_cache),
+    stats = {"stage_problems": len(shares) * len(stage_cache),
              "solve_s": time.perf_counter() - t0}
     if not sols:
         detail = f"; e.g. {why[0]}" if why else ""
