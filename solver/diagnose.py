@@ -13,8 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 from .compiled import Compiled, with_bounds
-from .estimate import DENSE_TABLE_MAX_BYTES, row_bytes
+from .estimate import dense_rows
 from .graph import grow
+
+_UNSET = object()
 
 
 def _fmt(x: float) -> str:
@@ -29,9 +31,8 @@ def _interval_text(name: str, lo: float, hi: float) -> str:
 
 def _reachable_totals(cp: Compiled, max_rows: int) -> np.ndarray | None:
     """Quantised totals (rows) of complete sequences meeting cp's upper bounds."""
-    dense = cp.S * row_bytes(cp.n, True) <= DENSE_TABLE_MAX_BYTES
     (status, nrows, G, _H, row_state, *_), _table = grow(
-        cp, dense=dense, rows_hint=min(cp.S, 1 << 12), max_rows=max_rows,
+        cp, dense=dense_rows(cp), rows_hint=min(cp.S, 1 << 12), max_rows=max_rows,
         forward_only=True, complete=False)
     if status != 0:
         return None
@@ -40,14 +41,13 @@ def _reachable_totals(cp: Compiled, max_rows: int) -> np.ndarray | None:
     return np.stack([(st // cp.stride[i]) % (cp.cap[i] + 1) for i in range(cp.R)], axis=1)
 
 
-def _alone_blocks(cp: Compiled, i: int, max_rows: int) -> bool:
+def _alone_blocks(cp: Compiled, i: int, no_minimums: np.ndarray | None) -> bool:
     """True when resource i's interval is missed even with every other lower bound
-    dropped (so the other constraints are not to blame)."""
-    lo = np.zeros_like(cp.lo)
-    totals = _reachable_totals(with_bounds(cp, lo, cp.hi.copy()), max_rows)
-    if totals is None:
+    dropped (so the other constraints are not to blame). ``no_minimums`` holds the
+    totals reached with every lower bound dropped, grown once for all resources."""
+    if no_minimums is None:
         return False
-    hit = (totals[:, i] >= cp.lo[i]) & (totals[:, i] <= cp.hi[i])
+    hit = (no_minimums[:, i] >= cp.lo[i]) & (no_minimums[:, i] <= cp.hi[i])
     return not hit.any()
 
 
@@ -56,6 +56,7 @@ def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
     asked = [tuple(q.asked) for q in cp.quant]
     details: list[dict] = []
     blocking: list[str] = []
+    no_minimums = _UNSET  # grown on first need, shared by every blocking resource
     any_reach = False
     for i, name in enumerate(cp.bounded):
         lo = cp.lo.copy()
@@ -89,7 +90,10 @@ def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
         if d["nearest_above"] is not None:
             near.append(f"{_fmt(d['nearest_above'])} (above)")
         why = "cannot be met together with the other constraints"
-        if _alone_blocks(cp, i, max_rows):
+        if no_minimums is _UNSET:
+            no_minimums = _reachable_totals(
+                with_bounds(cp, np.zeros_like(cp.lo), cp.hi.copy()), max_rows)
+        if _alone_blocks(cp, i, no_minimums):
             why = "is out of reach even ignoring the other minimums"
         if cp.lo[i] > cp.hi[i]:
             why = f"holds no multiple of its quantum {q:g}"

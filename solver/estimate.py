@@ -38,11 +38,16 @@ def row_bytes(n: int, dense: bool) -> int:
     return 16 * n + 18 + (0 if dense else 48)
 
 
+def dense_rows(cp: Compiled) -> bool:
+    """Whether the state box is small enough to index rows by state (no hashing)."""
+    return cp.S * row_bytes(cp.n, True) <= DENSE_TABLE_MAX_BYTES
+
+
 def estimate(cp: Compiled, max_memory_mb: float = DEFAULT_MAX_MEMORY_MB) -> Estimate:
     budget = int(max_memory_mb * 2**20)
     fitting = int((cp.r <= cp.cap).all(axis=1).sum())
     nodes = max(fitting, 1) * cp.S
-    dense = cp.S * row_bytes(cp.n, True) <= DENSE_TABLE_MAX_BYTES
+    dense = dense_rows(cp)
     fixed = 8 * cp.n * cp.n
     need = cp.S * row_bytes(cp.n, dense) + fixed
     max_rows = max((budget - fixed) // row_bytes(cp.n, dense), 1)
