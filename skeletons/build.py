@@ -98,7 +98,6 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
     keys: dict[tuple[int, int], int] = {}
     xy: dict[int, np.ndarray] = {}
     edges: list[Edge] = []
-    geoms: list[LineString] = []
 
     def node(p) -> int:
         k = (round(p[0] / SNAP), round(p[1] / SNAP))
@@ -128,11 +127,10 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
                         f"{f.name}: edge of {length:.2f} m at ({p[0]:.2f}, {p[1]:.2f}) is "
                         f"shorter than the smallest part ({min_edge:.2f} m)")
                 edges.append(Edge(a, b, length, front, cons, f.name))
-                geoms.append(LineString([xy[a], xy[b]]))
     if not edges:
         raise SkeletonError("no skeleton edges in the input")
-    edges, geoms = _split_at_touching_ends(edges, xy)
-    _check_crossings(edges, geoms, xy)
+    edges = _split_at_touching_ends(edges, xy)
+    _check_crossings(edges, xy)
     g = nx.Graph()
     g.add_nodes_from(xy)
     for i, e in enumerate(edges):
@@ -175,10 +173,11 @@ def _split_at_touching_ends(edges: list[Edge], xy: dict[int, np.ndarray]):
         for u, w in zip(chain[:-1], chain[1:], strict=True):
             out.append(Edge(u, w, float(np.linalg.norm(xy[w] - xy[u])), e.front,
                             e.constraints, e.source))
-    return out, [LineString([xy[e.a], xy[e.b]]) for e in out]
+    return out
 
 
-def _check_crossings(edges: list[Edge], geoms: list[LineString], xy) -> None:
+def _check_crossings(edges: list[Edge], xy: dict[int, np.ndarray]) -> None:
+    geoms = [LineString([xy[e.a], xy[e.b]]) for e in edges]
     tree = shapely.STRtree(geoms)
     left, right = tree.query(geoms, predicate="intersects")
     for i, j in zip(left.tolist(), right.tolist(), strict=True):
