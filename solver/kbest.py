@@ -17,14 +17,22 @@ so "P_x[j+1]" is one pointer away and nothing is ever copied.
 Ties are broken by the element index of the next element (ending the sequence ranks
 first), so sequences of equal cost come out in lexicographic order of element
 indices: deterministic, and independent of how the graph was grown.
+
+The lazy core (:func:`kbest_from`) sees a graph only through
+:func:`graph_choices`, which numba resolves at compile time from the type of the
+graph tuple ``G``: a plain tuple is the intermediate graph (:func:`k_best`); other
+graphs register their own overload for a NamedTuple class of theirs (the structure
+solver's stage graphs, :mod:`solver.stage_kbest`, run this scheme backwards from
+many sinks). One core, no run-time dispatch.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
-from ._table import admissible, decode, fits, hash_find, hash_put, table_rehash
+from ._table import admissible, decode, fits, grow_i64, hash_find, hash_put, table_rehash
 
 TERM = -1
 _FIRST, _LAST, _LEN, _HBASE, _HSIZE = 0, 1, 2, 3, 4   # slot columns
@@ -77,6 +85,27 @@ def _choices(v, src, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, fr
             out_i[m, _KEY] = f
             m += 1
     return m
+
+
+def graph_choices(v, G, c, out_f, out_i):
+    """Write the out-choices of vertex v of graph G into rows of out_f (cost, edge
+    weight) and out_i (next node or TERM, -1, tie key); return their count. Kernels
+    only: every graph kind registers an ``@overload`` for its own type of G."""
+    raise NotImplementedError("graph_choices is resolved inside numba kernels")
+
+
+@overload(graph_choices)
+def _graph_choices_intermediate(v, G, c, out_f, out_i):
+    if not isinstance(G, types.BaseTuple) or isinstance(G, types.BaseNamedTuple):
+        return None
+
+    def impl(v, G, c, out_f, out_i):
+        (src, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, front, back, omega,
+         H, row_state, dense, keys, vals, shift) = G
+        return _choices(v, src, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w,
+                        front, back, omega, H, row_state, dense, keys, vals, shift, c,
+                        out_f, out_i)
+    return impl
 
 
 @njit(cache=True, inline="always")
@@ -151,16 +180,13 @@ def _slot(v, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, c):
     sl = hash_find(skeys, svals, sshift, v)
     if sl >= 0:
         return sl
-    (src, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, front, back, omega,
-     H, row_state, dense, keys, vals, shift) = G
     sl = cnt[0]
     cnt[0] += 1
     hash_put(skeys, svals, sshift, v, sl)
     # the choices go straight into this slot's heap area: the first path is their
     # minimum, and the heap is built from the rest only if a second path is asked
     hb = cnt[2]
-    m = _choices(v, src, n, r, lo, cap, stride, off, succ_ptr, succ_elem, succ_w, front,
-                 back, omega, H, row_state, dense, keys, vals, shift, c, qf[hb:], qi[hb:])
+    m = graph_choices(v, G, c, qf[hb:], qi[hb:])
     cnt[2] += m
     slots[sl, _HBASE] = hb
     slots[sl, _HSIZE] = -2 - m  # not yet a heap: -2 - (number of stored choices)
@@ -196,11 +222,11 @@ def _slot(v, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, c):
 
 
 @njit(cache=True)
-def _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, stack, c,
-                      rowf, rowi):
-    """Append the next path of the source to its list (or mark it exhausted)."""
-    src = G[0]
-    stack[0] = src
+def _next_path(start, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, stack, c,
+               rowf, rowi):
+    """Append the next path of vertex ``start`` (which has a slot) to its list, or
+    mark it exhausted."""
+    stack[0] = start
     sp = 1
     while sp > 0:
         v = stack[sp - 1]
@@ -260,14 +286,19 @@ def _grow_rows(a, rows):
 
 
 @njit(cache=True)
-def _kbest(K, G, max_len):
-    src = G[0]
-    n = G[1]
-    R = len(G[4])
+def kbest_from(G, starts, K, n, R, depth, start_choices):
+    """The K best paths from each vertex in ``starts`` to TERM, in ascending cost.
+    Every node's path list is shared between the starts, so a node that the paths of
+    several starts pass through is expanded once.
+
+    ``n`` elements (a node id is row * n + element), ``R`` resources (scratch for
+    the choices), ``depth`` bounds the nodes on a path plus two, ``start_choices``
+    the choices of a start vertex. Returns (costs, offs, seq, first, touched): path
+    p has cost costs[p] and elements seq[offs[p]:offs[p + 1]]; start i owns paths
+    first[i] to first[i + 1]."""
     c = np.zeros(R, dtype=np.int64)
     rowf = np.empty((3, 2))
     rowi = np.empty((3, 4), dtype=np.int64)
-    depth = max_len + 3
     stack = np.empty(depth, dtype=np.int64)
     cnt = np.zeros(3, dtype=np.int64)
     slots = np.empty((256, 5), dtype=np.int64)
@@ -278,59 +309,67 @@ def _kbest(K, G, max_len):
     skeys = np.full(1024, -1, dtype=np.int64)
     svals = np.full(1024, -1, dtype=np.int32)
     sshift = 64 - 10
+    heap_need = max(start_choices, n + 1) + depth * (n + 1)
 
-    # phase 1: enumerate the source's paths; phase 2: read them out. Before every
-    # step the pools get room for one step: at most `depth` new slots, entries and
-    # heap areas (a step follows one chain of strictly rising levels).
-    ss = -1
-    npaths = 0
+    costs = np.empty(len(starts) * K)
+    offs = np.zeros(len(starts) * K + 1, dtype=np.int64)
+    seq = np.empty(max(K * depth, 16), dtype=np.int64)
+    first = np.zeros(len(starts) + 1, dtype=np.int64)
+    npath = 0
     sn = 0
-    costs = np.empty(K)
-    offs = np.zeros(K + 1, dtype=np.int64)
-    seq = np.empty(K * max_len + 1, dtype=np.int64)
-    top = -1
-    i = 0
-    while True:
-        if cnt[0] + 2 * depth > slots.shape[0]:
-            slots = _grow_rows(slots, 2 * (cnt[0] + 2 * depth))
-        if cnt[1] + 2 * depth > ef.shape[0]:
-            ef = _grow_rows(ef, 2 * (cnt[1] + 2 * depth))
-            ei = _grow_rows(ei, 2 * (cnt[1] + 2 * depth))
-        if cnt[2] + depth * (n + 1) > qf.shape[0]:
-            qf = _grow_rows(qf, 2 * (cnt[2] + depth * (n + 1)))
-            qi = _grow_rows(qi, 2 * (cnt[2] + depth * (n + 1)))
-        while 2 * (cnt[0] + 2 * depth) > len(skeys):
-            skeys, svals, sshift = table_rehash(skeys, svals, sshift)
-        if ss < 0:
-            ss = _slot(src, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, c)
-            continue
-        if top < 0:  # phase 1
-            if slots[ss, _LEN] < K and slots[ss, _HSIZE] != _EXHAUSTED:
-                _next_source_path(G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift,
-                                  stack, c, rowf, rowi)
+    for si in range(len(starts)):
+        start = starts[si]
+        # phase 1: enumerate the start's paths; phase 2: read them out. Before every
+        # step the pools get room for one step: at most `depth` new slots, entries and
+        # heap areas (a step follows one chain of strictly rising levels).
+        ss = -1
+        todo = 0
+        top = -1
+        while True:
+            if cnt[0] + 2 * depth > slots.shape[0]:
+                slots = _grow_rows(slots, 2 * (cnt[0] + 2 * depth))
+            if cnt[1] + 2 * depth > ef.shape[0]:
+                ef = _grow_rows(ef, 2 * (cnt[1] + 2 * depth))
+                ei = _grow_rows(ei, 2 * (cnt[1] + 2 * depth))
+            if cnt[2] + heap_need > qf.shape[0]:
+                qf = _grow_rows(qf, 2 * (cnt[2] + heap_need))
+                qi = _grow_rows(qi, 2 * (cnt[2] + heap_need))
+            while 2 * (cnt[0] + 2 * depth) > len(skeys):
+                skeys, svals, sshift = table_rehash(skeys, svals, sshift)
+            if sn + depth > len(seq):
+                seq = grow_i64(seq, 2 * (sn + depth))
+            if ss < 0:
+                ss = _slot(start, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift, c)
                 continue
-            npaths = min(slots[ss, _LEN], K)
-            top = slots[ss, _FIRST]
-            if npaths == 0:
+            if top < 0:  # phase 1
+                if slots[ss, _LEN] < K and slots[ss, _HSIZE] != _EXHAUSTED:
+                    _next_path(start, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift,
+                               stack, c, rowf, rowi)
+                    continue
+                todo = min(slots[ss, _LEN], K)
+                top = slots[ss, _FIRST]
+                if todo == 0:
+                    break
+            # phase 2: one path, following the entry chain down to TERM
+            costs[npath] = ef[top, 0]
+            ent = top
+            while ei[ent, _X] != TERM:
+                x = ei[ent, _X]
+                seq[sn] = x % n
+                sn += 1
+                ptr = ei[ent, _PTR]
+                if ptr < 0:
+                    ptr = slots[_slot(x, G, slots, ef, ei, qf, qi, cnt, skeys, svals,
+                                      sshift, c), _FIRST]
+                ent = ptr
+            npath += 1
+            offs[npath] = sn
+            top = ei[top, _NEXT]
+            todo -= 1
+            if todo == 0:
                 break
-        # phase 2: path i, following the entry chain down to the sink
-        costs[i] = ef[top, 0]
-        ent = top
-        while ei[ent, _X] != TERM:
-            x = ei[ent, _X]
-            seq[sn] = x % n
-            sn += 1
-            ptr = ei[ent, _PTR]
-            if ptr < 0:
-                ptr = slots[_slot(x, G, slots, ef, ei, qf, qi, cnt, skeys, svals, sshift,
-                                  c), _FIRST]
-            ent = ptr
-        offs[i + 1] = sn
-        top = ei[top, _NEXT]
-        i += 1
-        if i == npaths:
-            break
-    return costs[:npaths], offs[:npaths + 1], seq[:sn], cnt[0]
+        first[si + 1] = npath
+    return costs[:npath], offs[:npath + 1], seq[:sn], first, cnt[0]
 
 
 def k_best(graph, k: int) -> tuple[list[list[int]], list[float], int]:
@@ -341,6 +380,7 @@ def k_best(graph, k: int) -> tuple[list[list[int]], list[float], int]:
     G = (src, cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.off, cp.succ_ptr, cp.succ_elem,
          cp.succ_w, cp.front, cp.back, cp.omega, graph.H, graph.row_state, graph.dense,
          graph.keys, graph.vals, graph.shift)
-    costs, offs, seq, touched = _kbest(int(k), G, int(cp.max_len))
+    costs, offs, seq, _first, touched = kbest_from(
+        G, np.full(1, src, dtype=np.int64), int(k), cp.n, cp.R, int(cp.max_len) + 3, cp.n)
     seqs = [seq[offs[i]:offs[i + 1]].tolist() for i in range(len(costs))]
     return seqs, costs.tolist(), int(touched)
