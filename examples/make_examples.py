@@ -1,17 +1,68 @@
-"""Regenerate the generated example problems (``make examples``); a test checks that
-the files in the repository match what this writes."""
+"""Regenerate the generated examples (``make examples``); a test checks that the files in
+the repository match what this writes.
+
+Problems come from :mod:`pipeline.samples`; the GeoJSON inputs are drawn here in local
+metres and written as lon/lat (RFC 7946) around a point in Bonn.
+"""
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from pipeline.samples import street_front
+from skeletons import lonlat_from_local
 
 HERE = Path(__file__).resolve().parent
+ORIGIN = (7.1, 50.73)
+
+
+def _fc(*features) -> dict:
+    return {"type": "FeatureCollection", "features": list(features)}
+
+
+def _line(points, **props) -> dict:
+    return {"type": "Feature", "properties": props,
+            "geometry": {"type": "LineString", "coordinates": lonlat_from_local(points, ORIGIN)}}
+
+
+def _polygon(*rings, **props) -> dict:
+    coords = [lonlat_from_local([*r, r[0]], ORIGIN) for r in rings]
+    return {"type": "Feature", "properties": props,
+            "geometry": {"type": "Polygon", "coordinates": coords}}
+
+
+def t_building() -> dict:
+    """A T-shaped building: a 63.6 m street front with 1-3 doors on each side of the
+    T, a 40 m wing behind its middle that turns into a 31.8 m back range; facades face
+    the right of each line."""
+    return _fc(_line([(0, 0), (63.6, 0)], id="front", constraints={"doors": [1, 3]}),
+               _line([(31.8, 0), (31.8, 40), (63.6, 40)], id="wing"))
+
+
+def footprint_courtyard() -> dict:
+    """A 60 x 50 m house with a 20 x 14 m courtyard (two cycles)."""
+    return _fc(_polygon([(0, 0), (60, 0), (60, 50), (0, 50)],
+                        [(20, 18), (20, 32), (40, 32), (40, 18)], id="house"))
+
+
+def block() -> dict:
+    """A city block with a cut corner (two 135° corners) and a notch (a concave corner),
+    drawn so the sample library's modern parts (all multiples of 0.4 m) can fill every
+    edge within half a quantum."""
+    a = 41.2 / math.sqrt(2)          # the cut: 41.2 m long at 45°
+    x, y = 56.4 + a, 56.4 + a
+    return _fc(_polygon([(0, 0), (56.4, 0), (x, a), (x, y), (x - 40, y), (x - 40, y - 40),
+                         (0, y - 40)], id="block"))
+
+
 GENERATED = {
     "street_front.json": lambda: street_front(83.4, k=5),
     "street_front_3res.json": lambda: street_front(60.0, resources=3, k=5),
+    "skeletons/t_building.geojson": t_building,
+    "skeletons/footprint_courtyard.geojson": footprint_courtyard,
+    "blocks/block.geojson": block,
 }
 
 
@@ -21,7 +72,9 @@ def render(name: str) -> str:
 
 def main() -> None:
     for name in GENERATED:
-        (HERE / name).write_text(render(name), encoding="utf-8")
+        path = HERE / name
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(render(name), encoding="utf-8")
         print(f"wrote examples/{name}")
 
 

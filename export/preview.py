@@ -1,8 +1,10 @@
 """PNG previews rendered off screen with pyvista.
 
-For now: the contact sheet of a part library (every part, coloured as authored, from
-a three-quarter view with soft lighting), used in the README. Block and city previews
-come with the export stage.
+The contact sheet of a part library (every part, coloured as authored, from a
+three-quarter view with soft lighting), and layout previews: a building or block from
+a three-quarter view beside a top view, on a pale ground plane, sized for a README
+(1400 x 700 by default). Rendering uses VTK's EGL (or OSMesa) off-screen window, no
+display needed.
 """
 
 from __future__ import annotations
@@ -13,10 +15,15 @@ from pathlib import Path
 import numpy as np
 import pyvista as pv
 import trimesh
+from vtkmodules.vtkCommonCore import vtkLogger
 
 from parts_db import PartDB
+from parts_db.files import atomic_path
 
 pv.OFF_SCREEN = True
+# VTK tries an X display before falling back to EGL and warns on stderr when there is
+# none; headless is the normal case here, so keep its log to errors.
+vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
 
 
 def to_polydata(mesh: trimesh.Trimesh) -> pv.PolyData:
@@ -42,6 +49,56 @@ def three_quarter_view(plotter: pv.Plotter, poly: pv.PolyData, zoom: float = 1.1
     plotter.camera.zoom(zoom)
 
 
+def _add_coloured(plotter: pv.Plotter, poly: pv.PolyData) -> None:
+    if "rgb" in poly.cell_data:
+        plotter.add_mesh(poly, scalars="rgb", rgb=True, smooth_shading=False)
+    else:
+        plotter.add_mesh(poly, color="tan")
+
+
+def _ground(poly: pv.PolyData, margin: float = 0.15) -> pv.PolyData:
+    lo = np.array(poly.bounds[::2])
+    hi = np.array(poly.bounds[1::2])
+    size = (hi - lo)[:2] * (1 + 2 * margin) + 10.0
+    centre = (lo + hi) / 2
+    return pv.Plane(center=(centre[0], centre[1], lo[2] - 0.05), direction=(0, 0, 1),
+                    i_size=size[0], j_size=size[1])
+
+
+def render_meshes(mesh: trimesh.Trimesh, out_png: str | Path, *, title: str = "",
+                  size: tuple[int, int] = (1400, 700)) -> Path:
+    """A three-quarter view (left) and a top view (right) of ``mesh`` to ``out_png``."""
+    poly = to_polydata(mesh)
+    plotter = pv.Plotter(off_screen=True, shape=(1, 2), window_size=size, border=False)
+    for col, top in ((0, False), (1, True)):
+        plotter.subplot(0, col)
+        plotter.set_background("white", top="#dfe8f0")
+        plotter.add_mesh(_ground(poly), color="#ecebe6", smooth_shading=False)
+        _add_coloured(plotter, poly)
+        plotter.enable_lightkit()
+        if top:
+            plotter.view_xy()
+            plotter.enable_parallel_projection()
+            plotter.reset_camera()
+            plotter.camera.zoom(1.15)
+        else:
+            three_quarter_view(plotter, poly, zoom=1.3)
+        if title and col == 0:
+            plotter.add_text(title, font_size=9, color="black", position="upper_left")
+    out = Path(out_png)
+    with atomic_path(out) as tmp:
+        plotter.screenshot(str(tmp))
+    plotter.close()
+    return out
+
+
+def render_layout(lay, db: PartDB, out_png: str | Path, **kw) -> Path:
+    """The preview of a layout (see :func:`render_meshes`)."""
+    from .assemble import world_mesh
+
+    return render_meshes(world_mesh(lay, db), out_png, **kw)
+
+
 def contact_sheet(db: PartDB, library_dir: str | Path, out_png: str | Path, *,
                   columns: int = 12, tile: int = 200) -> Path:
     """Render every part of ``db`` into one PNG grid, labelled with id and length."""
@@ -55,10 +112,7 @@ def contact_sheet(db: PartDB, library_dir: str | Path, out_png: str | Path, *,
         plotter.subplot(i // columns, i % columns)
         mesh = trimesh.load(str(root / part.file), force="mesh")
         poly = to_polydata(mesh)
-        if "rgb" in poly.cell_data:
-            plotter.add_mesh(poly, scalars="rgb", rgb=True, smooth_shading=False)
-        else:
-            plotter.add_mesh(poly, color="tan")
+        _add_coloured(plotter, poly)
         plotter.add_text(f"{part.id}\n{part.cls}, {part.length:g} m", font_size=7,
                          color="black", position="upper_left")
         plotter.enable_lightkit()

@@ -12,7 +12,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -23,11 +22,12 @@ import shapely
 
 from .costs import allowed_matrix, cost_matrix
 from .errors import LibraryError
+from .files import atomic_path, write_text
 from .manifest import Manifest, read_manifest
 from .measure import STACKED, STRAIGHT, measure
 from .meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 DB_JSON = "partdb.json"
 DB_NPZ = "partdb.npz"
 DEFAULT_OUT = ".citysynth"  # inside the library folder
@@ -47,6 +47,7 @@ class Part:
     legs_measured: list[float]
     directions: list[list[float]]
     scale: float                  # stretch along the primary axis that realises `legs`
+    origin: list[float]           # mesh point placed at the part's start (Measured.origin)
     height: float
     floor_area: float | None
     angle: float | None = None
@@ -74,6 +75,14 @@ class PartDB:
     warnings: list[str] = field(default_factory=list)
     path: Path | None = None
     cache_hit: bool = False
+    library_root: Path | None = None   # where the part meshes are (Part.file is relative)
+    meters_per_unit: float = 1.0
+
+    def mesh_path(self, part: Part) -> Path:
+        if self.library_root is None:
+            raise LibraryError(f"part database {self.path}: it does not record its library "
+                               "folder; ingest the library again")
+        return self.library_root / part.file
 
     @property
     def ids(self) -> list[str]:
@@ -129,7 +138,7 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
     cost_branch = cost_matrix([p.sec_branch if p.sec_branch is not None else p.sec_out
                                for p in parts], [p.sec_in for p in parts], branch_ok)
     db = PartDB(m.name, digest, m.quantum, parts, allowed, cost, cost_branch, warnings,
-                out_dir, False)
+                out_dir, False, root.resolve(), m.meters_per_unit)
     save(db, out_dir)
     return db
 
@@ -174,7 +183,8 @@ def _ingest_part(root: Path, m: Manifest, spec, warnings: list[str]) -> Part:
     if meas.floor_area is not None:
         attrs.setdefault("floor_area", round(meas.floor_area, 6))
     return Part(spec.id, spec.cls, spec.style, spec.file, attrs, legs_q, meas.legs,
-                [list(d) for d in meas.directions], scale, meas.height, meas.floor_area,
+                [list(d) for d in meas.directions], scale, list(meas.origin), meas.height,
+                meas.floor_area,
                 spec.angle, spec.convex, meas.sec_in, meas.sec_out, meas.sec_branch)
 
 
@@ -182,7 +192,8 @@ def _ingest_part(root: Path, m: Manifest, spec, warnings: list[str]) -> Part:
 
 def _part_json(p: Part) -> dict:
     d = {k: getattr(p, k) for k in ("id", "cls", "style", "file", "attributes", "legs",
-                                     "legs_measured", "directions", "scale", "height",
+                                     "legs_measured", "directions", "scale", "origin",
+                                     "height",
                                      "floor_area", "angle", "convex")}
     for k in ("sec_in", "sec_out", "sec_branch"):
         g = getattr(p, k)
@@ -196,22 +207,12 @@ def save(db: PartDB, out_dir: Path) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
     meta = {"format": FORMAT_VERSION, "name": db.name, "library_hash": db.library_hash,
             "quantum": db.quantum, "warnings": db.warnings,
+            "library_root": str(db.library_root) if db.library_root else None,
+            "meters_per_unit": db.meters_per_unit,
             "parts": [_part_json(p) for p in db.parts]}
-    _atomic(out_dir / DB_NPZ, lambda f: np.savez_compressed(
-        f, allowed=db.allowed, cost=db.cost, cost_branch=db.cost_branch))
-    text = json.dumps(meta, indent=1, sort_keys=True)
-    _atomic(out_dir / DB_JSON, lambda f: f.write(text.encode("utf-8")))
-
-
-def _atomic(path: Path, write) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            write(f)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(out_dir / DB_NPZ) as tmp, open(tmp, "wb") as f:
+        np.savez_compressed(f, allowed=db.allowed, cost=db.cost, cost_branch=db.cost_branch)
+    write_text(out_dir / DB_JSON, json.dumps(meta, indent=1, sort_keys=True))
 
 
 def load_db(out_dir: str | Path) -> PartDB:
@@ -224,10 +225,13 @@ def load_db(out_dir: str | Path) -> PartDB:
                 for k in ("sec_in", "sec_out", "sec_branch")}
         parts.append(Part(d["id"], d["cls"], d["style"], d["file"], d["attributes"],
                           d["legs"], d["legs_measured"], d["directions"], d["scale"],
-                          d["height"], d["floor_area"], d["angle"], d["convex"], **secs))
+                          d["origin"], d["height"], d["floor_area"], d["angle"],
+                          d["convex"], **secs))
     return PartDB(meta["name"], meta["library_hash"], meta["quantum"], parts,
                   arrays["allowed"], arrays["cost"], arrays["cost_branch"],
-                  meta["warnings"], out_dir, True)
+                  meta["warnings"], out_dir, True,
+                  Path(meta["library_root"]) if meta.get("library_root") else None,
+                  meta.get("meters_per_unit", 1.0))
 
 
 def _read_cached(out_dir: Path, digest: str) -> PartDB | None:

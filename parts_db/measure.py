@@ -7,6 +7,9 @@ edge: a corner's incoming leg along -X and its outgoing leg along the direction 
 skeleton turns to (left by 180 - angle for a convex corner, right for a concave one);
 a T part's legs along -X, +X and +Y. A leg's length is how far the part reaches
 along its direction. Sections are taken 5 mm inside each end.
+A straight part starts where its mesh starts along X and a stacked part where it starts
+along Z (``Measured.origin``); placing parts subtracts that, so a library need not put
+every mesh at x = 0. Key-point parts are placed by their origin, the key point.
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ class Measured:
     sec_in: BaseGeometry
     sec_out: BaseGeometry
     sec_branch: BaseGeometry | None = None   # T parts: across the branch leg
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)  # where the part starts (see below)
 
 
 def leg_directions(spec: PartSpec) -> list[tuple[float, float]]:
@@ -76,13 +80,15 @@ def measure(mesh, spec: PartSpec, where: str) -> Measured:
         sec_in = plane_section(mesh, [0, 0, lo[2] + EPS], [0, 0, 1], *xy, labels)
         sec_out = plane_section(mesh, [0, 0, hi[2] - EPS], [0, 0, 1], *xy, labels)
         mid = plane_section(mesh, [0, 0, (lo[2] + hi[2]) / 2], [0, 0, 1], *xy, labels)
-        m = Measured([height], [], height, float(mid.area), sec_in, sec_out)
+        m = Measured([height], [], height, float(mid.area), sec_in, sec_out,
+                     origin=(0.0, 0.0, float(lo[2])))
     elif spec.cls in STRAIGHT:
         length = float(hi[0] - lo[0])
         d = (1.0, 0.0)
         sec_in = _facade_section(mesh, d, lo[0] + EPS, True, labels)
         sec_out = _facade_section(mesh, d, hi[0] - EPS, True, labels)
-        m = Measured([length], [d], height, None, sec_in, sec_out)
+        m = Measured([length], [d], height, None, sec_in, sec_out,
+                     origin=(float(lo[0]), 0.0, 0.0))
     else:
         dirs = leg_directions(spec)
         legs = [float(max((v[:, :2] @ np.array(d)).max(), 0.0)) for d in dirs]

@@ -1,25 +1,44 @@
-"""``citysynth demo``: the embedded demo, runnable with no user data.
+"""``citysynth demo [-o DIR]``: the embedded demo, runnable with no user data.
 
-For now it fills an 83.4 m street front with complete buildings from the sample
-street problem (:mod:`pipeline.samples`) and prints the three best layouts with a
-to-scale strip of each. Later stages extend it to USD output.
+Three steps, each a real use of the tool on files shipped in ``examples/``:
+
+1. the solver alone: an 83.4 m street front filled exactly with complete buildings,
+   the three best layouts printed as to-scale strips;
+2. a T-shaped building (``examples/skeletons/t_building.geojson``) in the classic style
+   and a city block with a cut corner and a notch (``examples/blocks/block.geojson``)
+   in the modern style, with the sample part library: layout JSON, USD, GLB and a PNG
+   preview each;
+3. ``city.usda``, a stage referencing both layers side by side, checked with every
+   UsdValidation validator.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from export.errors import ExportError
+from export.usd import validate, write_city
+from parts_db import load_library
+from skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
 from solver import Problem, solve
 
+from .build import solve_layouts, summary_line, write_outputs
 from .report import format_result
 from .samples import street_front
 
 DEMO_LENGTH_M = 83.4
 DEMO_K = 3
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+BLOCK_OFFSET = (0.0, 80.0)   # the block north of the building in city.usda
 
 
 def register(sub) -> None:
     p = sub.add_parser("demo", help="run the embedded demo (no user data needed)",
-                       description="Solve the sample 83.4 m street front and print the "
-                                   "three best layouts.")
+                       description="Solve the sample street front, then build the sample "
+                                   "T-shaped building and city block with the sample library "
+                                   "and write USD, GLB, PNG and layout JSON to DIR.")
+    p.add_argument("-o", "--out", default="out", metavar="DIR",
+                   help="output folder (default: out/)")
     p.set_defaults(run=run)
 
 
@@ -33,14 +52,42 @@ def strip(sequence: list[str], widths: dict[str, float], scale: float = 1.0) -> 
     return "|" + "|".join(cells) + "|"
 
 
-def run(args) -> int:
+def street_front_step() -> int:
     problem = Problem.from_dict(street_front(DEMO_LENGTH_M, k=DEMO_K))
     result = solve(problem)
-    print(f"citysynth demo: a {DEMO_LENGTH_M} m street front from "
-          f"{len(problem.elements)} complete buildings (4-20 m, 0.2 m grid)\n")
+    print(f"1. a {DEMO_LENGTH_M} m street front from {len(problem.elements)} complete "
+          "buildings (4-20 m, 0.2 m grid)\n")
     print(format_result(result))
     widths = {e.id: e.resources["length"] for e in problem.elements}
     print("\nto scale (1 character = 1 m, widths in m):")
     for i, sol in enumerate(result.solutions, 1):
         print(f"#{i} {strip(sol.sequence, widths)}")
     return 0 if result.status == "ok" else 1
+
+
+def run(args) -> int:
+    status = street_front_step()
+    out = Path(args.out)
+    db = load_library(EXAMPLES / "library")
+    feats, frame = read_geojson(EXAMPLES / "skeletons" / "t_building.geojson")
+    building = solve_layouts("t_building", [skeleton_from_lines(feats, frame, "t_building")],
+                             db, "classic", k=DEMO_K)
+    feats, frame = read_geojson(EXAMPLES / "blocks" / "block.geojson")
+    block = solve_layouts("block", skeletons_from_polygons(feats, frame), db, "modern", k=1)
+    print(f"\n2. a T-shaped building (classic, k={DEMO_K}) and a city block (modern) from "
+          f"the sample library ({len(db.parts)} parts), to {out}/")
+    for built in (building, block):
+        if built.status != "ok":
+            raise ExportError(f"demo: {built.name} is infeasible: {built.reason}")
+        paths = write_outputs(built, db, out)
+        print(f"{built.name}: wrote {len(paths)} files")
+        for lay in built.layouts:
+            print("  " + summary_line(lay))
+    city = write_city(out / "city.usda", [("t_building", "t_building_1.usda"),
+                                          ("block", "block.usda", BLOCK_OFFSET)])
+    errors = validate(city)
+    print(f"\n3. {city}: the building and the block side by side; UsdValidation: "
+          f"{'clean' if not errors else f'{len(errors)} errors'}")
+    for e in errors:
+        print(f"  {e}")
+    return 1 if errors else status

@@ -8,6 +8,13 @@ must be filled to its skeleton length within half a quantum (the export's unifor
 stretch absorbs the rest) and meets the edge's own constraints on part attributes.
 Fillers are the style's middle parts; transition costs are the database's.
 
+Stages are oriented so facades face the right of travel wherever the skeleton allows
+(the canonical frame's facade faces -Y, to the right of +X): a cycle is walked in that
+direction, and a tree is rooted at the end that puts most stages so. A stage whose
+front is still on its left is mirrored by the export. :class:`StructurePlan` keeps
+what the export needs to put the solution back on the ground: each structure key point's
+skeleton key point and each stage's polyline and front.
+
 Key parts contribute their legs' lengths to the stages they touch; their attributes
 (windows, doors) are not split between legs and so do not count toward per-edge
 attribute constraints (only the middle parts' do).
@@ -16,6 +23,7 @@ attribute constraints (only the middle parts' do).
 from __future__ import annotations
 
 from collections import defaultdict
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,9 +32,39 @@ from skeletons import Skeleton, match_corner_angles
 from skeletons.errors import SkeletonError
 
 
-def _stages(sk: Skeleton):
-    """Merge edges through bends: returns key point ids and stages as (a, b, length,
-    constraints, edges)."""
+@dataclass(frozen=True)
+class StagePath:
+    """Where a stage lies: its polyline from its start key point to its end key point
+    (through any bends) and the side its facades face, seen along that direction."""
+
+    points: tuple[tuple[float, float], ...]
+    front: str                     # "left" or "right" of travel
+    edges: tuple[int, ...]         # skeleton edge indices, in travel order
+
+
+@dataclass(frozen=True)
+class StructurePlan:
+    """A skeleton made into a structure: the solver's input and the way back."""
+
+    skeleton: Skeleton
+    style: str
+    structure: dict                # see ``solver.structure.Structure.from_dict``
+    keys: tuple[int, ...]          # skeleton key point of each structure key point
+    stages: tuple[StagePath, ...]  # one per structure stage, in the same order
+
+
+@dataclass(frozen=True)
+class _Chain:
+    a: int                         # key points at its two ends, as found
+    b: int
+    length: float
+    constraints: dict
+    edges: tuple[int, ...]
+    vertices: tuple[int, ...]      # a ... b through bends
+
+
+def _chains(sk: Skeleton) -> tuple[list[int], list[_Chain]]:
+    """Merge edges through bends: the key point ids and the chains between them."""
     kind = {k.id: k.kind for k in sk.keypoints}
     adj = defaultdict(list)
     for i, e in enumerate(sk.edges):
@@ -36,71 +74,106 @@ def _stages(sk: Skeleton):
     if not keys:
         raise SkeletonError(f"{sk.name}: no corner, end or T junction to anchor parts at")
     used: set[int] = set()
-    stages = []
+    chains = []
     for start in keys:
         for i, nxt in adj[start]:
             if i in used:
                 continue
-            chain, length, cons, v = [i], sk.edges[i].length, dict(sk.edges[i].constraints), nxt
+            edges, verts, v = [i], [start, nxt], nxt
+            length, cons = sk.edges[i].length, dict(sk.edges[i].constraints)
             used.add(i)
-            prev_edge = i
             while kind[v] == "bend":
-                j, w = next((j, w) for j, w in adj[v] if j != prev_edge)
+                j, w = next((j, w) for j, w in adj[v] if j != edges[-1])
                 used.add(j)
-                chain.append(j)
+                edges.append(j)
+                verts.append(w)
                 length += sk.edges[j].length
                 cons.update(sk.edges[j].constraints)
-                prev_edge, v = j, w
-            stages.append((start, v, length, cons, chain))
-    return keys, stages
+                v = w
+            chains.append(_Chain(start, v, length, cons, tuple(edges), tuple(verts)))
+    return keys, chains
+
+
+def _front_along(sk: Skeleton, chain: _Chain, forward: bool) -> str:
+    """The side the chain's facades face when it is walked a -> b (forward) or back."""
+    e = sk.edges[chain.edges[0]]
+    side = e.front if e.a == chain.vertices[0] else _flip(e.front)
+    return side if forward else _flip(side)
+
+
+def _flip(side: str) -> str:
+    return "left" if side == "right" else "right"
+
+
+def _orient(sk: Skeleton, keys: list[int], chains: list[_Chain]) -> tuple[int, dict]:
+    """Root key index and each chain's direction as (from, to) key indices: stages point
+    away from the root (trees) or around the cycle through it, facades to the right of
+    travel wherever the shape allows."""
+    index = {v: j for j, v in enumerate(keys)}
+    adj = defaultdict(list)
+    for s, c in enumerate(chains):
+        adj[index[c.a]].append((s, index[c.b]))
+        adj[index[c.b]].append((s, index[c.a]))
+    cyclic = len(chains) == len(keys)
+    on_cycle = [_on_cycle(s, adj, chains, index) for s in range(len(chains))] if cyclic \
+        else [False] * len(chains)
+    if cyclic:
+        roots = [next(j for j in range(len(keys)) if any(on_cycle[s] for s, _w in adj[j]))]
+    else:
+        ends = [index[k.id] for k in sk.keypoints if k.kind == "end"]
+        roots = ends or [0]
+
+    def walk(root: int) -> dict[int, tuple[int, int]]:
+        oriented: dict[int, tuple[int, int]] = {}
+        if cyclic:  # around the cycle first, in the direction its facades face right
+            s0, w0 = next((s, w) for s, w in adj[root] if on_cycle[s])
+            fwd = index[chains[s0].a] == root
+            if _front_along(sk, chains[s0], fwd) != "right":
+                s0, w0 = next((s, w) for s, w in adj[root] if on_cycle[s] and s != s0)
+            prev, v, s, w = None, root, s0, w0
+            while True:
+                oriented[s] = (v, w)
+                prev, v = s, w
+                if v == root:
+                    break
+                s, w = next((s, w) for s, w in adj[v] if s != prev and on_cycle[s])
+        todo = [root] + [w for _v, w in oriented.values()]
+        seen = set(todo)
+        while todo:  # then every other stage points away from what is reached
+            v = todo.pop()
+            for s, w in adj[v]:
+                if s not in oriented and w not in seen:
+                    oriented[s] = (v, w)
+                    seen.add(w)
+                    todo.append(w)
+        return oriented
+
+    def facing_right(oriented) -> int:
+        return sum(_front_along(sk, chains[s], index[chains[s].a] == a) == "right"
+                   for s, (a, _b) in oriented.items())
+
+    best = max(roots, key=lambda r: (facing_right(walk(r)), -roots.index(r)))
+    oriented = walk(best)
+    if len(oriented) != len(chains):
+        raise SkeletonError(f"{sk.name}: more than one cycle; split it into a cycle and "
+                            "trees, or into several buildings")
+    return best, oriented
 
 
 def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
-                       angle_tol: float = 7.5) -> dict:
-    """The structure dict (see ``solver.structure.Structure.from_dict``) for ``sk``."""
-    keys, stages = _stages(sk)
-    kp_of = {k.id: k for k in sk.keypoints}
-    corners = [p for p in db.select("corner", style)]
+                       angle_tol: float = 7.5) -> StructurePlan:
+    """The structure for ``sk`` built from ``db``'s parts of ``style``, with the way
+    back to the skeleton."""
+    keys, chains = _chains(sk)
+    kp_of = {kp.id: kp for kp in sk.keypoints}
+    corners = db.select("corner", style)
     chosen = match_corner_angles(sk, [(p.angle, p.convex) for p in corners], angle_tol)
-    index = {v: j for j, v in enumerate(keys)}
-    adj = defaultdict(list)
-    for s, (a, b, *_rest) in enumerate(stages):
-        adj[index[a]].append((s, index[b]))
-        adj[index[b]].append((s, index[a]))
-    cyclic = len(stages) == len(keys)
-    if cyclic:  # the structure's key point 0 must lie on the cycle
-        root = next(j for j in range(len(keys))
-                    if any(_on_cycle(s, adj, stages, index) for s, _w in adj[j]))
-    else:
-        root = next((index[v] for v in keys if kp_of[v].kind == "end"), 0)
-    oriented: dict[int, tuple[int, int]] = {}
-    if cyclic:  # walk the cycle from the root first
-        prev, v = None, root
-        while True:
-            s, w = next((s, w) for s, w in adj[v] if s != prev and s not in oriented
-                        and _on_cycle(s, adj, stages, index))
-            oriented[s] = (v, w)
-            prev, v = s, w
-            if v == root:
-                break
-    todo = [root] + [w for _v, w in oriented.values()]
-    seen = set(todo)
-    while todo:  # then every other stage points away from what is reached
-        v = todo.pop()
-        for s, w in adj[v]:
-            if s not in oriented and w not in seen:
-                oriented[s] = (v, w)
-                seen.add(w)
-                todo.append(w)
-    if len(oriented) != len(stages):
-        raise SkeletonError(f"{sk.name}: more than one cycle; split it into a cycle and "
-                            "trees, or into several buildings")
+    root, oriented = _orient(sk, keys, chains)
     # renumber so the root is key point 0
     order = [root] + [j for j in range(len(keys)) if j != root]
     renum = {j: i for i, j in enumerate(order)}
     keys = [keys[j] for j in order]
     oriented = {s: (renum[a], renum[b]) for s, (a, b) in oriented.items()}
-
     fillers = db.select("middle", style)
     if not fillers:
         raise SkeletonError(f"the library has no middle parts of style {style!r}")
@@ -122,18 +195,24 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                                 f"{kp.xy[1]:.1f})")
         entry = {"elements": [p.id for p in opts]}
         if kp.kind == "t_junction":
-            branch_edge = kp.branch
-            entry["branch"] = next(s for s, st in enumerate(stages) if branch_edge in st[4])
+            entry["branch"] = next(s for s, c in enumerate(chains) if kp.branch in c.edges)
         keypoints.append(entry)
         for p in opts:
             key_parts[p.id] = p
 
     q = db.quantum
     stage_dicts = []
-    for s, (_a, _b, length, cons, _chain) in enumerate(stages):
+    paths = []
+    for s, chain in enumerate(chains):
         lo, hi = oriented[s]
+        forward = chain.a == keys[lo]
+        verts = chain.vertices if forward else chain.vertices[::-1]
+        paths.append(StagePath(tuple(kp_of[v].xy for v in verts),
+                               _front_along(sk, chain, forward),
+                               chain.edges if forward else chain.edges[::-1]))
+        length = chain.length
         c = {"length": [round(length - q / 2, 6), round(length + q / 2, 6)]}
-        for name, iv in cons.items():
+        for name, iv in chain.constraints.items():
             if name not in attrs:
                 raise SkeletonError(f"{sk.name}: edge constraint on {name!r}, which no "
                                     f"{style} middle part has (they have {attrs})")
@@ -158,14 +237,15 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                 trans.append([x, y, float(db.cost[i, j])])
             if np.isfinite(db.cost_branch[i, j]):
                 btrans.append([x, y, float(db.cost_branch[i, j])])
-    return {"resources": ["length", *attrs], "quantum": {"length": q},
-            "elements": elements, "transitions": trans, "branch_transitions": btrans,
-            "keypoints": keypoints, "stages": stage_dicts, "k": k}
+    structure = {"resources": ["length", *attrs], "quantum": {"length": q},
+                 "elements": elements, "transitions": trans, "branch_transitions": btrans,
+                 "keypoints": keypoints, "stages": stage_dicts, "k": k}
+    return StructurePlan(sk, style, structure, tuple(keys), tuple(paths))
 
 
-def _on_cycle(s, adj, stages, index) -> bool:
-    """Whether stage s lies on the (single) cycle: removing it keeps its ends joined."""
-    a, b = index[stages[s][0]], index[stages[s][1]]
+def _on_cycle(s, adj, chains, index) -> bool:
+    """Whether chain s lies on the (single) cycle: removing it keeps its ends joined."""
+    a, b = index[chains[s].a], index[chains[s].b]
     seen, todo = {a}, [a]
     while todo:
         v = todo.pop()

@@ -15,10 +15,11 @@ from .build import (
     skeletons_from_polygons,
 )
 from .errors import SkeletonError
-from .geojson import Feature, Frame, parse_geojson, read_geojson
+from .geojson import Feature, Frame, lonlat_from_local, parse_geojson, read_geojson
 from .model import Edge, KeyPoint, Skeleton
 
 __all__ = ["Edge", "Feature", "Frame", "KeyPoint", "Skeleton", "SkeletonError",
-           "blocks_from_streets", "describe", "match_corner_angles", "parse_geojson",
+           "blocks_from_streets", "describe", "lonlat_from_local", "match_corner_angles",
+           "parse_geojson",
            "read_geojson",
            "skeleton_from_lines", "skeletons_from_polygons"]

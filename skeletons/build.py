@@ -122,14 +122,16 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
                 if a == b or length < SNAP:
                     raise SkeletonError(f"{f.name}: a zero-length edge at "
                                         f"({p[0]:.2f}, {p[1]:.2f}); remove the repeated point")
-                if length < min_edge:
-                    raise SkeletonError(
-                        f"{f.name}: edge of {length:.2f} m at ({p[0]:.2f}, {p[1]:.2f}) is "
-                        f"shorter than the smallest part ({min_edge:.2f} m)")
                 edges.append(Edge(a, b, length, front, cons, f.name))
     if not edges:
         raise SkeletonError("no skeleton edges in the input")
     edges = _split_at_touching_ends(edges, xy)
+    for e in edges:  # after splitting: a wing drawn to a line can cut it short
+        if e.length < min_edge:
+            p = xy[e.a]
+            raise SkeletonError(
+                f"{e.source}: edge of {e.length:.2f} m at ({p[0]:.2f}, {p[1]:.2f}) is "
+                f"shorter than the smallest part ({min_edge:.2f} m)")
     _check_crossings(edges, xy)
     g = nx.Graph()
     g.add_nodes_from(xy)

@@ -124,3 +124,16 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None
 def angle_between(u: np.ndarray, v: np.ndarray) -> float:
     """Signed turn from direction u to direction v in degrees (left turns positive)."""
     return math.degrees(math.atan2(u[0] * v[1] - u[1] * v[0], u[0] * v[0] + u[1] * v[1]))
+
+
+def lonlat_from_local(points, origin: tuple[float, float]) -> list[list[float]]:
+    """Local metric points (x east, y north, metres) around ``origin`` (lon, lat) ->
+    lon/lat, through the same transverse Mercator the reader uses; for writing example
+    and test input in metres. Rounded to 1e-9 degrees (0.1 mm)."""
+    local = pyproj.CRS.from_proj4(
+        f"+proj=tmerc +lat_0={origin[1]} +lon_0={origin[0]} +k=1 +x_0=0 +y_0=0 "
+        "+ellps=WGS84 +units=m +no_defs")
+    tf = pyproj.Transformer.from_crs(local, "EPSG:4326", always_xy=True)
+    xy = np.asarray(points, dtype=float)
+    lon, lat = tf.transform(xy[:, 0], xy[:, 1])
+    return [[round(float(a), 9), round(float(b), 9)] for a, b in zip(lon, lat, strict=True)]

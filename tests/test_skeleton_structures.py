@@ -33,7 +33,7 @@ def block(w, h):
 
 def test_block_cycle_from_a_footprint(db):
     sk = block(90, 70)
-    d = skeleton_structure(sk, db, "classic", k=3)
+    d = skeleton_structure(sk, db, "classic", k=3).structure
     r = solve_structure(Structure.from_dict(d))
     assert r.status == "ok" and len(r.solutions) == 3
     edge = sorted(e.length for e in sk.edges)
@@ -47,7 +47,7 @@ def test_t_shaped_building(db):
     feats, frame = parse_geojson(fc(feat("LineString", metres([(0, 0), (80, 0)])),
                                     feat("LineString", metres([(40, 0), (40, 50)]))))
     sk = skeleton_from_lines(feats, frame)
-    d = skeleton_structure(sk, db, "modern", k=2)
+    d = skeleton_structure(sk, db, "modern", k=2).structure
     r = solve_structure(Structure.from_dict(d))
     assert r.status == "ok"
     best = r.solutions[0]
@@ -57,8 +57,8 @@ def test_t_shaped_building(db):
 
 
 def test_infeasible_block_names_the_stage(db):
-    r = solve_structure(Structure.from_dict(skeleton_structure(block(100, 64), db,
-                                                               "classic")))
+    plan = skeleton_structure(block(100, 64), db, "classic")
+    r = solve_structure(Structure.from_dict(plan.structure))
     assert r.status == "infeasible"
     assert "stage" in r.reason and "nearest achievable" in r.reason
 

@@ -149,6 +149,8 @@ def test_streets_polygonise_into_inset_blocks():
     ([feat("Point", [LON, LAT])], "lines", "LineStrings"),
     ([feat("LineString", metres([(0, 0), (30, 0)]), constraints={"doors": [3, 1]})], "lines",
      "constraint doors"),
+    ([feat("LineString", metres([(0, 0), (30, 0)])),    # the wing cuts off a 1 m stub
+      feat("LineString", metres([(29, 0), (29, 20)]))], "lines", "shorter than the smallest"),
 ])
 def test_bad_geometry_is_one_message(features, kind, fragment):
     feats, frame = parse_geojson(fc(*features))
@@ -179,10 +181,10 @@ def test_skeleton_cli(capsys, tmp_path):
     examples = Path(__file__).resolve().parent.parent / "examples" / "skeletons"
     assert main(["skeleton", str(examples / "t_building.geojson")]) == 0
     out = capsys.readouterr().out
-    assert "tree, 4 edges, 80.0 m" in out and "1 t_junction" in out
+    assert "tree, 4 edges, 135.4 m" in out and "1 t_junction" in out
     assert main(["skeleton", str(examples / "footprint_courtyard.geojson"), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
-    assert [len(s["edges"]) for s in d["skeletons"]] == [6, 4]
+    assert [len(s["edges"]) for s in d["skeletons"]] == [4, 4]
     bad = tmp_path / "bad.geojson"
     bad.write_text(json.dumps(fc(feat("LineString", metres([(0, 0), (30, 0)])),
                                  feat("LineString", metres([(15, -10), (15, 10)])))))

@@ -1,0 +1,62 @@
+"""Layouts as world-space triangle meshes: what the glTF baker, the previews and the
+bounds checks need (USD and glTF keep instances; this module flattens them)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+import trimesh
+
+from parts_db import PartDB
+from parts_db.geometry import Piece, part_pieces
+
+from .layout import Instance, Layout
+
+
+def instances_with_pieces(lay: Layout, db: PartDB) -> Iterator[tuple[Instance, tuple[Piece, ...]]]:
+    parts = {p.id: p for p in db.parts}
+    for inst in lay.instances:
+        yield inst, part_pieces(db, parts[inst.part])
+
+
+def place(piece: Piece, inst: Instance, offset=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """The piece's vertices and faces in the layout frame (winding flipped for a
+    mirrored instance, so normals still point out)."""
+    m = inst.matrix()
+    v = piece.vertices @ m[:3, :3].T + m[:3, 3] + np.asarray(offset)
+    f = piece.faces[:, ::-1] if inst.mirrored else piece.faces
+    return v, f
+
+
+def world_mesh(lay: Layout, db: PartDB, offset=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
+    """The whole layout as one coloured mesh (per-face RGBA), e.g. for a preview."""
+    verts, faces, colours, n = [], [], [], 0
+    for inst, pieces in instances_with_pieces(lay, db):
+        for piece in pieces:
+            v, f = place(piece, inst, offset)
+            verts.append(v)
+            faces.append(f + n)
+            colours.append(np.tile(np.array(piece.rgba, dtype=np.uint8), (len(f), 1)))
+            n += len(v)
+    if not verts:
+        return trimesh.Trimesh()
+    mesh = trimesh.Trimesh(np.vstack(verts), np.vstack(faces), process=False)
+    mesh.visual.face_colors = np.vstack(colours)
+    return mesh
+
+
+def bounds(lay: Layout, db: PartDB) -> np.ndarray:
+    """[[xmin, ymin, zmin], [xmax, ymax, zmax]] of every placed vertex."""
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    for inst, pieces in instances_with_pieces(lay, db):
+        for piece in pieces:
+            v, _f = place(piece, inst)
+            lo = np.minimum(lo, v.min(axis=0))
+            hi = np.maximum(hi, v.max(axis=0))
+    return np.array([lo, hi])
+
+
+def triangle_count(lay: Layout, db: PartDB) -> int:
+    return sum(len(p.faces) for _i, pieces in instances_with_pieces(lay, db) for p in pieces)

@@ -1,0 +1,113 @@
+"""Skeletons + a part library -> checked layouts -> files: the one path every command
+that makes geometry takes (``building``, ``block``, ``demo``, and the city run).
+
+:func:`solve_layouts` turns the skeletons of one building or block into its k best
+layouts (each skeleton is solved on its own; a block's courtyard ring does not
+constrain its outer ring, so the i-th layout combines every ring's i-th solution, or
+its last when it has fewer). :func:`write_outputs` writes, for each layout, the layout
+JSON, the USD layer, the GLB and the PNG preview, every file atomically, and the
+shared part prototypes once.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from export.gltf import write_glb
+from export.layout import Layout
+from export.place import layout, max_stretch
+from export.preview import render_layout
+from export.usd import write_layout
+from parts_db import PartDB
+from parts_db.files import write_text
+from skeletons import Skeleton, SkeletonError
+from solver.structure import Structure, solve_structure
+
+from .structures import skeleton_structure
+
+FORMATS = ("json", "usd", "glb", "png")
+
+
+@dataclass
+class Built:
+    """The outcome for one building or block."""
+
+    name: str
+    status: str                         # "ok" or "infeasible"
+    layouts: list[Layout] = field(default_factory=list)
+    reason: str | None = None
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def default_style(db: PartDB) -> str:
+    styles = sorted({p.style for p in db.select("middle")})
+    if not styles:
+        raise SkeletonError(f"the library {db.name!r} has no middle parts to fill facades")
+    return styles[0]
+
+
+def check_style(db: PartDB, style: str) -> None:
+    styles = sorted({p.style for p in db.select("middle")})
+    if style not in styles:
+        raise SkeletonError(f"the library {db.name!r} has no style {style!r}; it has "
+                            f"{', '.join(styles)}")
+
+
+def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
+                  k: int = 1) -> Built:
+    """The k best layouts of one building or block (checked; see module docstring)."""
+    check_style(db, style)
+    t0 = time.perf_counter()
+    plans = [skeleton_structure(sk, db, style, k=k) for sk in skeletons]
+    t1 = time.perf_counter()
+    results = [solve_structure(Structure.from_dict(p.structure, sk.name), k)
+               for p, sk in zip(plans, skeletons, strict=True)]
+    t2 = time.perf_counter()
+    timings = {"structure_s": t1 - t0, "solve_s": t2 - t1}
+    for sk, r in zip(skeletons, results, strict=True):
+        if r.status != "ok":
+            return Built(name, "infeasible", reason=f"{sk.name}: {r.reason}", timings=timings)
+    count = max(len(r.solutions) for r in results)
+    layouts = [layout(name, i + 1, plans,
+                      [r.solutions[min(i, len(r.solutions) - 1)] for r in results], db)
+               for i in range(count)]
+    timings["layout_s"] = time.perf_counter() - t2
+    return Built(name, "ok", layouts, timings=timings)
+
+
+def output_stem(lay: Layout, k: int) -> str:
+    """``name`` for a single result, ``name_<rank>`` when there are several."""
+    return lay.name if k == 1 else f"{lay.name}_{lay.rank}"
+
+
+def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
+                  formats=FORMATS, k: int | None = None) -> list[Path]:
+    """Write each layout of ``built`` in ``formats`` to ``out_dir``; the file paths."""
+    out = Path(out_dir)
+    k = len(built.layouts) if k is None else k
+    paths = []
+    for lay in built.layouts:
+        stem = output_stem(lay, k)
+        t = time.perf_counter()
+        if "json" in formats:
+            paths.append(write_text(out / f"{stem}.layout.json", lay.to_json()))
+        if "usd" in formats:
+            paths.append(write_layout(lay, db, out / f"{stem}.usda"))
+        if "glb" in formats:
+            paths.append(write_glb(lay, db, out / f"{stem}.glb"))
+        t_png = time.perf_counter()
+        if "png" in formats:
+            title = (f"{lay.name}  #{lay.rank}  cost {lay.cost:g}  "
+                     f"{len(lay.instances)} parts")
+            paths.append(render_layout(lay, db, out / f"{stem}.png", title=title))
+        built.timings["export_s"] = built.timings.get("export_s", 0.0) + t_png - t
+        built.timings["preview_s"] = built.timings.get("preview_s", 0.0) + \
+            time.perf_counter() - t_png
+    return paths
+
+
+def summary_line(lay: Layout) -> str:
+    return (f"#{lay.rank}  cost {round(lay.cost, 6):g}  {len(lay.instances)} parts "
+            f"({len(lay.parts_used())} distinct)  stretch ≤ {100 * max_stretch(lay):.2f} %")

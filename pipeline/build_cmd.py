@@ -1,0 +1,116 @@
+"""``citysynth building`` and ``citysynth block``: one GeoJSON in, for each of the k
+best layouts its layout JSON, USD layer, GLB and PNG preview out.
+
+``building`` reads building skeleton lines (one skeleton per file); ``block`` reads
+block (or footprint) polygons, one block per Polygon feature, its holes as courtyard
+cycles. Both exit 0 when every building or block got a layout, 1 when one is
+infeasible (the reason on stderr; the others are still written), 2 on bad input.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from pathlib import Path
+
+from parts_db import load_library
+from skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
+from skeletons.errors import SkeletonError
+
+from .build import Built, default_style, solve_layouts, summary_line, write_outputs
+
+
+def _common(p) -> None:
+    p.add_argument("--library", required=True, metavar="DIR",
+                   help="part library folder (or a database written by citysynth ingest)")
+    p.add_argument("--style", default=None,
+                   help="facade style of the library to build with (default: the first)")
+    p.add_argument("--k", type=int, default=1, help="number of layouts to write (default 1)")
+    p.add_argument("--crs", default=None, help="CRS of projected input, e.g. EPSG:25832")
+    p.add_argument("-o", "--out", default="out", metavar="DIR",
+                   help="output folder (default: out/)")
+    p.add_argument("--no-preview", action="store_true", help="skip the PNG previews")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("building", help="lay out one building from skeleton lines",
+                       description="Solve a building skeleton (GeoJSON LineStrings meeting at "
+                                   "shared ends) with a part library and write layout JSON, "
+                                   "USD, GLB and a PNG preview for each of the k best layouts.")
+    p.add_argument("file", help="GeoJSON FeatureCollection of LineStrings")
+    _common(p)
+    p.set_defaults(run=run_building)
+    p = sub.add_parser("block", help="lay out blocks from polygons",
+                       description="Wrap facades around each block (or footprint) polygon of "
+                                   "a GeoJSON file, courtyards included, and write layout "
+                                   "JSON, USD, GLB and a PNG preview for each of the k best.")
+    p.add_argument("file", help="GeoJSON FeatureCollection of Polygons")
+    _common(p)
+    p.set_defaults(run=run_block)
+
+
+def safe_name(text: str) -> str:
+    """A file-name-safe version of a feature or file name."""
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_.") or "layout"
+
+
+def _prepare(args):
+    if args.k < 1:
+        raise SkeletonError(f"--k must be a positive integer, got {args.k}")
+    db = load_library(args.library)
+    style = args.style or default_style(db)
+    feats, frame = read_geojson(args.file, crs=args.crs)
+    return db, style, feats, frame
+
+
+def _finish(args, db, built_all: list[Built]) -> int:
+    """Write every layout (after all were solved and checked: a bad one writes
+    nothing), report, and choose the exit code."""
+    formats = ("json", "usd", "glb") if args.no_preview else ("json", "usd", "glb", "png")
+    status = 0
+    for built in built_all:
+        if built.status != "ok":
+            print(f"citysynth {args.command}: {built.name}: infeasible: {built.reason}",
+                  file=sys.stderr)
+            status = 1
+    for built in built_all:
+        if built.status != "ok":
+            continue
+        paths = write_outputs(built, db, args.out, formats=formats, k=args.k)
+        print(f"{built.name}: {len(built.layouts)} layout(s)")
+        for lay in built.layouts:
+            print("  " + summary_line(lay))
+        print(f"  wrote {len(paths)} files to {Path(args.out)}/ "
+              f"(solve {1e3 * built.timings['solve_s']:.0f} ms, "
+              f"export {1e3 * built.timings.get('export_s', 0):.0f} ms, "
+              f"preview {1e3 * built.timings.get('preview_s', 0):.0f} ms)")
+    return status
+
+
+def run_building(args) -> int:
+    db, style, feats, frame = _prepare(args)
+    name = safe_name(Path(args.file).stem)
+    sk = skeleton_from_lines(feats, frame, name=name, min_edge=_smallest(db, style))
+    return _finish(args, db, [solve_layouts(name, [sk], db, style, args.k)])
+
+
+def run_block(args) -> int:
+    db, style, feats, frame = _prepare(args)
+    stem = safe_name(Path(args.file).stem)
+    built = []
+    for f in feats:
+        fid = f.properties.get("id", f.properties.get("name"))
+        name = safe_name(str(fid)) if fid is not None else \
+            (stem if len(feats) == 1 else f"{stem}_{f.index}")
+        rings = skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
+        built.append(solve_layouts(name, rings, db, style, args.k))
+    if len({b.name for b in built}) != len(built):
+        raise SkeletonError(f"{args.file}: two blocks share a name (their \"id\"); give each "
+                            "feature a distinct id")
+    return _finish(args, db, built)
+
+
+def _smallest(db, style: str) -> float:
+    """Edges shorter than the style's smallest middle part cannot hold a facade."""
+    lengths = [p.length for p in db.select("middle", style)]
+    return min(lengths) if lengths else 0.0
