@@ -152,12 +152,24 @@ def _orient(sk: Skeleton, keys: list[int], chains: list[_Chain]) -> tuple[int, d
         return sum(_front_along(sk, chains[s], index[chains[s].a] == a) == "right"
                    for s, (a, _b) in oriented.items())
 
-    best = max(roots, key=lambda r: (facing_right(walk(r)), -roots.index(r)))
-    oriented = walk(best)
-    if len(oriented) != len(chains):
+    branch_of = {index[k.id]: next(s for s, c in enumerate(chains) if k.branch in c.edges)
+                 for k in sk.keypoints if k.kind == "t_junction"}
+
+    def branches_leave(oriented) -> bool:  # a T's branch stage must start at the T
+        return all(oriented[s][0] == t for t, s in branch_of.items())
+
+    walks = {r: walk(r) for r in roots}
+    if any(len(o) != len(chains) for o in walks.values()):
         raise SkeletonError(f"{sk.name}: more than one cycle; split it into a cycle and "
                             "trees, or into several buildings")
-    return best, oriented
+    valid = [r for r in roots if branches_leave(walks[r])]
+    if not valid:
+        xy = {k.id: k.xy for k in sk.keypoints}
+        ts = ", ".join(f"({xy[keys[t]][0]:.1f}, {xy[keys[t]][1]:.1f})" for t in branch_of)
+        raise SkeletonError(f"{sk.name}: its T junctions at {ts} branch into each other, so "
+                            "no end can start the building; make one of them a corner")
+    best = max(valid, key=lambda r: (facing_right(walks[r]), -valid.index(r)))
+    return best, walks[best]
 
 
 def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
