@@ -24,6 +24,8 @@ test: lint
 
 bench: $(STAMP)
 	$(BIN)/python -m bench.street
+	$(BIN)/python -m bench.structures
+	$(BIN)/python -m bench.export
 
 examples: $(STAMP)
 	$(BIN)/python -m examples.make_examples
