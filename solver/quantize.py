@@ -93,6 +93,12 @@ def quantise_resource(
         and is_multiple(hi, q)
     if all(is_multiple(v, q) for v in values):
         max_err = 0.0
-    qlo = int(math.ceil(lo / q - TOL * max(1.0, lo / q)))
-    qhi = int(math.floor(hi / q + TOL * max(1.0, hi / q)))
+    qlo, qhi = bounds_in_quanta(lo, hi, q)
     return Quantisation(name, q, exact, max_err, qlo, qhi, (lo, hi)), ints
+
+
+def bounds_in_quanta(lo: float, hi: float, q: float) -> tuple[int, int]:
+    """[lo, hi] in multiples of q, rounded inward (a quantised total inside them
+    never breaks the asked interval)."""
+    return (int(math.ceil(lo / q - TOL * max(1.0, lo / q))),
+            int(math.floor(hi / q + TOL * max(1.0, hi / q))))

@@ -11,32 +11,33 @@ pointing away from the root) or one cycle through key point 0 with trees hanging
 it; the cycle is cut at key point 0, whose element is the same at both ends of the
 unrolled sequence, and its closing transition is paid for.
 
-This version decomposes. For every stage and every pair of key elements at its two
-ends, the k best fillings come from :func:`solver.solve` on a one-stage problem (the
-key elements enter as their legs). A k-best dynamic program over the tree of key
-points then combines them: below a key point with a given element, the k best
-completions are the k smallest sums over its outgoing stages. That is exact, because
-once the key elements are fixed a structure's cost is the sum of independent stage
-costs. Structure-wide intervals are met by solving each stage once per share of the
-structure-wide resource. The paper's single merged graph (one k-shortest-path search
-with virtual T duplicates) is the next step; this solver is its reference and second
-opinion.
+Solving (:func:`solve_structure`): once the key elements are fixed a structure's
+cost is the sum of independent stage costs, so the k best fillings of every stage
+between every pair of key elements (per share of the structure-wide resources)
+combine exactly into the k best structures by a k-best dynamic program over the
+tree of key points (:mod:`solver.structure_dp`). The stage lists come from shared
+forward graphs, one per group of alike stages and start element, queried for all
+end elements and stages at once (:mod:`solver.stage_graphs`, the default); or, as
+the reference and the FGS baseline, from one one-stage problem per stage and key
+pair (:mod:`solver.structure_pairs`).
 """
 
 from __future__ import annotations
 
-import heapq
-import itertools
 import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
 from .errors import ProblemError
-from .problem import Element, Problem, _number, check_object, parse_intervals
+from .estimate import DEFAULT_MAX_MEMORY_MB
+from .problem import Problem, _number, check_object, parse_intervals
 from .quantize import exact_divisor, is_multiple
-from .solve import solve
+from .stage_graphs import NotExact, StageGraphs
+from .structure_dp import best_structures
+from .structure_pairs import PairProblems
 
+METHODS = ("rcksp", "decompose", "fgs")
 _KEYS = {"resources", "quantum", "elements", "transitions", "branch_transitions",
          "keypoints", "stages", "closed", "k", "constraints"}
 
@@ -235,78 +236,6 @@ def _check_shape(stages, keypoints, branch, legs, err) -> bool:
     return closed
 
 
-def _start_leg(st: Structure, s: int) -> int:
-    """The leg of the element at stage s's start that counts toward s: the branch leg
-    (2) for a T's branch stage, else the out-leg (1). The end always uses leg 0."""
-    return 2 if st.branch.get(st.stages[s].start) == s else 1
-
-
-class _StageBuilder:
-    """One-stage problems of a structure, built straight from validated data (no
-    re-parsing: a 40-corner block needs hundreds of them)."""
-
-    def __init__(self, st: Structure, k: int):
-        self.st, self.k = st, k
-        keyset = set(st.legs)
-        self._inner: dict[tuple[str, ...], tuple] = {}
-        self._keyset = keyset
-
-    def fillers(self, i: int) -> tuple[str, ...]:
-        stage = self.st.stages[i]
-        return tuple(x for x in (stage.elements or self.st.elements) if x not in self._keyset)
-
-    def inner(self, fillers: tuple[str, ...]):
-        """Filler elements and filler-to-filler transitions, shared by every stage with
-        the same fillers."""
-        if fillers not in self._inner:
-            st, fs = self.st, set(fillers)
-            els = tuple(Element(f, st.elements[f], st.costs[f]) for f in fillers)
-            trans = tuple((x, y, c) for (x, y), c in st.transitions.items()
-                          if x in fs and y in fs)
-            self._inner[fillers] = (els, trans)
-        return self._inner[fillers]
-
-    def problem(self, i: int, a: str, b: str, extra: dict | None = None) -> Problem:
-        """Stage i between key elements a (at its start) and b (at its end); the keys'
-        unary costs are counted at their key points, not here."""
-        st = self.st
-        stage = st.stages[i]
-        fillers = self.fillers(i)
-        fs = set(fillers)
-        els, inner = self.inner(fillers)
-        A, B = "^" + a, "$" + b
-        leg_a = _start_leg(st, i)
-        from_a = st.branch_transitions if leg_a == 2 else st.transitions
-        trans = [(A, B if y == b else y, c) for (x, y), c in from_a.items()
-                 if x == a and (y in fs or y == b)]
-        trans += [(x, B, c) for (x, y), c in st.transitions.items() if y == b and x in fs]
-        return Problem(
-            resources=st.resources,
-            elements=(Element(A, st.legs[a][leg_a], 0.0), Element(B, st.legs[b][0], 0.0))
-            + els,
-            transitions=tuple(trans) + inner, front=(A,), back=(B,),
-            constraints={**stage.constraints, **(extra or {})}, quantum=dict(st.quantum),
-            k=self.k)
-
-
-def _ksum(A: list, B: list, k: int) -> list:
-    """The k smallest a + b over two cost-sorted lists of (cost, payload); payloads
-    pair up."""
-    if not A or not B:
-        return []
-    heap = [(A[0][0] + B[0][0], 0, 0)]
-    seen = {(0, 0)}
-    out = []
-    while heap and len(out) < k:
-        c, i, j = heapq.heappop(heap)
-        out.append((c, (A[i][1], B[j][1])))
-        for i2, j2 in ((i + 1, j), (i, j + 1)):
-            if i2 < len(A) and j2 < len(B) and (i2, j2) not in seen:
-                seen.add((i2, j2))
-                heapq.heappush(heap, (A[i2][0] + B[j2][0], i2, j2))
-    return out
-
-
 def _global_grid(st: Structure) -> tuple[list[str], list[float], list[int], list[int]]:
     """Structure-wide resources on an exact integer grid: names, quanta, bounds."""
     names, qs, los, his = [], [], [], []
@@ -331,124 +260,68 @@ def _global_grid(st: Structure) -> tuple[list[str], list[float], list[int], list
     return names, qs, los, his
 
 
-def solve_structure(st: Structure, k: int | None = None, **solve_kw) -> StructureResult:
+def solve_structure(st: Structure, k: int | None = None, method: str = "rcksp", *,
+                    max_memory_mb: float = DEFAULT_MAX_MEMORY_MB, table: str = "auto",
+                    **solve_kw) -> StructureResult:
     """The k cheapest distinct fillings of a tree or cycle structure.
 
-    Structure-wide intervals are handled exactly: every stage is solved once per
-    possible share of each structure-wide resource (an equality added to its
-    problem), and the dynamic program keeps k best completions per partial total."""
+    ``method``: "rcksp" (default) fills stages from shared stage graphs; "decompose"
+    solves one problem per stage and key pair (the reference); "fgs" does the same
+    with the FGS baseline. A rounding quantum (values that are not multiples of it)
+    always takes the decomposition, whose one-stage solves re-check every total in
+    original units. Structure-wide intervals are exact: stage fillings are kept per
+    share of each structure-wide resource. Raises :class:`TooLargeError` when a stage
+    graph would exceed ``max_memory_mb``. ``table`` forces the graphs' row tables
+    ("dense" or "hash", as in :func:`solver.solve`); ``solve_kw`` go to the one-stage
+    solves. ``stats["stages_by"]`` says which way the stages were filled."""
+    if method not in METHODS:
+        raise ProblemError(f"unknown structure method {method!r}; choose one of "
+                           f"{', '.join(METHODS)}")
     k = st.k if k is None else int(k)
+    if k < 1:
+        raise ProblemError(f"k must be a positive integer, got {k}")
     t0 = time.perf_counter()
-    n = len(st.keypoints)
-    out: list[list[int]] = [[] for _ in range(n)]
-    for i, s in enumerate(st.stages):
-        out[s.start].append(i)
-    gnames, gq, glo, ghi = _global_grid(st)
-    shares = list(itertools.product(*[range(h + 1) for h in ghi]))
-    stage_cache: dict[tuple[int, str, str], dict] = {}
-    why: list[str] = []
-    builder = _StageBuilder(st, k)
-
-    def fits(g) -> bool:
-        return all(x <= h for x, h in zip(g, ghi, strict=True))
-
-    def add(g1, g2):
-        return tuple(x + y for x, y in zip(g1, g2, strict=True))
-
-    def stage_lists(i: int, a: str, b: str) -> dict:
-        """share of the structure-wide resources -> k best fillings of stage i"""
-        if (i, a, b) not in stage_cache:
-            lists = {}
-            for g in shares:
-                extra = {r: (x * q, x * q) for r, x, q in zip(gnames, g, gq, strict=True)}
-                r = solve(builder.problem(i, a, b, extra), k,
-                          **{"explain": not gnames, **solve_kw})
-                if r.solutions:
-                    lists[g] = [(x.cost, (x.sequence[1:-1], x.resources))
-                                for x in r.solutions]
-                elif r.reason and not gnames:
-                    why.append(f"stage {i} between {a} and {b}: {r.reason}")
-            stage_cache[(i, a, b)] = lists
-        return stage_cache[(i, a, b)]
-
-    if st.closed:
-        root = 0
-        closing = next(i for i, s in enumerate(st.stages) if s.end == 0)
-    else:
-        root = [v for v in range(n) if all(s.end != v for s in st.stages)][0]
-        closing = -1
-    zero = tuple(0 for _ in gnames)
-
-    def below(v: int, e: str, fixed_root: str | None, memo: dict) -> dict:
-        """share -> k best completions of everything after key point v holding e, as
-        (cost, payload); payload = {stage: (element at its end, fillers, totals,
-        payload below that end)}."""
-        key = (v, e)
-        if key in memo:
-            return memo[key]
-        acc = {zero: [(0.0, {})]}
-        for s in out[v]:
-            w = st.stages[s].end
-            options: dict = {}
-            if s == closing:  # the cycle closes on key point 0's element, paid there
-                for g, ls in stage_lists(s, e, fixed_root).items():
-                    options.setdefault(g, []).extend(
-                        (c, (fixed_root, fill, res, {})) for c, (fill, res) in ls)
-            else:
-                for f in st.keypoints[w]:
-                    sub = below(w, f, fixed_root, memo)
-                    for g1, ls in stage_lists(s, e, f).items():
-                        for g2, lw in sub.items():
-                            g = add(g1, g2)
-                            if not fits(g):
-                                continue
-                            lw_f = [(cc + st.costs[f], p) for cc, p in lw]
-                            options.setdefault(g, []).extend(
-                                (c, (f, fill, res, p2))
-                                for c, ((fill, res), p2) in _ksum(ls, lw_f, k))
-            options = {g: sorted(ls, key=lambda t: t[0])[:k] for g, ls in options.items()}
-            nxt: dict = {}
-            for g1, la in acc.items():
-                for g2, lb in options.items():
-                    g = add(g1, g2)
-                    if fits(g):
-                        nxt.setdefault(g, []).extend(
-                            (c, {**pa, s: pb}) for c, (pa, pb) in _ksum(la, lb, k))
-            acc = {g: sorted(ls, key=lambda t: t[0])[:k] for g, ls in nxt.items()}
-            if not acc:
-                break
-        memo[key] = acc
-        return acc
-
-    results = []
-    for e in st.keypoints[root]:
-        memo: dict = {}
-        for g, ls in below(root, e, e if st.closed else None, memo).items():
-            if all(x >= lo for x, lo in zip(g, glo, strict=True)):
-                results.extend((c + st.costs[e], e, payload) for c, payload in ls)
-    results.sort(key=lambda t: t[0])
+    grid = _global_grid(st)
+    gnames, _gq, glo, ghi = grid
+    provider: StageGraphs | PairProblems | None = None
+    if method == "rcksp":
+        try:
+            provider = StageGraphs(st, k, grid, max_memory_mb, table)
+        except NotExact:
+            provider = None
+    if provider is None:
+        provider = PairProblems(st, k, grid, {
+            "method": "fgs" if method == "fgs" else "rcksp",
+            "max_memory_mb": max_memory_mb, "table": table, **solve_kw})
+    results = best_structures(st, k, ghi, glo, provider.lists)
     sols = []
-    for cost, e, payload in results[:k]:
-        keys: list[str | None] = [None] * n
+    for cost, e, payload in results:
+        keys: list[str | None] = [None] * len(st.keypoints)
         fills: list[list[str]] = [[] for _ in st.stages]
         totals: list[dict] = [{} for _ in st.stages]
-        keys[root] = e
+        keys[_root(st)] = e
         todo = [payload]
-        while todo:
+        while todo:  # parents first: a stage's start key is known before the stage
             p = todo.pop()
-            for s, (f, fill, res, sub) in p.items():
-                if s != closing:
-                    keys[st.stages[s].end] = f
-                fills[s] = list(fill)
-                totals[s] = res
+            for s, (f, h, sub) in p.items():
+                stage = st.stages[s]
+                keys[stage.end] = f
+                fills[s], totals[s] = provider.filling(s, keys[stage.start], f, h)
                 todo.append(sub)
         sols.append(StructureSolution(keys, fills, cost, totals))
-    stats = {"stage_problems": len(shares) * len(stage_cache),
-             "solve_s": time.perf_counter() - t0}
+    stats = {"method": method, **provider.stats(), "solve_s": time.perf_counter() - t0}
     if not sols:
-        detail = f"; e.g. {why[0]}" if why else ""
+        why = provider.reason()
+        detail = f"; e.g. {why}" if why else ""
         wide = " and the structure-wide intervals" if gnames else ""
         return StructureResult("infeasible", [], stats,
                                f"no choice of key elements lets every stage meet its "
                                f"constraints{wide}{detail}")
     return StructureResult("ok", sols, stats)
+
+
+def _root(st: Structure) -> int:
+    """Key point 0 for a cycle, else the one no stage enters."""
+    if st.closed:
+        return 0
+    return next(v for v in range(len(st.keypoints)) if all(s.end != v for s in st.stages))

@@ -67,3 +67,45 @@ def enumerate_structure(d: dict, max_fill: int = 6) -> list[float]:
                    for r, (lo, hi) in wide.items()):
                 totals.append(base + sum(c for c, _t in combo))
     return sorted(totals)
+
+
+def solution_cost(d: dict, keys: list[str], fills: list[list[str]]) -> float:
+    """The cost of one filling of structure ``d`` (an element per key point, fillers
+    per stage), checked against every rule the enumeration above follows: allowed
+    elements and transitions, each stage's interval and the structure-wide ones.
+    Raises AssertionError for a filling that breaks one."""
+    res = d["resources"]
+    el = {e["id"]: e for e in d["elements"]}
+    legs = {i: [{r: float(x.get(r, 0.0)) for r in res} for x in e["legs"]]
+            for i, e in el.items() if "legs" in e}
+    delta = {(a, b): float(c) for a, b, c in d["transitions"]}
+    bdelta = {(a, b): float(c) for a, b, c in d.get("branch_transitions", d["transitions"])}
+    kps = d["keypoints"]
+    n = len(kps)
+    cost = 0.0
+    for key, kp in zip(keys, kps, strict=True):
+        assert key in kp["elements"]
+        cost += float(el[key].get("cost", 0.0))
+    totals = {r: 0.0 for r in res}
+    for i, (s, fill) in enumerate(zip(d["stages"], fills, strict=True)):
+        a, b = (s["from"], s["to"]) if "from" in s else (i, (i + 1) % n)
+        branch = kps[a].get("branch") == i
+        allowed = [x for x in s.get("elements", el) if x not in legs]
+        assert all(x in allowed for x in fill)
+        seq = [keys[a], *fill, keys[b]]
+        for j, (x, y) in enumerate(zip(seq, seq[1:], strict=False)):
+            table = bdelta if j == 0 and branch else delta
+            assert (x, y) in table, (x, y)
+            cost += table[(x, y)]
+            if j < len(fill):  # y is a filler: its unary cost
+                cost += float(el[y].get("cost", 0.0))
+        tot = {r: legs[keys[a]][2 if branch else 1][r] + legs[keys[b]][0][r]
+               + sum(float(el[x].get("resources", {}).get(r, 0.0)) for x in fill)
+               for r in res}
+        for r, (lo, hi) in s["constraints"].items():
+            assert lo - EPS <= tot[r] <= hi + EPS, (i, r, tot[r])
+        for r in res:
+            totals[r] += tot[r]
+    for r, (lo, hi) in d.get("constraints", {}).items():
+        assert lo - EPS <= totals[r] <= hi + EPS, (r, totals[r])
+    return cost

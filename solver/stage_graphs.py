@@ -1,0 +1,327 @@
+"""Stage lists from shared forward graphs: the structure solver's fast path.
+
+Why: solving one problem per (stage, start key, end key, share) repeats almost all
+of its work. A stage's intermediate graph grown *forward* from its start key
+element depends neither on where the stage must end (its intervals) nor on the
+element at its end: both only decide which of its nodes may be last. So stages
+with the same fillers and constrained resources share one graph per start element
+(and start leg), grown once over the union of their state boxes (:mod:`solver.graph`,
+forward only), and every (stage, end element, share) becomes a query on it: a
+virtual sink fed by the nodes whose state plus the end key's leg is admissible. One
+kernel call per graph enumerates the k best fillings of all its queries
+(:mod:`solver.stage_kbest`). A 40-corner block outline with three corner parts is
+three graphs instead of 360 problems.
+
+Exact for the same reason as the decomposition (:mod:`solver.structure_dp` combines
+the lists the same way): every query's list holds the k cheapest fillings of that
+stage between those key elements with that share, found by an exact k-shortest-path
+enumeration. Quantisation must be exact (every value a multiple of its resource's
+quantum); otherwise :class:`NotExact` sends the caller to the decomposition, whose
+one-stage solves re-check totals in original units.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import ProblemError, TooLargeError
+from .estimate import DENSE_TABLE_MAX_BYTES, row_bytes
+from .graph import STATUS_OK, _grow_graph
+from .quantize import bounds_in_quanta, exact_divisor, is_multiple
+from .solve import solve
+from .stage_kbest import StageGraph, _stage_kbest
+from .structure_pairs import StageBuilder, share_allowed, stage_fillers, start_leg
+
+
+class NotExact(Exception):
+    """Some value is not a multiple of its resource's quantum (a rounding quantum)."""
+
+
+@dataclass
+class _Group:
+    """Stages that share their graphs: same fillers, same tracked resources."""
+
+    fillers: tuple[str, ...]
+    dims: tuple[str, ...]      # constrained resources, stage-local and structure-wide
+    stages: list[int]
+    cap: np.ndarray | None = None   # state box (start leg and fillers so far)
+    max_len: int = 0                # most fillers in one stage
+    W: np.ndarray | None = None     # filler-to-filler weights, row 0 / column 0 empty
+
+
+def _quanta(st, names: set[str], gnames, gq) -> dict[str, float]:
+    """One exact quantum per tracked resource, for the whole structure."""
+    values: dict[str, list[float]] = {r: [] for r in names}
+    used = {x for i in range(len(st.stages)) for x in stage_fillers(st, i)}
+    keys = {x for kp in st.keypoints for x in kp}
+    for r in names:
+        values[r] = [st.elements[x][r] for x in sorted(used)] + \
+            [leg[r] for x in sorted(keys) for leg in st.legs[x]]
+    out = dict(zip(gnames, gq, strict=True))
+    for r in sorted(names - set(gnames)):
+        q = st.quantum.get(r)
+        if q is None:
+            frac = exact_divisor(values[r])
+            if frac is None:
+                raise NotExact(r)
+            q = float(frac)
+        out[r] = q
+    for r in names:
+        if not all(is_multiple(v, out[r]) for v in values[r]):
+            raise NotExact(r)
+    return out
+
+
+def _box(hi: np.ndarray, r: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, int]:
+    """Caps of the state box (a state counts the start leg and the fillers so far) and
+    the most fillers a stage can hold, as in :func:`solver.compiled._box`: every
+    filler consumes at least one quantum, some consume at least m of a resource."""
+    hi = np.maximum(hi, 0)
+    if len(r) == 0:
+        return hi.astype(np.int64), 0
+    max_len = int(hi.sum() // max(int(r.sum(axis=1).min()), 1))
+    for d in range(r.shape[1]):
+        m = int(r[:, d].min())
+        if m > 0:
+            max_len = min(max_len, int(hi[d]) // m)
+    return np.minimum(hi, start + max_len * r.max(axis=0)).astype(np.int64), max_len
+
+
+class StageGraphs:
+    """Every stage list of a structure, computed up front from shared graphs; a list's
+    payload is (graph index, path index)."""
+
+    def __init__(self, st, k: int, grid, max_memory_mb: float, table: str = "auto"):
+        if table not in ("auto", "dense", "hash"):
+            raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
+        self.table = table
+        self.st, self.k = st, k
+        gnames, gq, _glo, ghi = grid
+        self.gnames, self.gq, self.ghi = gnames, gq, ghi
+        self.shares = list(itertools.product(*[range(h + 1) for h in ghi]))
+        tracked = {r for s in st.stages for r in s.constraints} | set(gnames)
+        self.q = _quanta(st, tracked, gnames, gq)
+        self.budget = int(max_memory_mb * 2**20)
+        self.groups = self._groups()
+        self._lists: dict[tuple[int, str, str], dict] = {}
+        self._paths: list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = []
+        self.counts = {"stage_graphs": 0, "stage_queries": 0, "graph_rows": 0}
+        for grp in self.groups:
+            self._plan(grp)
+        for grp in self.groups:
+            for a, leg in dict.fromkeys((a, start_leg(st, i)) for i in grp.stages
+                                        for a in st.keypoints[st.stages[i].start]):
+                self._solve(grp, a, leg)
+
+    # ---- layout -----------------------------------------------------------------
+    def _ints(self, values: dict[str, float], dims) -> list[int]:
+        return [int(round(values[r] / self.q[r])) for r in dims]
+
+    def _bounds(self, i: int, r: str) -> tuple[int, int]:
+        """Stage i's own interval on r in quanta (structure-wide: [0, global max])."""
+        stage = self.st.stages[i]
+        lo, hi = (bounds_in_quanta(*stage.constraints[r], self.q[r])
+                  if r in stage.constraints else (0, 1 << 62))
+        if r in self.gnames:
+            hi = min(hi, self.ghi[self.gnames.index(r)])
+        return lo, hi
+
+    def _groups(self) -> list[_Group]:
+        st = self.st
+        groups: dict[tuple, _Group] = {}
+        for i, stage in enumerate(st.stages):
+            dims = tuple(r for r in st.resources
+                         if r in stage.constraints or r in self.gnames)
+            fillers = stage_fillers(st, i)
+            groups.setdefault((fillers, dims), _Group(fillers, dims, [])).stages.append(i)
+        return list(groups.values())
+
+    def _plan(self, grp: _Group) -> None:
+        """The group's state box and filler-to-filler weights, the box checked against
+        the memory budget before anything is allocated."""
+        st = self.st
+        r = np.array([self._ints(st.elements[x], grp.dims) for x in grp.fillers],
+                     dtype=np.int64).reshape(len(grp.fillers), len(grp.dims))
+        for x, lev in zip(grp.fillers, r.sum(axis=1), strict=True):
+            if lev == 0:
+                raise ProblemError(
+                    f'element "{x}" consumes nothing of the constrained resource(s) '
+                    f"{', '.join(grp.dims)} of stage {grp.stages[0]} (after quantisation), "
+                    "so a stage could repeat it without end; give it a positive amount of "
+                    "a constrained resource, or constrain a resource it uses")
+        hi = np.zeros(len(grp.dims), dtype=np.int64)
+        start = np.zeros(len(grp.dims), dtype=np.int64)
+        for i in grp.stages:
+            stage = st.stages[i]
+            for d, name in enumerate(grp.dims):
+                leg = min(self._ints(st.legs[b][0], (name,))[0]
+                          for b in st.keypoints[stage.end])
+                hi[d] = max(hi[d], self._bounds(i, name)[1] - leg)
+                start[d] = max([start[d]] + [self._ints(st.legs[a][start_leg(st, i)],
+                                                        (name,))[0]
+                                             for a in st.keypoints[stage.start]])
+        grp.cap, grp.max_len = _box(hi, r, start)
+        grp.W = np.full((len(grp.fillers) + 1,) * 2, np.inf)
+        for j, f in enumerate(grp.fillers, 1):
+            for t, e in enumerate(grp.fillers, 1):
+                if (e, f) in st.transitions:
+                    grp.W[j, t] = st.transitions[(e, f)] + st.costs[f]
+        states = int(np.prod(grp.cap + 1))
+        n = len(grp.fillers) + 1
+        need = states * row_bytes(n, self._dense(states, n)) + 8 * n * n
+        if need > self.budget:
+            widest = int(np.argmax(grp.cap))
+            name = grp.dims[widest]
+            raise TooLargeError(
+                f"structure too large: the graph of stage {grp.stages[0]} (shared by "
+                f"{len(grp.stages)} stage(s) with the same fillers) has up to "
+                f"{states * n:,} states (~{need / 2**20:,.0f} MB), over the memory budget "
+                f'of {self.budget / 2**20:,.0f} MB. The widest resource is "{name}" '
+                f"({int(grp.cap[widest]) + 1:,} values at quantum {self.q[name]:g}): use "
+                f'a coarser quantum for it (e.g. "quantum": {{"{name}": '
+                f"{2 * self.q[name]:g}}}), tighten its bounds, or raise the budget "
+                "(--max-memory MB)")
+
+    def _dense(self, states: int, n: int) -> bool:
+        """Rows indexed by state (else hashed): small boxes, unless told otherwise."""
+        if self.table != "auto":
+            return self.table == "dense"
+        return states * row_bytes(n, True) <= DENSE_TABLE_MAX_BYTES
+
+    # ---- one graph and its queries ----------------------------------------------
+    def _weights(self, grp: _Group, a: str, leg: int) -> np.ndarray:
+        """W[f, e] = delta(e, f) + omega(f) over [start, fillers...], inf if e -> f
+        is not allowed; nothing enters the start."""
+        st = self.st
+        first = st.branch_transitions if leg == 2 else st.transitions
+        W = grp.W.copy()
+        for j, f in enumerate(grp.fillers, 1):
+            if (a, f) in first:
+                W[j, 0] = first[(a, f)] + st.costs[f]
+        return W
+
+    def _queries(self, grp: _Group, a: str, leg: int, cap: np.ndarray):
+        """(stage, end element, share) queries of the graph of (a, leg): their boxes of
+        admissible states before the end key's leg, and their in-edge weights."""
+        st = self.st
+        first = st.branch_transitions if leg == 2 else st.transitions
+        meta, lo_rows, hi_rows, w_rows = [], [], [], []
+        for i in grp.stages:
+            stage = st.stages[i]
+            if start_leg(st, i) != leg or a not in st.keypoints[stage.start]:
+                continue
+            bounds = [self._bounds(i, name) for name in grp.dims]
+            for b in st.keypoints[stage.end]:
+                legb = self._ints(st.legs[b][0], grp.dims)
+                w = [first.get((a, b), np.inf)] + [st.transitions.get((f, b), np.inf)
+                                                   for f in grp.fillers]
+                for g in self.shares:
+                    if not share_allowed(stage, g, self.gnames, self.gq):
+                        continue
+                    lo, hi = [], []
+                    for d, name in enumerate(grp.dims):
+                        blo, bhi = bounds[d]
+                        if name in self.gnames:
+                            blo = bhi = g[self.gnames.index(name)]
+                        lo.append(max(blo - legb[d], 0))
+                        hi.append(min(bhi - legb[d], int(cap[d])))
+                    if all(x <= y for x, y in zip(lo, hi, strict=True)):
+                        meta.append((i, b, g))
+                        lo_rows.append(lo)
+                        hi_rows.append(hi)
+                        w_rows.append(w)
+        R = len(grp.dims)
+        return (meta, np.array(lo_rows, dtype=np.int64).reshape(-1, R),
+                np.array(hi_rows, dtype=np.int64).reshape(-1, R),
+                np.array(w_rows, dtype=np.float64).reshape(-1, len(grp.fillers) + 1))
+
+    def _solve(self, grp: _Group, a: str, leg: int) -> None:
+        st = self.st
+        R = len(grp.dims)
+        n = len(grp.fillers) + 1
+        start = self._ints(st.legs[a][leg], grp.dims)
+        cap = grp.cap
+        meta, qlo, qhi, wq = self._queries(grp, a, leg, cap)
+        for i in grp.stages:  # every (stage, a, b) asked about has a list, maybe empty
+            if a in st.keypoints[st.stages[i].start] and start_leg(st, i) == leg:
+                for b in st.keypoints[st.stages[i].end]:
+                    self._lists.setdefault((i, a, b), {})
+        if not meta or any(s > c for s, c in zip(start, cap, strict=True)):
+            return
+        r = np.array([start] + [self._ints(st.elements[x], grp.dims) for x in grp.fillers],
+                     dtype=np.int64).reshape(n, R)
+        stride = np.ones(R, dtype=np.int64)
+        for d in range(1, R):
+            stride[d] = stride[d - 1] * (cap[d - 1] + 1)
+        S = int(stride[-1] * (cap[-1] + 1))
+        dense = self._dense(S, n)
+        W = self._weights(grp, a, leg)
+        front = np.zeros(n, dtype=np.bool_)
+        front[0] = True
+        max_rows = max((self.budget - 8 * n * n) // row_bytes(n, dense), 1)
+        (status, nrows, g, _h, row_state, *_), (keys, vals, shift) = _grow_graph(
+            n, r, np.zeros(R, dtype=np.int64), cap, stride, S, r @ stride,
+            r.sum(axis=1), int(cap.sum()), W, np.ones(n, dtype=np.int64), front,
+            np.zeros(n, dtype=np.bool_), np.zeros(n), dense, min(S, 1 << 12), max_rows,
+            True, False)
+        if status != STATUS_OK:
+            raise TooLargeError(
+                f"structure too large: the graph of stage {grp.stages[0]} grew past "
+                f"{max_rows:,} state rows, the memory budget of "
+                f"{self.budget / 2**20:,.0f} MB; use a coarser quantum, tighter bounds "
+                "or raise the budget (--max-memory MB)")
+        G = StageGraph(int(nrows) * n, n, W, g, row_state, r @ stride, cap, stride, dense,
+                       keys, vals, int(shift), qlo, qhi, wq)
+        costs, offs, fill, first = _stage_kbest(G, self.k, grp.max_len + 3)
+        gid = len(self._paths)
+        self._paths.append((offs, fill, grp.fillers))
+        costs = costs.tolist()
+        first = first.tolist()
+        for q, (i, b, share) in enumerate(meta):
+            if first[q] < first[q + 1]:
+                ls = [(costs[p], (gid, p)) for p in range(first[q], first[q + 1])]
+                ls.sort(key=lambda t: t[0])  # by the front-to-back sums (stable)
+                self._lists[(i, a, b)][share] = ls
+        self.counts["stage_graphs"] += 1
+        self.counts["stage_queries"] += len(meta)
+        self.counts["graph_rows"] += int(nrows)
+
+    # ---- the provider interface (see solver.structure_dp) ------------------------
+    def lists(self, i: int, a: str, b: str) -> dict:
+        return self._lists.get((i, a, b), {})
+
+    def filling(self, i: int, a: str, b: str, payload) -> tuple[list[str], dict]:
+        """The fillers of a stage list entry and the stage's totals in original units
+        (legs included), summed exactly as one-stage solutions are."""
+        gid, p = payload
+        offs, fill, fillers = self._paths[gid]
+        ids = [fillers[j - 1] for j in fill[offs[p]:offs[p + 1]].tolist()]
+        st = self.st
+        legs = (st.legs[a][start_leg(st, i)], st.legs[b][0])
+        return ids, {r: round(math.fsum([legs[0][r], legs[1][r]]
+                                        + [st.elements[x][r] for x in ids]), 9)
+                     for r in st.resources}
+
+    def stats(self) -> dict:
+        return {"stages_by": "graphs", **self.counts}
+
+    def reason(self) -> str | None:
+        """Why no structure fits, from the one-stage diagnosis of a stage that no pair
+        of key elements can fill (else of the first pair that cannot)."""
+        if self.gnames:
+            return None
+        st = self.st
+        empty = sorted((t for t, ls in self._lists.items() if not ls), key=lambda t: t[0])
+        blocked = [(i, a, b) for i, a, b in empty
+                   if not any(self._lists.get((i, x, y))
+                              for x in st.keypoints[st.stages[i].start]
+                              for y in st.keypoints[st.stages[i].end])]
+        if not empty:
+            return None
+        i, a, b = (blocked or empty)[0]
+        r = solve(StageBuilder(st, 1).problem(i, a, b), 1)
+        return f"stage {i} between {a} and {b}: {r.reason}" if r.reason else None

@@ -1,0 +1,166 @@
+"""Kernels of the shared stage graphs (:mod:`solver.stage_graphs`): the k best
+fillings of many stage queries, enumerated backwards on one forward graph.
+
+A stage graph is the intermediate graph of :mod:`solver.graph` grown *forward only*
+from one start key element: element 0 is the start key's leg, the others are the
+fillers, and ``g[row, e]`` is the exact cost of the cheapest prefix "start ... e"
+consuming the row's state. It does not depend on where the stage ends, so every
+stage with the same fillers and the same start element shares it. A *query* (one
+stage, one end key element, one share of the structure-wide resources) is a virtual
+sink: its in-edges come from every node (c, e) whose state c plus the end key's leg
+is admissible for that stage, weighted by the transition into the end key.
+
+The k best paths into a query are found by the lazy enumeration of
+:mod:`solver.kbest` run backwards: a node's choices are its predecessors (the
+previous element at state c - r(e)), each ranked by its exact g, and the start node
+ends every path. Node path lists are shared by all queries of the graph, so the
+hundreds of queries of a block outline expand each prefix once.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit, types
+from numba.extending import overload
+
+from ._table import hash_find
+from .kbest import TERM, graph_choices, kbest_from
+
+_X, _PTR, _KEY = 0, 1, 2
+
+
+class StageGraph(NamedTuple):
+    """What the backwards enumeration reads. Node id = row * n + element; query q
+    is the vertex qbase + q."""
+
+    qbase: int
+    n: int
+    W: np.ndarray          # float64 [n, n]  W[f, e] = delta(e, f) + omega(f), inf if not e->f
+    g: np.ndarray          # float64 [rows, n] cost of the best prefix ending at the node
+    row_state: np.ndarray  # int64 [rows]
+    off: np.ndarray        # int64 [n]  state offset of each element
+    cap: np.ndarray        # int64 [R]
+    stride: np.ndarray     # int64 [R]
+    dense: bool
+    keys: np.ndarray       # row hash table (hash mode)
+    vals: np.ndarray
+    shift: int
+    qlo: np.ndarray        # int64 [Q, R] admissible end states of each query (before
+    qhi: np.ndarray        # int64 [Q, R]   the end key's leg), inside the box
+    wq: np.ndarray         # float64 [Q, n] weight of the edge e -> end key, inf if none
+
+
+@njit(cache=True)
+def _row(G, s):
+    return s if G.dense else hash_find(G.keys, G.vals, G.shift, s)
+
+
+@njit(cache=True)
+def _stage_choices(v, G, c, out_f, out_i):
+    """Choices of vertex v going backwards: a query's admissible last nodes (tie key
+    state * n + element), a node's predecessors (tie key: the element), or TERM for
+    the start node (element 0)."""
+    n = G.n
+    m = 0
+    if v >= G.qbase:
+        q = v - G.qbase
+        R = len(G.cap)
+        for i in range(R):
+            c[i] = G.qlo[q, i]
+        while True:  # every state of the query's box: a mixed-radix counter
+            s = 0
+            for i in range(R):
+                s += c[i] * G.stride[i]
+            row = _row(G, s)
+            if row >= 0:
+                for e in range(n):
+                    w = G.wq[q, e]
+                    if w < np.inf and G.g[row, e] < np.inf:
+                        out_f[m, 0] = G.g[row, e] + w
+                        out_f[m, 1] = w
+                        out_i[m, _X] = row * n + e
+                        out_i[m, _PTR] = -1
+                        out_i[m, _KEY] = s * n + e
+                        m += 1
+            i = 0
+            while i < R:
+                c[i] += 1
+                if c[i] <= G.qhi[q, i]:
+                    break
+                c[i] = G.qlo[q, i]
+                i += 1
+            if i == R:
+                break
+        return m
+    row = v // n
+    e = v % n
+    if e == 0:
+        out_f[0, 0] = 0.0
+        out_f[0, 1] = 0.0
+        out_i[0, _X] = TERM
+        out_i[0, _PTR] = -1
+        out_i[0, _KEY] = -1
+        return 1
+    rp = _row(G, G.row_state[row] - G.off[e])
+    for p in range(n):
+        w = G.W[e, p]
+        if w < np.inf and G.g[rp, p] < np.inf:
+            out_f[m, 0] = G.g[rp, p] + w
+            out_f[m, 1] = w
+            out_i[m, _X] = rp * n + p
+            out_i[m, _PTR] = -1
+            out_i[m, _KEY] = p
+            m += 1
+    return m
+
+
+@overload(graph_choices)
+def _graph_choices_stage(v, G, c, out_f, out_i):
+    if isinstance(G, types.BaseNamedTuple) and G.instance_class is StageGraph:
+        return lambda v, G, c, out_f, out_i: _stage_choices(v, G, c, out_f, out_i)
+    return None
+
+
+@njit(cache=True)
+def _query_states(qlo, qhi):
+    """The largest number of states in one query's box."""
+    most = 0
+    for q in range(qlo.shape[0]):
+        m = 1
+        for i in range(qlo.shape[1]):
+            m *= qhi[q, i] - qlo[q, i] + 1
+        most = max(most, m)
+    return most
+
+
+@njit(cache=True)
+def _stage_kbest(G, K, depth):
+    """The K best fillings of every query of G. Returns (costs, offs, fill, first):
+    path p of query q (first[q] <= p < first[q + 1]) has the fillers
+    fill[offs[p]:offs[p + 1]] front to back and the cost costs[p], summed front to
+    back (start -> first filler -> ... -> end key) the way one-stage solutions are,
+    so a stage costs the same bits whichever solver found it."""
+    Q = G.qlo.shape[0]
+    starts = np.arange(Q) + G.qbase
+    _, offs, seq, first, _touched = kbest_from(
+        G, starts, K, G.n, len(G.cap), depth, _query_states(G.qlo, G.qhi) * G.n)
+    npath = len(offs) - 1
+    costs = np.empty(npath)
+    fill = np.empty(len(seq), dtype=np.int64)
+    for q in range(Q):
+        for p in range(first[q], first[q + 1]):
+            a, b = offs[p], offs[p + 1]  # seq[a:b] = last filler ... first filler, start
+            prev = 0
+            cost = 0.0
+            for t in range(b - a - 1):
+                f = seq[b - 2 - t]
+                fill[a - p + t] = f
+                cost += G.W[f, prev]
+                prev = f
+            costs[p] = cost + G.wq[q, prev]
+    # drop the start element from every path: path p loses p elements before it
+    for p in range(npath + 1):
+        offs[p] -= p
+    return costs, offs, fill[:len(seq) - npath], first

@@ -1,0 +1,131 @@
+"""The k best fillings of a whole structure from the k best fillings of its stages.
+
+Once the element at every key point is fixed, a structure's cost is the sum of
+independent stage costs plus the key elements' unary costs. So a k-best dynamic
+program over the tree of key points is exact: below a key point holding element e,
+the k best completions are the k smallest sums over its outgoing stages, each stage
+contributing (its filling, the element at its end, the k best completions below
+that). A cycle is cut at key point 0: the program runs once per element there and
+its closing stage must end on that same element.
+
+Structure-wide intervals are met by keeping k best completions per partial total of
+the structure-wide resources (in quanta): a stage list is keyed by its share.
+
+Where the stage lists come from is the caller's business (one problem per stage and
+key pair in :mod:`solver.structure_pairs`, shared stage graphs in
+:mod:`solver.stage_graphs`); this module only combines them.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable
+
+Share = tuple[int, ...]
+StageLists = Callable[[int, str, str], dict[Share, list[tuple[float, object]]]]
+
+
+def ksum(A: list, B: list, k: int) -> list:
+    """The k smallest a + b over two cost-sorted lists of (cost, payload); payloads
+    pair up."""
+    if not A or not B:
+        return []
+    if k == 1 or (len(A) == 1 and len(B) == 1):
+        return [(A[0][0] + B[0][0], (A[0][1], B[0][1]))]
+    heap = [(A[0][0] + B[0][0], 0, 0)]
+    seen = {(0, 0)}
+    out = []
+    while heap and len(out) < k:
+        c, i, j = heapq.heappop(heap)
+        out.append((c, (A[i][1], B[j][1])))
+        for i2, j2 in ((i + 1, j), (i, j + 1)):
+            if i2 < len(A) and j2 < len(B) and (i2, j2) not in seen:
+                seen.add((i2, j2))
+                heapq.heappush(heap, (A[i2][0] + B[j2][0], i2, j2))
+    return out
+
+
+def _best(lists: dict, k: int) -> dict:
+    return {g: sorted(ls, key=lambda t: t[0])[:k] for g, ls in lists.items()}
+
+
+def best_structures(st, k: int, ghi: list[int], glo: list[int], stage_lists: StageLists
+                    ) -> list[tuple[float, str, dict]]:
+    """The k best (cost, element at the root, payload) of structure ``st``. A payload
+    maps each stage to (element at its end, the stage list's payload, payload below
+    that end). ``ghi``/``glo``: bounds of the structure-wide resources in quanta."""
+    n = len(st.keypoints)
+    out: list[list[int]] = [[] for _ in range(n)]
+    for i, s in enumerate(st.stages):
+        out[s.start].append(i)
+    zero = tuple(0 for _ in ghi)
+    wide = bool(ghi)
+
+    def fits(g) -> bool:
+        return all(x <= h for x, h in zip(g, ghi, strict=True))
+
+    def add(g1, g2):
+        return tuple(x + y for x, y in zip(g1, g2, strict=True)) if wide else zero
+
+    if st.closed:
+        root = 0
+        closing = next(i for i, s in enumerate(st.stages) if s.end == 0)
+    else:
+        root = next(v for v in range(n) if all(s.end != v for s in st.stages))
+        closing = -1
+
+    def below(v: int, e: str, fixed_root: str | None, memo: dict) -> dict:
+        """share -> k best completions of everything after key point v holding e."""
+        key = (v, e)
+        if key in memo:
+            return memo[key]
+        acc: dict | None = None
+        for s in out[v]:
+            w = st.stages[s].end
+            options: dict = {}
+            if s == closing:  # the cycle closes on key point 0's element, paid there
+                for g, ls in stage_lists(s, e, fixed_root).items():
+                    options.setdefault(g, []).extend(
+                        (c, (fixed_root, h, {})) for c, h in ls)
+            else:
+                for f in st.keypoints[w]:
+                    sub = below(w, f, fixed_root, memo)
+                    if not sub:
+                        continue
+                    cf = st.costs[f]
+                    sub_f = {g: [(cc + cf, p) for cc, p in lw] for g, lw in sub.items()}
+                    for g1, ls in stage_lists(s, e, f).items():
+                        for g2, lw in sub_f.items():
+                            g = add(g1, g2)
+                            if fits(g):
+                                options.setdefault(g, []).extend(
+                                    (c, (f, h, p2)) for c, (h, p2) in ksum(ls, lw, k))
+            options = _best(options, k)
+            if acc is None:  # the first stage out of v: nothing to combine with yet
+                acc = {g: [(c, {s: p}) for c, p in ls] for g, ls in options.items()}
+            else:
+                nxt: dict = {}
+                for g1, la in acc.items():
+                    for g2, lb in options.items():
+                        g = add(g1, g2)
+                        if fits(g):
+                            nxt.setdefault(g, []).extend(
+                                (c, {**pa, s: pb}) for c, (pa, pb) in ksum(la, lb, k))
+                acc = _best(nxt, k)
+            if not acc:
+                break
+        if acc is None:  # a leaf
+            acc = {zero: [(0.0, {})]}
+        memo[key] = acc
+        return acc
+
+    results = []
+    memo: dict = {}
+    for e in st.keypoints[root]:
+        if st.closed:  # every completion depends on the element the cycle closes on
+            memo = {}
+        for g, ls in below(root, e, e if st.closed else None, memo).items():
+            if all(x >= lo for x, lo in zip(g, glo, strict=True)):
+                results.extend((c + st.costs[e], e, payload) for c, payload in ls)
+    results.sort(key=lambda t: t[0])
+    return results[:k]

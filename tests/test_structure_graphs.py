@@ -1,0 +1,187 @@
+"""The shared stage graphs (solver.stage_graphs, the default structure solver) against
+exhaustive enumeration and against the decomposition (method "decompose"), on
+structures that exercise what the graphs share: stages with the same fillers and
+different intervals, stages with fillers of their own, T branches with their branch
+transitions, cycles, intervals on two resources, structure-wide intervals (also on a
+resource a stage constrains itself); and the refusals."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from pipeline.samples import block_cycle, fig1c_like
+from solver import ProblemError, TooLargeError
+from solver.structure import Structure, solve_structure
+from tests.bruteforce_structure import enumerate_structure, solution_cost
+from tests.test_structure import structures, trees
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@st.composite
+def varied(draw):
+    """A chain, cycle or tree, then: own fillers for some stages, a doors interval on
+    some, and a structure-wide interval on doors or on length."""
+    d = draw(st.one_of(structures(), trees()))
+    fillers = [e["id"] for e in d["elements"] if "legs" not in e]
+    for s in d["stages"]:
+        if draw(st.integers(0, 2)) == 0:
+            s["elements"] = draw(st.lists(st.sampled_from(fillers), min_size=1, unique=True))
+        if draw(st.integers(0, 2)) == 0:
+            lo = draw(st.integers(0, 1))
+            s["constraints"]["doors"] = [lo, lo + draw(st.integers(0, 2))]
+    wide = draw(st.sampled_from(["none", "doors", "length"]))
+    if wide == "doors":
+        lo = draw(st.integers(0, 3))
+        d["constraints"] = {"doors": [lo, lo + draw(st.integers(0, 2))]}
+    elif wide == "length":
+        lo = sum(s["constraints"]["length"][0] for s in d["stages"])
+        lo += draw(st.integers(0, 2))
+        d["constraints"] = {"length": [lo, lo + draw(st.integers(0, 1))]}
+    return d
+
+
+def check(d: dict, r, k: int, expected: list[float]) -> None:
+    """r holds the k best costs, and each solution is a valid, distinct filling that
+    costs what it says."""
+    assert [s.cost for s in r.solutions] == pytest.approx(expected[:k])
+    assert r.status == ("ok" if expected else "infeasible")
+    seen = set()
+    for s in r.solutions:
+        assert solution_cost(d, s.keys, s.stages) == pytest.approx(s.cost)
+        seen.add((tuple(s.keys), tuple(map(tuple, s.stages))))
+    assert len(seen) == len(r.solutions)
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(varied(), st.integers(1, 6))
+def test_shared_graphs_match_enumeration_and_decomposition(d, k):
+    expected = enumerate_structure(d)
+    new = solve_structure(Structure.from_dict(d), k)
+    old = solve_structure(Structure.from_dict(d), k, "decompose")
+    assert new.stats["stages_by"] == "graphs"
+    check(d, new, k, expected)
+    check(d, old, k, expected)
+    assert [s.cost for s in new.solutions] == [s.cost for s in old.solutions]
+    for a, b in zip(new.solutions, old.solutions, strict=True):
+        if a.keys == b.keys and a.stages == b.stages:
+            assert a.resources == b.resources
+
+
+def test_stage_interval_on_a_structure_wide_resource_still_holds():
+    """Stage 0 allows at most one door while the building needs three or more: the
+    decomposition used to let the structure-wide share replace the stage's own
+    interval (three doors on stage 0)."""
+    d = {"resources": ["length", "doors"],
+         "elements": [{"id": "d", "resources": {"length": 1, "doors": 1}},
+                      {"id": "w", "resources": {"length": 1}, "cost": 1.0},
+                      {"id": "k", "legs": [{"length": 1}, {"length": 1}]}],
+         "transitions": [[a, b, 0.0] for a in "dwk" for b in "dwk"],
+         "keypoints": [{"elements": ["k"]}] * 3,
+         "stages": [{"constraints": {"length": [5, 5], "doors": [0, 1]}},
+                    {"constraints": {"length": [5, 5]}}],
+         "constraints": {"doors": [3, 6]}}
+    expected = enumerate_structure(d)
+    assert expected[:3] == [2.0, 2.0, 2.0]
+    for method in ("rcksp", "decompose"):
+        r = solve_structure(Structure.from_dict(d), 3, method)
+        check(d, r, 3, expected)
+        assert all(s.resources[0]["doors"] <= 1 for s in r.solutions)
+
+
+@pytest.mark.parametrize("make, k", [(fig1c_like, 10), (lambda: block_cycle(12), 10)])
+def test_same_answers_as_the_decomposition_and_between_row_tables(make, k):
+    st_ = Structure.from_dict(make())
+    new = solve_structure(st_, k)
+    hashed = solve_structure(st_, k, table="hash")
+    old = solve_structure(st_, k, "decompose")
+    fgs = solve_structure(st_, k, "fgs")
+    assert [vars(s) for s in new.solutions] == [vars(s) for s in hashed.solutions]
+    assert [s.cost for s in new.solutions] == [s.cost for s in old.solutions] \
+        == [s.cost for s in fgs.solutions]
+    assert new.stats["stages_by"] == "graphs" and old.stats["stages_by"] == "pairs (rcksp)"
+    assert fgs.stats["stages_by"] == "pairs (fgs)"
+
+
+_DUMP = """
+import json, sys
+from pipeline.samples import fig1c_like, block_cycle
+from solver.structure import Structure, solve_structure
+out = [[vars(s) for s in solve_structure(Structure.from_dict(d), 10).solutions]
+       for d in (fig1c_like(), block_cycle(8))]
+print(json.dumps(out, sort_keys=True))
+"""
+
+
+def test_same_input_same_solutions_in_any_process():
+    """Ties come out in one order whatever the string hash seed of the process."""
+    outs = []
+    for seed in ("1", "2"):
+        env = {**os.environ, "PYTHONHASHSEED": seed}
+        outs.append(subprocess.run([sys.executable, "-c", _DUMP], cwd=ROOT, env=env,
+                                   capture_output=True, text=True, check=True).stdout)
+    assert outs[0] == outs[1] and json.loads(outs[0])
+
+
+def test_rounding_quantum_takes_the_decomposition():
+    """Values that are not multiples of the quantum: totals must be re-checked in
+    original units, which the one-stage solves do."""
+    d = {"resources": ["length"], "quantum": {"length": 0.5},
+         "elements": [{"id": "a", "resources": {"length": 2.4}},
+                      {"id": "b", "resources": {"length": 3.1}, "cost": 0.5},
+                      {"id": "k", "legs": [{"length": 1.2}, {"length": 1.2}]}],
+         "transitions": [[x, y, 0.25] for x in "abk" for y in "abk"],
+         "keypoints": [{"elements": ["k"]}] * 2,
+         "stages": [{"constraints": {"length": [10.0, 11.0]}}]}
+    r = solve_structure(Structure.from_dict(d), 5)
+    assert r.stats["stages_by"] == "pairs (rcksp)" and r.status == "ok"
+    assert all(10.0 <= s.resources[0]["length"] <= 11.0 for s in r.solutions)
+
+
+def _long_block(quantum: float) -> dict:
+    d = block_cycle(4)
+    d["quantum"] = {"length": quantum}
+    return d
+
+
+def test_too_large_structure_is_refused_before_anything_is_allocated(monkeypatch):
+    import solver.stage_graphs as sg
+
+    def never(*_a, **_k):
+        raise AssertionError("a graph was grown")
+
+    monkeypatch.setattr(sg, "_grow_graph", never)
+    with pytest.raises(TooLargeError) as exc:
+        solve_structure(Structure.from_dict(_long_block(0.0001)), max_memory_mb=64)
+    msg = str(exc.value)
+    assert msg.startswith("structure too large") and "64 MB" in msg
+    assert '"length"' in msg and "coarser quantum" in msg and "--max-memory" in msg
+
+
+def test_structure_refusals_of_the_stage_graphs():
+    base = {"resources": ["length", "doors"],
+            "elements": [{"id": "f", "resources": {"length": 1}},
+                         {"id": "ghost", "resources": {"doors": 1}},
+                         {"id": "k", "legs": [{"length": 1}, {"length": 1}]}],
+            "transitions": [[x, y, 0.0] for x in ("f", "ghost", "k")
+                            for y in ("f", "ghost", "k")],
+            "keypoints": [{"elements": ["k"]}] * 2,
+            "stages": [{"constraints": {"length": [4, 4]}}]}
+    with pytest.raises(ProblemError, match='"ghost" consumes nothing .* stage 0'):
+        solve_structure(Structure.from_dict(base))
+    with pytest.raises(ProblemError, match="unknown structure method"):
+        solve_structure(Structure.from_dict(base), method="merged")
+    ok = {**base, "stages": [{"constraints": {"length": [4, 4]}, "elements": ["f"]}]}
+    assert solve_structure(Structure.from_dict(ok)).status == "ok"
+    bad = {**ok, "stages": [{"constraints": {"length": [2.5, 2.9]}, "elements": ["f"]}]}
+    r = solve_structure(Structure.from_dict(bad))
+    assert r.status == "infeasible"
+    assert "stage 0 between k and k" in r.reason and "nearest achievable" in r.reason
