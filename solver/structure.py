@@ -1,5 +1,5 @@
-"""Structures of the paper's §3.2, first version: trees and cycles of substructures
-solved by decomposition.
+"""Structures of the paper's §3.2: trees and cycles of substructures between key
+points, with T junctions, solved exactly for the k best.
 
 A structure is a graph of key points joined by substructures (stages). A key point
 admits a set of key elements (a corner class, an end class, a T class ...). A key
@@ -34,7 +34,7 @@ from .estimate import DEFAULT_MAX_MEMORY_MB
 from .problem import Problem, _number, check_object, parse_intervals
 from .quantize import exact_divisor, is_multiple
 from .stage_graphs import NotExact, StageGraphs
-from .structure_dp import best_structures
+from .structure_dp import best_structures, paused_gc
 from .structure_pairs import PairProblems
 
 METHODS = ("rcksp", "decompose", "fgs")
@@ -284,16 +284,17 @@ def solve_structure(st: Structure, k: int | None = None, method: str = "rcksp", 
     grid = _global_grid(st)
     gnames, _gq, glo, ghi = grid
     provider: StageGraphs | PairProblems | None = None
-    if method == "rcksp":
-        try:
-            provider = StageGraphs(st, k, grid, max_memory_mb, table)
-        except NotExact:
-            provider = None
-    if provider is None:
-        provider = PairProblems(st, k, grid, {
-            "method": "fgs" if method == "fgs" else "rcksp",
-            "max_memory_mb": max_memory_mb, "table": table, **solve_kw})
-    results = best_structures(st, k, ghi, glo, provider.lists)
+    with paused_gc():
+        if method == "rcksp":
+            try:
+                provider = StageGraphs(st, k, grid, max_memory_mb, table)
+            except NotExact:
+                provider = None
+        if provider is None:
+            provider = PairProblems(st, k, grid, {
+                "method": "fgs" if method == "fgs" else "rcksp",
+                "max_memory_mb": max_memory_mb, "table": table, **solve_kw})
+        results = best_structures(st, k, ghi, glo, provider.lists)
     sols = []
     for cost, e, payload in results:
         keys: list[str | None] = [None] * len(st.keypoints)

@@ -166,6 +166,15 @@ def test_too_large_structure_is_refused_before_anything_is_allocated(monkeypatch
     assert '"length"' in msg and "coarser quantum" in msg and "--max-memory" in msg
 
 
+def test_too_large_structure_file_exits_2_with_the_message(tmp_path, capsys):
+    from pipeline.cli import main
+    f = tmp_path / "huge.json"
+    f.write_text(json.dumps(_long_block(0.0001)))
+    assert main(["solve", str(f), "--max-memory", "64"]) == 2
+    err = capsys.readouterr().err
+    assert "error: structure too large" in err and "coarser quantum" in err
+
+
 def test_structure_refusals_of_the_stage_graphs():
     base = {"resources": ["length", "doors"],
             "elements": [{"id": "f", "resources": {"length": 1}},
