@@ -60,3 +60,25 @@ def bounds(lay: Layout, db: PartDB) -> np.ndarray:
 
 def triangle_count(lay: Layout, db: PartDB) -> int:
     return sum(len(p.faces) for _i, pieces in instances_with_pieces(lay, db) for p in pieces)
+
+
+def world_boxes(lay: Layout, db: PartDB) -> trimesh.Trimesh:
+    """Each instance as its part's bounding box (12 triangles, the part's main colour):
+    a city overview with millions of triangles would not fit a preview."""
+    verts, faces, colours, n = [], [], [], 0
+    unit = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
+    for inst, pieces in instances_with_pieces(lay, db):
+        v = np.vstack([p.vertices for p in pieces])
+        lo, hi = v.min(axis=0), v.max(axis=0)
+        box = unit.vertices * (hi - lo) + lo
+        m = inst.matrix()
+        verts.append(box @ m[:3, :3].T + m[:3, 3])
+        faces.append((unit.faces[:, ::-1] if inst.mirrored else unit.faces) + n)
+        main = max(pieces, key=lambda p: len(p.faces)).rgba
+        colours.append(np.tile(np.array(main, dtype=np.uint8), (len(unit.faces), 1)))
+        n += len(box)
+    if not verts:
+        return trimesh.Trimesh()
+    mesh = trimesh.Trimesh(np.vstack(verts), np.vstack(faces), process=False)
+    mesh.visual.face_colors = np.vstack(colours)
+    return mesh

@@ -11,9 +11,15 @@ stretch them by two factors); the rest of their stages absorbs the difference. A
 whose facades face the left of travel is placed mirrored (the canonical facade faces
 the right, -Y). A part that spans a bend follows the bend's chord.
 
+A mitre (a corner made of the style's two end parts, see
+:func:`pipeline.structures.skeleton_structure`) is two instances: the end part that
+closes the incoming stage and the one that opens the outgoing stage, meeting at the key
+point at whatever angle the corner has.
+
 Then every layout is checked, and a failed check is an error: each stage's parts
-measure its skeleton length within half a quantum (so the stretch only absorbs
-quantisation: under 0.5 % on stages over 20 m at a 0.2 m quantum), consecutive parts meet
+measure its skeleton length within the stage's length interval (half a quantum unless
+the caller allowed a relative stretch; so the stretch only absorbs what was allowed,
+under 0.5 % on stages over 20 m at a 0.2 m quantum), consecutive parts meet
 (gap or overlap under 1 mm), key-part legs end on their edges, every facade has both
 ends on the skeleton and faces the stage's front side (so its mass lies behind the
 skeleton line, never on the street side).
@@ -108,49 +114,83 @@ def _place(si: int, plan, sol, parts: dict[str, Part]):
         j = st["stages"][s]["from"]
         return 2 if branch.get(j) == s else 1
 
+    def leg_part(j: int, leg: int) -> Part:
+        """The part that realises key j's leg: the key part, or for a mitre the end
+        part on that side of the corner."""
+        mitre = plan.mitres.get(sol.keys[j])
+        return parts[sol.keys[j]] if mitre is None else parts[mitre[0 if leg == 0 else 1]]
+
+    def leg_len(j: int, leg: int) -> float:
+        """How far key j reaches along a leg: its geometry, or a mitre's chosen length."""
+        mitre = plan.mitres.get(sol.keys[j])
+        return _leg(leg_part(j, leg), leg) if mitre is None else mitre[2 if leg == 0 else 3]
+
     # one stretch per stage: every part on it stretches, except T parts (rigid: their
     # two main legs are collinear, so no linear map stretches them differently)
     stretch, solved = [], []
     for s, d in enumerate(st["stages"]):
-        ends = [(parts[sol.keys[d["from"]]], start_leg(s)), (parts[sol.keys[d["to"]]], 0)]
-        rigid = sum(_leg(p, leg) for p, leg in ends if p.cls == "t_junction")
-        elastic = sum(_leg(p, leg) for p, leg in ends if p.cls != "t_junction") + \
+        ends = [(leg_part(d["from"], start_leg(s)), leg_len(d["from"], start_leg(s))),
+                (leg_part(d["to"], 0), leg_len(d["to"], 0))]
+        rigid = sum(x for p, x in ends if p.cls == "t_junction")
+        elastic = sum(x for p, x in ends if p.cls != "t_junction") + \
             sum(_geom_length(parts[x]) for x in sol.stages[s])
         stretch.append((paths[s].length - rigid) / elastic if elastic > 0 else 1.0)
         solved.append(rigid + elastic)
 
     instances: list[Instance] = []
     record = {"keys": {}, "stages": {}}
-    # key parts
+    # key parts: each leg is aimed at the point of its stage's polyline that lies its
+    # (stretched) length along from the key point, so legs land on the skeleton even
+    # where a bend comes before the leg ends
+    def reach_in(j: int, length: float) -> np.ndarray:
+        """Vector from key j to the point ``length`` back along its incoming stage."""
+        path = paths[ins[j]]
+        return path.at(path.length - length) - kxy[j]
+
+    def reach_out(s: int, length: float) -> np.ndarray:
+        """Vector from stage s's start key to the point ``length`` along it."""
+        return paths[s].at(length) - paths[s].p[0]
+
     for j in range(n_keys):
-        p = parts[sol.keys[j]]
         s_in = ins[j]
         main_out = [s for s in outs[j] if branch.get(j) != s]
-        u_in = paths[s_in].dir[-1] if s_in is not None else None
-        u_out = paths[main_out[0]].dir[0] if main_out else None
         front = plan.stages[s_in if s_in is not None else main_out[0]].front
-        origin = kxy[j]
+        legs = {}
+        if s_in is not None:
+            p = leg_part(j, 0)
+            scale = 1.0 if p.cls == "t_junction" else stretch[s_in]
+            legs[0] = (p, reach_in(j, leg_len(j, 0) * scale))
+        for s in outs[j]:
+            leg = start_leg(s)
+            p = leg_part(j, leg)
+            scale = 1.0 if p.cls == "t_junction" else stretch[s]
+            legs[leg] = (p, reach_out(s, leg_len(j, leg) * scale))
+        p = parts[sol.keys[j]] if sol.keys[j] not in plan.mitres else None
+        if p is None or p.cls in ("end_left", "end_right"):  # straight: an end, a mitre
+            for leg, (q, v) in legs.items():
+                record["keys"][(j, leg)] = len(instances)
+                instances.append(_straight_key(q, si, j, kxy[j], v, leg == 0, front))
+            if p is not None:   # an end part: one instance realises its only leg
+                for leg in (0, 1, 2):
+                    record["keys"][(j, leg)] = len(instances) - 1
+            continue
         if p.cls == "corner":
-            a = _fit(p.directions[0], p.directions[1], -u_in * stretch[s_in],
-                     u_out * stretch[main_out[0]])
-        elif p.cls == "t_junction":
-            u_br = paths[branch[j]].dir[0]
-            _check_t_sides(plan, j, kxy[j], u_in, u_br, front, plan.stages[branch[j]].front)
-            a = _fit(p.directions[0], p.directions[2], -u_in, u_br)
-        else:  # an end part: straight, after (end_left) or before (end_right) the key
-            s_own = main_out[0] if main_out else s_in
-            u = paths[s_own].dir[0] if main_out else u_in
-            a = np.column_stack([u * stretch[s_own], _left(u) if front == "right"
-                                 else -_left(u)])
-            if not main_out:
-                origin = kxy[j] - u * _geom_length(p) * stretch[s_own]
-        record["keys"][j] = (len(instances), p)
-        instances.append(_instance(p, si, None, j, a, origin))
+            a = _fit(np.asarray(p.directions[0]) * p.legs_measured[0],
+                     np.asarray(p.directions[1]) * p.legs_measured[1], legs[0][1], legs[1][1])
+        else:  # a T: fitted to its in-leg and its branch; its out-leg follows the in-leg
+            v_br = legs[2][1]
+            _check_t_sides(plan, j, kxy[j], -legs[0][1], v_br, front,
+                           plan.stages[branch[j]].front)
+            a = _fit(np.asarray(p.directions[0]) * p.legs_measured[0],
+                     np.asarray(p.directions[2]) * p.legs_measured[2], legs[0][1], v_br)
+        for leg in (0, 1, 2):
+            record["keys"][(j, leg)] = len(instances)
+        instances.append(_instance(p, si, None, j, a, kxy[j]))
     # stage fillers, from the end of the start key's leg on
     for s, d in enumerate(st["stages"]):
         path, lo = paths[s], d["from"]
-        p_lo = parts[sol.keys[lo]]
-        leg = _leg(p_lo, start_leg(s))
+        p_lo = leg_part(lo, start_leg(s))
+        leg = leg_len(lo, start_leg(s))
         pos = leg if p_lo.cls == "t_junction" else leg * stretch[s]
         idx = []
         front = plan.stages[s].front
@@ -169,6 +209,16 @@ def _place(si: int, plan, sol, parts: dict[str, Part]):
         record["stages"][s] = {"fill": idx, "stretch": stretch[s], "start_leg": start_leg(s),
                                "path": path, "instances": instances, "solved": solved[s]}
     return instances, record
+
+
+def _straight_key(p: Part, si: int, j: int, xy, v, before: bool, front: str) -> Instance:
+    """A straight part spanning vector v from key point xy: before the key (it ends at
+    the key, v points back along its stage) or after it."""
+    length = float(np.hypot(*v))
+    u = (-v if before else v) / length
+    a = np.column_stack([u * (length / _geom_length(p)),
+                         _left(u) if front == "right" else -_left(u)])
+    return _instance(p, si, None, j, a, xy + v if before else xy)
 
 
 def _instance(p: Part, structure: int, stage, key, a: np.ndarray, origin) -> Instance:
@@ -213,15 +263,16 @@ def _check(plan, record, parts) -> None:
         path: _Path = r["path"]
         inst = r["instances"]
         front = plan.stages[s].front
-        lo, hi = plan.structure["stages"][s]["from"], plan.structure["stages"][s]["to"]
-        k_lo, p_lo = record["keys"][lo]
-        k_hi, p_hi = record["keys"][hi]
+        d = plan.structure["stages"][s]
+        k_lo = record["keys"][(d["from"], r["start_leg"])]
+        k_hi = record["keys"][(d["to"], 0)]
+        p_lo, p_hi = parts[inst[k_lo].part], parts[inst[k_hi].part]
         where = f"{name}: stage {s}"
-        q = plan.structure.get("quantum", {}).get("length", 0.0)
-        if abs(path.length - r["solved"]) > q / 2 + TOL:
+        lo, hi = d["constraints"]["length"]
+        if abs(path.length - r["solved"]) > (hi - lo) / 2 + TOL:
             raise ExportError(f"{where}: its parts measure {r['solved']:.3f} m for "
-                              f"{path.length:.3f} m of skeleton, more than the half quantum "
-                              f"({q / 2:g} m) a stretch may absorb")
+                              f"{path.length:.3f} m of skeleton, more than the "
+                              f"{(hi - lo) / 2:g} m a stretch may absorb")
         # facade segments in travel order: start key's leg, fillers, end key's leg
         segs = [_key_leg_segment(inst[k_lo], p_lo, r["start_leg"], outgoing=True)]
         for i in r["fill"]:

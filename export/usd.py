@@ -175,11 +175,15 @@ def write_layout(lay: Layout, db: PartDB, path: str | Path) -> Path:
                 groups[(si, s)] = g
         counters: dict[tuple, int] = {}
         for inst in lay.instances:
-            gkey = (inst.structure, inst.stage)
+            # fillers count along their stage; a key point has one part, or two (a
+            # mitre: the end parts on either side of the corner)
+            gkey = (inst.structure, inst.stage, inst.key)
             n = counters.get(gkey, 0)
             counters[gkey] = n + 1
-            label = f"key_{inst.key:03d}" if inst.stage is None else f"part_{n:03d}"
-            spec = Sdf.PrimSpec(groups[gkey], label, Sdf.SpecifierDef, "Xform")
+            label = f"part_{n:03d}" if inst.stage is not None else \
+                f"key_{inst.key:03d}" + (f"_{n}" if n else "")
+            spec = Sdf.PrimSpec(groups[(inst.structure, inst.stage)], label,
+                                Sdf.SpecifierDef, "Xform")
             spec.instanceable = True
             spec.referenceList.Prepend(Sdf.Reference(f"./{part_file(inst.part)}"))
             spec.customData = _vt({"citysynth": {"part": inst.part}})

@@ -3,7 +3,7 @@
 A file appears complete or not at all: it is written to a temporary file in the same
 folder (same suffix, so format-sniffing writers like usd-core and trimesh still work)
 and renamed over the target. A run killed at any moment leaves no partial file, only
-at worst a hidden ``.name.*`` temporary that the next write to that folder ignores.
+at worst a hidden ``.name.tmp-*`` temporary, which :func:`sweep_temporaries` removes.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from pathlib import Path
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
+TMP_MARK = ".tmp-"     # in every temporary's name, so a later run can sweep leftovers
 
 
 @contextlib.contextmanager
@@ -23,7 +24,8 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path to write; on success it is renamed to ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}{TMP_MARK}",
+                               suffix=path.suffix)
     os.close(fd)
     try:
         yield Path(tmp)
@@ -42,3 +44,13 @@ def write_bytes(path: str | Path, data: bytes) -> Path:
 
 def write_text(path: str | Path, text: str) -> Path:
     return write_bytes(path, text.encode("utf-8"))
+
+
+def sweep_temporaries(folder: str | Path) -> int:
+    """Remove the temporaries a killed run left in ``folder``; how many there were."""
+    n = 0
+    for p in Path(folder).glob(f".*{TMP_MARK}*"):
+        if p.is_file():
+            p.unlink(missing_ok=True)
+            n += 1
+    return n

@@ -18,7 +18,6 @@ from pathlib import Path
 from export.gltf import write_glb
 from export.layout import Layout
 from export.place import layout, max_stretch
-from export.preview import render_layout
 from export.usd import write_layout
 from parts_db import PartDB
 from parts_db.files import write_text
@@ -56,11 +55,13 @@ def check_style(db: PartDB, style: str) -> None:
 
 
 def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
-                  k: int = 1) -> Built:
-    """The k best layouts of one building or block (checked; see module docstring)."""
+                  k: int = 1, **options) -> Built:
+    """The k best layouts of one building or block (checked; see module docstring).
+    ``options`` go to :func:`pipeline.structures.skeleton_structure` (corner tolerance,
+    mitres, stretch, per-side and per-structure constraints)."""
     check_style(db, style)
     t0 = time.perf_counter()
-    plans = [skeleton_structure(sk, db, style, k=k) for sk in skeletons]
+    plans = [skeleton_structure(sk, db, style, k=k, **options) for sk in skeletons]
     t1 = time.perf_counter()
     results = [solve_structure(Structure.from_dict(p.structure, sk.name), k)
                for p, sk in zip(plans, skeletons, strict=True)]
@@ -99,6 +100,8 @@ def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
             paths.append(write_glb(lay, db, out / f"{stem}.glb"))
         t_png = time.perf_counter()
         if "png" in formats:
+            from export.preview import render_layout  # pyvista: only when previewing
+
             title = (f"{lay.name}  #{lay.rank}  cost {lay.cost:g}  "
                      f"{len(lay.instances)} parts")
             paths.append(render_layout(lay, db, out / f"{stem}.png", title=title))

@@ -23,7 +23,7 @@ attribute constraints (only the middle parts' do).
 from __future__ import annotations
 
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -51,6 +51,13 @@ class StructurePlan:
     structure: dict                # see ``solver.structure.Structure.from_dict``
     keys: tuple[int, ...]          # skeleton key point of each structure key point
     stages: tuple[StagePath, ...]  # one per structure stage, in the same order
+    # mitre id -> (incoming end part, outgoing end part, their lengths along the stages)
+    mitres: dict[str, tuple[str, str, float, float]] = field(default_factory=dict)
+
+
+MITRE = "mitre:"   # key elements made of an end part on each side of a corner
+MITRE_SHIFTS = 3   # a mitre's end parts may stretch or shrink by up to this many quanta
+MITRE_SHIFT_COST = 1.0   # per metre of stretch, so the solver prefers true lengths
 
 
 @dataclass(frozen=True)
@@ -173,13 +180,28 @@ def _orient(sk: Skeleton, keys: list[int], chains: list[_Chain]) -> tuple[int, d
 
 
 def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
-                       angle_tol: float = 7.5) -> StructurePlan:
+                       angle_tol: float = 7.5, mitre_cost: float | None = None,
+                       stretch: float = 0.0, per_side: dict | None = None,
+                       per_structure: dict | None = None) -> StructurePlan:
     """The structure for ``sk`` built from ``db``'s parts of ``style``, with the way
-    back to the skeleton."""
+    back to the skeleton.
+
+    By default a corner takes the library's corner parts of the nearest angle within
+    ``angle_tol`` degrees, or is refused. With ``mitre_cost`` (the city run's choice) a
+    corner takes every corner part of its convexity within ``angle_tol`` and, at that
+    extra cost, a mitre: the style's end parts meeting at the corner, which fits any
+    angle and needs far shorter edges than a corner part. A mitre comes in variants
+    whose end parts are stretched or shrunk by up to ``MITRE_SHIFTS`` quanta (at a
+    small extra cost per metre), which gives short stages the slack that a few
+    fixed part lengths lack. Each stage must meet its
+    skeleton length within half a quantum or ``stretch`` (a fraction) of it, whichever
+    is larger. ``per_side`` intervals apply to every stage (an edge's own constraints
+    win), ``per_structure`` ones to the whole structure."""
     keys, chains = _chains(sk)
     kp_of = {kp.id: kp for kp in sk.keypoints}
     corners = db.select("corner", style)
-    chosen = match_corner_angles(sk, [(p.angle, p.convex) for p in corners], angle_tol)
+    if mitre_cost is None:
+        chosen = match_corner_angles(sk, [(p.angle, p.convex) for p in corners], angle_tol)
     root, oriented = _orient(sk, keys, chains)
     # renumber so the root is key point 0
     order = [root] + [j for j in range(len(keys)) if j != root]
@@ -190,29 +212,44 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
     if not fillers:
         raise SkeletonError(f"the library has no middle parts of style {style!r}")
     attrs = sorted({a for p in fillers for a in p.attributes})
+    q = db.quantum
+    mitres = {}   # id -> (end_right, end_left, shift): both ends moved by shift metres
+    if mitre_cost is not None:
+        for r in db.select("end_right", style):
+            for lft in db.select("end_left", style):
+                for i in range(-MITRE_SHIFTS, MITRE_SHIFTS + 1):
+                    mitres[f"{MITRE}{r.id}+{lft.id}{i * q:+.1f}"] = (r, lft, round(i * q, 9))
     keypoints, key_parts = [], {}
     for j, v in enumerate(keys):
         kp = kp_of[v]
-        if kp.kind == "corner":
+        extra = []
+        if kp.kind == "corner" and mitre_cost is None:
             angle, convex = chosen[v]
             opts = [p for p in corners if (p.angle, p.convex) == (angle, convex)]
+        elif kp.kind == "corner":
+            opts = [p for p in corners if p.convex == kp.convex
+                    and abs(p.angle - kp.angle) <= angle_tol]
+            extra = sorted(mitres)
         elif kp.kind == "t_junction":
             opts = db.select("t_junction", style)
         else:
             starts = any(a == j for a, _b in oriented.values())
             opts = db.select("end_left" if starts else "end_right", style)
-        if not opts:
+        if not opts and not extra:
             raise SkeletonError(f"{sk.name}: the library has no {kp.kind} part of style "
                                 f"{style!r} for the key point at ({kp.xy[0]:.1f}, "
                                 f"{kp.xy[1]:.1f})")
-        entry = {"elements": [p.id for p in opts]}
+        entry = {"elements": [p.id for p in opts] + extra}
         if kp.kind == "t_junction":
             entry["branch"] = next(s for s, c in enumerate(chains) if kp.branch in c.edges)
         keypoints.append(entry)
         for p in opts:
             key_parts[p.id] = p
+    for name in {**(per_side or {}), **(per_structure or {})}:
+        if name not in attrs:
+            raise SkeletonError(f"{sk.name}: constraint on {name!r}, which no {style} "
+                                f"middle part has (they have {attrs})")
 
-    q = db.quantum
     stage_dicts = []
     paths = []
     for s, chain in enumerate(chains):
@@ -223,8 +260,9 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                                _front_along(sk, chain, forward),
                                chain.edges if forward else chain.edges[::-1]))
         length = chain.length
-        c = {"length": [round(length - q / 2, 6), round(length + q / 2, 6)]}
-        for name, iv in chain.constraints.items():
+        tol = max(q / 2, stretch * length)
+        c = {"length": [round(length - tol, 6), round(length + tol, 6)]}
+        for name, iv in {**(per_side or {}), **chain.constraints}.items():
             if name not in attrs:
                 raise SkeletonError(f"{sk.name}: edge constraint on {name!r}, which no "
                                     f"{style} middle part has (they have {attrs})")
@@ -239,12 +277,22 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
     elements = [{"id": p.id, "resources": {"length": p.length, **p.attributes}}
                 for p in fillers]
     elements += [{"id": pid, "legs": legs(p)} for pid, p in key_parts.items()]
-    ids = [p.id for p in fillers] + list(key_parts)
+    elements += [{"id": mid, "legs": [{"length": round(r.length + d, 9)},
+                                      {"length": round(lft.length + d, 9)}],
+                  "cost": mitre_cost + MITRE_SHIFT_COST * abs(d)}
+                 for mid, (r, lft, d) in sorted(mitres.items())]
+    # a transition runs from the part at an element's end to the part at the next one's
+    # start; for a mitre those are its two end parts
+    first = {p.id: p.id for p in [*fillers, *key_parts.values()]}
+    last = dict(first)
+    for mid, (r, lft, _d) in mitres.items():
+        first[mid], last[mid] = r.id, lft.id
+    ids = [p.id for p in fillers] + list(key_parts) + sorted(mitres)
     idx = db.index()
     trans, btrans = [], []
     for x in ids:
         for y in ids:
-            i, j = idx[x], idx[y]
+            i, j = idx[last[x]], idx[first[y]]
             if db.allowed[i, j] and np.isfinite(db.cost[i, j]):
                 trans.append([x, y, float(db.cost[i, j])])
             if np.isfinite(db.cost_branch[i, j]):
@@ -252,7 +300,21 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
     structure = {"resources": ["length", *attrs], "quantum": {"length": q},
                  "elements": elements, "transitions": trans, "branch_transitions": btrans,
                  "keypoints": keypoints, "stages": stage_dicts, "k": k}
-    return StructurePlan(sk, style, structure, tuple(keys), tuple(paths))
+    if per_structure:
+        structure["constraints"] = {n: list(iv) for n, iv in per_structure.items()}
+    return StructurePlan(sk, style, structure, tuple(keys), tuple(paths),
+                         {mid: (r.id, lft.id, round(r.length + d, 9), round(lft.length + d, 9))
+                          for mid, (r, lft, d) in mitres.items()})
+
+
+def shortest_stage(db: PartDB, style: str) -> float:
+    """The shortest stage two mitred corners can close (their end parts shrunk as far
+    as a mitre allows): block sides shorter than this cannot be built, so cleaning
+    absorbs them into their corners."""
+    ends = [p.length for p in db.select("end_left", style) + db.select("end_right", style)]
+    if not ends:
+        return 0.0
+    return max(2 * min(ends) - 2 * MITRE_SHIFTS * db.quantum, 0.0)
 
 
 def _on_cycle(s, adj, chains, index) -> bool:

@@ -21,6 +21,7 @@ from shapely.validation import explain_validity
 from .errors import SkeletonError
 from .geojson import Feature, Frame, angle_between
 from .model import Edge, KeyPoint, Skeleton
+from .streets import street_blocks
 
 SNAP = 0.01            # metres: endpoints closer than this are the same key point
 STRAIGHT_TOL = 15.0    # degrees: a smaller turn is a bend, not a corner
@@ -260,35 +261,11 @@ def _ring_skeleton(ring, f: Feature, label: str, frame: Frame, min_edge: float,
 
 def blocks_from_streets(features: Iterable[Feature], *, setback: float = 6.0,
                         min_area: float = 50.0) -> tuple[list[Polygon], list[str]]:
-    """Blocks enclosed by street centre lines, inset by ``setback`` metres. Returns the
-    blocks and the reasons for the pieces skipped (slivers and tiny blocks)."""
-    lines = []
-    for f in features:
-        g = f.geometry
-        if isinstance(g, LineString | MultiLineString):
-            lines.append(g)
-        else:
-            raise SkeletonError(f"{f.name}: street centre lines must be LineStrings, got "
-                                f"{g.geom_type}")
-    if not lines:
-        raise SkeletonError("no street centre lines in the input")
-    noded = shapely.union_all(lines)
-    faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
-    blocks, skipped = [], []
-    for i, face in enumerate(sorted(faces, key=lambda p: (p.centroid.x, p.centroid.y))):
-        inset = face.buffer(-setback, join_style="mitre", mitre_limit=3.0)
-        parts = [p for p in shapely.get_parts(inset) if not p.is_empty]
-        if not parts:
-            skipped.append(f"block {i} at ({face.centroid.x:.1f}, {face.centroid.y:.1f}): "
-                           f"nothing left after the {setback:g} m setback")
-            continue
-        for p in parts:
-            if p.area < min_area:
-                skipped.append(f"block {i} at ({p.centroid.x:.1f}, {p.centroid.y:.1f}): "
-                               f"{p.area:.1f} m² after the setback, below {min_area:g} m²")
-            else:
-                blocks.append(shapely.normalize(p))
-    return blocks, skipped
+    """Blocks enclosed by street centre lines, ``setback`` metres from each (a number,
+    or a function of a street's properties: see :mod:`skeletons.streets`). Returns the
+    block polygons and the reasons for the pieces skipped (slivers and tiny blocks)."""
+    blocks, skipped = street_blocks(features, setback, min_area=min_area)
+    return [b.polygon for b in blocks], skipped
 
 
 def describe(s: Skeleton) -> str:

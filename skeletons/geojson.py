@@ -48,7 +48,8 @@ class Frame:
         return f"{self.crs}, origin {self.origin[0]:.6f}, {self.origin[1]:.6f}"
 
 
-def read_geojson(path: str | Path, crs: str | None = None) -> tuple[list[Feature], Frame]:
+def read_geojson(path: str | Path, crs: str | None = None,
+                 origin: tuple[float, float] | None = None) -> tuple[list[Feature], Frame]:
     p = Path(path)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
@@ -57,11 +58,13 @@ def read_geojson(path: str | Path, crs: str | None = None) -> tuple[list[Feature
     except json.JSONDecodeError as exc:
         raise SkeletonError(f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
                             f"{exc.msg}") from None
-    return parse_geojson(data, str(p), crs)
+    return parse_geojson(data, str(p), crs, origin)
 
 
-def parse_geojson(data: Any, source: str = "input", crs: str | None = None
-                  ) -> tuple[list[Feature], Frame]:
+def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
+                  origin: tuple[float, float] | None = None) -> tuple[list[Feature], Frame]:
+    """Features in a local metric frame centred on the data's bounding box, or on
+    ``origin`` (input coordinates) so that several files share one frame."""
     if not isinstance(data, dict) or data.get("type") not in ("FeatureCollection", "Feature"):
         raise SkeletonError(f"{source}: not a GeoJSON FeatureCollection or Feature")
     raw = data.get("features") if data["type"] == "FeatureCollection" else [data]
@@ -86,7 +89,8 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None
         props.append(dict(f.get("properties") or {}))
     allc = np.vstack([shapely.get_coordinates(g) for g in geoms])
     lo, hi = allc.min(axis=0), allc.max(axis=0)
-    centre = (float((lo[0] + hi[0]) / 2), float((lo[1] + hi[1]) / 2))
+    centre = (float((lo[0] + hi[0]) / 2), float((lo[1] + hi[1]) / 2)) if origin is None \
+        else (float(origin[0]), float(origin[1]))
     if crs is None:
         if not (-180 <= lo[0] and hi[0] <= 180 and -90 <= lo[1] and hi[1] <= 90):
             raise SkeletonError(

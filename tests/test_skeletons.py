@@ -126,7 +126,26 @@ def test_streets_polygonise_into_inset_blocks():
     assert len(skipped) == 1 and "setback" in skipped[0]
     cycles = skeletons_from_polygons(
         [type(feats[0])(i, b, {}) for i, b in enumerate(blocks)], frame)
-    assert all(len(c.edges) == 4 and c.closed for c in cycles)
+    assert all(c.closed for c in cycles)
+    # the stub of the y=95 street beyond x=100 cuts its own setback into the next block
+    assert sorted(len(c.edges) for c in cycles) == [4] * 8 + [6]
+
+
+def test_street_setbacks_follow_width_lanes_and_class():
+    from skeletons.streets import Setbacks, street_blocks
+    s = Setbacks(default=5.0, sidewalk=2.0, lane_width=3.0, by_class=(("primary", 12.0),))
+    assert s({"width": "8 m"}) == 6.0 and s({"lanes": "2"}) == 5.0
+    assert s({"highway": "primary"}) == 12.0 and s({"highway": "track"}) == 5.0
+    assert s({"width": "n/a", "lanes": 4}) == 8.0
+    lines = [feat("LineString", metres([(x, -10), (x, 110)]), highway="primary" if x else "x")
+             for x in (0, 100)]
+    lines += [feat("LineString", metres([(-10, y), (110, y)])) for y in (0, 100)]
+    feats, _frame = parse_geojson(fc(*lines))
+    (block,), skipped = street_blocks(feats, s)
+    x0, y0, x1, y1 = block.polygon.bounds
+    assert (x1 - x0) == pytest.approx(100 - 12 - 5, abs=0.01)   # primary on one side
+    assert (y1 - y0) == pytest.approx(100 - 5 - 5, abs=0.01)
+    assert len(block.streets) == 4 and not skipped
 
 
 @pytest.mark.parametrize("features, kind, fragment", [

@@ -1,0 +1,100 @@
+"""``citysynth city``: a whole city from a street network (and/or footprints).
+
+Exit codes: 0 when the run finished (blocks that failed are listed, with reasons, in
+the summary and in report.json: one bad block never stops the city); 2 on bad input
+(streets, footprints, config, library), with one line and nothing written.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from .city_config import load_config
+from .city_run import (
+    cpu_count,
+    prepare,
+    progress_printer,
+    render_overview,
+    run_city,
+    write_city_stage,
+    write_report,
+)
+
+
+def register(sub) -> None:
+    p = sub.add_parser("city", help="build every block of a street network",
+                       description="Polygonise street centre lines into blocks (and/or take "
+                                   "building footprints), build each block's facades with a "
+                                   "part library, and write per-block layout JSON and USD, a "
+                                   "city USD stage, an overview PNG, manifest.json and "
+                                   "report.json. Reruns skip unchanged blocks.")
+    p.add_argument("--streets", metavar="FILE", help="street centre lines (GeoJSON)")
+    p.add_argument("--footprints", metavar="FILE",
+                   help="building footprints to wrap (GeoJSON Polygons), instead of or "
+                        "beside the street blocks")
+    p.add_argument("--library", metavar="DIR", help="part library (or set library in the "
+                                                    "config)")
+    p.add_argument("--config", metavar="city.toml", help="run settings (see README)")
+    p.add_argument("-o", "--out", default="out/city", metavar="DIR",
+                   help="run folder (default: out/city)")
+    p.add_argument("--workers", type=int, default=None,
+                   help=f"local worker processes (default: all cores, here {cpu_count()})")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the blocks on a Dask cluster, e.g. tcp://10.0.0.5:8786 (the "
+                        "workers must see the library and the run folder)")
+    p.add_argument("--crs", default=None, help="CRS of projected input, e.g. EPSG:25832")
+    p.add_argument("--no-overview", action="store_true", help="skip city.png")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from skeletons.errors import SkeletonError
+
+    if args.workers is not None and args.workers < 1:
+        raise SkeletonError(f"--workers must be at least 1, got {args.workers}")
+    t0 = time.perf_counter()
+    cfg = load_config(args.config)
+    inputs = prepare(args.streets, args.footprints, cfg, args.library, args.crs)
+    workers = args.workers or cpu_count()
+    where = f"Dask at {args.scheduler}" if args.scheduler else f"{workers} worker(s)"
+    print(f"citysynth city: {len(inputs.jobs)} blocks to build ({len(inputs.skipped)} "
+          f"pieces skipped) on {where}, into {args.out}/")
+    report = run_city(inputs, args.out, workers=workers, scheduler=args.scheduler,
+                      progress=progress_printer())
+    t = time.perf_counter()
+    city = write_city_stage(Path(args.out), report)
+    report["timings"]["city_stage_s"] = time.perf_counter() - t
+    png = None
+    if not args.no_overview:
+        t = time.perf_counter()
+        png = render_overview(Path(args.out), inputs, report)
+        report["timings"]["overview_s"] = time.perf_counter() - t
+    report["timings"]["total_s"] = time.perf_counter() - t0
+    write_report(Path(args.out), report)
+    print(summary_table(report))
+    print(f"wrote {city}" + (f", {png}" if png else "") + f", {Path(args.out) / 'report.json'}")
+    return 0
+
+
+def summary_table(report: dict) -> str:
+    c = report["counts"]
+    lines = ["", f"{'blocks':<22}{'count':>8}", "-" * 30]
+    for k in ("built", "failed", "skipped", "cached"):
+        lines.append(f"{k:<22}{c[k]:>8}")
+    lines.append(f"{'built / attempted':<22}{100 * report['built_share']:>7.1f}%")
+    t = report["timings"]
+    lines += ["", f"{'stage':<22}{'seconds':>8}", "-" * 30]
+    names = [("inputs_s", "streets -> blocks"), ("structure_s", "structures (CPU)"),
+             ("solve_s", "solve (CPU)"), ("layout_s", "layout + checks (CPU)"),
+             ("write_s", "JSON + USD (CPU)"), ("blocks_wall_s", "all blocks (wall)"),
+             ("city_stage_s", "city stage"), ("overview_s", "overview PNG"),
+             ("total_s", "total (wall)")]
+    for key, label in names:
+        if key in t:
+            lines.append(f"{label:<22}{t[key]:>8.2f}")
+    for f in report["failed"][:20]:
+        lines.append(f"failed {f['id']}: {f['reason']}")
+    if len(report["failed"]) > 20:
+        lines.append(f"... and {len(report['failed']) - 20} more in report.json")
+    return "\n".join(lines)

@@ -1,0 +1,240 @@
+"""``city.toml``: how a city run builds its blocks. Validated; errors name the key.
+
+Every key is optional; the defaults build a city from one library in its first style.
+
+```toml
+library = "../library"      # part library folder (relative to this file)
+style = "classic"           # default: the library's first style
+k = 3                       # layouts solved per block
+pick = "vary"               # "best": always the best; "vary": one of the k per block,
+seed = 7                    #   chosen from the seed and the block's id (deterministic)
+stretch = 0.005             # a stage's length may be met within this fraction
+corner_tolerance = 25.0     # degrees a corner part may be bent to fit a corner
+mitre_cost = 10.0           # extra cost of a mitre (two end parts) at a corner
+min_edge = 4.0              # shorter block edges are absorbed into their corners
+min_width = 8.0             # blocks narrower on average are skipped as slivers
+min_area = 50.0             # smaller blocks are skipped
+origin = [24.94, 60.17]     # the local frame's origin (lon, lat); default: the data's
+
+[per_side]                  # intervals every side (stage) of a block must meet
+doors = [1, 4]
+[per_block]                 # intervals over a whole block outline
+balconies = [0, 80]
+
+[setback]                   # centre line to facade, metres
+default = 6.0
+sidewalk = 2.5              # added to half a street's width (its width or lanes tag)
+lane_width = 3.25
+highway = { primary = 11.0, secondary = 9.5 }   # by highway class
+
+[[zone]]                    # the first zone a block falls in wins
+name = "waterfront"
+polygon = [[24.945, 60.164], [24.953, 60.164], [24.953, 60.168], [24.945, 60.168]]
+# or: highway = ["primary", "secondary"]   (blocks along such streets)
+style = "modern"            # and optionally library, k, pick, per_side, per_block
+```
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from shapely.geometry import Polygon
+
+from skeletons.errors import SkeletonError
+from skeletons.streets import Setbacks
+
+PICKS = ("best", "vary")
+
+
+class ConfigError(SkeletonError):
+    """A bad city.toml (exit code 2, like any bad input)."""
+
+
+@dataclass(frozen=True)
+class BuildSettings:
+    """What a block is built with; the top level of city.toml, or a zone's override."""
+
+    library: str | None = None
+    style: str | None = None
+    k: int = 3
+    pick: str = "vary"
+    per_side: dict[str, tuple[float, float]] = field(default_factory=dict)
+    per_block: dict[str, tuple[float, float]] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Zone:
+    name: str
+    settings: BuildSettings
+    polygon: tuple[tuple[float, float], ...] | None = None   # input coordinates
+    highway: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class CityConfig:
+    settings: BuildSettings = field(default_factory=BuildSettings)
+    seed: int = 0
+    stretch: float = 0.005
+    corner_tolerance: float = 25.0
+    mitre_cost: float = 10.0
+    min_edge: float = 4.0
+    min_width: float = 8.0
+    min_area: float = 50.0
+    origin: tuple[float, float] | None = None
+    setbacks: Setbacks = field(default_factory=Setbacks)
+    zones: tuple[Zone, ...] = ()
+    path: Path | None = None
+
+    def zone_polygons(self) -> list[tuple[Zone, Polygon]]:
+        return [(z, Polygon(z.polygon)) for z in self.zones if z.polygon]
+
+
+_SETTINGS = {"library", "style", "k", "pick", "per_side", "per_block"}
+_TOP = _SETTINGS | {"seed", "stretch", "corner_tolerance", "mitre_cost", "min_edge",
+                    "min_width", "min_area", "origin", "setback", "zone"}
+_SETBACK = {"default", "sidewalk", "lane_width", "highway"}
+_ZONE = _SETTINGS | {"name", "polygon", "highway"}
+
+
+def load_config(path: str | Path | None) -> CityConfig:
+    """The config at ``path`` (None: all defaults)."""
+    if path is None:
+        return CityConfig()
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read ({exc.strerror})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: not valid TOML: {exc}") from None
+    return parse_config(data, p)
+
+
+def parse_config(data: dict, path: Path | None = None) -> CityConfig:
+    src = str(path) if path else "city.toml"
+
+    def err(key: str, msg: str) -> ConfigError:
+        return ConfigError(f"{src}: {key}: {msg}")
+
+    _known(data, _TOP, "", err)
+    base = path.parent if path else Path(".")
+    settings = _settings(data, BuildSettings(), "", base, err)
+    sb = data.get("setback", {})
+    if not isinstance(sb, dict):
+        raise err("setback", "must be a table")
+    _known(sb, _SETBACK, "setback.", err)
+    table = sb.get("highway", {})
+    if not isinstance(table, dict):
+        raise err("setback.highway", "must be a table like { primary = 11.0 }")
+    setbacks = Setbacks(
+        _pos(sb, "default", 6.0, "setback.", err), _pos(sb, "sidewalk", 2.5, "setback.", err,
+                                                        zero=True),
+        _pos(sb, "lane_width", 3.25, "setback.", err),
+        tuple(sorted((str(c), _pos(table, c, 0, "setback.highway.", err)) for c in table)))
+    zones = []
+    raw = data.get("zone", [])
+    if not isinstance(raw, list):
+        raise err("zone", "must be an array of tables ([[zone]])")
+    for i, z in enumerate(raw):
+        where = f"zone[{i}]."
+        if not isinstance(z, dict):
+            raise err(f"zone[{i}]", "must be a table")
+        _known(z, _ZONE, where, err)
+        name = str(z.get("name", f"zone {i}"))
+        poly = z.get("polygon")
+        hw = z.get("highway", [])
+        if poly is None and not hw:
+            raise err(f"zone[{i}]", 'needs a polygon = [[lon, lat], ...] or highway = [...]')
+        if poly is not None:
+            if (not isinstance(poly, list) or len(poly) < 3 or not all(
+                    isinstance(q, list) and len(q) == 2 and all(_isnum(c) for c in q)
+                    for q in poly)):
+                raise err(where + "polygon", "must be a list of at least 3 [lon, lat] pairs")
+            if not Polygon(poly).is_valid:
+                raise err(where + "polygon", "crosses itself")
+            poly = tuple((float(a), float(b)) for a, b in poly)
+        if isinstance(hw, str):
+            hw = [hw]
+        if not isinstance(hw, list) or not all(isinstance(h, str) for h in hw):
+            raise err(where + "highway", 'must be a list of highway classes, e.g. ["primary"]')
+        zones.append(Zone(name, _settings(z, settings, where, base, err), poly, tuple(hw)))
+    origin = data.get("origin")
+    if origin is not None and (not isinstance(origin, list) or len(origin) != 2
+                               or not all(_isnum(c) for c in origin)):
+        raise err("origin", "must be [lon, lat]")
+    seed = data.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int):
+        raise err("seed", f"must be an integer, got {seed!r}")
+    stretch = _pos(data, "stretch", 0.005, "", err, zero=True)
+    if stretch > 0.05:
+        raise err("stretch", f"{stretch:g} would stretch parts by more than 5 %; use at "
+                             "most 0.05")
+    return CityConfig(settings, seed, stretch, _pos(data, "corner_tolerance", 25.0, "", err,
+                                                    zero=True),
+                      _pos(data, "mitre_cost", 10.0, "", err, zero=True),
+                      _pos(data, "min_edge", 4.0, "", err, zero=True),
+                      _pos(data, "min_width", 8.0, "", err, zero=True),
+                      _pos(data, "min_area", 50.0, "", err, zero=True),
+                      tuple(float(c) for c in origin) if origin else None, setbacks,
+                      tuple(zones), path)
+
+
+def _isnum(x: Any) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def _known(d: dict, allowed: set[str], prefix: str, err) -> None:
+    for k in d:
+        if k not in allowed:
+            raise err(prefix + k, f"unknown key (known: {', '.join(sorted(allowed))})")
+
+
+def _pos(d: dict, key: str, default, prefix: str, err, *, zero: bool = False) -> float:
+    v = d.get(key, default)
+    if not _isnum(v) or v < 0 or (v == 0 and not zero):
+        raise err(prefix + key, f"must be a {'non-negative' if zero else 'positive'} number, "
+                                f"got {v!r}")
+    return float(v)
+
+
+def _intervals(d: Any, key: str, err) -> dict[str, tuple[float, float]]:
+    if not isinstance(d, dict):
+        raise err(key, 'must be a table like { doors = [1, 3] }')
+    out = {}
+    for name, iv in d.items():
+        if (not isinstance(iv, list) or len(iv) != 2 or not all(_isnum(x) for x in iv)
+                or iv[0] > iv[1] or iv[0] < 0):
+            raise err(f"{key}.{name}", f"must be [min, max] with 0 <= min <= max, got {iv!r}")
+        out[str(name)] = (float(iv[0]), float(iv[1]))
+    return out
+
+
+def _settings(d: dict, inherit: BuildSettings, prefix: str, base: Path, err) -> BuildSettings:
+    s = inherit
+    if "library" in d:
+        if not isinstance(d["library"], str):
+            raise err(prefix + "library", "must be a folder path")
+        s = replace(s, library=str((base / d["library"]).resolve()))
+    if "style" in d:
+        if not isinstance(d["style"], str):
+            raise err(prefix + "style", "must be a style name")
+        s = replace(s, style=d["style"])
+    if "k" in d:
+        k = d["k"]
+        if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= 100:
+            raise err(prefix + "k", f"must be an integer from 1 to 100, got {k!r}")
+        s = replace(s, k=k)
+    if "pick" in d:
+        if d["pick"] not in PICKS:
+            raise err(prefix + "pick", f"must be one of {', '.join(PICKS)}, got {d['pick']!r}")
+        s = replace(s, pick=d["pick"])
+    if "per_side" in d:
+        s = replace(s, per_side=_intervals(d["per_side"], prefix + "per_side", err))
+    if "per_block" in d:
+        s = replace(s, per_block=_intervals(d["per_block"], prefix + "per_block", err))
+    return s

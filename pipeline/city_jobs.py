@@ -1,0 +1,165 @@
+"""One block of a city run: a self-contained, picklable job and the function that runs
+it, in a local worker process or on a Dask worker alike.
+
+A :class:`BlockJob` carries everything that decides the block's output: its outline
+(in the city's frame, to the millimetre), the library (path and content hash), style,
+k, which of the k to keep, constraints and tolerances. ``input_hash`` is the sha256 of
+all that (and of the output format versions), so a rerun can skip a block whose hash
+is unchanged. :func:`run_block` writes ``<id>.layout.json`` and ``<id>.usda`` (each
+atomically), then, last, the marker ``<id>.done.json``, which records the hash: a run
+killed at any moment leaves either a complete block or one that is redone. A bad or
+infeasible block is an answer (status "failed" with its reason), never an exception.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+import traceback
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import shapely
+
+from export.layout import SCHEMA, VERSION
+from export.place import max_stretch
+from parts_db import PartDB, load_library
+from parts_db.files import write_text
+from skeletons import Feature, Frame, skeletons_from_polygons
+from skeletons.build import STRAIGHT_TOL
+from skeletons.clean import absorb_short_edges
+
+from .build import Built, solve_layouts, write_outputs
+from .structures import shortest_stage
+
+JOB_VERSION = 1          # bump when a block's output changes for the same inputs
+BLOCKS_DIR = "blocks"
+
+
+@dataclass(frozen=True)
+class BlockJob:
+    id: str
+    kind: str                                   # "block" or "footprint"
+    wkt: str                                    # outline in the city frame (metres)
+    frame: tuple[str, float, float]             # CRS description and origin
+    zone: str
+    library: str                                # folder
+    library_hash: str
+    style: str
+    k: int
+    pick: str                                   # "best" or "vary"
+    seed: int
+    per_side: tuple[tuple[str, float, float], ...]
+    per_block: tuple[tuple[str, float, float], ...]
+    stretch: float
+    corner_tolerance: float
+    mitre_cost: float
+    min_edge: float
+    input_hash: str = ""
+
+    def with_hash(self) -> BlockJob:
+        d = asdict(replace(self, input_hash=""))
+        d["versions"] = [JOB_VERSION, SCHEMA, VERSION]
+        del d["library"]          # where the library lives does not change the output
+        text = json.dumps(d, sort_keys=True, separators=(",", ":"))
+        return replace(self, input_hash=hashlib.sha256(text.encode()).hexdigest())
+
+
+def block_id(kind: str, wkt: str) -> str:
+    """A stable id from the outline: a block keeps its id (and its cached output) when
+    streets elsewhere change."""
+    return ("b" if kind == "block" else "f") + hashlib.sha256(wkt.encode()).hexdigest()[:10]
+
+
+def outline_wkt(poly) -> str:
+    return shapely.to_wkt(shapely.normalize(poly), rounding_precision=3)
+
+
+def marker_path(out: Path, job_id: str) -> Path:
+    return out / BLOCKS_DIR / f"{job_id}.done.json"
+
+
+def cached(out: Path, job: BlockJob) -> dict | None:
+    """The result recorded for ``job`` by an earlier run, if its inputs are unchanged
+    and its files are all there."""
+    try:
+        rec = json.loads(marker_path(out, job.id).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if rec.get("input_hash") != job.input_hash:
+        return None
+    if not all((out / f).is_file() for f in rec.get("files", [])):
+        return None
+    return rec
+
+
+_LIBRARIES: dict[str, PartDB] = {}
+
+
+def _library(path: str) -> PartDB:
+    """The part database, loaded once per worker process."""
+    if path not in _LIBRARIES:
+        _LIBRARIES[path] = load_library(path)
+    return _LIBRARIES[path]
+
+
+def _pick_rank(job: BlockJob, count: int) -> int:
+    if job.pick == "best" or count <= 1:
+        return 1
+    h = hashlib.sha256(f"{job.seed}:{job.id}".encode()).digest()
+    return 1 + int.from_bytes(h[:8], "big") % count
+
+
+def run_block(job: BlockJob, out_dir: str) -> dict:
+    """Build one block and write its files; the record (also written as its marker)."""
+    out = Path(out_dir)
+    t0 = time.perf_counter()
+    rec = {"id": job.id, "kind": job.kind, "zone": job.zone, "input_hash": job.input_hash,
+           "style": job.style, "files": []}
+    try:
+        db = _library(job.library)
+        if db.library_hash != job.library_hash:
+            raise RuntimeError(f"the library at {job.library} changed during the run")
+        poly = shapely.from_wkt(job.wkt)
+        clean = absorb_short_edges(poly, min_edge=job.min_edge,
+                                   min_stage=shortest_stage(db, job.style),
+                                   straight_tol=STRAIGHT_TOL)
+        if clean is None:
+            return _finish(out, rec, "skipped", t0, reason="nothing buildable is left once "
+                           "its sides too short for corners are absorbed")
+        frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
+        rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
+        built = solve_layouts(job.id, rings, db, job.style, job.k,
+                              angle_tol=job.corner_tolerance, mitre_cost=job.mitre_cost,
+                              stretch=job.stretch,
+                              per_side={n: (lo, hi) for n, lo, hi in job.per_side},
+                              per_structure={n: (lo, hi) for n, lo, hi in job.per_block})
+        rec["timings"] = dict(built.timings)
+        if built.status != "ok":
+            return _finish(out, rec, "failed", t0, reason=built.reason)
+        rank = _pick_rank(job, len(built.layouts))
+        lay = built.layouts[rank - 1]
+        t1 = time.perf_counter()
+        chosen = Built(job.id, "ok", [lay], timings={})
+        paths = write_outputs(chosen, db, out / BLOCKS_DIR, formats=("json", "usd"), k=1)
+        rec["timings"]["write_s"] = time.perf_counter() - t1
+        rec["files"] = [str(p.relative_to(out)) for p in paths]
+        rec.update(rank=rank, of=len(built.layouts), cost=lay.cost,
+                   instances=len(lay.instances), stretch=max_stretch(lay))
+        return _finish(out, rec, "built", t0)
+    except Exception as exc:  # one bad block never stops the city: it is reported
+        reason = str(exc) or type(exc).__name__
+        if not isinstance(exc, ValueError | RuntimeError):   # user errors are ValueErrors
+            reason = f"internal error: {type(exc).__name__}: {reason} " \
+                     f"({traceback.extract_tb(exc.__traceback__)[-1].name})"
+        return _finish(out, rec, "failed", t0, reason=reason)
+
+
+def _finish(out: Path, rec: dict, status: str, t0: float, reason: str | None = None) -> dict:
+    rec["status"] = status
+    if reason:
+        rec["reason"] = reason
+    rec.setdefault("timings", {})["total_s"] = time.perf_counter() - t0
+    write_text(marker_path(out, rec["id"]), json.dumps(rec, sort_keys=True, indent=1) + "\n")
+    return rec
