@@ -62,6 +62,9 @@ def run(args) -> int:
           f"pieces skipped) on {where}, into {args.out}/")
     report = run_city(inputs, args.out, workers=workers, scheduler=args.scheduler,
                       progress=progress_printer())
+    if report["counts"]["cached"]:
+        print(f"{report['counts']['cached']} blocks were unchanged since the last run in "
+              f"{args.out}/ and were not built again")
     t = time.perf_counter()
     city = write_city_stage(Path(args.out), report)
     report["timings"]["city_stage_s"] = time.perf_counter() - t

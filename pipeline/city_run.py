@@ -37,6 +37,7 @@ from .city_jobs import BLOCKS_DIR, BlockJob, block_id, cached, outline_wkt, run_
 MANIFEST = "manifest.json"
 REPORT = "report.json"
 RUN_SCHEMA = "citysynth.run"
+CONNECT_TIMEOUT = "10s"      # to reach a Dask scheduler
 
 
 @dataclass
@@ -179,7 +180,7 @@ def _dask(jobs: list[BlockJob], out: Path, address: str) -> Iterator[dict]:
         raise ConfigError("--scheduler needs the distributed package (pip install "
                           "distributed)") from None
     try:
-        client = Client(address, timeout="10s")
+        client = Client(address, timeout=CONNECT_TIMEOUT)
     except (OSError, TimeoutError) as exc:
         raise ConfigError(f"cannot reach the Dask scheduler at {address} ({exc}); start "
                           "one (dask scheduler) or leave --scheduler out") from None
@@ -208,16 +209,12 @@ def run_city(inputs: CityInputs, out_dir: str | Path, *, workers: int = 1,
             results[job.id] = {**rec, "cached": True}
         else:
             todo.append(job)
-    done = len(results)
-    if progress:
-        progress(done, len(inputs.jobs), {})
     stream: Iterable[dict] = _dask(todo, out, scheduler) if scheduler else \
         _local(todo, out, workers)
-    for rec in stream:
+    for done, rec in enumerate(stream, 1):
         results[rec["id"]] = rec
-        done += 1
         if progress:
-            progress(done, len(inputs.jobs), rec)
+            progress(done, len(todo), rec)
     t_blocks = time.perf_counter() - t0
     return _write_summary(inputs, results, out, t_blocks, workers, scheduler)
 
@@ -275,12 +272,10 @@ def progress_printer(stream=sys.stderr) -> Callable[[int, int, dict], None]:
     """One updating line on a terminal; a line per tenth of the work otherwise."""
     tty = stream.isatty()
     t0 = time.perf_counter()
-    state = {"built": 0, "failed": 0, "skipped": 0, "cached": 0, "step": 0}
+    state = {"built": 0, "failed": 0, "skipped": 0, "step": 0}
 
     def show(done: int, total: int, rec: dict) -> None:
-        if rec:
-            key = "cached" if rec.get("cached") else rec["status"]
-            state[key] = state.get(key, 0) + 1
+        state[rec["status"]] += 1
         rate = done / max(time.perf_counter() - t0, 1e-9)
         line = (f"[{done:>{len(str(total))}}/{total}] built {state['built']}, failed "
                 f"{state['failed']}, skipped {state['skipped']} ({rate:.1f} blocks/s)")

