@@ -66,7 +66,7 @@ def _ground(poly: pv.PolyData, margin: float = 0.15) -> pv.PolyData:
 
 
 def render_meshes(mesh: trimesh.Trimesh, out_png: str | Path, *, title: str = "",
-                  size: tuple[int, int] = (1400, 700)) -> Path:
+                  size: tuple[int, int] = (1400, 700), zoom: float = 1.3) -> Path:
     """A three-quarter view (left) and a top view (right) of ``mesh`` to ``out_png``."""
     poly = to_polydata(mesh)
     plotter = pv.Plotter(off_screen=True, shape=(1, 2), window_size=size, border=False)
@@ -82,7 +82,7 @@ def render_meshes(mesh: trimesh.Trimesh, out_png: str | Path, *, title: str = ""
             plotter.reset_camera()
             plotter.camera.zoom(1.15)
         else:
-            three_quarter_view(plotter, poly, zoom=1.3)
+            three_quarter_view(plotter, poly, zoom=zoom)
         if title and col == 0:
             plotter.add_text(title, font_size=9, color="black", position="upper_left")
     out = Path(out_png)

@@ -328,4 +328,4 @@ def render_overview(out: Path, inputs: CityInputs, report: dict, *,
     counts = report["counts"]
     title = (f"{counts['built']} blocks built, {counts['failed']} failed, "
              f"{counts['skipped']} skipped")
-    return render_meshes(mesh, out / "city.png", title=title, size=(1600, 800))
+    return render_meshes(mesh, out / "city.png", title=title, size=(1600, 800), zoom=1.7)

@@ -8,8 +8,10 @@ Three steps, each a real use of the tool on files shipped in ``examples/``:
    and a city block with a cut corner and a notch (``examples/blocks/block.geojson``)
    in the modern style, with the sample part library: layout JSON, USD, GLB and a PNG
    preview each;
-3. ``city.usda``, a stage referencing both layers side by side, checked with every
-   UsdValidation validator.
+3. a city: a district of central Helsinki (OpenStreetMap street centre lines, 26
+   irregular blocks) built with ``examples/city/city.toml``: ``city.usda`` (checked with
+   every UsdValidation validator), the overview ``city.png``, and per-block layout JSON
+   and USD in ``blocks/``.
 """
 
 from __future__ import annotations
@@ -17,26 +19,37 @@ from __future__ import annotations
 from pathlib import Path
 
 from export.errors import ExportError
-from export.usd import validate, write_city
+from export.usd import validate
 from parts_db import load_library
 from skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
 from solver import Problem, solve
 
 from .build import solve_layouts, summary_line, write_outputs
+from .city_config import load_config
+from .city_run import (
+    cpu_count,
+    prepare,
+    progress_printer,
+    render_overview,
+    run_city,
+    write_city_stage,
+)
 from .report import format_result
 from .samples import street_front
 
 DEMO_LENGTH_M = 83.4
 DEMO_K = 3
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
-BLOCK_OFFSET = (0.0, 80.0)   # the block north of the building in city.usda
+DISTRICT = EXAMPLES / "city" / "district_streets.geojson"
+CITY_CONFIG = EXAMPLES / "city" / "city.toml"
 
 
 def register(sub) -> None:
     p = sub.add_parser("demo", help="run the embedded demo (no user data needed)",
-                       description="Solve the sample street front, then build the sample "
-                                   "T-shaped building and city block with the sample library "
-                                   "and write USD, GLB, PNG and layout JSON to DIR.")
+                       description="Solve the sample street front, build the sample "
+                                   "T-shaped building and city block with the sample library, "
+                                   "then a district of central Helsinki; USD, GLB, PNG and "
+                                   "layout JSON go to DIR.")
     p.add_argument("-o", "--out", default="out", metavar="DIR",
                    help="output folder (default: out/)")
     p.set_defaults(run=run)
@@ -83,11 +96,18 @@ def run(args) -> int:
         print(f"{built.name}: wrote {len(paths)} files")
         for lay in built.layouts:
             print("  " + summary_line(lay))
-    city = write_city(out / "city.usda", [("t_building", "t_building_1.usda"),
-                                          ("block", "block.usda", BLOCK_OFFSET)])
+    print(f"\n3. a district of central Helsinki ({DISTRICT.name}, OpenStreetMap) with "
+          f"{CITY_CONFIG.name}, to {out}/")
+    cfg = load_config(CITY_CONFIG)
+    inputs = prepare(DISTRICT, None, cfg, None)
+    report = run_city(inputs, out, workers=cpu_count(), progress=progress_printer())
+    city = write_city_stage(out, report)
+    png = render_overview(out, inputs, report)
     errors = validate(city)
-    print(f"\n3. {city}: the building and the block side by side; UsdValidation: "
-          f"{'clean' if not errors else f'{len(errors)} errors'}")
+    c = report["counts"]
+    print(f"{c['built']} blocks built, {c['failed']} failed, {c['skipped']} pieces skipped; "
+          f"wrote {city} (UsdValidation: {'clean' if not errors else f'{len(errors)} errors'})"
+          f" and {png}")
     for e in errors:
         print(f"  {e}")
     return 1 if errors else status

@@ -73,7 +73,11 @@ def test_console_script_runs_as_a_process():
     assert len(sols) == 3 and all(s["resources"]["length"] == 83.4 for s in sols)
 
 
-def test_demo(capsys):
-    assert main(["demo"]) == 0
+def test_demo(capsys, tmp_path):
+    assert main(["demo", "-o", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "83.4 m street front" in out and out.count("length 83.4") == 3
+    assert "UsdValidation: clean" in out and "0 failed" in out
+    for name in ("t_building_1.usda", "t_building_3.png", "block.usda", "block.glb",
+                 "city.usda", "city.png", "manifest.json", "report.json"):
+        assert (tmp_path / name).is_file(), name
