@@ -48,30 +48,30 @@ class _Group:
     fillers: tuple[str, ...]
     dims: tuple[str, ...]      # constrained resources, stage-local and structure-wide
     stages: list[int]
+    r: np.ndarray | None = None     # int64 [fillers, dims] consumption in quanta
     cap: np.ndarray | None = None   # state box (start leg and fillers so far)
     max_len: int = 0                # most fillers in one stage
-    W: np.ndarray | None = None     # filler-to-filler weights, row 0 / column 0 empty
+    W: np.ndarray | None = None     # weights over [start, fillers...], column 0 empty
 
 
 def _quanta(st, names: set[str], gnames, gq) -> dict[str, float]:
-    """One exact quantum per tracked resource, for the whole structure."""
-    values: dict[str, list[float]] = {r: [] for r in names}
-    used = {x for i in range(len(st.stages)) for x in stage_fillers(st, i)}
-    keys = {x for kp in st.keypoints for x in kp}
-    for r in names:
-        values[r] = [st.elements[x][r] for x in sorted(used)] + \
-            [leg[r] for x in sorted(keys) for leg in st.legs[x]]
+    """One exact quantum per tracked resource, for the whole structure (structure-wide
+    resources keep the grid of their shares)."""
+    used = sorted({x for i in range(len(st.stages)) for x in stage_fillers(st, i)})
+    keys = sorted({x for kp in st.keypoints for x in kp})
     out = dict(zip(gnames, gq, strict=True))
-    for r in sorted(names - set(gnames)):
-        q = st.quantum.get(r)
-        if q is None:
-            frac = exact_divisor(values[r])
-            if frac is None:
-                raise NotExact(r)
-            q = float(frac)
-        out[r] = q
-    for r in names:
-        if not all(is_multiple(v, out[r]) for v in values[r]):
+    for r in sorted(names):
+        values = [st.elements[x][r] for x in used] + [leg[r] for x in keys
+                                                      for leg in st.legs[x]]
+        if r not in out:
+            q = st.quantum.get(r)
+            if q is None:
+                frac = exact_divisor(values)
+                if frac is None:
+                    raise NotExact(r)
+                q = float(frac)
+            out[r] = q
+        if not all(is_multiple(v, out[r]) for v in values):
             raise NotExact(r)
     return out
 
@@ -82,13 +82,13 @@ def _box(hi: np.ndarray, r: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, 
     filler consumes at least one quantum, some consume at least m of a resource."""
     hi = np.maximum(hi, 0)
     if len(r) == 0:
-        return hi.astype(np.int64), 0
+        return hi, 0
     max_len = int(hi.sum() // max(int(r.sum(axis=1).min()), 1))
     for d in range(r.shape[1]):
         m = int(r[:, d].min())
         if m > 0:
             max_len = min(max_len, int(hi[d]) // m)
-    return np.minimum(hi, start + max_len * r.max(axis=0)).astype(np.int64), max_len
+    return np.minimum(hi, start + max_len * r.max(axis=0)), max_len
 
 
 class StageGraphs:
@@ -98,37 +98,42 @@ class StageGraphs:
     def __init__(self, st, k: int, grid, max_memory_mb: float, table: str = "auto"):
         if table not in ("auto", "dense", "hash"):
             raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
-        self.table = table
-        self.st, self.k = st, k
+        self.st, self.k, self.table = st, k, table
         gnames, gq, _glo, ghi = grid
         self.gnames, self.gq, self.ghi = gnames, gq, ghi
         self.shares = list(itertools.product(*[range(h + 1) for h in ghi]))
         tracked = {r for s in st.stages for r in s.constraints} | set(gnames)
         self.q = _quanta(st, tracked, gnames, gq)
         self.budget = int(max_memory_mb * 2**20)
-        self.groups = self._groups()
         self._lists: dict[tuple[int, str, str], dict] = {}
         self._paths: list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = []
         self.counts = {"stage_graphs": 0, "stage_queries": 0, "graph_rows": 0}
-        for grp in self.groups:
+        groups = self._groups()
+        for grp in groups:  # every box is checked before any graph is grown
             self._plan(grp)
-        for grp in self.groups:
+        for grp in groups:
             for a, leg in dict.fromkeys((a, start_leg(st, i)) for i in grp.stages
                                         for a in st.keypoints[st.stages[i].start]):
                 self._solve(grp, a, leg)
 
     # ---- layout -----------------------------------------------------------------
-    def _ints(self, values: dict[str, float], dims) -> list[int]:
-        return [int(round(values[r] / self.q[r])) for r in dims]
+    def _ints(self, values: dict[str, float], dims) -> np.ndarray:
+        """Values in quanta (exact: every value is a multiple of its quantum)."""
+        return np.array([round(values[r] / self.q[r]) for r in dims], dtype=np.int64)
 
-    def _bounds(self, i: int, r: str) -> tuple[int, int]:
-        """Stage i's own interval on r in quanta (structure-wide: [0, global max])."""
+    def _bounds(self, i: int, dims) -> tuple[np.ndarray, np.ndarray]:
+        """Stage i's own intervals in quanta; a structure-wide resource it does not
+        constrain itself lies in [0, its structure-wide maximum]."""
         stage = self.st.stages[i]
-        lo, hi = (bounds_in_quanta(*stage.constraints[r], self.q[r])
-                  if r in stage.constraints else (0, 1 << 62))
-        if r in self.gnames:
-            hi = min(hi, self.ghi[self.gnames.index(r)])
-        return lo, hi
+        lo, hi = [], []
+        for r in dims:
+            a, b = (bounds_in_quanta(*stage.constraints[r], self.q[r])
+                    if r in stage.constraints else (0, 1 << 62))
+            if r in self.gnames:
+                b = min(b, self.ghi[self.gnames.index(r)])
+            lo.append(a)
+            hi.append(b)
+        return np.array(lo, dtype=np.int64), np.array(hi, dtype=np.int64)
 
     def _groups(self) -> list[_Group]:
         st = self.st
@@ -141,41 +146,33 @@ class StageGraphs:
         return list(groups.values())
 
     def _plan(self, grp: _Group) -> None:
-        """The group's state box and filler-to-filler weights, the box checked against
-        the memory budget before anything is allocated."""
-        st = self.st
-        r = np.array([self._ints(st.elements[x], grp.dims) for x in grp.fillers],
-                     dtype=np.int64).reshape(len(grp.fillers), len(grp.dims))
-        for x, lev in zip(grp.fillers, r.sum(axis=1), strict=True):
+        """The group's state box and weights; refuse a box over the memory budget."""
+        st, dims = self.st, grp.dims
+        grp.r = np.array([self._ints(st.elements[x], dims) for x in grp.fillers],
+                         dtype=np.int64).reshape(len(grp.fillers), len(dims))
+        for x, lev in zip(grp.fillers, grp.r.sum(axis=1), strict=True):
             if lev == 0:
                 raise ProblemError(
                     f'element "{x}" consumes nothing of the constrained resource(s) '
-                    f"{', '.join(grp.dims)} of stage {grp.stages[0]} (after quantisation), "
-                    "so a stage could repeat it without end; give it a positive amount of "
-                    "a constrained resource, or constrain a resource it uses")
-        hi = np.zeros(len(grp.dims), dtype=np.int64)
-        start = np.zeros(len(grp.dims), dtype=np.int64)
+                    f"{', '.join(dims)} of stage {grp.stages[0]} (after quantisation), so "
+                    "a stage could repeat it without end; give it a positive amount of a "
+                    "constrained resource, or constrain a resource it uses")
+        hi = np.zeros(len(dims), dtype=np.int64)     # most a state can hold
+        start = np.zeros(len(dims), dtype=np.int64)  # most a start leg holds
         for i in grp.stages:
             stage = st.stages[i]
-            for d, name in enumerate(grp.dims):
-                leg = min(self._ints(st.legs[b][0], (name,))[0]
-                          for b in st.keypoints[stage.end])
-                hi[d] = max(hi[d], self._bounds(i, name)[1] - leg)
-                start[d] = max([start[d]] + [self._ints(st.legs[a][start_leg(st, i)],
-                                                        (name,))[0]
-                                             for a in st.keypoints[stage.start]])
-        grp.cap, grp.max_len = _box(hi, r, start)
-        grp.W = np.full((len(grp.fillers) + 1,) * 2, np.inf)
-        for j, f in enumerate(grp.fillers, 1):
-            for t, e in enumerate(grp.fillers, 1):
-                if (e, f) in st.transitions:
-                    grp.W[j, t] = st.transitions[(e, f)] + st.costs[f]
-        states = int(np.prod(grp.cap + 1))
+            end_leg = np.min([self._ints(st.legs[b][0], dims)
+                              for b in st.keypoints[stage.end]], axis=0)
+            hi = np.maximum(hi, self._bounds(i, dims)[1] - end_leg)
+            start = np.max([start] + [self._ints(st.legs[a][start_leg(st, i)], dims)
+                                      for a in st.keypoints[stage.start]], axis=0)
+        grp.cap, grp.max_len = _box(hi, grp.r, start)
         n = len(grp.fillers) + 1
+        states = math.prod(int(c) + 1 for c in grp.cap)
         need = states * row_bytes(n, self._dense(states, n)) + 8 * n * n
         if need > self.budget:
             widest = int(np.argmax(grp.cap))
-            name = grp.dims[widest]
+            name = dims[widest]
             raise TooLargeError(
                 f"structure too large: the graph of stage {grp.stages[0]} (shared by "
                 f"{len(grp.stages)} stage(s) with the same fillers) has up to "
@@ -185,6 +182,11 @@ class StageGraphs:
                 f'a coarser quantum for it (e.g. "quantum": {{"{name}": '
                 f"{2 * self.q[name]:g}}}), tighten its bounds, or raise the budget "
                 "(--max-memory MB)")
+        grp.W = np.full((n, n), np.inf)
+        for j, f in enumerate(grp.fillers, 1):
+            for t, e in enumerate(grp.fillers, 1):
+                if (e, f) in st.transitions:
+                    grp.W[j, t] = st.transitions[(e, f)] + st.costs[f]
 
     def _dense(self, states: int, n: int) -> bool:
         """Rows indexed by state (else hashed): small boxes, unless told otherwise."""
@@ -193,73 +195,63 @@ class StageGraphs:
         return states * row_bytes(n, True) <= DENSE_TABLE_MAX_BYTES
 
     # ---- one graph and its queries ----------------------------------------------
-    def _weights(self, grp: _Group, a: str, leg: int) -> np.ndarray:
-        """W[f, e] = delta(e, f) + omega(f) over [start, fillers...], inf if e -> f
-        is not allowed; nothing enters the start."""
+    def _stages_from(self, grp: _Group, a: str, leg: int) -> list[int]:
+        """The group's stages that may start with key element a on leg ``leg``."""
         st = self.st
-        first = st.branch_transitions if leg == 2 else st.transitions
-        W = grp.W.copy()
-        for j, f in enumerate(grp.fillers, 1):
-            if (a, f) in first:
-                W[j, 0] = first[(a, f)] + st.costs[f]
-        return W
+        return [i for i in grp.stages
+                if start_leg(st, i) == leg and a in st.keypoints[st.stages[i].start]]
 
-    def _queries(self, grp: _Group, a: str, leg: int, cap: np.ndarray):
-        """(stage, end element, share) queries of the graph of (a, leg): their boxes of
-        admissible states before the end key's leg, and their in-edge weights."""
+    def _queries(self, grp: _Group, a: str, leg: int):
+        """The (stage, end element, share) queries on the graph of (a, leg): their
+        boxes of admissible states before the end key's leg, and the weights of the
+        edges into the end key (from the start itself, then from each filler)."""
         st = self.st
         first = st.branch_transitions if leg == 2 else st.transitions
+        wide = [grp.dims.index(r) for r in self.gnames]
+        cap = grp.cap.tolist()
         meta, lo_rows, hi_rows, w_rows = [], [], [], []
-        for i in grp.stages:
+        for i in self._stages_from(grp, a, leg):  # plain lists: a few values each
             stage = st.stages[i]
-            if start_leg(st, i) != leg or a not in st.keypoints[stage.start]:
-                continue
-            bounds = [self._bounds(i, name) for name in grp.dims]
+            lo, hi = (x.tolist() for x in self._bounds(i, grp.dims))
             for b in st.keypoints[stage.end]:
-                legb = self._ints(st.legs[b][0], grp.dims)
+                self._lists[(i, a, b)] = {}
+                legb = self._ints(st.legs[b][0], grp.dims).tolist()
                 w = [first.get((a, b), np.inf)] + [st.transitions.get((f, b), np.inf)
                                                    for f in grp.fillers]
                 for g in self.shares:
                     if not share_allowed(stage, g, self.gnames, self.gq):
                         continue
-                    lo, hi = [], []
-                    for d, name in enumerate(grp.dims):
-                        blo, bhi = bounds[d]
-                        if name in self.gnames:
-                            blo = bhi = g[self.gnames.index(name)]
-                        lo.append(max(blo - legb[d], 0))
-                        hi.append(min(bhi - legb[d], int(cap[d])))
-                    if all(x <= y for x, y in zip(lo, hi, strict=True)):
+                    qlo, qhi = list(lo), list(hi)
+                    for d, x in zip(wide, g, strict=True):
+                        qlo[d] = qhi[d] = x
+                    qlo = [max(x - y, 0) for x, y in zip(qlo, legb, strict=True)]
+                    qhi = [min(x - y, c) for x, y, c in zip(qhi, legb, cap, strict=True)]
+                    if all(x <= y for x, y in zip(qlo, qhi, strict=True)):
                         meta.append((i, b, g))
-                        lo_rows.append(lo)
-                        hi_rows.append(hi)
+                        lo_rows.append(qlo)
+                        hi_rows.append(qhi)
                         w_rows.append(w)
         R = len(grp.dims)
         return (meta, np.array(lo_rows, dtype=np.int64).reshape(-1, R),
                 np.array(hi_rows, dtype=np.int64).reshape(-1, R),
                 np.array(w_rows, dtype=np.float64).reshape(-1, len(grp.fillers) + 1))
 
-    def _solve(self, grp: _Group, a: str, leg: int) -> None:
+    def _graph(self, grp: _Group, a: str, leg: int, queries) -> tuple[StageGraph, int]:
+        """Grow the graph of start element a on leg ``leg`` (forward only) and wrap it
+        with its queries for the kernel; returns it and its row count."""
         st = self.st
-        R = len(grp.dims)
         n = len(grp.fillers) + 1
-        start = self._ints(st.legs[a][leg], grp.dims)
+        first = st.branch_transitions if leg == 2 else st.transitions
+        W = grp.W.copy()
+        for j, f in enumerate(grp.fillers, 1):
+            if (a, f) in first:
+                W[j, 0] = first[(a, f)] + st.costs[f]
+        r = np.vstack([self._ints(st.legs[a][leg], grp.dims)[None, :], grp.r])
         cap = grp.cap
-        meta, qlo, qhi, wq = self._queries(grp, a, leg, cap)
-        for i in grp.stages:  # every (stage, a, b) asked about has a list, maybe empty
-            if a in st.keypoints[st.stages[i].start] and start_leg(st, i) == leg:
-                for b in st.keypoints[st.stages[i].end]:
-                    self._lists.setdefault((i, a, b), {})
-        if not meta or any(s > c for s, c in zip(start, cap, strict=True)):
-            return
-        r = np.array([start] + [self._ints(st.elements[x], grp.dims) for x in grp.fillers],
-                     dtype=np.int64).reshape(n, R)
-        stride = np.ones(R, dtype=np.int64)
-        for d in range(1, R):
-            stride[d] = stride[d - 1] * (cap[d - 1] + 1)
+        R = len(cap)
+        stride = np.cumprod(np.concatenate(([1], cap[:-1] + 1))).astype(np.int64)
         S = int(stride[-1] * (cap[-1] + 1))
         dense = self._dense(S, n)
-        W = self._weights(grp, a, leg)
         front = np.zeros(n, dtype=np.bool_)
         front[0] = True
         max_rows = max((self.budget - 8 * n * n) // row_bytes(n, dense), 1)
@@ -274,13 +266,21 @@ class StageGraphs:
                 f"{max_rows:,} state rows, the memory budget of "
                 f"{self.budget / 2**20:,.0f} MB; use a coarser quantum, tighter bounds "
                 "or raise the budget (--max-memory MB)")
-        G = StageGraph(int(nrows) * n, n, W, g, row_state, r @ stride, cap, stride, dense,
-                       keys, vals, int(shift), qlo, qhi, wq)
+        _meta, qlo, qhi, wq = queries
+        return StageGraph(int(nrows) * n, n, W, g, row_state, r @ stride, cap, stride,
+                          dense, keys, vals, int(shift), qlo, qhi, wq), int(nrows)
+
+    def _solve(self, grp: _Group, a: str, leg: int) -> None:
+        """Fill the lists of every query of the graph of (a, leg)."""
+        queries = self._queries(grp, a, leg)
+        meta = queries[0]
+        if not meta or (self._ints(self.st.legs[a][leg], grp.dims) > grp.cap).any():
+            return
+        G, rows = self._graph(grp, a, leg, queries)
         costs, offs, fill, first = _stage_kbest(G, self.k, grp.max_len + 3)
         gid = len(self._paths)
         self._paths.append((offs, fill, grp.fillers))
-        costs = costs.tolist()
-        first = first.tolist()
+        costs, first = costs.tolist(), first.tolist()
         for q, (i, b, share) in enumerate(meta):
             if first[q] < first[q + 1]:
                 ls = [(costs[p], (gid, p)) for p in range(first[q], first[q + 1])]
@@ -288,7 +288,7 @@ class StageGraphs:
                 self._lists[(i, a, b)][share] = ls
         self.counts["stage_graphs"] += 1
         self.counts["stage_queries"] += len(meta)
-        self.counts["graph_rows"] += int(nrows)
+        self.counts["graph_rows"] += rows
 
     # ---- the provider interface (see solver.structure_dp) ------------------------
     def lists(self, i: int, a: str, b: str) -> dict:

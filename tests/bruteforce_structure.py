@@ -2,16 +2,36 @@
 cycle or tree with T junctions): the oracle for the structure solver. Independent of
 it: every choice of key elements, every filler sequence of every stage, summed as the
 README defines (each key element's unary cost once, the closing transition of a cycle
-included), structure-wide intervals checked on the sum of all stage totals."""
+included), structure-wide intervals checked on the sum of all stage totals.
+
+Asked for the k smallest totals only, it first drops, for each choice of key
+elements, every stage filling beaten by k others of the same stage with the same
+structure-wide totals: such a filling can be swapped for any of those k in a
+combination, so no combination using it is among the k cheapest. That keeps the
+product over stages small without changing the k smallest totals.
+"""
 
 from __future__ import annotations
 
 import itertools
+import math
 
 EPS = 1e-9
 
 
-def enumerate_structure(d: dict, max_fill: int = 6) -> list[float]:
+def _most_fillers(cons: dict, fillers: list[str], vals: dict) -> int:
+    """The most fillers a stage can hold: some resource every filler consumes bounds
+    it (a stage of length 9 may hold nine fillers of length 1)."""
+    bound = 12
+    for r, (_lo, hi) in cons.items():
+        m = min((vals[f][r] for f in fillers), default=0.0)
+        if m > 0:
+            bound = min(bound, int(math.floor(hi / m + EPS)))
+    return bound
+
+
+def enumerate_structure(d: dict, k: int | None = None) -> list[float]:
+    """Every feasible total in ascending order, or only the k smallest."""
     res = d["resources"]
     el = {e["id"]: e for e in d["elements"]}
     vals = {i: {r: float(e.get("resources", {}).get(r, 0.0)) for r in res}
@@ -28,6 +48,7 @@ def enumerate_structure(d: dict, max_fill: int = 6) -> list[float]:
         a, b = (s["from"], s["to"]) if "from" in s else (i, (i + 1) % n)
         stages.append((a, b, s))
     fillers_all = [i for i in el if i not in legs]
+    wide = d.get("constraints", {})
 
     def fillings(s_index, a, b):
         start, _end, spec = stages[s_index]
@@ -35,6 +56,7 @@ def enumerate_structure(d: dict, max_fill: int = 6) -> list[float]:
         first = bdelta if branch_leg else delta
         cons = spec["constraints"]
         fillers = [x for x in spec.get("elements", fillers_all) if x not in legs]
+        max_fill = _most_fillers(cons, fillers, vals)
         out = []
 
         def ok(tot, final):
@@ -55,18 +77,25 @@ def enumerate_structure(d: dict, max_fill: int = 6) -> list[float]:
                         rec(f, delta, seq + [f], cost + trans[(last, f)] + omega[f], t2)
 
         rec(a, first, [], 0.0, dict(legs[a][2 if branch_leg else 1]))
+        if k is not None:  # k best per structure-wide totals (see the module docstring)
+            groups: dict = {}
+            for c, t in sorted(out, key=lambda x: x[0]):
+                ls = groups.setdefault(tuple(round(t[r], 9) for r in wide), [])
+                if len(ls) < k:
+                    ls.append((c, t))
+            out = [x for ls in groups.values() for x in ls]
         return out
 
-    wide = d.get("constraints", {})
     totals = []
-    for keys in itertools.product(*[k["elements"] for k in kps]):
+    for keys in itertools.product(*[k_["elements"] for k_ in kps]):
         parts = [fillings(i, keys[a], keys[b]) for i, (a, b, _s) in enumerate(stages)]
         base = sum(omega[x] for x in keys)
         for combo in itertools.product(*parts):
             if all(lo - EPS <= sum(t[r] for _c, t in combo) <= hi + EPS
                    for r, (lo, hi) in wide.items()):
                 totals.append(base + sum(c for c, _t in combo))
-    return sorted(totals)
+    totals.sort()
+    return totals if k is None else totals[:k]
 
 
 def solution_cost(d: dict, keys: list[str], fills: list[list[str]]) -> float:
