@@ -15,6 +15,11 @@ The k best paths into a query are found by the lazy enumeration of
 previous element at state c - r(e)), each ranked by its exact g, and the start node
 ends every path. Node path lists are shared by all queries of the graph, so the
 hundreds of queries of a block outline expand each prefix once.
+
+Caching caveat: numba caches :func:`solver.kbest.kbest_from`'s specialisation for
+:class:`StageGraph` with kbest.py and does not see that it depends on the choice
+function here; after editing :func:`_stage_choices`, touch solver/kbest.py (or
+clear solver/__pycache__) so it is compiled again.
 """
 
 from __future__ import annotations
