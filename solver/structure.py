@@ -34,7 +34,7 @@ from .estimate import DEFAULT_MAX_MEMORY_MB
 from .problem import Problem, _number, check_object, parse_intervals
 from .quantize import exact_divisor, is_multiple
 from .stage_graphs import NotExact, StageGraphs
-from .structure_dp import best_structures, paused_gc
+from .structure_dp import best_structures, paused_gc, root_of
 from .structure_pairs import PairProblems
 
 METHODS = ("rcksp", "decompose", "fgs")
@@ -300,7 +300,7 @@ def solve_structure(st: Structure, k: int | None = None, method: str = "rcksp", 
         keys: list[str | None] = [None] * len(st.keypoints)
         fills: list[list[str]] = [[] for _ in st.stages]
         totals: list[dict] = [{} for _ in st.stages]
-        keys[_root(st)] = e
+        keys[root_of(st)] = e
         todo = [payload]
         while todo:  # parents first: a stage's start key is known before the stage
             p = todo.pop()
@@ -320,9 +320,3 @@ def solve_structure(st: Structure, k: int | None = None, method: str = "rcksp", 
                                f"constraints{wide}{detail}")
     return StructureResult("ok", sols, stats)
 
-
-def _root(st: Structure) -> int:
-    """Key point 0 for a cycle, else the one no stage enters."""
-    if st.closed:
-        return 0
-    return next(v for v in range(len(st.keypoints)) if all(s.end != v for s in st.stages))

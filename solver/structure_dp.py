@@ -87,6 +87,13 @@ def _best(lists: dict, k: int) -> dict:
     return {g: sorted(ls, key=lambda t: t[0])[:k] for g, ls in lists.items()}
 
 
+def root_of(st) -> int:
+    """Where the program starts: key point 0 of a cycle, else the one no stage enters."""
+    if st.closed:
+        return 0
+    return next(v for v in range(len(st.keypoints)) if all(s.end != v for s in st.stages))
+
+
 def best_structures(st, k: int, ghi: list[int], glo: list[int], stage_lists: StageLists
                     ) -> list[tuple[float, str, dict]]:
     """The k best (cost, element at the root, payload) of structure ``st``. A payload
@@ -105,12 +112,8 @@ def best_structures(st, k: int, ghi: list[int], glo: list[int], stage_lists: Sta
     def add(g1, g2):
         return tuple(x + y for x, y in zip(g1, g2, strict=True)) if wide else zero
 
-    if st.closed:
-        root = 0
-        closing = next(i for i, s in enumerate(st.stages) if s.end == 0)
-    else:
-        root = next(v for v in range(n) if all(s.end != v for s in st.stages))
-        closing = -1
+    root = root_of(st)
+    closing = next(i for i, s in enumerate(st.stages) if s.end == 0) if st.closed else -1
 
     def below(v: int, e: str, fixed_root: str | None, memo: dict) -> dict:
         """share -> k best completions of everything after key point v holding e."""
