@@ -168,7 +168,7 @@ def test_parts_that_do_not_meet_are_an_error(db, monkeypatch):
     plan = _t_plan(db)
     sol = solve_structure(Structure.from_dict(plan.structure)).solutions[0]
     bad = replace(sol, stages=[s[:-1] if i == 0 else s for i, s in enumerate(sol.stages)])
-    with pytest.raises(ExportError, match="stage 0: its parts measure .* half quantum"):
+    with pytest.raises(ExportError, match="stage 0: its parts measure .* a stretch may absorb"):
         layout("t", 1, [plan], [bad], db)   # one filler short: no stretch may hide that
     # a placement bug that opens a gap: move one filler by 5 mm
     lay = layout("t", 1, [plan], [sol], db)
