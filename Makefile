@@ -26,6 +26,8 @@ bench: $(STAMP)
 	$(BIN)/python -m bench.street
 	$(BIN)/python -m bench.structures
 	$(BIN)/python -m bench.export
+	$(BIN)/python -m bench.ingest
+	$(BIN)/python -m bench.city
 
 examples: $(STAMP)
 	$(BIN)/python -m examples.make_examples

@@ -167,9 +167,9 @@ def _local(jobs: list[BlockJob], out: Path, workers: int) -> Iterator[dict]:
             yield run_block(job, str(out))
         return
     with ProcessPoolExecutor(workers) as pool:
-        futures = [pool.submit(run_block, job, str(out)) for job in jobs]
+        futures = {pool.submit(run_block, job, str(out)): job for job in jobs}
         for fut in as_completed(futures):
-            yield fut.result()
+            yield _result(fut, futures[fut])
 
 
 def _dask(jobs: list[BlockJob], out: Path, address: str) -> Iterator[dict]:
@@ -187,8 +187,21 @@ def _dask(jobs: list[BlockJob], out: Path, address: str) -> Iterator[dict]:
     with client:
         futures = client.map(run_block, jobs, out_dir=str(out),
                              key=[f"citysynth-{j.id}-{j.input_hash[:8]}" for j in jobs])
+        by_key = {f.key: j for f, j in zip(futures, jobs, strict=True)}
         for fut in dask_completed(futures):
-            yield fut.result()
+            yield _result(fut, by_key[fut.key])
+
+
+def _result(fut, job: BlockJob) -> dict:
+    """A finished job's record; a worker that died (killed, out of memory, lost from
+    the cluster) fails its block instead of the run. No marker is written, so a rerun
+    tries the block again."""
+    try:
+        return fut.result()
+    except Exception as exc:  # the worker's own errors are records already
+        return {"id": job.id, "kind": job.kind, "zone": job.zone, "style": job.style,
+                "input_hash": job.input_hash, "files": [], "status": "failed",
+                "reason": f"the worker running it died ({type(exc).__name__}: {exc})"}
 
 
 def run_city(inputs: CityInputs, out_dir: str | Path, *, workers: int = 1,

@@ -233,3 +233,24 @@ def test_bad_city_input(tmp_path, capsys, monkeypatch):
     assert "--streets" in capsys.readouterr().err
     assert city(tmp_path / "y", "--scheduler", "tcp://127.0.0.1:9") == 2
     assert "Dask scheduler" in capsys.readouterr().err
+
+
+def _dies_on_one_block(job, out_dir):
+    from pipeline.city_jobs import run_block
+    if job.id == _dies_on_one_block.victim:
+        os._exit(3)   # a worker killed mid-block (out of memory, say)
+    return run_block(job, out_dir)
+
+
+def test_a_dying_worker_fails_blocks_not_the_run(district, tmp_path, monkeypatch):
+    from pipeline import city_run
+
+    _dies_on_one_block.victim = sorted(layouts(district))[3].split(".")[0]
+    monkeypatch.setattr(city_run, "run_block", _dies_on_one_block)   # forked workers see it
+    assert city(tmp_path, "--workers", "2", "--no-overview") == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    died = [f for f in report["failed"] if "worker running it died" in f["reason"]]
+    assert died and _dies_on_one_block.victim in {f["id"] for f in died}
+    monkeypatch.undo()
+    assert city(tmp_path, "--workers", "2", "--no-overview") == 0   # the rerun retries them
+    assert layouts(tmp_path) == layouts(district)
