@@ -103,14 +103,35 @@ def best_structures(st, k: int, ghi: list[int], glo: list[int], stage_lists: Sta
     out: list[list[int]] = [[] for _ in range(n)]
     for i, s in enumerate(st.stages):
         out[s.start].append(i)
-    zero = tuple(0 for _ in ghi)
-    wide = bool(ghi)
+    # Shares travel as one int each: digit i (radix 2 * (ghi[i] + 1)) holds resource i,
+    # so adding two shares that fit never carries, and a sum fits when every digit is at
+    # most its bound. With one structure-wide resource (the usual case) a share is just
+    # its value; these loops run a million times on a block with a per-block interval.
+    radix = [2 * (h + 1) for h in ghi]
+    single = len(ghi) == 1
+    H = ghi[0] if single else 0
 
-    def fits(g) -> bool:
-        return all(x <= h for x, h in zip(g, ghi, strict=True))
+    def encode(g: Share) -> int:
+        code = 0
+        for x, r in zip(reversed(g), reversed(radix), strict=True):
+            code = code * r + x
+        return code
 
-    def add(g1, g2):
-        return tuple(x + y for x, y in zip(g1, g2, strict=True)) if wide else zero
+    def decode(code: int) -> Share:
+        digits = []
+        for r in radix:
+            code, x = divmod(code, r)
+            digits.append(x)
+        return tuple(digits)
+
+    def fits_any(code: int) -> bool:
+        return all(x <= h for x, h in zip(decode(code), ghi, strict=True))
+
+    fits = (lambda code: code <= H) if single else fits_any if ghi else (lambda code: True)
+
+    def lists(s: int, e: str, f: str) -> list:
+        """stage_lists with shares encoded, in increasing order of share."""
+        return sorted((encode(g), ls) for g, ls in stage_lists(s, e, f).items())
 
     root = root_of(st)
     closing = next(i for i, s in enumerate(st.stages) if s.end == 0) if st.closed else -1
@@ -125,18 +146,21 @@ def best_structures(st, k: int, ghi: list[int], glo: list[int], stage_lists: Sta
             w = st.stages[s].end
             if s == closing:  # the cycle closes on key point 0's element, paid there
                 options = {g: [(c, (fixed_root, h, {})) for c, h in ls]
-                           for g, ls in stage_lists(s, e, fixed_root).items()}
+                           for g, ls in lists(s, e, fixed_root)}
             else:  # (the stage to f, the k best below f holding f) for every f
                 pairs: dict = {}
                 for f in st.keypoints[w]:
                     sub = below(w, f, fixed_root, memo)
                     if not sub:
                         continue
-                    for g1, ls in stage_lists(s, e, f).items():
-                        for g2, lw in sub.items():
-                            g = add(g1, g2)
+                    cf = st.costs[f]
+                    for g1, ls in lists(s, e, f):
+                        for g2, lw in sub:
+                            g = g1 + g2
                             if fits(g):
-                                pairs.setdefault(g, []).append((ls, lw, st.costs[f], f))
+                                pairs.setdefault(g, []).append((ls, lw, cf, f))
+                            elif single:   # shares ascend: the rest are larger still
+                                break
                 options = {g: merge_sums(ps, k) for g, ps in pairs.items()}
             if acc is None:  # the first stage out of v: nothing to combine with yet
                 acc = {g: [(c, {s: p}) for c, p in ls] for g, ls in options.items()}
@@ -144,7 +168,7 @@ def best_structures(st, k: int, ghi: list[int], glo: list[int], stage_lists: Sta
                 nxt: dict = {}
                 for g1, la in acc.items():
                     for g2, lb in options.items():
-                        g = add(g1, g2)
+                        g = g1 + g2
                         if fits(g):
                             nxt.setdefault(g, []).extend(
                                 (c, {**pa, s: pb}) for c, (pa, pb) in ksum(la, lb, k))
@@ -152,7 +176,8 @@ def best_structures(st, k: int, ghi: list[int], glo: list[int], stage_lists: Sta
             if not acc:
                 break
         if acc is None:  # a leaf
-            acc = {zero: [(0.0, {})]}
+            acc = {0: [(0.0, {})]}
+        acc = sorted(acc.items()) if isinstance(acc, dict) else acc
         memo[key] = acc
         return acc
 
@@ -161,8 +186,8 @@ def best_structures(st, k: int, ghi: list[int], glo: list[int], stage_lists: Sta
     for e in st.keypoints[root]:
         if st.closed:  # every completion depends on the element the cycle closes on
             memo = {}
-        for g, ls in below(root, e, e if st.closed else None, memo).items():
-            if all(x >= lo for x, lo in zip(g, glo, strict=True)):
+        for code, ls in below(root, e, e if st.closed else None, memo):
+            if all(x >= lo for x, lo in zip(decode(code), glo, strict=True)):
                 results.extend((c + st.costs[e], e, payload) for c, payload in ls)
     results.sort(key=lambda t: t[0])
     return results[:k]
