@@ -29,21 +29,25 @@ def place(piece: Piece, inst: Instance, offset=(0.0, 0.0, 0.0)) -> tuple[np.ndar
     return v, f
 
 
-def world_mesh(lay: Layout, db: PartDB, offset=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
-    """The whole layout as one coloured mesh (per-face RGBA), e.g. for a preview."""
+def _coloured(parts) -> trimesh.Trimesh:
+    """One mesh from (vertices, faces, rgba) parts, each face coloured by its part."""
     verts, faces, colours, n = [], [], [], 0
-    for inst, pieces in instances_with_pieces(lay, db):
-        for piece in pieces:
-            v, f = place(piece, inst, offset)
-            verts.append(v)
-            faces.append(f + n)
-            colours.append(np.tile(np.array(piece.rgba, dtype=np.uint8), (len(f), 1)))
-            n += len(v)
+    for v, f, rgba in parts:
+        verts.append(v)
+        faces.append(f + n)
+        colours.append(np.tile(np.array(rgba, dtype=np.uint8), (len(f), 1)))
+        n += len(v)
     if not verts:
         return trimesh.Trimesh()
     mesh = trimesh.Trimesh(np.vstack(verts), np.vstack(faces), process=False)
     mesh.visual.face_colors = np.vstack(colours)
     return mesh
+
+
+def world_mesh(lay: Layout, db: PartDB, offset=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
+    """The whole layout as one coloured mesh (per-face RGBA), e.g. for a preview."""
+    return _coloured((*place(piece, inst, offset), piece.rgba)
+                     for inst, pieces in instances_with_pieces(lay, db) for piece in pieces)
 
 
 def bounds(lay: Layout, db: PartDB) -> np.ndarray:
@@ -65,20 +69,13 @@ def triangle_count(lay: Layout, db: PartDB) -> int:
 def world_boxes(lay: Layout, db: PartDB) -> trimesh.Trimesh:
     """Each instance as its part's bounding box (12 triangles, the part's main colour):
     a city overview with millions of triangles would not fit a preview."""
-    verts, faces, colours, n = [], [], [], 0
     unit = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
-    for inst, pieces in instances_with_pieces(lay, db):
+
+    def box(inst, pieces):
         v = np.vstack([p.vertices for p in pieces])
         lo, hi = v.min(axis=0), v.max(axis=0)
-        box = unit.vertices * (hi - lo) + lo
-        m = inst.matrix()
-        verts.append(box @ m[:3, :3].T + m[:3, 3])
-        faces.append((unit.faces[:, ::-1] if inst.mirrored else unit.faces) + n)
-        main = max(pieces, key=lambda p: len(p.faces)).rgba
-        colours.append(np.tile(np.array(main, dtype=np.uint8), (len(unit.faces), 1)))
-        n += len(box)
-    if not verts:
-        return trimesh.Trimesh()
-    mesh = trimesh.Trimesh(np.vstack(verts), np.vstack(faces), process=False)
-    mesh.visual.face_colors = np.vstack(colours)
-    return mesh
+        main = max(pieces, key=lambda p: len(p.faces))
+        shell = Piece(main.name, main.rgba, unit.vertices * (hi - lo) + lo, unit.faces)
+        return (*place(shell, inst), shell.rgba)
+
+    return _coloured(box(inst, pieces) for inst, pieces in instances_with_pieces(lay, db))
