@@ -30,8 +30,10 @@ def _most_fillers(cons: dict, fillers: list[str], vals: dict) -> int:
     return bound
 
 
-def enumerate_structure(d: dict, k: int | None = None) -> list[float]:
-    """Every feasible total in ascending order, or only the k smallest."""
+def _read(d: dict):
+    """The structure dict as the oracle uses it: resources, elements by id, their
+    resource values, unary costs and legs, the two transition tables, the key points,
+    and each stage as (from, to, spec) (a chain or cycle when from/to are left out)."""
     res = d["resources"]
     el = {e["id"]: e for e in d["elements"]}
     vals = {i: {r: float(e.get("resources", {}).get(r, 0.0)) for r in res}
@@ -43,10 +45,14 @@ def enumerate_structure(d: dict, k: int | None = None) -> list[float]:
     bdelta = {(a, b): float(c) for a, b, c in d.get("branch_transitions", d["transitions"])}
     kps = d["keypoints"]
     n = len(kps)
-    stages = []
-    for i, s in enumerate(d["stages"]):
-        a, b = (s["from"], s["to"]) if "from" in s else (i, (i + 1) % n)
-        stages.append((a, b, s))
+    stages = [((s["from"], s["to"]) if "from" in s else (i, (i + 1) % n)) + (s,)
+              for i, s in enumerate(d["stages"])]
+    return res, el, vals, omega, legs, delta, bdelta, kps, stages
+
+
+def enumerate_structure(d: dict, k: int | None = None) -> list[float]:
+    """Every feasible total in ascending order, or only the k smallest."""
+    res, el, vals, omega, legs, delta, bdelta, kps, stages = _read(d)
     fillers_all = [i for i in el if i not in legs]
     wide = d.get("constraints", {})
 
@@ -103,21 +109,13 @@ def solution_cost(d: dict, keys: list[str], fills: list[list[str]]) -> float:
     per stage), checked against every rule the enumeration above follows: allowed
     elements and transitions, each stage's interval and the structure-wide ones.
     Raises AssertionError for a filling that breaks one."""
-    res = d["resources"]
-    el = {e["id"]: e for e in d["elements"]}
-    legs = {i: [{r: float(x.get(r, 0.0)) for r in res} for x in e["legs"]]
-            for i, e in el.items() if "legs" in e}
-    delta = {(a, b): float(c) for a, b, c in d["transitions"]}
-    bdelta = {(a, b): float(c) for a, b, c in d.get("branch_transitions", d["transitions"])}
-    kps = d["keypoints"]
-    n = len(kps)
+    res, el, vals, omega, legs, delta, bdelta, kps, stages = _read(d)
     cost = 0.0
     for key, kp in zip(keys, kps, strict=True):
         assert key in kp["elements"]
-        cost += float(el[key].get("cost", 0.0))
+        cost += omega[key]
     totals = {r: 0.0 for r in res}
-    for i, (s, fill) in enumerate(zip(d["stages"], fills, strict=True)):
-        a, b = (s["from"], s["to"]) if "from" in s else (i, (i + 1) % n)
+    for i, ((a, b, s), fill) in enumerate(zip(stages, fills, strict=True)):
         branch = kps[a].get("branch") == i
         allowed = [x for x in s.get("elements", el) if x not in legs]
         assert all(x in allowed for x in fill)
@@ -127,10 +125,9 @@ def solution_cost(d: dict, keys: list[str], fills: list[list[str]]) -> float:
             assert (x, y) in table, (x, y)
             cost += table[(x, y)]
             if j < len(fill):  # y is a filler: its unary cost
-                cost += float(el[y].get("cost", 0.0))
+                cost += omega[y]
         tot = {r: legs[keys[a]][2 if branch else 1][r] + legs[keys[b]][0][r]
-               + sum(float(el[x].get("resources", {}).get(r, 0.0)) for x in fill)
-               for r in res}
+               + sum(vals[x][r] for x in fill) for r in res}
         for r, (lo, hi) in s["constraints"].items():
             assert lo - EPS <= tot[r] <= hi + EPS, (i, r, tot[r])
         for r in res:
