@@ -91,7 +91,7 @@ def layout(name: str, rank: int, plans: Sequence, solutions: Sequence, db: PartD
                  if plans else "", [])
     for si, (plan, sol) in enumerate(zip(plans, solutions, strict=True)):
         instances, record = _place(si, plan, sol, parts)
-        _check(plan, record, parts)
+        _check(plan, record, parts, instances)
         out.instances.extend(instances)
         out.structures.append(_summary(plan, sol, record))
     return out
@@ -207,7 +207,7 @@ def _place(si: int, plan, sol, parts: dict[str, Part]):
             instances.append(_instance(p, si, s, None, a, q0))
             pos += w
         record["stages"][s] = {"fill": idx, "stretch": stretch[s], "start_leg": start_leg(s),
-                               "path": path, "instances": instances, "solved": solved[s]}
+                               "path": path, "solved": solved[s]}
     return instances, record
 
 
@@ -256,12 +256,11 @@ def _other(side: str) -> str:
     return "left" if side == "right" else "right"
 
 
-def _check(plan, record, parts) -> None:
+def _check(plan, record, parts, inst: list[Instance]) -> None:
     """The layout's geometry against its skeleton; any failure is an ExportError."""
     name = plan.skeleton.name
     for s, r in record["stages"].items():
         path: _Path = r["path"]
-        inst = r["instances"]
         front = plan.stages[s].front
         d = plan.structure["stages"][s]
         k_lo = record["keys"][(d["from"], r["start_leg"])]

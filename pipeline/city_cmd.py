@@ -10,6 +10,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from skeletons.errors import SkeletonError
+
 from .city_config import load_config
 from .city_run import (
     cpu_count,
@@ -49,8 +51,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from skeletons.errors import SkeletonError
-
     if args.workers is not None and args.workers < 1:
         raise SkeletonError(f"--workers must be at least 1, got {args.workers}")
     t0 = time.perf_counter()

@@ -38,6 +38,8 @@ MANIFEST = "manifest.json"
 REPORT = "report.json"
 RUN_SCHEMA = "citysynth.run"
 CONNECT_TIMEOUT = "10s"      # to reach a Dask scheduler
+ORIGIN_DIGITS = 2            # the frame's lon/lat origin, rounded: streets edited at the
+                             # edge of a network do not move every block (and its id)
 
 
 @dataclass
@@ -52,23 +54,13 @@ def _frame_tuple(frame: Frame) -> tuple[str, float, float]:
     return (frame.crs, frame.origin[0], frame.origin[1])
 
 
-def _rounded_origin(path: str | Path, crs: str | None) -> tuple[float, float] | None:
-    """The data's centre rounded to 0.01° (about 1 km) for lon/lat input, so that edits
-    at the edge of a network do not move the frame (and every block id) with them."""
-    if crs is not None:
-        return None
-    _feats, frame = read_geojson(path)
-    return (round(frame.origin[0], 2), round(frame.origin[1], 2))
-
-
 def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: CityConfig,
             library: str | Path | None, crs: str | None = None) -> CityInputs:
     """Read the inputs and turn every block and footprint into a job."""
     t0 = time.perf_counter()
     if streets is None and footprints is None:
         raise ConfigError("nothing to build: give --streets, --footprints or both")
-    first = streets if streets is not None else footprints
-    origin = cfg.origin or _rounded_origin(first, crs)
+    origin = cfg.origin
     libraries: dict[str, PartDB] = {}
 
     def settings_db(s: BuildSettings) -> tuple[PartDB, str, str]:
@@ -87,7 +79,8 @@ def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: City
     skipped: list[dict] = []
     frame = None
     if streets is not None:
-        feats, frame = read_geojson(streets, crs=crs, origin=origin)
+        feats, frame = read_geojson(streets, crs=crs, origin=origin,
+                                    origin_digits=ORIGIN_DIGITS)
         blocks, reasons = street_blocks(feats, cfg.setbacks, min_area=cfg.min_area)
         skipped += [{"kind": "block", "reason": r} for r in reasons]
         for b in blocks:
@@ -100,7 +93,9 @@ def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: City
                 continue
             outlines.append(("block", b.polygon, _highways(b, feats)))
     if footprints is not None:
-        feats, fframe = read_geojson(footprints, crs=crs, origin=origin)
+        feats, fframe = read_geojson(footprints, crs=crs,
+                                     origin=frame.origin if frame else origin,
+                                     origin_digits=ORIGIN_DIGITS)
         frame = frame or fframe
         for f in feats:
             polys = shapely.get_parts(f.geometry)
@@ -137,23 +132,24 @@ def _highways(b: Block, feats) -> tuple[str, ...]:
 
 
 def _zone_polygons(cfg: CityConfig, frame: Frame, crs: str | None) -> list:
-    """Zone polygons in the city frame (projected like the streets)."""
+    """Each zone's polygon in the city frame (projected like the streets), or None for
+    a zone chosen by street class; in the order of ``cfg.zones``."""
     with_poly = [z for z in cfg.zones if z.polygon]
     if not with_poly:
-        return []
+        return [None] * len(cfg.zones)
     fc = {"type": "FeatureCollection", "features": [
         {"type": "Feature", "properties": {"name": z.name},
          "geometry": {"type": "Polygon", "coordinates": [[*map(list, z.polygon),
                                                           list(z.polygon[0])]]}}
         for z in with_poly]}
     feats, _ = parse_geojson(fc, "city.toml zones", crs, frame.origin)
-    return [(z, f.geometry) for z, f in zip(with_poly, feats, strict=True)]
+    geoms = iter(f.geometry for f in feats)
+    return [next(geoms) if z.polygon else None for z in cfg.zones]
 
 
 def _zone_for(cfg: CityConfig, zones, poly, highways) -> tuple[str, BuildSettings]:
     c = poly.representative_point()
-    for z in cfg.zones:
-        geom = next((g for zz, g in zones if zz is z), None)
+    for z, geom in zip(cfg.zones, zones, strict=True):
         if (geom is not None and geom.contains(c)) or (set(z.highway) & set(highways)):
             return z.name, z.settings
     return "", cfg.settings

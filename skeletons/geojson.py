@@ -49,7 +49,8 @@ class Frame:
 
 
 def read_geojson(path: str | Path, crs: str | None = None,
-                 origin: tuple[float, float] | None = None) -> tuple[list[Feature], Frame]:
+                 origin: tuple[float, float] | None = None, origin_digits: int | None = None
+                 ) -> tuple[list[Feature], Frame]:
     p = Path(path)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
@@ -58,13 +59,16 @@ def read_geojson(path: str | Path, crs: str | None = None,
     except json.JSONDecodeError as exc:
         raise SkeletonError(f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
                             f"{exc.msg}") from None
-    return parse_geojson(data, str(p), crs, origin)
+    return parse_geojson(data, str(p), crs, origin, origin_digits)
 
 
 def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
-                  origin: tuple[float, float] | None = None) -> tuple[list[Feature], Frame]:
+                  origin: tuple[float, float] | None = None, origin_digits: int | None = None
+                  ) -> tuple[list[Feature], Frame]:
     """Features in a local metric frame centred on the data's bounding box, or on
-    ``origin`` (input coordinates) so that several files share one frame."""
+    ``origin`` (input coordinates) so that several files share one frame. With
+    ``origin_digits``, a lon/lat centre is rounded to that many decimals (2: about
+    1 km), so that edits at the edge of the data do not move the frame."""
     if not isinstance(data, dict) or data.get("type") not in ("FeatureCollection", "Feature"):
         raise SkeletonError(f"{source}: not a GeoJSON FeatureCollection or Feature")
     raw = data.get("features") if data["type"] == "FeatureCollection" else [data]
@@ -91,6 +95,8 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
     lo, hi = allc.min(axis=0), allc.max(axis=0)
     centre = (float((lo[0] + hi[0]) / 2), float((lo[1] + hi[1]) / 2)) if origin is None \
         else (float(origin[0]), float(origin[1]))
+    if origin is None and crs is None and origin_digits is not None:
+        centre = (round(centre[0], origin_digits), round(centre[1], origin_digits))
     if crs is None:
         if not (-180 <= lo[0] and hi[0] <= 180 and -90 <= lo[1] and hi[1] <= 90):
             raise SkeletonError(
