@@ -13,15 +13,7 @@ from pathlib import Path
 from skeletons.errors import SkeletonError
 
 from .city_config import load_config
-from .city_run import (
-    cpu_count,
-    prepare,
-    progress_printer,
-    render_overview,
-    run_city,
-    write_city_stage,
-    write_report,
-)
+from .city_run import cpu_count, finish_city, prepare, progress_printer, run_city
 
 
 def register(sub) -> None:
@@ -65,16 +57,8 @@ def run(args) -> int:
     if report["counts"]["cached"]:
         print(f"{report['counts']['cached']} blocks were unchanged since the last run in "
               f"{args.out}/ and were not built again")
-    t = time.perf_counter()
-    city = write_city_stage(Path(args.out), report)
-    report["timings"]["city_stage_s"] = time.perf_counter() - t
-    png = None
-    if not args.no_overview:
-        t = time.perf_counter()
-        png = render_overview(Path(args.out), inputs, report)
-        report["timings"]["overview_s"] = time.perf_counter() - t
-    report["timings"]["total_s"] = time.perf_counter() - t0
-    write_report(Path(args.out), report)
+    city, png = finish_city(inputs, report, Path(args.out), overview=not args.no_overview,
+                            started=t0)
     print(summary_table(report))
     print(f"wrote {city}" + (f", {png}" if png else "") + f", {Path(args.out) / 'report.json'}")
     return 0

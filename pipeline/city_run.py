@@ -303,6 +303,24 @@ def cpu_count() -> int:
 
 # --- city-wide outputs ------------------------------------------------------------------
 
+def finish_city(inputs: CityInputs, report: dict, out: Path, *, overview: bool = True,
+                started: float | None = None) -> tuple[Path, Path | None]:
+    """After the blocks: ``city.usda`` and (with ``overview``) ``city.png``, their times
+    (and the total since ``started``) added to the report, which is written again."""
+    t = time.perf_counter()
+    city = write_city_stage(out, report)
+    report["timings"]["city_stage_s"] = time.perf_counter() - t
+    png = None
+    if overview:
+        t = time.perf_counter()
+        png = render_overview(out, inputs, report)
+        report["timings"]["overview_s"] = time.perf_counter() - t
+    if started is not None:
+        report["timings"]["total_s"] = time.perf_counter() - started
+    write_report(out, report)
+    return city, png
+
+
 def write_city_stage(out: Path, report: dict) -> Path:
     """``city.usda``: every built block's layer, in the city's one frame."""
     from export.usd import write_city

@@ -26,14 +26,7 @@ from solver import Problem, solve
 
 from .build import solve_layouts, summary_line, write_outputs
 from .city_config import load_config
-from .city_run import (
-    cpu_count,
-    prepare,
-    progress_printer,
-    render_overview,
-    run_city,
-    write_city_stage,
-)
+from .city_run import cpu_count, finish_city, prepare, progress_printer, run_city
 from .report import format_result
 from .samples import street_front
 
@@ -101,8 +94,7 @@ def run(args) -> int:
     cfg = load_config(CITY_CONFIG)
     inputs = prepare(DISTRICT, None, cfg, None)
     report = run_city(inputs, out, workers=cpu_count(), progress=progress_printer())
-    city = write_city_stage(out, report)
-    png = render_overview(out, inputs, report)
+    city, png = finish_city(inputs, report, out)
     errors = validate(city)
     c = report["counts"]
     print(f"{c['built']} blocks built, {c['failed']} failed, {c['skipped']} pieces skipped; "
