@@ -5,7 +5,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: demo test lint bench examples library clean
+.PHONY: demo test test-deep lint typecheck bench examples library clean wheel
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -18,6 +18,13 @@ demo: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
+
+# mypy on the installed layout: a tree of links named citysynth/ under build/
+typecheck: $(STAMP)
+	mkdir -p build/typecheck/citysynth
+	for d in pipeline parts_db skeletons solver export examples; do \
+		ln -sfn ../../../$$d build/typecheck/citysynth/$$d; done
+	cd build/typecheck && ../../$(BIN)/mypy --config-file ../../pyproject.toml -p citysynth
 
 test: lint
 	$(BIN)/python -m pytest
@@ -33,10 +40,10 @@ examples: $(STAMP)
 	$(BIN)/python -m examples.make_examples
 
 clean:
-	rm -rf $(VENV) out .pytest_cache .ruff_cache .hypothesis
+	rm -rf $(VENV) out build dist .pytest_cache .ruff_cache .hypothesis .mypy_cache
 	find . -name __pycache__ -prune -exec rm -rf {} +
 
 # The sample part library: regenerate the meshes and manifest, then the contact sheet.
 library: $(STAMP)
-	$(BIN)/python -m parts_db.sample
-	$(BIN)/python -m export.preview examples/library docs/library.png
+	$(BIN)/python -m citysynth.parts_db.sample
+	$(BIN)/python -m citysynth.export.preview examples/library docs/library.png

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import psutil
 
-from skeletons import lonlat_from_local
+from citysynth.skeletons import lonlat_from_local
 
 ROOT = Path(__file__).resolve().parent.parent
 ORIGIN = (13.4, 52.52)
@@ -57,7 +57,7 @@ def network(blocks: int, seed: int = 1, spacing: float = 95.0) -> dict:
 
 def run_once(streets: Path, workers: int) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-m", "pipeline.cli", "city", "--streets", str(streets),
+        cmd = [sys.executable, "-m", "citysynth.pipeline.cli", "city", "--streets", str(streets),
                "--library", str(ROOT / "examples" / "library"), "-o", tmp,
                "--workers", str(workers), "--no-overview"]
         t0 = time.perf_counter()

@@ -16,12 +16,12 @@ from pathlib import Path
 from shapely.geometry import Polygon
 
 from bench.street import timed
-from export.gltf import write_glb
-from export.preview import render_layout
-from export.usd import write_layout
-from parts_db import load_library
-from pipeline.build import solve_layouts
-from skeletons import Feature, Frame, skeletons_from_polygons
+from citysynth.export.gltf import write_glb
+from citysynth.export.preview import render_layout
+from citysynth.export.usd import write_layout
+from citysynth.parts_db import load_library
+from citysynth.pipeline.layouts import solve_layouts
+from citysynth.skeletons import Feature, Frame, skeletons_from_polygons
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from parts_db import ingest
-from parts_db.sample import CLASSIC, MODERN, OUT, facade_chunk
+from citysynth.parts_db import ingest
+from citysynth.parts_db.sample import CLASSIC, MODERN, OUT, facade_chunk
 
 
 def synthetic_library(out: Path, n: int, seed: int = 11) -> None:

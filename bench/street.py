@@ -25,9 +25,9 @@ import time
 from pathlib import Path
 
 from bench.dp_floor import dp_cost
-from pipeline.samples import street_front
-from solver import Problem, TooLargeError, solve
-from solver.compiled import compile_problem
+from citysynth.solver import Problem, TooLargeError, solve
+from citysynth.solver.compiled import compile_problem
+from citysynth.solver.samples import street_front
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -122,8 +122,8 @@ def three_resources(lengths, runs: int) -> None:
 _CHILD = """
 import json, sys, time
 sys.path.insert(0, {root!r})
-from pipeline.samples import street_front
-from solver import Problem, solve
+from citysynth.solver.samples import street_front
+from citysynth.solver import Problem, solve
 
 def hwm():  # peak RSS of this process image (VmHWM; ru_maxrss survives exec)
     for line in open("/proc/self/status"):

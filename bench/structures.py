@@ -12,8 +12,8 @@ from __future__ import annotations
 import argparse
 
 from bench.street import timed
-from pipeline.samples import block_cycle, fig1c_like
-from solver.structure import Structure, solve_structure
+from citysynth.solver.samples import block_cycle, fig1c_like
+from citysynth.solver.structures import Structure, solve_structure
 
 TARGET_MS = 100.0
 

@@ -11,8 +11,8 @@ import json
 import math
 from pathlib import Path
 
-from pipeline.samples import street_front
-from skeletons import lonlat_from_local
+from citysynth.skeletons import lonlat_from_local
+from citysynth.solver.samples import street_front
 
 HERE = Path(__file__).resolve().parent
 ORIGIN = (7.1, 50.73)

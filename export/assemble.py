@@ -8,10 +8,9 @@ from collections.abc import Iterator
 import numpy as np
 import trimesh
 
-from parts_db import PartDB
-from parts_db.geometry import Piece, part_pieces
-
-from .layout import Instance, Layout
+from citysynth.export.layout import Instance, Layout
+from citysynth.parts_db import PartDB
+from citysynth.parts_db.geometry import Piece, part_pieces
 
 
 def instances_with_pieces(lay: Layout, db: PartDB) -> Iterator[tuple[Instance, tuple[Piece, ...]]]:

@@ -16,12 +16,11 @@ import numpy as np
 import trimesh
 from trimesh.visual.material import PBRMaterial
 
-from parts_db import PartDB
-from parts_db.files import atomic_path
-from parts_db.geometry import Piece
-
-from .assemble import instances_with_pieces, place
-from .layout import Instance, Layout
+from citysynth.export.assemble import instances_with_pieces, place
+from citysynth.export.layout import Instance, Layout
+from citysynth.parts_db import PartDB
+from citysynth.parts_db.files import atomic_path
+from citysynth.parts_db.geometry import Piece
 
 SHEAR_TOL = 1e-4   # relative; below it (~0.006°, under 2 mm over a part) an engine may drop it
 

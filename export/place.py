@@ -31,10 +31,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from parts_db import Part, PartDB
-
-from .errors import ExportError
-from .layout import AXIS_DIGITS, COORD_DIGITS, Instance, Layout
+from citysynth.export.errors import ExportError
+from citysynth.export.layout import AXIS_DIGITS, COORD_DIGITS, Instance, Layout
+from citysynth.parts_db import Part, PartDB
 
 TOL = 0.001          # metres: the largest gap, overlap or offset the checks accept
 

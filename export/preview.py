@@ -17,8 +17,8 @@ import pyvista as pv
 import trimesh
 from vtkmodules.vtkCommonCore import vtkLogger
 
-from parts_db import PartDB
-from parts_db.files import atomic_path
+from citysynth.parts_db import PartDB
+from citysynth.parts_db.files import atomic_path
 
 pv.OFF_SCREEN = True
 # VTK tries an X display before falling back to EGL and warns on stderr when there is
@@ -94,7 +94,7 @@ def render_meshes(mesh: trimesh.Trimesh, out_png: str | Path, *, title: str = ""
 
 def render_layout(lay, db: PartDB, out_png: str | Path, **kw) -> Path:
     """The preview of a layout (see :func:`render_meshes`)."""
-    from .assemble import world_mesh
+    from citysynth.export.assemble import world_mesh
 
     return render_meshes(world_mesh(lay, db), out_png, **kw)
 
@@ -125,14 +125,14 @@ def contact_sheet(db: PartDB, library_dir: str | Path, out_png: str | Path, *,
 
 
 def main(argv: list[str] | None = None) -> None:
-    """``python -m export.preview LIBRARY OUT.png``: the contact sheet of a library."""
+    """``python -m citysynth.export.preview LIBRARY OUT.png``: the contact sheet of a library."""
     import sys
 
-    from parts_db import load_library
+    from citysynth.parts_db import load_library
 
     args = sys.argv[1:] if argv is None else argv
     if len(args) != 2:
-        raise SystemExit("usage: python -m export.preview LIBRARY_DIR OUT.png")
+        raise SystemExit("usage: python -m citysynth.export.preview LIBRARY_DIR OUT.png")
     out = contact_sheet(load_library(args[0]), args[0], args[1], tile=170)
     print(f"wrote {out}")
 

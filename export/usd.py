@@ -29,11 +29,10 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, UsdShade, UsdValidation, Vt
 
-from parts_db import Part, PartDB
-from parts_db.files import atomic_path
-from parts_db.geometry import part_pieces
-
-from .layout import Layout
+from citysynth.export.layout import Layout
+from citysynth.parts_db import Part, PartDB
+from citysynth.parts_db.files import atomic_path
+from citysynth.parts_db.geometry import part_pieces
 
 PARTS_DIR = "parts"
 

@@ -14,7 +14,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import shapely
 
-from .sections import disagreement
+from citysynth.parts_db.sections import disagreement
 
 GROUPS = {
     "end_left": "facade", "middle": "facade", "corner": "facade", "t_junction": "facade",

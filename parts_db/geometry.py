@@ -18,8 +18,8 @@ from functools import lru_cache
 import numpy as np
 import trimesh
 
-from .errors import LibraryError
-from .library import Part, PartDB
+from citysynth.parts_db.errors import LibraryError
+from citysynth.parts_db.library import Part, PartDB
 
 DEFAULT_RGBA = (200, 200, 200, 255)   # meshes without colours
 _KIND = re.compile(r"^[A-Za-z]+")

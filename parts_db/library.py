@@ -20,17 +20,18 @@ from pathlib import Path
 import numpy as np
 import shapely
 
-from .costs import allowed_matrix, cost_matrix
-from .errors import LibraryError
-from .files import atomic_path, write_text
-from .manifest import Manifest, read_manifest
-from .measure import STACKED, STRAIGHT, measure
-from .meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh
+from citysynth.parts_db.costs import allowed_matrix, cost_matrix
+from citysynth.parts_db.errors import LibraryError
+from citysynth.parts_db.files import atomic_path, write_text
+from citysynth.parts_db.manifest import Manifest, read_manifest
+from citysynth.parts_db.measure import STACKED, STRAIGHT, measure
+from citysynth.parts_db.meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh
 
 FORMAT_VERSION = 2
 DB_JSON = "partdb.json"
 DB_NPZ = "partdb.npz"
-DEFAULT_OUT = ".citysynth"  # inside the library folder
+DEFAULT_OUT = ".citysynth"  # inside the library folder, when it may be written there
+CACHE_ENV = "CITYSYNTH_CACHE"   # a folder for every library's database instead
 PARTS_PER_WORKER = 100      # below this a process pool costs more than it saves
 
 
@@ -113,12 +114,30 @@ def library_hash(m: Manifest) -> str:
     return h.hexdigest()
 
 
+def cache_dir(root: Path) -> Path:
+    """Where a library's database is cached: under ``$CITYSYNTH_CACHE`` when set (one
+    folder per library path); else ``<library>/.citysynth`` when the library is a folder
+    of the user's that may be written; else (an installed, read-only library, such as
+    the sample library inside the package) the user's cache folder. Never beside
+    site-packages, so an installed citysynth stays as pip wrote it."""
+    root = root.resolve()
+    tag = f"{root.name}-{hashlib.sha256(str(root).encode()).hexdigest()[:12]}"
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return Path(env).expanduser() / tag
+    installed = any(p in ("site-packages", "dist-packages") for p in root.parts)
+    if not installed and os.access(root, os.W_OK):
+        return root / DEFAULT_OUT
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "citysynth" / "partdb" / tag
+
+
 def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: bool = False,
            progress: Callable[[int, int, str], None] | None = None) -> PartDB:
-    """Ingest ``library_dir`` into ``out`` (default: ``<library>/.citysynth``)."""
+    """Ingest ``library_dir`` into ``out`` (default: :func:`cache_dir`)."""
     m = read_manifest(library_dir)
     root = m.path.parent
-    out_dir = Path(out) if out is not None else root / DEFAULT_OUT
+    out_dir = Path(out) if out is not None else cache_dir(root)
     digest = library_hash(m)
     if not force:
         cached = _read_cached(out_dir, digest)

@@ -12,7 +12,7 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import LibraryError
+from citysynth.parts_db.errors import LibraryError
 
 CLASSES = ("end_left", "end_right", "middle", "corner", "t_junction", "floor",
            "ground_floor", "roof", "building")

@@ -20,9 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 from shapely.geometry.base import BaseGeometry
 
-from .errors import LibraryError
-from .manifest import PartSpec
-from .sections import body_labels, plane_section
+from citysynth.parts_db.errors import LibraryError
+from citysynth.parts_db.manifest import PartSpec
+from citysynth.parts_db.sections import body_labels, plane_section
 
 EPS = 0.005
 STRAIGHT = ("middle", "building", "end_left", "end_right")

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from .errors import LibraryError
+from citysynth.parts_db.errors import LibraryError
 
 FORMATS = {".glb", ".gltf", ".obj", ".ply", ".stl"}
 COUNTED = ("window", "door", "balcony")

@@ -1,6 +1,6 @@
 """The sample part library's generator: real mesh files and a manifest, deterministic.
 
-``python -m parts_db.sample [OUT]`` (or ``make library``) writes ``examples/library``:
+``python -m citysynth.parts_db.sample [OUT]`` (or ``make library``) writes ``examples/library``:
 two facade styles (middle parts of six or more widths with window bays, doors,
 balconies, string courses and cornices; end parts; corners of 90 and 135 degrees,
 convex and concave; T parts), tower parts (ground floors, floors of varied outlines,
@@ -22,7 +22,7 @@ import shapely
 import trimesh
 from shapely.geometry import Polygon
 
-OUT = Path(__file__).resolve().parent.parent / "examples" / "library"
+OUT = Path(__file__).resolve().parent.parent / "examples" / "library"  # in the repository
 
 
 @dataclass(frozen=True)

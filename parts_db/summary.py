@@ -7,7 +7,7 @@ from collections import defaultdict
 
 import numpy as np
 
-from .library import PartDB
+from citysynth.parts_db.library import PartDB
 
 
 def summary(db: PartDB, seconds: float | None = None) -> str:

@@ -10,16 +10,25 @@ with its reason. Sub-commands live in their own modules and register themselves 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+from importlib.metadata import PackageNotFoundError, version
 
-from export.errors import ExportError
-from parts_db import LibraryError
-from skeletons import SkeletonError
-from solver import ProblemError
-
-from . import build_cmd, city_cmd, demo_cmd, diff_cmd, ingest_cmd, skeleton_cmd, solve_cmd
+from citysynth.export.errors import ExportError
+from citysynth.parts_db import LibraryError
+from citysynth.parts_db.library import CACHE_ENV
+from citysynth.pipeline.commands import build, city, demo, diff, ingest, skeleton, solve
+from citysynth.skeletons import SkeletonError
+from citysynth.solver import ProblemError
 
 EXIT_OK, EXIT_INFEASIBLE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+def _version() -> str:
+    try:
+        return version("citysynth")
+    except PackageNotFoundError:   # running from a source tree that is not installed
+        return "unknown"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -27,9 +36,13 @@ def build_parser() -> argparse.ArgumentParser:
         prog="citysynth",
         description="Example-based city generator: exact k-best layouts of building parts.",
     )
+    parser.add_argument("--version", action="version", version=f"citysynth {_version()}")
+    parser.add_argument("--cache", metavar="DIR", default=None,
+                        help="folder for part-database caches (default: beside a library "
+                             "you may write, else the user cache folder; or "
+                             "$CITYSYNTH_CACHE)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (solve_cmd, ingest_cmd, skeleton_cmd, build_cmd, city_cmd, diff_cmd,
-                   demo_cmd):
+    for module in (solve, ingest, skeleton, build, city, diff, demo):
         module.register(sub)
     return parser
 
@@ -37,6 +50,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.cache:   # the environment carries it into worker processes too
+        os.environ[CACHE_ENV] = os.path.abspath(args.cache)
     try:
         return int(args.run(args))
     except (ProblemError, LibraryError, SkeletonError, ExportError) as exc:

@@ -7,16 +7,22 @@
 package knows nothing of part libraries or the solver.
 """
 
-from .angles import match_corner_angles
-from .build import (
+from citysynth.skeletons.angles import match_corner_angles
+from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.from_geometry import (
     blocks_from_streets,
     describe,
     skeleton_from_lines,
     skeletons_from_polygons,
 )
-from .errors import SkeletonError
-from .geojson import Feature, Frame, lonlat_from_local, parse_geojson, read_geojson
-from .model import Edge, KeyPoint, Skeleton
+from citysynth.skeletons.geojson import (
+    Feature,
+    Frame,
+    lonlat_from_local,
+    parse_geojson,
+    read_geojson,
+)
+from citysynth.skeletons.model import Edge, KeyPoint, Skeleton
 
 __all__ = ["Edge", "Feature", "Frame", "KeyPoint", "Skeleton", "SkeletonError",
            "blocks_from_streets", "describe", "lonlat_from_local", "match_corner_angles",

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from .errors import SkeletonError
-from .model import Skeleton
+from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.model import Skeleton
 
 ANGLE_TOL = 7.5  # degrees
 

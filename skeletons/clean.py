@@ -16,7 +16,7 @@ import numpy as np
 import shapely
 from shapely.geometry import LinearRing, Polygon
 
-from .geojson import angle_between
+from citysynth.skeletons.geojson import angle_between
 
 NOISE = 0.3           # metres: Douglas-Peucker tolerance for survey noise
 MIN_ANGLE = 30.0      # degrees: a sharper corner is a spike, and its tip is cut off

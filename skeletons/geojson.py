@@ -22,7 +22,7 @@ import shapely
 from shapely.geometry import shape
 from shapely.geometry.base import BaseGeometry
 
-from .errors import SkeletonError
+from citysynth.skeletons.errors import SkeletonError
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass, field
 
 import networkx as nx
 
-from .geojson import Frame
+from citysynth.skeletons.geojson import Frame
 
 KINDS = ("end", "corner", "bend", "t_junction")
 

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 import shapely
 from shapely.geometry import LineString, MultiLineString, Polygon
 
-from .errors import SkeletonError
-from .geojson import Feature
+from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.geojson import Feature
 
 
 @dataclass(frozen=True)

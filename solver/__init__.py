@@ -18,9 +18,9 @@ only numbers and imports no geometry library.
 [(['A', 'B', 'A', 'B'], 1.25), (['B', 'A', 'B', 'A'], 1.25)]
 """
 
-from .errors import ProblemError, TooLargeError
-from .problem import Element, Problem
-from .solve import METHODS, Result, Solution, solve
+from citysynth.solver.errors import ProblemError, TooLargeError
+from citysynth.solver.problem import Element, Problem
+from citysynth.solver.solve import METHODS, Result, Solution, solve
 
 __all__ = ["Element", "Problem", "ProblemError", "Result", "Solution", "TooLargeError",
            "METHODS", "solve"]

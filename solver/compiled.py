@@ -18,9 +18,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .errors import ProblemError
-from .problem import Problem
-from .quantize import Quantisation, quantise_resource
+from citysynth.solver.errors import ProblemError
+from citysynth.solver.problem import Problem
+from citysynth.solver.quantize import Quantisation, quantise_resource
 
 MAX_DENSE_TRANSITIONS_BYTES = 1 << 30
 

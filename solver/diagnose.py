@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .compiled import Compiled, with_bounds
-from .estimate import dense_rows
-from .graph import grow
+from citysynth.solver.compiled import Compiled, with_bounds
+from citysynth.solver.estimate import dense_rows
+from citysynth.solver.graph import grow
 
 _UNSET = object()
 

@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .compiled import Compiled
-from .errors import TooLargeError
+from citysynth.solver.compiled import Compiled
+from citysynth.solver.errors import TooLargeError
 
 DENSE_TABLE_MAX_BYTES = 1 << 28    # rows indexed by state up to this size, else hashed
 DEFAULT_MAX_MEMORY_MB = 2048

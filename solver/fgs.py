@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._table import (
+from citysynth.solver._table import (
     admissible,
     decode,
     fits,
@@ -29,7 +29,7 @@ from ._table import (
     table_new,
     table_rehash,
 )
-from .compiled import Compiled
+from citysynth.solver.compiled import Compiled
 
 STATUS_OK = 0
 STATUS_TOO_LARGE = 1

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ._table import (
+from citysynth.solver._table import (
     covers,
     decode,
     fits,
@@ -47,7 +47,7 @@ from ._table import (
     hash_put,
     table_rehash,
 )
-from .compiled import Compiled
+from citysynth.solver.compiled import Compiled
 
 STATUS_OK = 0
 STATUS_TOO_LARGE = 1

@@ -32,7 +32,15 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
-from ._table import admissible, decode, fits, grow_i64, hash_find, hash_put, table_rehash
+from citysynth.solver._table import (
+    admissible,
+    decode,
+    fits,
+    grow_i64,
+    hash_find,
+    hash_put,
+    table_rehash,
+)
 
 TERM = -1
 _FIRST, _LAST, _LEN, _HBASE, _HSIZE = 0, 1, 2, 3, 4   # slot columns

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import ProblemError
+from citysynth.solver.errors import ProblemError
 
 _TOP_KEYS = {
     "resources", "quantum", "elements", "transitions", "front", "back", "constraints", "k",

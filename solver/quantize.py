@@ -15,7 +15,7 @@ import math
 from dataclasses import dataclass
 from fractions import Fraction
 
-from .errors import ProblemError
+from citysynth.solver.errors import ProblemError
 
 TOL = 1e-9
 _MAX_DENOMINATOR = 10**4  # 0.1 mm on metres; finer "divisors" are noise

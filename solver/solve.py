@@ -14,14 +14,14 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from .compiled import Compiled, compile_problem
-from .diagnose import diagnose
-from .errors import ProblemError, TooLargeError
-from .estimate import DEFAULT_MAX_MEMORY_MB, estimate, row_bytes, too_large_message
-from .fgs import fgs
-from .graph import build_graph
-from .kbest import k_best
-from .problem import Problem
+from citysynth.solver.compiled import Compiled, compile_problem
+from citysynth.solver.diagnose import diagnose
+from citysynth.solver.errors import ProblemError, TooLargeError
+from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB, estimate, row_bytes, too_large_message
+from citysynth.solver.fgs import fgs
+from citysynth.solver.graph import build_graph
+from citysynth.solver.kbest import k_best
+from citysynth.solver.problem import Problem
 
 METHODS = ("rcksp", "fgs")
 

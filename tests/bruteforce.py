@@ -5,7 +5,7 @@ summed front to back as eq. (1) and (4) of the paper define them."""
 
 from __future__ import annotations
 
-from solver.problem import Problem
+from citysynth.solver.problem import Problem
 
 EPS = 1e-9
 

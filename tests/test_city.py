@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 from pxr import Usd
 
-from export.usd import validate
-from pipeline.cli import main
+from citysynth.export.usd import validate
+from citysynth.pipeline.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 LIB = ROOT / "examples" / "library"
@@ -114,7 +114,7 @@ def test_a_rerun_skips_unchanged_blocks(district, tmp_path, capsys):
 
 def test_a_killed_run_resumes_with_no_partial_file(district, tmp_path):
     out = tmp_path / "run"
-    cmd = [sys.executable, "-m", "pipeline.cli", "city", "--streets", str(DISTRICT),
+    cmd = [sys.executable, "-m", "citysynth.pipeline.cli", "city", "--streets", str(DISTRICT),
            "--library", str(LIB), "-o", str(out), "--workers", "1", "--no-overview"]
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
@@ -226,7 +226,7 @@ def test_config_errors_name_the_key(tmp_path, capsys, text, fragment):
 
 
 def test_bad_city_input(tmp_path, capsys, monkeypatch):
-    from pipeline import city_run
+    from citysynth.pipeline.city import run as city_run
 
     monkeypatch.setattr(city_run, "CONNECT_TIMEOUT", "1s")
     assert main(["city", "--library", str(LIB), "-o", str(tmp_path / "x")]) == 2
@@ -236,14 +236,14 @@ def test_bad_city_input(tmp_path, capsys, monkeypatch):
 
 
 def _dies_on_one_block(job, out_dir):
-    from pipeline.city_jobs import run_block
+    from citysynth.pipeline.city.jobs import run_block
     if job.id == _dies_on_one_block.victim:
         os._exit(3)   # a worker killed mid-block (out of memory, say)
     return run_block(job, out_dir)
 
 
 def test_a_dying_worker_fails_blocks_not_the_run(district, tmp_path, monkeypatch):
-    from pipeline import city_run
+    from citysynth.pipeline.city import run as city_run
 
     _dies_on_one_block.victim = sorted(layouts(district))[3].split(".")[0]
     monkeypatch.setattr(city_run, "run_block", _dies_on_one_block)   # forked workers see it

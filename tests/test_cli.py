@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.cli import main
+from citysynth.pipeline.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
@@ -65,7 +65,7 @@ def test_too_large_exits_2(tmp_path, capsys):
 
 def test_console_script_runs_as_a_process():
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    p = subprocess.run([sys.executable, "-m", "pipeline.cli", "solve",
+    p = subprocess.run([sys.executable, "-m", "citysynth.pipeline.cli", "solve",
                         str(EXAMPLES / "street_front.json"), "--k", "3", "--json"],
                        capture_output=True, text=True, env=env, cwd=ROOT, timeout=300)
     assert p.returncode == 0, p.stderr

@@ -14,18 +14,18 @@ import pytest
 import trimesh
 from pxr import Usd, UsdGeom
 
-from export.assemble import bounds, triangle_count
-from export.errors import ExportError
-from export.gltf import sheared
-from export.layout import Layout
-from export.place import layout, max_stretch
-from export.usd import validate, write_city
-from parts_db import load_library
-from pipeline.build import solve_layouts
-from pipeline.cli import main
-from pipeline.structures import skeleton_structure
-from skeletons import parse_geojson, read_geojson, skeleton_from_lines
-from solver.structure import Structure, solve_structure
+from citysynth.export.assemble import bounds, triangle_count
+from citysynth.export.errors import ExportError
+from citysynth.export.gltf import sheared
+from citysynth.export.layout import Layout
+from citysynth.export.place import layout, max_stretch
+from citysynth.export.usd import validate, write_city
+from citysynth.parts_db import load_library
+from citysynth.pipeline.cli import main
+from citysynth.pipeline.layouts import solve_layouts
+from citysynth.pipeline.skeleton_to_structure import skeleton_structure
+from citysynth.skeletons import parse_geojson, read_geojson, skeleton_from_lines
+from citysynth.solver.structures import Structure, solve_structure
 
 ROOT = Path(__file__).resolve().parent.parent
 LIB = ROOT / "examples" / "library"
@@ -173,7 +173,7 @@ def test_parts_that_do_not_meet_are_an_error(db, monkeypatch):
     # a placement bug that opens a gap: move one filler by 5 mm
     lay = layout("t", 1, [plan], [sol], db)
     assert max_stretch(lay) < 0.005
-    from export import place
+    from citysynth.export import place
     orig = place._instance
 
     def shifted(p, structure, stage, key, a, origin):

@@ -10,9 +10,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from parts_db import ingest
-from pipeline.problems import street_front_problem, tower_problem
-from solver import Problem, solve
+from citysynth.parts_db import ingest
+from citysynth.pipeline.library_problems import street_front_problem, tower_problem
+from citysynth.solver import Problem, solve
 from tests.bruteforce import enumerate_feasible
 
 SAMPLE = Path(__file__).resolve().parent.parent / "examples" / "library"

@@ -13,10 +13,10 @@ import pytest
 import shapely
 import trimesh
 
-from parts_db import LibraryError, ingest, load_library
-from parts_db.costs import allowed_matrix
-from parts_db.library import DB_JSON, DB_NPZ
-from pipeline.cli import main
+from citysynth.parts_db import LibraryError, ingest, load_library
+from citysynth.parts_db.costs import allowed_matrix
+from citysynth.parts_db.library import DB_JSON, DB_NPZ
+from citysynth.pipeline.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLE = ROOT / "examples" / "library"
@@ -146,7 +146,8 @@ def test_sample_costs_and_lengths(sample_db):
     assert np.isfinite(db.cost_branch[i[t.id]]).any()
 
 
-def test_cache_hit_and_invalidation(tmp_path):
+def test_cache_hit_and_invalidation(tmp_path, monkeypatch):
+    monkeypatch.delenv("CITYSYNTH_CACHE", raising=False)
     lib = tmp_path / "lib"
     shutil.copytree(SAMPLE, lib, ignore=shutil.ignore_patterns(".citysynth"))
     first = ingest(lib)
@@ -158,6 +159,23 @@ def test_cache_hit_and_invalidation(tmp_path):
     mesh_file = lib / first.parts[0].file
     mesh_file.write_bytes(mesh_file.read_bytes() + b"\0")  # changed content
     assert not ingest(lib).cache_hit
+
+
+def test_cache_folder_policy(tmp_path, monkeypatch):
+    """Beside a library the user may write; under $CITYSYNTH_CACHE when set; in the
+    user cache folder for an installed (site-packages) or read-only library."""
+    from citysynth.parts_db.library import cache_dir
+    monkeypatch.delenv("CITYSYNTH_CACHE", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    assert cache_dir(lib) == lib.resolve() / ".citysynth"
+    installed = tmp_path / "venv" / "site-packages" / "citysynth" / "examples" / "library"
+    installed.mkdir(parents=True)
+    assert cache_dir(installed).parent == tmp_path / "xdg" / "citysynth" / "partdb"
+    monkeypatch.setenv("CITYSYNTH_CACHE", str(tmp_path / "c"))
+    assert cache_dir(lib).parent == tmp_path / "c"
+    assert cache_dir(lib) != cache_dir(installed)
 
 
 GOOD = _box(0, 3, 0, 10, 0, 6)
@@ -210,7 +228,7 @@ def test_ingest_cli_summary(tmp_path, capsys):
 
 
 def test_sample_library_files_match_the_generator(tmp_path):
-    from parts_db.sample import generate
+    from citysynth.parts_db.sample import generate
     generate(tmp_path)
     for f in sorted(tmp_path.rglob("*")):
         if f.is_file():
@@ -219,7 +237,7 @@ def test_sample_library_files_match_the_generator(tmp_path):
 
 
 def test_parallel_measurement_matches_serial_and_reports_bad_parts(tmp_path, monkeypatch):
-    import parts_db.library as library
+    import citysynth.parts_db.library as library
     parts = [(f"P{i}", f"p{i}.stl", _box(0, 3 + 0.2 * i, 0, 10, 0, 6 + i), 'class = "middle"')
              for i in range(6)]
     lib = _library(tmp_path, parts)
@@ -235,7 +253,7 @@ def test_parallel_measurement_matches_serial_and_reports_bad_parts(tmp_path, mon
 
 
 def test_parallel_cost_table_matches_serial(monkeypatch):
-    import parts_db.costs as costs
+    import citysynth.parts_db.costs as costs
     rng = np.random.default_rng(3)
     secs = [shapely.box(0, 0, float(w), float(h)) for w, h in rng.uniform(1, 5, (30, 2))]
     allowed = np.ones((30, 30), dtype=bool)

@@ -2,7 +2,7 @@ import json
 
 import pytest
 
-from solver import Problem, ProblemError
+from citysynth.solver import Problem, ProblemError
 
 BASE = {
     "resources": ["length", "doors"],

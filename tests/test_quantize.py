@@ -3,8 +3,8 @@ from fractions import Fraction
 
 import pytest
 
-from solver import Problem, ProblemError, solve
-from solver.quantize import exact_divisor, quantise_resource
+from citysynth.solver import Problem, ProblemError, solve
+from citysynth.solver.quantize import exact_divisor, quantise_resource
 
 
 def test_exact_divisor_of_decimal_lengths():

@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from solver import Problem, ProblemError, TooLargeError, solve
-from solver.compiled import compile_problem
-from solver.graph import build_graph
+from citysynth.solver import Problem, ProblemError, TooLargeError, solve
+from citysynth.solver.compiled import compile_problem
+from citysynth.solver.graph import build_graph
 
 
 def test_element_consuming_nothing_is_refused():
@@ -42,7 +42,7 @@ def test_too_large_is_refused_with_estimate_and_advice():
 
 
 def test_growth_stops_at_the_row_budget():
-    from pipeline.samples import street_front
+    from citysynth.solver.samples import street_front
     cp = compile_problem(Problem.from_dict(street_front(40.0, resources=3)))
     assert build_graph(cp, dense=False, rows_hint=16, max_rows=50) is None
     assert build_graph(cp, dense=False, rows_hint=16, max_rows=10**6) is not None

@@ -8,10 +8,15 @@ from pathlib import Path
 
 import pytest
 
-from parts_db import ingest
-from pipeline.structures import skeleton_structure
-from skeletons import SkeletonError, parse_geojson, skeleton_from_lines, skeletons_from_polygons
-from solver.structure import Structure, solve_structure
+from citysynth.parts_db import ingest
+from citysynth.pipeline.skeleton_to_structure import skeleton_structure
+from citysynth.skeletons import (
+    SkeletonError,
+    parse_geojson,
+    skeleton_from_lines,
+    skeletons_from_polygons,
+)
+from citysynth.solver.structures import Structure, solve_structure
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_skeletons import fc, feat, metres  # noqa: E402

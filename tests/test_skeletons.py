@@ -8,7 +8,7 @@ import json
 import pyproj
 import pytest
 
-from skeletons import (
+from citysynth.skeletons import (
     SkeletonError,
     blocks_from_streets,
     parse_geojson,
@@ -132,7 +132,7 @@ def test_streets_polygonise_into_inset_blocks():
 
 
 def test_street_setbacks_follow_width_lanes_and_class():
-    from skeletons.streets import Setbacks, street_blocks
+    from citysynth.skeletons.streets import Setbacks, street_blocks
     s = Setbacks(default=5.0, sidewalk=2.0, lane_width=3.0, by_class=(("primary", 12.0),))
     assert s({"width": "8 m"}) == 6.0 and s({"lanes": "2"}) == 5.0
     assert s({"highway": "primary"}) == 12.0 and s({"highway": "track"}) == 5.0
@@ -196,7 +196,7 @@ def test_malformed_geojson(tmp_path):
 def test_skeleton_cli(capsys, tmp_path):
     from pathlib import Path
 
-    from pipeline.cli import main
+    from citysynth.pipeline.cli import main
     examples = Path(__file__).resolve().parent.parent / "examples" / "skeletons"
     assert main(["skeleton", str(examples / "t_building.geojson")]) == 0
     out = capsys.readouterr().out
@@ -213,7 +213,7 @@ def test_skeleton_cli(capsys, tmp_path):
 
 
 def test_corner_angles_match_the_library_within_a_tolerance():
-    from skeletons import match_corner_angles
+    from citysynth.skeletons import match_corner_angles
     outer = metres([(0, 0), (40, 0), (40, 30), (20, 30), (20, 50), (0, 50), (0, 0)])
     feats, frame = parse_geojson(fc(feat("Polygon", [outer])))
     (sk,) = skeletons_from_polygons(feats, frame)

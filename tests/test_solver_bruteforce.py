@@ -10,7 +10,7 @@ from __future__ import annotations
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from solver import Problem, solve
+from citysynth.solver import Problem, solve
 from tests.bruteforce import EPS, enumerate_feasible
 
 COSTS = st.sampled_from([0.0, 0.125, 0.25, 0.5, 1.0, 1.5, 3.0])

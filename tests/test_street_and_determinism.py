@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from citysynth.solver import Problem, solve
+from citysynth.solver.samples import street_front
 from examples.make_examples import GENERATED, render
-from pipeline.samples import street_front
-from solver import Problem, solve
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -6,9 +6,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pipeline.samples import fig1c_like
-from solver import ProblemError
-from solver.structure import Structure, solve_structure
+from citysynth.solver import ProblemError
+from citysynth.solver.samples import fig1c_like
+from citysynth.solver.structures import Structure, solve_structure
 from tests.bruteforce_structure import enumerate_structure
 
 COSTS = st.sampled_from([0.0, 0.25, 0.5, 1.0, 2.0])
@@ -100,7 +100,7 @@ def test_solve_cli_runs_structure_files(capsys):
     import json
     from pathlib import Path
 
-    from pipeline.cli import main
+    from citysynth.pipeline.cli import main
     f = Path(__file__).resolve().parent.parent / "examples" / "block_cycle.json"
     assert main(["solve", str(f), "--json", "--k", "2"]) == 0
     d = json.loads(capsys.readouterr().out)

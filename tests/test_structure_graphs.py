@@ -17,9 +17,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pipeline.samples import block_cycle, fig1c_like
-from solver import ProblemError, TooLargeError
-from solver.structure import Structure, solve_structure
+from citysynth.solver import ProblemError, TooLargeError
+from citysynth.solver.samples import block_cycle, fig1c_like
+from citysynth.solver.structures import Structure, solve_structure
 from tests.bruteforce_structure import enumerate_structure, solution_cost
 from tests.test_structure import structures, trees
 
@@ -113,8 +113,8 @@ def test_same_answers_as_the_decomposition_and_between_row_tables(make, k):
 
 _DUMP = """
 import json, sys
-from pipeline.samples import fig1c_like, block_cycle
-from solver.structure import Structure, solve_structure
+from citysynth.solver.samples import fig1c_like, block_cycle
+from citysynth.solver.structures import Structure, solve_structure
 out = [[vars(s) for s in solve_structure(Structure.from_dict(d), 10).solutions]
        for d in (fig1c_like(), block_cycle(8))]
 print(json.dumps(out, sort_keys=True))
@@ -153,7 +153,7 @@ def _long_block(quantum: float) -> dict:
 
 
 def test_too_large_structure_is_refused_before_anything_is_allocated(monkeypatch):
-    import solver.stage_graphs as sg
+    import citysynth.solver.structures.stage_graphs as sg
 
     def never(*_a, **_k):
         raise AssertionError("a graph was grown")
@@ -167,7 +167,7 @@ def test_too_large_structure_is_refused_before_anything_is_allocated(monkeypatch
 
 
 def test_too_large_structure_file_exits_2_with_the_message(tmp_path, capsys):
-    from pipeline.cli import main
+    from citysynth.pipeline.cli import main
     f = tmp_path / "huge.json"
     f.write_text(json.dumps(_long_block(0.0001)))
     assert main(["solve", str(f), "--max-memory", "64"]) == 2

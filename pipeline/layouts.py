@@ -15,16 +15,15 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from export.gltf import write_glb
-from export.layout import Layout
-from export.place import layout, max_stretch
-from export.usd import write_layout
-from parts_db import PartDB
-from parts_db.files import write_text
-from skeletons import Skeleton, SkeletonError
-from solver.structure import Structure, solve_structure
-
-from .structures import skeleton_structure
+from citysynth.export.gltf import write_glb
+from citysynth.export.layout import Layout
+from citysynth.export.place import layout, max_stretch
+from citysynth.export.usd import write_layout
+from citysynth.parts_db import PartDB
+from citysynth.parts_db.files import write_text
+from citysynth.pipeline.skeleton_to_structure import skeleton_structure
+from citysynth.skeletons import Skeleton, SkeletonError
+from citysynth.solver.structures import Structure, solve_structure
 
 FORMATS = ("json", "usd", "glb", "png")
 
@@ -100,7 +99,7 @@ def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
             paths.append(write_glb(lay, db, out / f"{stem}.glb"))
         t_png = time.perf_counter()
         if "png" in formats:
-            from export.preview import render_layout  # pyvista: only when previewing
+            from citysynth.export.preview import render_layout  # pyvista: only when previewing
 
             title = (f"{lay.name}  #{lay.rank}  cost {lay.cost:g}  "
                      f"{len(lay.instances)} parts")

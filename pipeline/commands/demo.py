@@ -18,21 +18,21 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from export.errors import ExportError
-from export.usd import validate
-from parts_db import load_library
-from skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
-from solver import Problem, solve
-
-from .build import solve_layouts, summary_line, write_outputs
-from .city_config import load_config
-from .city_run import cpu_count, finish_city, prepare, progress_printer, run_city
-from .report import format_result
-from .samples import street_front
+from citysynth import examples
+from citysynth.export.errors import ExportError
+from citysynth.export.usd import validate
+from citysynth.parts_db import load_library
+from citysynth.pipeline.city.config import load_config
+from citysynth.pipeline.city.run import cpu_count, finish_city, prepare, progress_printer, run_city
+from citysynth.pipeline.commands.results_text import format_result
+from citysynth.pipeline.layouts import solve_layouts, summary_line, write_outputs
+from citysynth.skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
+from citysynth.solver import Problem, solve
+from citysynth.solver.samples import street_front
 
 DEMO_LENGTH_M = 83.4
 DEMO_K = 3
-EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+EXAMPLES = examples.ROOT
 DISTRICT = EXAMPLES / "city" / "district_streets.geojson"
 CITY_CONFIG = EXAMPLES / "city" / "city.toml"
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 
-from skeletons import (
+from citysynth.skeletons import (
     Feature,
     blocks_from_streets,
     describe,

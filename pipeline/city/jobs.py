@@ -22,16 +22,15 @@ from pathlib import Path
 
 import shapely
 
-from export.layout import SCHEMA, VERSION
-from export.place import max_stretch
-from parts_db import PartDB, load_library
-from parts_db.files import write_text
-from skeletons import Feature, Frame, skeletons_from_polygons
-from skeletons.build import STRAIGHT_TOL
-from skeletons.clean import absorb_short_edges
-
-from .build import Built, solve_layouts, write_outputs
-from .structures import shortest_stage
+from citysynth.export.layout import SCHEMA, VERSION
+from citysynth.export.place import max_stretch
+from citysynth.parts_db import PartDB, load_library
+from citysynth.parts_db.files import write_text
+from citysynth.pipeline.layouts import Built, solve_layouts, write_outputs
+from citysynth.pipeline.skeleton_to_structure import shortest_stage
+from citysynth.skeletons import Feature, Frame, skeletons_from_polygons
+from citysynth.skeletons.clean import absorb_short_edges
+from citysynth.skeletons.from_geometry import STRAIGHT_TOL
 
 JOB_VERSION = 1          # bump when a block's output changes for the same inputs
 BLOCKS_DIR = "blocks"

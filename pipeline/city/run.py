@@ -25,14 +25,20 @@ from pathlib import Path
 
 import shapely
 
-from parts_db import PartDB, load_library
-from parts_db.files import sweep_temporaries, write_text
-from skeletons import Frame, parse_geojson, read_geojson
-from skeletons.streets import Block, street_blocks
-
-from .build import check_style, default_style
-from .city_config import BuildSettings, CityConfig, ConfigError
-from .city_jobs import BLOCKS_DIR, BlockJob, block_id, cached, outline_wkt, run_block
+from citysynth.parts_db import PartDB, load_library
+from citysynth.parts_db.files import sweep_temporaries, write_text
+from citysynth.pipeline.city.config import BuildSettings, CityConfig, ConfigError
+from citysynth.pipeline.city.jobs import (
+    BLOCKS_DIR,
+    BlockJob,
+    block_id,
+    cached,
+    outline_wkt,
+    run_block,
+)
+from citysynth.pipeline.layouts import check_style, default_style
+from citysynth.skeletons import Frame, parse_geojson, read_geojson
+from citysynth.skeletons.streets import Block, street_blocks
 
 MANIFEST = "manifest.json"
 REPORT = "report.json"
@@ -323,7 +329,7 @@ def finish_city(inputs: CityInputs, report: dict, out: Path, *, overview: bool =
 
 def write_city_stage(out: Path, report: dict) -> Path:
     """``city.usda``: every built block's layer, in the city's one frame."""
-    from export.usd import write_city
+    from citysynth.export.usd import write_city
 
     return write_city(out / "city.usda", [(f"block_{b}", f"{BLOCKS_DIR}/{b}.usda")
                                           for b in report["built"]])
@@ -335,9 +341,9 @@ def render_overview(out: Path, inputs: CityInputs, report: dict, *,
     when it fits ``max_triangles``, else each part as its bounding box."""
     import trimesh
 
-    from export.assemble import triangle_count, world_boxes, world_mesh
-    from export.layout import Layout
-    from export.preview import render_meshes
+    from citysynth.export.assemble import triangle_count, world_boxes, world_mesh
+    from citysynth.export.layout import Layout
+    from citysynth.export.preview import render_meshes
 
     if not report["built"]:
         return None

@@ -18,10 +18,10 @@ import shapely
 from shapely.geometry import LineString, MultiLineString, MultiPolygon, Polygon
 from shapely.validation import explain_validity
 
-from .errors import SkeletonError
-from .geojson import Feature, Frame, angle_between
-from .model import Edge, KeyPoint, Skeleton
-from .streets import street_blocks
+from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.geojson import Feature, Frame, angle_between
+from citysynth.skeletons.model import Edge, KeyPoint, Skeleton
+from citysynth.skeletons.streets import street_blocks
 
 SNAP = 0.01            # metres: endpoints closer than this are the same key point
 STRAIGHT_TOL = 15.0    # degrees: a smaller turn is a bend, not a corner

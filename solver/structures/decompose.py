@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import itertools
 
-from .problem import Element, Problem
-from .solve import solve
+from citysynth.solver.problem import Element, Problem
+from citysynth.solver.solve import solve
 
 
 def start_leg(st, s: int) -> int:

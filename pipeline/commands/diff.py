@@ -13,9 +13,8 @@ import json
 import sys
 from pathlib import Path
 
-from skeletons.errors import SkeletonError
-
-from .city_run import MANIFEST, RUN_SCHEMA
+from citysynth.pipeline.city.run import MANIFEST, RUN_SCHEMA
+from citysynth.skeletons.errors import SkeletonError
 
 
 def register(sub) -> None:

@@ -30,8 +30,8 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
-from ._table import hash_find
-from .kbest import TERM, graph_choices, kbest_from
+from citysynth.solver._table import hash_find
+from citysynth.solver.kbest import TERM, graph_choices, kbest_from
 
 _X, _PTR, _KEY = 0, 1, 2
 

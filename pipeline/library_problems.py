@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from parts_db import Part, PartDB
+from citysynth.parts_db import Part, PartDB
 
 
 def _transitions(db: PartDB, parts: list[Part]) -> list[list]:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import sys
 import time
 
-from parts_db import ingest
-from parts_db.summary import summary
+from citysynth.parts_db import ingest
+from citysynth.parts_db.summary import summary
 
 
 def register(sub) -> None:

@@ -27,9 +27,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from parts_db import PartDB
-from skeletons import Skeleton, match_corner_angles
-from skeletons.errors import SkeletonError
+from citysynth.parts_db import PartDB
+from citysynth.skeletons import Skeleton, match_corner_angles
+from citysynth.skeletons.errors import SkeletonError
 
 
 @dataclass(frozen=True)

@@ -13,11 +13,16 @@ import re
 import sys
 from pathlib import Path
 
-from parts_db import load_library
-from skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
-from skeletons.errors import SkeletonError
-
-from .build import Built, default_style, solve_layouts, summary_line, write_outputs
+from citysynth.parts_db import load_library
+from citysynth.pipeline.layouts import (
+    Built,
+    default_style,
+    solve_layouts,
+    summary_line,
+    write_outputs,
+)
+from citysynth.skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
+from citysynth.skeletons.errors import SkeletonError
 
 
 def _common(p) -> None:

@@ -5,12 +5,11 @@ from __future__ import annotations
 import json
 import sys
 
-from solver import METHODS, Problem, ProblemError, solve
-from solver.estimate import DEFAULT_MAX_MEMORY_MB
-from solver.problem import load_json
-from solver.structure import Structure, solve_structure
-
-from .report import format_result
+from citysynth.pipeline.commands.results_text import format_result
+from citysynth.solver import METHODS, Problem, ProblemError, solve
+from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
+from citysynth.solver.problem import load_json
+from citysynth.solver.structures import Structure, solve_structure
 
 
 def register(sub) -> None:

@@ -10,10 +10,9 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from skeletons.errors import SkeletonError
-
-from .city_config import load_config
-from .city_run import cpu_count, finish_city, prepare, progress_printer, run_city
+from citysynth.pipeline.city.config import load_config
+from citysynth.pipeline.city.run import cpu_count, finish_city, prepare, progress_printer, run_city
+from citysynth.skeletons.errors import SkeletonError
 
 
 def register(sub) -> None:

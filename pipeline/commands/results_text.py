@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from solver import Result
+from citysynth.solver import Result
 
 
 def _num(x: float) -> str:

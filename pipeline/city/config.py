@@ -45,8 +45,8 @@ from typing import Any
 
 from shapely.geometry import Polygon
 
-from skeletons.errors import SkeletonError
-from skeletons.streets import Setbacks
+from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.streets import Setbacks
 
 PICKS = ("best", "vary")
 

@@ -28,13 +28,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import ProblemError, TooLargeError
-from .estimate import DENSE_TABLE_MAX_BYTES, row_bytes
-from .graph import STATUS_OK, _grow_graph
-from .quantize import bounds_in_quanta, exact_divisor, is_multiple
-from .solve import solve
-from .stage_kbest import StageGraph, _stage_kbest
-from .structure_pairs import StageBuilder, share_allowed, stage_fillers, start_leg
+from citysynth.solver.errors import ProblemError, TooLargeError
+from citysynth.solver.estimate import DENSE_TABLE_MAX_BYTES, row_bytes
+from citysynth.solver.graph import STATUS_OK, _grow_graph
+from citysynth.solver.quantize import bounds_in_quanta, exact_divisor, is_multiple
+from citysynth.solver.solve import solve
+from citysynth.solver.structures.decompose import (
+    StageBuilder,
+    share_allowed,
+    stage_fillers,
+    start_leg,
+)
+from citysynth.solver.structures.stage_kbest import StageGraph, _stage_kbest
 
 
 class NotExact(Exception):
