@@ -1,4 +1,4 @@
-"""A :class:`~solver.problem.Problem` turned into the flat integer arrays the kernels use.
+"""A :class:`~citysynth.solver.problem.Problem` turned into the flat integer arrays the kernels use.
 
 Only constrained ("bounded") resources enter the graph state; the others are just
 summed for the report. A state is the vector c of consumed quanta, stored as one

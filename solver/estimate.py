@@ -1,8 +1,8 @@
 """How big a problem is before we allocate anything for it.
 
-The graph is stored as one row of n values per state reached (:mod:`solver.graph`),
+The graph is stored as one row of n values per state reached (:mod:`citysynth.solver.graph`),
 so memory is bounded by (states in the box) x (row size); the box is already
-tightened by the longest possible sequence (:mod:`solver.compiled`). We refuse when
+tightened by the longest possible sequence (:mod:`citysynth.solver.compiled`). We refuse when
 that bound exceeds the caller's budget, and say which resource makes the box large
 and what to change. Growth also stops at the same budget, so an estimate that is
 wrong can never turn into an out-of-memory crash.

@@ -22,8 +22,8 @@ The lazy core (:func:`kbest_from`) sees a graph only through
 :func:`graph_choices`, which numba resolves at compile time from the type of the
 graph tuple ``G``: a plain tuple is the intermediate graph (:func:`k_best`); other
 graphs register their own overload for a NamedTuple class of theirs (the structure
-solver's stage graphs, :mod:`solver.stage_kbest`, run this scheme backwards from
-many sinks). One core, no run-time dispatch.
+solver's stage graphs, :mod:`citysynth.solver.structures.stage_kbest`, run this
+scheme backwards from many sinks). One core, no run-time dispatch.
 """
 
 from __future__ import annotations

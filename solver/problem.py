@@ -3,10 +3,10 @@
 A :class:`Problem` is what a user writes in a problem file: elements with named
 non-negative resources and an optional unary cost, allowed transitions with costs,
 allowed first/last elements, and per-resource ``[min, max]`` intervals. It knows
-nothing of quantisation or graphs; :mod:`solver.quantize` and :mod:`solver.compiled`
-turn it into numbers. Validation lives here so every stage downstream can trust it,
-and every error names the offending place (``elements[3].resources.length``) so a
-user can fix the file without reading code.
+nothing of quantisation or graphs; :mod:`citysynth.solver.quantize` and
+:mod:`citysynth.solver.compiled` turn it into numbers. Validation lives here so every
+stage downstream can trust it, and every error names the offending place
+(``elements[3].resources.length``) so a user can fix the file without reading code.
 """
 
 from __future__ import annotations

@@ -12,8 +12,8 @@ Structure-wide intervals are met by keeping k best completions per partial total
 the structure-wide resources (in quanta): a stage list is keyed by its share.
 
 Where the stage lists come from is the caller's business (one problem per stage and
-key pair in :mod:`solver.structure_pairs`, shared stage graphs in
-:mod:`solver.stage_graphs`); this module only combines them.
+key pair in :mod:`citysynth.solver.structures.decompose`, shared stage graphs in
+:mod:`citysynth.solver.structures.stage_graphs`); this module only combines them.
 """
 
 from __future__ import annotations

@@ -1,14 +1,14 @@
 """Stage lists by decomposition: one one-stage problem per stage, key pair and share.
 
 The first structure solver, kept as the reference the shared stage graphs
-(:mod:`solver.stage_graphs`) are tested against, as the baseline that runs stages
-with FGS, and as the fallback for rounding quanta (one-stage solves re-check totals
-in original units, see :func:`solver.solve._truly_feasible`). For every stage i and
-every pair (a, b) of key elements at its ends, :func:`solver.solve` gives the k best
-fillings of a problem whose first and last elements are a's and b's legs; with
-structure-wide intervals it does so once per share of each structure-wide resource
-(an equality added to the stage's constraints). Exact, and slow: a 40-corner block
-with three corner parts is 360 problems.
+(:mod:`citysynth.solver.structures.stage_graphs`) are tested against, as the baseline
+that runs stages with FGS, and as the fallback for rounding quanta (one-stage solves
+re-check totals in original units, see :func:`citysynth.solver.solve._truly_feasible`).
+For every stage i and every pair (a, b) of key elements at its ends,
+:func:`citysynth.solver.solve` gives the k best fillings of a problem whose first and
+last elements are a's and b's legs; with structure-wide intervals it does so once per
+share of each structure-wide resource (an equality added to the stage's constraints).
+Exact, and slow: a 40-corner block with three corner parts is 360 problems.
 """
 
 from __future__ import annotations
@@ -85,8 +85,8 @@ class StageBuilder:
 
 
 class PairProblems:
-    """Stage lists (see :mod:`solver.structure_dp`) solved pair by pair, on demand;
-    a list's payload is the stage's (fillers, resource totals)."""
+    """Stage lists (see :mod:`citysynth.solver.structures.combine`) solved pair by pair,
+    on demand; a list's payload is the stage's (fillers, resource totals)."""
 
     def __init__(self, st, k: int, grid, solve_kw: dict):
         self.st, self.k = st, k

@@ -80,7 +80,7 @@ def solve_structure(st: Structure, k: int | None = None, method: str = "rcksp", 
     original units. Structure-wide intervals are exact: stage fillings are kept per
     share of each structure-wide resource. Raises :class:`TooLargeError` when a stage
     graph would exceed ``max_memory_mb``. ``table`` forces the graphs' row tables
-    ("dense" or "hash", as in :func:`solver.solve`); ``solve_kw`` go to the one-stage
+    ("dense" or "hash", as in :func:`citysynth.solver.solve`); ``solve_kw`` go to the one-stage
     solves. ``stats["stages_by"]`` says which way the stages were filled."""
     if method not in METHODS:
         raise ProblemError(f"unknown structure method {method!r}; choose one of "

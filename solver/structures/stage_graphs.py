@@ -5,15 +5,15 @@ of its work. A stage's intermediate graph grown *forward* from its start key
 element depends neither on where the stage must end (its intervals) nor on the
 element at its end: both only decide which of its nodes may be last. So stages
 with the same fillers and constrained resources share one graph per start element
-(and start leg), grown once over the union of their state boxes (:mod:`solver.graph`,
-forward only), and every (stage, end element, share) becomes a query on it: a
-virtual sink fed by the nodes whose state plus the end key's leg is admissible. One
-kernel call per graph enumerates the k best fillings of all its queries
-(:mod:`solver.stage_kbest`). A 40-corner block outline with three corner parts is
-three graphs instead of 360 problems.
+(and start leg), grown once over the union of their state boxes
+(:mod:`citysynth.solver.graph`, forward only), and every (stage, end element, share)
+becomes a query on it: a virtual sink fed by the nodes whose state plus the end key's
+leg is admissible. One kernel call per graph enumerates the k best fillings of all its
+queries (:mod:`citysynth.solver.structures.stage_kbest`). A 40-corner block outline
+with three corner parts is three graphs instead of 360 problems.
 
-Exact for the same reason as the decomposition (:mod:`solver.structure_dp` combines
-the lists the same way): every query's list holds the k cheapest fillings of that
+Exact for the same reason as the decomposition (:mod:`citysynth.solver.structures.combine`
+combines the lists the same way): every query's list holds the k cheapest fillings of that
 stage between those key elements with that share, found by an exact k-shortest-path
 enumeration. Quantisation must be exact (every value a multiple of its resource's
 quantum); otherwise :class:`NotExact` sends the caller to the decomposition, whose
@@ -83,7 +83,7 @@ def _quanta(st, names: set[str], gnames, gq) -> dict[str, float]:
 
 def _box(hi: np.ndarray, r: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, int]:
     """Caps of the state box (a state counts the start leg and the fillers so far) and
-    the most fillers a stage can hold, as in :func:`solver.compiled._box`: every
+    the most fillers a stage can hold, as in :func:`citysynth.solver.compiled._box`: every
     filler consumes at least one quantum, some consume at least m of a resource."""
     hi = np.maximum(hi, 0)
     if len(r) == 0:
@@ -295,7 +295,7 @@ class StageGraphs:
         self.counts["stage_queries"] += len(meta)
         self.counts["graph_rows"] += rows
 
-    # ---- the provider interface (see solver.structure_dp) ------------------------
+    # ---- the provider interface (see citysynth.solver.structures.combine) ------------------------
     def lists(self, i: int, a: str, b: str) -> dict:
         return self._lists.get((i, a, b), {})
 

@@ -1,8 +1,8 @@
-"""Kernels of the shared stage graphs (:mod:`solver.stage_graphs`): the k best
-fillings of many stage queries, enumerated backwards on one forward graph.
+"""Kernels of the shared stage graphs (:mod:`citysynth.solver.structures.stage_graphs`):
+the k best fillings of many stage queries, enumerated backwards on one forward graph.
 
-A stage graph is the intermediate graph of :mod:`solver.graph` grown *forward only*
-from one start key element: element 0 is the start key's leg, the others are the
+A stage graph is the intermediate graph of :mod:`citysynth.solver.graph` grown *forward
+only* from one start key element: element 0 is the start key's leg, the others are the
 fillers, and ``g[row, e]`` is the exact cost of the cheapest prefix "start ... e"
 consuming the row's state. It does not depend on where the stage ends, so every
 stage with the same fillers and the same start element shares it. A *query* (one
@@ -11,13 +11,13 @@ sink: its in-edges come from every node (c, e) whose state c plus the end key's 
 is admissible for that stage, weighted by the transition into the end key.
 
 The k best paths into a query are found by the lazy enumeration of
-:mod:`solver.kbest` run backwards: a node's choices are its predecessors (the
+:mod:`citysynth.solver.kbest` run backwards: a node's choices are its predecessors (the
 previous element at state c - r(e)), each ranked by its exact g, and the start node
 ends every path. Node path lists are shared by all queries of the graph, so the
 hundreds of queries of a block outline expand each prefix once.
 
-Caching caveat: numba caches :func:`solver.kbest.kbest_from`'s specialisation for
-:class:`StageGraph` with kbest.py and does not see that it depends on the choice
+Caching caveat: numba caches :func:`citysynth.solver.kbest.kbest_from`'s specialisation
+for :class:`StageGraph` with kbest.py and does not see that it depends on the choice
 function here; after editing :func:`_stage_choices`, touch solver/kbest.py (or
 clear solver/__pycache__) so it is compiled again.
 """
