@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -49,7 +50,29 @@ class Problem:
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "problem") -> Problem:
-        """Build and validate a problem from the JSON shape documented in the README."""
+        """Build and validate a problem from the JSON shape documented in the README.
+        Left out: ``front``/``back`` (every element), ``quantum`` (found from the
+        values), unary ``cost`` (0), a resource of an element (0), ``k`` (1).
+
+        >>> p = Problem.from_dict({
+        ...     "resources": ["length", "doors"],
+        ...     "elements": [{"id": "shop", "resources": {"length": 6.0, "doors": 1}},
+        ...                  {"id": "flat", "resources": {"length": 4.0}, "cost": 0.5}],
+        ...     "transitions": [["shop", "flat", 0.0], ["flat", "flat", 0.25]],
+        ...     "front": ["shop"],
+        ...     "constraints": {"length": [14, 18], "doors": [1, 1]}})
+        >>> p.elements[1]
+        Element(id='flat', resources={'length': 4.0, 'doors': 0.0}, cost=0.5)
+        >>> p.front, p.back, p.constraints
+        (('shop',), ('shop', 'flat'), {'length': (14.0, 18.0), 'doors': (1.0, 1.0)})
+
+        Every error names its place (and ``source``, the file):
+
+        >>> Problem.from_dict({**p.to_dict(), "front": ["door"]}, "street.json")
+        Traceback (most recent call last):
+          ...
+        citysynth.solver.errors.ProblemError: street.json: front: unknown element 'door'
+        """
         return _parse(d, source)
 
     @classmethod
@@ -113,7 +136,7 @@ def check_object(d: Any, allowed: set[str], what: str, source: str) -> None:
                            f"{sorted(allowed)}")
 
 
-def parse_intervals(c_in: Any, resources, where: str, source: str
+def parse_intervals(c_in: Any, resources: Collection[str], where: str, source: str
                     ) -> dict[str, tuple[float, float]]:
     """``{resource: [min, max]}`` validated against the resource names."""
     if c_in is None:
@@ -139,111 +162,144 @@ def parse_intervals(c_in: Any, resources, where: str, source: str
 
 
 def _parse(d: Any, source: str) -> Problem:
-    def err(msg: str) -> ProblemError:
-        return ProblemError(f"{source}: {msg}")
-
+    """Validate a problem dict step by step: resources, quanta, elements, transitions,
+    front/back lists, constraints, k. Every step raises :class:`ProblemError` naming
+    ``source`` and the offending place."""
     check_object(d, _TOP_KEYS, "problem", source)
+    resources = _parse_resources(d.get("resources"), source)
+    quantum = _parse_quantum(d.get("quantum", {}) or {}, resources, source)
+    elements = _parse_elements(d.get("elements"), resources, source)
+    seen = {e.id for e in elements}
+    transitions = _parse_transitions(d.get("transitions", []), seen, source)
+    front = _parse_ends(d, "front", elements, source)
+    back = _parse_ends(d, "back", elements, source)
+    constraints = parse_intervals(d.get("constraints", {}), resources, "constraints", source)
+    if not constraints:
+        raise ProblemError(f'{source}: no constraints: give at least one [min, max] '
+                           'interval, e.g. "constraints": {"length": [20.0, 20.0]}')
+    return Problem(
+        resources=tuple(resources),
+        elements=elements,
+        transitions=transitions,
+        front=front,
+        back=back,
+        constraints=constraints,
+        quantum=quantum,
+        k=parse_k(d.get("k", 1), source),
+    )
 
-    resources = d.get("resources")
+
+def parse_k(k: Any, source: str) -> int:
+    """``k`` is a positive integer (booleans are not)."""
+    if isinstance(k, bool) or not isinstance(k, int) or k < 1:
+        raise ProblemError(f'{source}: "k" must be a positive integer, got {k!r}')
+    return k
+
+
+def _parse_resources(resources: Any, source: str) -> list[str]:
+    """A non-empty list of distinct, non-empty names."""
     if (not isinstance(resources, list) or not resources
             or not all(isinstance(r, str) and r for r in resources)):
-        raise err('"resources" must be a non-empty list of names, e.g. ["length", "doors"]')
+        raise ProblemError(f'{source}: "resources" must be a non-empty list of names, e.g. '
+                           '["length", "doors"]')
     if len(set(resources)) != len(resources):
-        raise err(f'"resources" has duplicate names: {resources}')
-    rset = set(resources)
+        raise ProblemError(f'{source}: "resources" has duplicate names: {resources}')
+    return resources
 
-    quantum: dict[str, float] = {}
-    q_in = d.get("quantum", {}) or {}
+
+def _parse_quantum(q_in: Any, resources: list[str], source: str) -> dict[str, float]:
+    """``{resource: quantum}``, each quantum positive."""
     if not isinstance(q_in, dict):
-        raise err('"quantum" must be an object like {"length": 0.2}')
+        raise ProblemError(f'{source}: "quantum" must be an object like {{"length": 0.2}}')
+    quantum: dict[str, float] = {}
     for name, q in q_in.items():
-        if name not in rset:
-            raise err(f'quantum.{name}: unknown resource; resources are {resources}')
+        if name not in resources:
+            raise ProblemError(f"{source}: quantum.{name}: unknown resource; resources are "
+                               f"{resources}")
         qv = _number(q, f"{source}: quantum.{name}")
         if qv <= 0:
-            raise err(f"quantum.{name}: must be > 0, got {q!r}")
+            raise ProblemError(f"{source}: quantum.{name}: must be > 0, got {q!r}")
         quantum[name] = qv
+    return quantum
 
-    elems_in = d.get("elements")
+
+def _parse_elements(elems_in: Any, resources: list[str], source: str
+                    ) -> tuple[Element, ...]:
+    """The element list: distinct ids, every resource filled in (0 when left out)."""
     if not isinstance(elems_in, list) or not elems_in:
-        raise err('"elements" must be a non-empty list')
+        raise ProblemError(f'{source}: "elements" must be a non-empty list')
     elements: list[Element] = []
     seen: set[str] = set()
     for i, e in enumerate(elems_in):
-        where = f"elements[{i}]"
-        if not isinstance(e, dict):
-            raise err(f"{where}: must be an object with id, resources and optional cost")
-        extra = sorted(set(e) - {"id", "resources", "cost"})
-        if extra:
-            raise err(f"{where}: unknown key(s) {extra}; allowed: id, resources, cost")
-        eid = e.get("id")
-        if not isinstance(eid, str) or not eid:
-            raise err(f"{where}.id: must be a non-empty string")
-        if eid in seen:
-            raise err(f'{where}.id: duplicate element id "{eid}"')
-        seen.add(eid)
-        res_in = e.get("resources", {}) or {}
-        if not isinstance(res_in, dict):
-            raise err(f"{where}.resources: must be an object like {{\"length\": 4.0}}")
-        res: dict[str, float] = {}
-        for rname, val in res_in.items():
-            if rname not in rset:
-                raise err(f'{where}.resources.{rname}: unknown resource; resources are {resources}')
-            res[rname] = _number(val, f"{source}: {where}.resources.{rname}")
-        for rname in resources:
-            res.setdefault(rname, 0.0)
-        cost = _number(e.get("cost", 0.0), f"{source}: {where}.cost")
-        elements.append(Element(eid, {r: res[r] for r in resources}, cost))
+        elements.append(_parse_element(e, f"elements[{i}]", resources, seen, source))
+    return tuple(elements)
 
-    tr_in = d.get("transitions", [])
+
+def _parse_element(e: Any, where: str, resources: list[str], seen: set[str], source: str
+                   ) -> Element:
+    """One element; its id joins ``seen`` (ids of the elements before it)."""
+    if not isinstance(e, dict):
+        raise ProblemError(f"{source}: {where}: must be an object with id, resources and "
+                           "optional cost")
+    extra = sorted(set(e) - {"id", "resources", "cost"})
+    if extra:
+        raise ProblemError(f"{source}: {where}: unknown key(s) {extra}; allowed: id, "
+                           "resources, cost")
+    eid = e.get("id")
+    if not isinstance(eid, str) or not eid:
+        raise ProblemError(f"{source}: {where}.id: must be a non-empty string")
+    if eid in seen:
+        raise ProblemError(f'{source}: {where}.id: duplicate element id "{eid}"')
+    seen.add(eid)
+    res_in = e.get("resources", {}) or {}
+    if not isinstance(res_in, dict):
+        raise ProblemError(f'{source}: {where}.resources: must be an object like '
+                           '{"length": 4.0}')
+    res: dict[str, float] = {}
+    for rname, val in res_in.items():
+        if rname not in resources:
+            raise ProblemError(f"{source}: {where}.resources.{rname}: unknown resource; "
+                               f"resources are {resources}")
+        res[rname] = _number(val, f"{source}: {where}.resources.{rname}")
+    cost = _number(e.get("cost", 0.0), f"{source}: {where}.cost")
+    return Element(eid, {r: res.get(r, 0.0) for r in resources}, cost)
+
+
+def _parse_transitions(tr_in: Any, ids: set[str], source: str
+                       ) -> tuple[tuple[str, str, float], ...]:
+    """``[from, to, cost]`` triples between known elements, each pair at most once."""
     if not isinstance(tr_in, list):
-        raise err('"transitions" must be a list of [from, to, cost]')
+        raise ProblemError(f'{source}: "transitions" must be a list of [from, to, cost]')
     transitions: list[tuple[str, str, float]] = []
     pairs: set[tuple[str, str]] = set()
     for i, t in enumerate(tr_in):
         where = f"transitions[{i}]"
         if not isinstance(t, list | tuple) or len(t) != 3:
-            raise err(f"{where}: must be [from_id, to_id, cost], got {t!r}")
+            raise ProblemError(f"{source}: {where}: must be [from_id, to_id, cost], got {t!r}")
         a, b, c = t
         for side, x in (("from", a), ("to", b)):
-            if x not in seen:
-                raise err(f"{where}: unknown {side} element {x!r}")
+            if x not in ids:
+                raise ProblemError(f"{source}: {where}: unknown {side} element {x!r}")
         if (a, b) in pairs:
-            raise err(f"{where}: duplicate transition {a!r} -> {b!r}")
+            raise ProblemError(f"{source}: {where}: duplicate transition {a!r} -> {b!r}")
         pairs.add((a, b))
         transitions.append((a, b, _number(c, f"{source}: {where} cost")))
+    return tuple(transitions)
 
-    def ids(key: str) -> tuple[str, ...]:
-        v = d.get(key)
-        if v is None:
-            return tuple(e.id for e in elements)
-        if not isinstance(v, list) or not v:
-            raise err(f'"{key}" must be a non-empty list of element ids (or be left out for all)')
-        for x in v:
-            if x not in seen:
-                raise err(f'{key}: unknown element {x!r}')
-        if len(set(v)) != len(v):
-            raise err(f'"{key}" lists an element twice')
-        return tuple(v)
 
-    front, back = ids("front"), ids("back")
-
-    constraints = parse_intervals(d.get("constraints", {}), resources, "constraints", source)
-    if not constraints:
-        raise err('no constraints: give at least one [min, max] interval, e.g. '
-                  '"constraints": {"length": [20.0, 20.0]}')
-
-    k = d.get("k", 1)
-    if isinstance(k, bool) or not isinstance(k, int) or k < 1:
-        raise err(f'"k" must be a positive integer, got {k!r}')
-
-    return Problem(
-        resources=tuple(resources),
-        elements=tuple(elements),
-        transitions=tuple(transitions),
-        front=front,
-        back=back,
-        constraints=constraints,
-        quantum=quantum,
-        k=k,
-    )
+def _parse_ends(d: dict, key: str, elements: tuple[Element, ...], source: str
+                ) -> tuple[str, ...]:
+    """``front`` or ``back``: distinct known element ids; left out, every element."""
+    v = d.get(key)
+    if v is None:
+        return tuple(e.id for e in elements)
+    if not isinstance(v, list) or not v:
+        raise ProblemError(f'{source}: "{key}" must be a non-empty list of element ids (or '
+                           'be left out for all)')
+    ids = {e.id for e in elements}
+    for x in v:
+        if x not in ids:
+            raise ProblemError(f"{source}: {key}: unknown element {x!r}")
+    if len(set(v)) != len(v):
+        raise ProblemError(f'{source}: "{key}" lists an element twice')
+    return tuple(v)
