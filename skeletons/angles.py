@@ -21,18 +21,20 @@ def match_corner_angles(skeleton: Skeleton, available: Iterable[tuple[float, boo
     """Key point id -> the library corner (angle, convex) it takes; raises
     SkeletonError naming the first corner with no match and listing what exists."""
     avail = sorted({(float(a), bool(c)) for a, c in available})
-    out = {}
+    out: dict[int, tuple[float, bool]] = {}
     for k in skeleton.keypoints:
         if k.kind != "corner":
             continue
+        assert k.angle is not None, "a corner carries its angle"
+        angle = k.angle
         same = [a for a in avail if a[1] == k.convex]
-        best = min(same, key=lambda a: abs(a[0] - k.angle), default=None)
-        if best is None or abs(best[0] - k.angle) > tol:
+        best = min(same, key=lambda a: abs(a[0] - angle), default=None)
+        if best is None or abs(best[0] - angle) > tol:
             kind = "convex" if k.convex else "concave"
             have = ", ".join(f"{a:g}° {'convex' if c else 'concave'}" for a, c in avail) \
                 or "none"
             raise SkeletonError(
-                f"{skeleton.name}: the {kind} corner of {k.angle:.1f}° at "
+                f"{skeleton.name}: the {kind} corner of {angle:.1f}° at "
                 f"({k.xy[0]:.2f}, {k.xy[1]:.2f}) has no part within {tol:g}°; the library "
                 f"has corners of {have}")
         out[k.id] = best

@@ -12,6 +12,8 @@ bends inside a substructure, not key points.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import shapely
 from shapely.geometry import LinearRing, Polygon
@@ -46,7 +48,7 @@ def _merge_point(pts: np.ndarray, i: int, j: int) -> np.ndarray:
     return p if np.linalg.norm(p - mid) <= max(2.0 * span, 2.0) else mid
 
 
-def _ring(coords, min_edge: float, min_stage: float, straight_tol: float) -> np.ndarray:
+def _ring(coords: Any, min_edge: float, min_stage: float, straight_tol: float) -> np.ndarray:
     pts = np.asarray(coords, dtype=float)[:-1, :2]
     for _ in range(4 * len(pts)):
         n = len(pts)
@@ -61,7 +63,7 @@ def _ring(coords, min_edge: float, min_stage: float, straight_tol: float) -> np.
         if len(cs) >= 2:
             for a, b in zip(cs, np.roll(cs, -1), strict=True):
                 length = sum(seg[k % n] for k in range(a, a + (b - a) % n or n))
-                runs.append((a, b, length))
+                runs.append((int(a), int(b), float(length)))
         spike = int(np.argmax(np.abs(turns)))
         if abs(turns[spike]) > 180.0 - MIN_ANGLE:   # a spike: cut its tip off
             pts = np.delete(pts, spike, axis=0)
@@ -97,8 +99,8 @@ def absorb_short_edges(poly: Polygon, *, min_edge: float, min_stage: float,
         rings.append(LinearRing(pts))
     out = Polygon(rings[0], rings[1:])
     if not out.is_valid or out.area <= 0:
-        out = shapely.make_valid(out)
-        parts = [g for g in shapely.get_parts(out) if isinstance(g, Polygon)]
+        parts = [g for g in shapely.get_parts(shapely.make_valid(out))
+                 if isinstance(g, Polygon)]
         if not parts:
             return None
         out = max(parts, key=lambda g: g.area)

@@ -10,24 +10,26 @@ geometry is refused with a message naming the feature and the place.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from typing import Any, cast
 
 import networkx as nx
 import numpy as np
 import shapely
-from shapely.geometry import LineString, MultiLineString, MultiPolygon, Polygon
+from shapely.geometry import LinearRing, LineString, MultiLineString, MultiPolygon, Polygon
+from shapely.geometry.base import BaseGeometry
 from shapely.validation import explain_validity
 
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.geojson import Feature, Frame, angle_between
-from citysynth.skeletons.model import Edge, KeyPoint, Skeleton
+from citysynth.skeletons.model import FRONTS, Edge, Front, KeyPoint, Skeleton, flip
 from citysynth.skeletons.streets import street_blocks
 
 SNAP = 0.01            # metres: endpoints closer than this are the same key point
 STRAIGHT_TOL = 15.0    # degrees: a smaller turn is a bend, not a corner
 
 
-def _constraints(props: dict, where: str) -> dict[str, tuple[float, float]]:
+def _constraints(props: dict[str, Any], where: str) -> dict[str, tuple[float, float]]:
     c = props.get("constraints", {}) or {}
     if not isinstance(c, dict):
         raise SkeletonError(f"{where}: constraints must be an object like "
@@ -43,29 +45,29 @@ def _constraints(props: dict, where: str) -> dict[str, tuple[float, float]]:
     return out
 
 
-def _front(props: dict, where: str) -> str:
+def _front(props: dict[str, Any], where: str) -> Front:
     f = props.get("front", "right")
-    if f not in ("left", "right"):
+    if f not in FRONTS:
         raise SkeletonError(f'{where}: front must be "left" or "right" (of the line '
                             f"direction), got {f!r}")
-    return f
+    return cast(Front, f)
 
 
-def _classify(ids, xy: dict[int, np.ndarray], g: nx.Graph, edges: list[Edge],
-              straight_tol: float, where) -> list[KeyPoint]:
+def _classify(ids: Iterable[int], xy: dict[int, np.ndarray], g: nx.Graph, edges: list[Edge],
+              straight_tol: float, where: Callable[[int], str]) -> list[KeyPoint]:
     kps = []
     for v in ids:
         nbrs = list(g.neighbors(v))
         d = len(nbrs)
-        p = tuple(float(x) for x in xy[v])
+        p = (float(xy[v][0]), float(xy[v][1]))
         if d == 1:
             kps.append(KeyPoint(v, p, "end", 1))
         elif d == 2:
             e_in = edges[g[nbrs[0]][v]["index"]]
             e_out = edges[g[v][nbrs[1]]["index"]]
             # traverse nbrs[0] -> v -> nbrs[1]; fronts as seen along that traversal
-            f_in = e_in.front if e_in.b == v else _flip(e_in.front)
-            f_out = e_out.front if e_out.a == v else _flip(e_out.front)
+            f_in = e_in.front if e_in.b == v else flip(e_in.front)
+            f_out = e_out.front if e_out.a == v else flip(e_out.front)
             if f_in != f_out:
                 raise SkeletonError(f"{where(v)}: the facades of its two edges face opposite "
                                     "sides; give both edges the same front")
@@ -87,20 +89,19 @@ def _classify(ids, xy: dict[int, np.ndarray], g: nx.Graph, edges: list[Edge],
     return kps
 
 
-def _flip(side: str) -> str:
-    return "left" if side == "right" else "right"
-
-
 def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "skeleton",
                         *, min_edge: float = 0.0, straight_tol: float = STRAIGHT_TOL
                         ) -> Skeleton:
     """A building skeleton from LineStrings that meet at shared endpoints. A line with
     inner vertices is split there (each piece keeps the line's front and constraints)."""
+    features = list(features)
+    sources = sorted({f.source for f in features if f.source})
+    prefix = "".join(f"{s}: " for s in sources[:1])     # messages name the file
     keys: dict[tuple[int, int], int] = {}
     xy: dict[int, np.ndarray] = {}
     edges: list[Edge] = []
 
-    def node(p) -> int:
+    def node(p: np.ndarray) -> int:
         k = (round(p[0] / SNAP), round(p[1] / SNAP))
         if k not in keys:
             keys[k] = len(keys)
@@ -112,20 +113,20 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
             else [f.geometry]
         for line in lines:
             if not isinstance(line, LineString):
-                raise SkeletonError(f"{f.name}: a skeleton is made of LineStrings, got "
+                raise SkeletonError(f"{f.where}: a skeleton is made of LineStrings, got "
                                     f"{f.geometry.geom_type}")
-            front = _front(f.properties, f.name)
-            cons = _constraints(f.properties, f.name)
+            front = _front(f.properties, f.where)
+            cons = _constraints(f.properties, f.where)
             pts = np.asarray(line.coords)[:, :2]
             for p, q in zip(pts[:-1], pts[1:], strict=True):
                 a, b = node(p), node(q)
                 length = float(np.linalg.norm(xy[b] - xy[a]))
                 if a == b or length < SNAP:
-                    raise SkeletonError(f"{f.name}: a zero-length edge at "
+                    raise SkeletonError(f"{f.where}: a zero-length edge at "
                                         f"({p[0]:.2f}, {p[1]:.2f}); remove the repeated point")
-                edges.append(Edge(a, b, length, front, cons, f.name))
+                edges.append(Edge(a, b, length, front, cons, f.where))
     if not edges:
-        raise SkeletonError("no skeleton edges in the input")
+        raise SkeletonError(f"{prefix}no skeleton edges in the input")
     edges = _split_at_touching_ends(edges, xy)
     for e in edges:  # after splitting: a wing drawn to a line can cut it short
         if e.length < min_edge:
@@ -145,19 +146,19 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
     parts = list(nx.connected_components(g))
     if len(parts) > 1:
         sizes = sorted((len(c) for c in parts), reverse=True)
-        raise SkeletonError(f"the skeleton is disconnected: {len(parts)} separate pieces "
+        raise SkeletonError(f"{prefix}the skeleton is disconnected: {len(parts)} separate pieces "
                             f"(key points per piece: {sizes}); connect them or give them "
                             "as separate buildings")
 
-    def where(v):
-        return f"key point at ({xy[v][0]:.2f}, {xy[v][1]:.2f})"
+    def where(v: int) -> str:
+        return f"{prefix}key point at ({xy[v][0]:.2f}, {xy[v][1]:.2f})"
 
     kps = _classify(sorted(xy), xy, g, edges, straight_tol, where)
     closed = all(k.degree == 2 for k in kps)
     return Skeleton(name, kps, edges, closed, frame)
 
 
-def _split_at_touching_ends(edges: list[Edge], xy: dict[int, np.ndarray]):
+def _split_at_touching_ends(edges: list[Edge], xy: dict[int, np.ndarray]) -> list[Edge]:
     """A line that ends on the inside of another (a wing drawn up to the main line)
     splits that line there, making the contact a key point."""
     out: list[Edge] = []
@@ -200,31 +201,43 @@ def skeletons_from_polygons(features: Iterable[Feature], frame: Frame, *,
                             min_edge: float = 0.0, straight_tol: float = STRAIGHT_TOL,
                             min_area: float = 1.0) -> list[Skeleton]:
     """One closed skeleton per ring: footprint or block outlines and their holes
-    (courtyards). Rings are oriented so the mass lies to the left; facades face right."""
+    (courtyards). Rings are oriented so the mass lies to the left; facades face right.
+    Skeletons are named for their feature (``feature 0 (house) courtyard 1``); messages
+    also name the file."""
     out = []
     for f in features:
         polys = list(f.geometry.geoms) if isinstance(f.geometry, MultiPolygon) \
             else [f.geometry]
         for k, poly in enumerate(polys):
-            if not isinstance(poly, Polygon):
-                raise SkeletonError(f"{f.name}: expected a Polygon, got {poly.geom_type}")
-            where = f.name + (f" part {k}" if len(polys) > 1 else "")
-            if not poly.is_valid:
-                raise SkeletonError(f"{where}: invalid polygon ({explain_validity(poly)}); "
-                                    "fix the outline so it does not cross itself")
-            if poly.area < min_area:
-                raise SkeletonError(f"{where}: degenerate polygon (area {poly.area:.2f} m²)")
-            poly = shapely.orient_polygons(poly) if hasattr(shapely, "orient_polygons") \
-                else shapely.geometry.polygon.orient(poly, 1.0)
+            label = f.name + (f" part {k}" if len(polys) > 1 else "")
+            poly = _checked_polygon(poly, _in_file(f, label), min_area)
             rings = [poly.exterior, *poly.interiors]
             for r, ring in enumerate(rings):
-                label = where + ("" if r == 0 else f" courtyard {r}")
-                out.append(_ring_skeleton(ring, f, label, frame, min_edge, straight_tol))
+                name = label + ("" if r == 0 else f" courtyard {r}")
+                out.append(_ring_skeleton(ring, f, name, frame, min_edge, straight_tol))
     return out
 
 
-def _ring_skeleton(ring, f: Feature, label: str, frame: Frame, min_edge: float,
+def _in_file(f: Feature, label: str) -> str:
+    return f"{f.source}: {label}" if f.source else label
+
+
+def _checked_polygon(poly: BaseGeometry, where: str, min_area: float) -> Polygon:
+    """A valid polygon of some area, oriented counter-clockwise (holes clockwise)."""
+    if not isinstance(poly, Polygon):
+        raise SkeletonError(f"{where}: expected a Polygon, got {poly.geom_type}")
+    if not poly.is_valid:
+        raise SkeletonError(f"{where}: invalid polygon ({explain_validity(poly)}); "
+                            "fix the outline so it does not cross itself")
+    if poly.area < min_area:
+        raise SkeletonError(f"{where}: degenerate polygon (area {poly.area:.2f} m²)")
+    return shapely.orient_polygons(poly) if hasattr(shapely, "orient_polygons") \
+        else shapely.geometry.polygon.orient(poly, 1.0)
+
+
+def _ring_skeleton(ring: LinearRing, f: Feature, name: str, frame: Frame, min_edge: float,
                    straight_tol: float) -> Skeleton:
+    where = _in_file(f, name)
     pts = np.asarray(ring.coords)[:-1, :2]
     keep = [0]
     for i in range(1, len(pts)):  # drop repeated points
@@ -234,18 +247,18 @@ def _ring_skeleton(ring, f: Feature, label: str, frame: Frame, min_edge: float,
     if len(pts) >= 2 and np.linalg.norm(pts[0] - pts[-1]) < SNAP:
         pts = pts[:-1]
     if len(pts) < 3:
-        raise SkeletonError(f"{label}: degenerate outline ({len(pts)} distinct points)")
+        raise SkeletonError(f"{where}: degenerate outline ({len(pts)} distinct points)")
     n = len(pts)
-    cons = _constraints(f.properties, f.name)
+    cons = _constraints(f.properties, f.where)
     edges = []
     for i in range(n):
         a, b = i, (i + 1) % n
         length = float(np.linalg.norm(pts[b] - pts[a]))
         if length < min_edge:
             raise SkeletonError(
-                f"{label}: edge of {length:.2f} m at ({pts[a][0]:.2f}, {pts[a][1]:.2f}) is "
+                f"{where}: edge of {length:.2f} m at ({pts[a][0]:.2f}, {pts[a][1]:.2f}) is "
                 f"shorter than the smallest part ({min_edge:.2f} m)")
-        edges.append(Edge(a, b, length, "right", cons, f.name))
+        edges.append(Edge(a, b, length, "right", cons, f.where))
     kps = []
     for v in range(n):
         prev, nxt = (v - 1) % n, (v + 1) % n
@@ -256,7 +269,7 @@ def _ring_skeleton(ring, f: Feature, label: str, frame: Frame, min_edge: float,
         else:
             kps.append(KeyPoint(v, p, "corner", 2, angle=180.0 - abs(turn), convex=turn > 0,
                                 turn=turn))
-    return Skeleton(label, kps, edges, True, frame)
+    return Skeleton(name, kps, edges, True, frame)
 
 
 def blocks_from_streets(features: Iterable[Feature], *, setback: float = 6.0,
@@ -269,7 +282,7 @@ def blocks_from_streets(features: Iterable[Feature], *, setback: float = 6.0,
 
 
 def describe(s: Skeleton) -> str:
-    kinds = {}
+    kinds: dict[str, int] = {}
     for k in s.keypoints:
         label = k.kind if k.kind != "corner" else \
             f"corner {k.angle:.0f}° {'convex' if k.convex else 'concave'}"

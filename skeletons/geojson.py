@@ -1,20 +1,32 @@
-"""Reading GeoJSON into a local metric frame.
+"""Reading GeoJSON, as GIS tools write it, into a local metric frame.
 
-Input is RFC 7946 GeoJSON: longitude/latitude on WGS 84. It is projected with pyproj
-to a transverse Mercator centred on the data, so distances and angles are true to a
-millimetre over a district. Input already in a projected CRS is accepted when the
-CRS is given explicitly (the ``crs`` argument, or the legacy ``"crs"`` member of the
-file); its coordinates are only moved to a local origin. Errors name the file and the
-feature.
+Lon/lat input (RFC 7946, or a legacy ``"crs"`` member naming CRS84 or EPSG:4326 in any
+spelling, as GDAL, QGIS, geopandas and osmnx write it) is projected with pyproj to a
+transverse Mercator centred on the data, so distances and angles are true to a
+millimetre over a district. Input in another CRS (the ``crs`` argument, or the file's
+``"crs"`` member) is handled by how true to scale that CRS is over the data: a projected
+CRS whose scale factor stays within :data:`TRUE_SCALE` of 1 (a UTM zone near the data,
+a national grid) is only moved to a local origin, so the local frame keeps its axes;
+any other CRS (Web Mercator, a far-away zone, another geographic CRS) is transformed to
+lon/lat and then into the same local transverse Mercator as lon/lat input, so lengths
+come out true whatever CRS the file uses.
+
+Features with no geometry (``null`` or empty) or with a geometry the caller cannot use
+(``accept``: a Point in a street file) are left out with an :class:`InputWarning`; the
+returned :class:`Features` list keeps their messages so a caller can count them. The file
+is refused only when nothing usable is left. Every message names the file and the
+feature's index in it.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import warnings
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pyproj
@@ -24,111 +36,326 @@ from shapely.geometry.base import BaseGeometry
 
 from citysynth.skeletons.errors import SkeletonError
 
+TRUE_SCALE = 1e-3      # a projected CRS whose scale strays more from 1 is reprojected
+LONLAT_FRAME = "WGS 84 lon/lat, local transverse Mercator"
+
+Accept = Literal["any", "lines", "polygons"]
+ACCEPTED: dict[str, tuple[str, ...]] = {
+    "lines": ("LineString", "MultiLineString"),
+    "polygons": ("Polygon", "MultiPolygon"),
+}
+_WHAT = {"lines": "a line", "polygons": "a polygon"}
+_CRS84 = pyproj.CRS.from_user_input("OGC:CRS84")
+_GEOD = pyproj.Geod(ellps="WGS84")
+
+Coords = np.ndarray
+Project = Callable[[Coords], Coords]
+
+
+class InputWarning(UserWarning):
+    """A feature of the input was left out; the message names the file, the feature and
+    why."""
+
+
+def feature_label(index: int, properties: dict[str, Any]) -> str:
+    """``feature 3``, or ``feature 3 (Main Street)`` when the feature has an id or name."""
+    fid = properties.get("id", properties.get("name"))
+    return f"feature {index}" + (f" ({fid})" if fid is not None else "")
+
 
 @dataclass(frozen=True)
 class Feature:
-    index: int
+    index: int                  # the feature's index in its file
     geometry: BaseGeometry      # in the local metric frame (metres)
     properties: dict[str, Any]
+    source: str = ""            # the file it came from, for messages
 
     @property
     def name(self) -> str:
-        fid = self.properties.get("id", self.properties.get("name"))
-        return f"feature {self.index}" + (f" ({fid})" if fid is not None else "")
+        return feature_label(self.index, self.properties)
+
+    @property
+    def where(self) -> str:
+        """The feature as messages name it: file and index."""
+        return f"{self.source}: {self.name}" if self.source else self.name
+
+
+class Features(list[Feature]):
+    """The features read, in file order, and ``skipped``: one message for each feature
+    left out (no geometry, or one the caller cannot use)."""
+
+    def __init__(self, items: Iterable[Feature] = (), skipped: Iterable[str] = ()) -> None:
+        super().__init__(items)
+        self.skipped: list[str] = list(skipped)
 
 
 @dataclass(frozen=True)
 class Frame:
-    """How local metres relate to the input: the CRS and the local origin."""
+    """How local metres relate to the input: the frame, its origin (lon/lat for the
+    local transverse Mercator, input coordinates for projected input kept as it is) and
+    the input's CRS when it was not plain lon/lat (``source_crs``, e.g. "EPSG:3857")."""
 
     crs: str
-    origin: tuple[float, float]   # input coordinates of the local (0, 0)
+    origin: tuple[float, float]   # input coordinates (or lon/lat) of the local (0, 0)
+    source_crs: str = ""
 
     def describe(self) -> str:
-        return f"{self.crs}, origin {self.origin[0]:.6f}, {self.origin[1]:.6f}"
+        text = f"{self.crs}, origin {self.origin[0]:.6f}, {self.origin[1]:.6f}"
+        if self.source_crs and self.crs == LONLAT_FRAME:
+            text += f" (input in {self.source_crs}, reprojected)"
+        return text
 
 
 def read_geojson(path: str | Path, crs: str | None = None,
-                 origin: tuple[float, float] | None = None, origin_digits: int | None = None
-                 ) -> tuple[list[Feature], Frame]:
+                 origin: tuple[float, float] | None = None, origin_digits: int | None = None,
+                 *, accept: Accept = "any") -> tuple[Features, Frame]:
+    """A GeoJSON file's features in a local metric frame; see :func:`parse_geojson`."""
     p = Path(path)
     try:
         data = json.loads(p.read_text(encoding="utf-8"))
     except OSError as exc:
         raise SkeletonError(f"{p}: cannot read ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise SkeletonError(f"{p}: not UTF-8 text; GeoJSON is UTF-8") from None
     except json.JSONDecodeError as exc:
         raise SkeletonError(f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
                             f"{exc.msg}") from None
-    return parse_geojson(data, str(p), crs, origin, origin_digits)
+    return parse_geojson(data, str(p), crs, origin, origin_digits, accept=accept)
 
 
 def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
-                  origin: tuple[float, float] | None = None, origin_digits: int | None = None
-                  ) -> tuple[list[Feature], Frame]:
+                  origin: tuple[float, float] | None = None, origin_digits: int | None = None,
+                  *, accept: Accept = "any") -> tuple[Features, Frame]:
     """Features in a local metric frame centred on the data's bounding box, or on
-    ``origin`` (input coordinates) so that several files share one frame. With
-    ``origin_digits``, a lon/lat centre is rounded to that many decimals (2: about
-    1 km), so that edits at the edge of the data do not move the frame."""
+    ``origin`` so that several files share one frame (lon/lat, or input coordinates for
+    projected input kept as it is). With ``origin_digits``, a lon/lat centre is rounded
+    to that many decimals (2: about 1 km), so that edits at the edge of the data do not
+    move the frame. ``crs`` (e.g. "EPSG:25832") overrides the file's ``"crs"`` member.
+    ``accept`` names the geometries the caller can use ("lines", "polygons"); features
+    with others, or with none, are left out with a warning (:class:`Features`)."""
+    raw = _raw_features(data, source)
+    given = _input_crs(crs if crs is not None else _crs_member(data, source), source)
+    kept, skipped = _usable(raw, source, accept)
+    if not kept:
+        raise SkeletonError(f"{source}: no usable features: all {len(raw)} left out ("
+                            + skipped[0].removeprefix(f"{source}: ").removesuffix("; left out")
+                            + ("" if len(skipped) == 1 else "; ...") + ")")
+    for message in skipped:
+        warnings.warn(message, InputWarning, stacklevel=3)
+    geoms = [g for _, g, _ in kept]
+    project, frame = _frame(geoms, given, source, origin, origin_digits)
+    feats = Features((Feature(i, shapely.transform(g, project), props, source)
+                      for i, g, props in kept), skipped)
+    return feats, frame
+
+
+# --- the FeatureCollection and its features ---------------------------------------------
+
+def _raw_features(data: Any, source: str) -> list[Any]:
     if not isinstance(data, dict) or data.get("type") not in ("FeatureCollection", "Feature"):
         raise SkeletonError(f"{source}: not a GeoJSON FeatureCollection or Feature")
     raw = data.get("features") if data["type"] == "FeatureCollection" else [data]
     if not isinstance(raw, list) or not raw:
         raise SkeletonError(f"{source}: no features")
-    if crs is None:
-        member = data.get("crs")
-        if isinstance(member, dict):
-            crs = (member.get("properties") or {}).get("name")
-    geoms, props = [], []
+    return raw
+
+
+def _usable(raw: list[Any], source: str, accept: Accept
+            ) -> tuple[list[tuple[int, BaseGeometry, dict[str, Any]]], list[str]]:
+    """The features the caller can use, as (index, geometry in input coordinates,
+    properties), and a message for each one left out."""
+    kept, skipped = [], []
     for i, f in enumerate(raw):
-        if not isinstance(f, dict) or f.get("type") != "Feature" or "geometry" not in f:
+        if not isinstance(f, dict) or f.get("type") != "Feature":
             raise SkeletonError(f"{source}: feature {i} is not a GeoJSON Feature")
-        try:
-            g = shape(f["geometry"])
-        except Exception as exc:  # shapely raises several kinds for malformed geometry
-            raise SkeletonError(f"{source}: feature {i}: malformed geometry ({exc})") from None
-        coords = shapely.get_coordinates(g)
-        if len(coords) == 0 or not np.isfinite(coords).all():
-            raise SkeletonError(f"{source}: feature {i}: empty or non-finite coordinates")
-        geoms.append(g)
-        props.append(dict(f.get("properties") or {}))
+        props = f.get("properties")
+        if props is not None and not isinstance(props, dict):
+            raise SkeletonError(f"{source}: feature {i}: properties must be an object or "
+                                f"null, got {type(props).__name__}")
+        props = dict(props or {})
+        g = _geometry(f.get("geometry"), f"{source}: feature {i}")
+        reason = _unusable(g, accept)
+        if reason is not None:
+            skipped.append(f"{source}: {feature_label(i, props)}: {reason}; left out")
+            continue
+        assert g is not None
+        kept.append((i, g, props))
+    return kept, skipped
+
+
+def _geometry(g: Any, where: str) -> BaseGeometry | None:
+    """A feature's geometry (None when it has none); malformed geometry is refused."""
+    if g is None:
+        return None
+    if not isinstance(g, dict):
+        raise SkeletonError(f"{where}: malformed geometry (not an object)")
+    try:
+        geom = shape(g)
+    except Exception as exc:  # shapely raises several kinds for malformed geometry
+        raise SkeletonError(f"{where}: malformed geometry ({exc})") from None
+    coords = shapely.get_coordinates(geom)
+    if not np.isfinite(coords).all():
+        raise SkeletonError(f"{where}: non-finite coordinates")
+    return geom
+
+
+def _unusable(g: BaseGeometry | None, accept: Accept) -> str | None:
+    """Why a geometry cannot be used, or None."""
+    if g is None:
+        return "no geometry (null)"
+    if g.is_empty:
+        return f"an empty {g.geom_type}"
+    if accept != "any" and g.geom_type not in ACCEPTED[accept]:
+        return f"a {g.geom_type} cannot be {_WHAT[accept]} ({' or '.join(ACCEPTED[accept])})"
+    return None
+
+
+# --- the CRS ------------------------------------------------------------------------------
+
+def _crs_member(data: dict[str, Any], source: str) -> str | None:
+    """The CRS a legacy (GeoJSON 2008) ``"crs"`` member names, if any."""
+    member = data.get("crs")
+    if member is None:
+        return None
+    props = member.get("properties") if isinstance(member, dict) else None
+    kind = member.get("type") if isinstance(member, dict) else None
+    if isinstance(props, dict):
+        if kind == "name" and isinstance(props.get("name"), str):
+            return str(props["name"])
+        if kind == "EPSG" and isinstance(props.get("code"), int | str):
+            return f"EPSG:{props['code']}"
+        if kind == "link":
+            raise SkeletonError(f"{source}: the \"crs\" member links to a CRS definition "
+                                f"({props.get('href')}), which is not read; give the CRS "
+                                "with --crs, e.g. --crs EPSG:25832")
+    raise SkeletonError(f"{source}: cannot read the \"crs\" member {json.dumps(member)}; "
+                        'it should be {"type": "name", "properties": {"name": "EPSG:..."}}, '
+                        "or give the CRS with --crs")
+
+
+def _input_crs(crs: str | None, source: str) -> pyproj.CRS | None:
+    """The input's CRS, or None for plain lon/lat on WGS 84 (CRS84 or EPSG:4326 in any
+    spelling: both mean longitude, latitude in GeoJSON)."""
+    if crs is None:
+        return None
+    if crs.strip().upper() in ("CRS84", "CRS:84"):
+        return None
+    try:
+        given = pyproj.CRS.from_user_input(crs)
+    except pyproj.exceptions.CRSError:
+        raise SkeletonError(f"{source}: unknown CRS {crs!r}; give it as EPSG:<code>, e.g. "
+                            "EPSG:25832") from None
+    flat = given.to_2d() if given.is_geographic else given
+    if flat.equals(_CRS84, ignore_axis_order=True):
+        return None
+    return given
+
+
+def _scale_error(given: pyproj.CRS, coords: Coords) -> float:
+    """How far the scale factor of ``given`` strays from 1 over the data (largest
+    relative error, east, north and diagonal, at the corners and centre of the data's
+    bounding box): ground distance over coordinate distance, measured on the
+    ellipsoid."""
+    unit = _unit(given)
+    to_lonlat = pyproj.Transformer.from_crs(given, "EPSG:4326", always_xy=True)
+    lo, hi = coords.min(axis=0), coords.max(axis=0)
+    mid = (lo + hi) / 2
+    step = 10.0 / unit                     # 10 m in input units
+    worst = 0.0
+    for px, py in ((lo[0], lo[1]), (lo[0], hi[1]), (hi[0], lo[1]), (hi[0], hi[1]),
+                   (mid[0], mid[1])):
+        for dx, dy in ((step, 0.0), (0.0, step), (step * 0.7071, step * 0.7071)):
+            lon, lat = to_lonlat.transform([px, px + dx], [py, py + dy])
+            ground = _GEOD.inv(lon[0], lat[0], lon[1], lat[1])[2]
+            if not math.isfinite(ground):
+                return math.inf
+            worst = max(worst, abs(ground / (math.hypot(dx, dy) * unit) - 1.0))
+    return worst
+
+
+def _unit(crs: pyproj.CRS) -> float:
+    """Metres per unit of the CRS's first axis."""
+    return float(crs.axis_info[0].unit_conversion_factor) if crs.axis_info else 1.0
+
+
+# --- the local frame ----------------------------------------------------------------------
+
+def _frame(geoms: list[BaseGeometry], given: pyproj.CRS | None, source: str,
+           origin: tuple[float, float] | None, origin_digits: int | None
+           ) -> tuple[Project, Frame]:
+    """How to project the input, and the frame it lands in."""
     allc = np.vstack([shapely.get_coordinates(g) for g in geoms])
+    if given is not None and not given.is_geographic and \
+            _scale_error(given, allc) <= TRUE_SCALE:
+        return _kept_projected(allc, given, origin)
+    to_lonlat: Project | None = None
+    if given is not None:
+        to_lonlat = _to_lonlat(given, source)
+        allc = to_lonlat(allc)
+    _check_lonlat(allc, source, given)
     lo, hi = allc.min(axis=0), allc.max(axis=0)
     centre = (float((lo[0] + hi[0]) / 2), float((lo[1] + hi[1]) / 2)) if origin is None \
         else (float(origin[0]), float(origin[1]))
-    if origin is None and crs is None and origin_digits is not None:
+    if origin is None and origin_digits is not None:
         centre = (round(centre[0], origin_digits), round(centre[1], origin_digits))
-    if crs is None:
-        if not (-180 <= lo[0] and hi[0] <= 180 and -90 <= lo[1] and hi[1] <= 90):
-            raise SkeletonError(
-                f"{source}: coordinates such as {allc[0, 0]:.1f}, {allc[0, 1]:.1f} are not "
-                "longitude/latitude (RFC 7946); give the CRS of projected input, e.g. "
-                "--crs EPSG:25832")
-        local = pyproj.CRS.from_proj4(
-            f"+proj=tmerc +lat_0={centre[1]} +lon_0={centre[0]} +k=1 +x_0=0 +y_0=0 "
-            "+ellps=WGS84 +units=m +no_defs")
-        tf = pyproj.Transformer.from_crs("EPSG:4326", local, always_xy=True)
-        frame = Frame("WGS 84 lon/lat, local transverse Mercator", centre)
+    to_local = _local_tmerc(centre)
+    frame = Frame(LONLAT_FRAME, centre, given.to_string() if given is not None else "")
+    if to_lonlat is None:
+        return to_local, frame
+    first = to_lonlat
+    return (lambda c: to_local(first(c))), frame
 
-        def project(x, y):
-            return tf.transform(x, y)
-    else:
-        try:
-            given = pyproj.CRS.from_user_input(crs)
-        except pyproj.exceptions.CRSError:
-            raise SkeletonError(f"{source}: unknown CRS {crs!r}") from None
-        if given.is_geographic:
-            raise SkeletonError(f"{source}: CRS {crs} is geographic; leave it out for "
-                                "lon/lat input, or give a projected CRS")
-        unit = given.axis_info[0].unit_conversion_factor if given.axis_info else 1.0
-        frame = Frame(f"{given.name} (projected)", centre)
 
-        def project(x, y):
-            return (np.asarray(x) - centre[0]) * unit, (np.asarray(y) - centre[1]) * unit
-    feats = []
-    for i, (g, pr) in enumerate(zip(geoms, props, strict=True)):
-        local_g = shapely.transform(g, lambda c: np.column_stack(project(c[:, 0], c[:, 1])))
-        feats.append(Feature(i, local_g, pr))
-    return feats, frame
+def _kept_projected(allc: Coords, given: pyproj.CRS, origin: tuple[float, float] | None
+                    ) -> tuple[Project, Frame]:
+    """A projected CRS true to scale over the data: only moved to a local origin (and
+    converted to metres)."""
+    lo, hi = allc.min(axis=0), allc.max(axis=0)
+    centre = (float((lo[0] + hi[0]) / 2), float((lo[1] + hi[1]) / 2)) if origin is None \
+        else (float(origin[0]), float(origin[1]))
+    unit = _unit(given)
+    shift = np.array(centre)
+    return (lambda c: (c - shift) * unit), \
+        Frame(f"{given.name} (projected)", centre, given.to_string())
+
+
+def _to_lonlat(given: pyproj.CRS, source: str) -> Project:
+    tf = pyproj.Transformer.from_crs(given, "EPSG:4326", always_xy=True)
+
+    def to_lonlat(c: Coords) -> Coords:
+        lon, lat = tf.transform(c[:, 0], c[:, 1])
+        out = np.column_stack([lon, lat])
+        if not np.isfinite(out).all():
+            bad = c[~np.isfinite(out).all(axis=1)][0]
+            raise SkeletonError(f"{source}: coordinates such as {bad[0]:.1f}, {bad[1]:.1f} "
+                                f"lie outside {given.name}; is the CRS right?")
+        return out
+    return to_lonlat
+
+
+def _check_lonlat(allc: Coords, source: str, given: pyproj.CRS | None) -> None:
+    lo, hi = allc.min(axis=0), allc.max(axis=0)
+    if -180 <= lo[0] and hi[0] <= 180 and -90 <= lo[1] and hi[1] <= 90:
+        return
+    if given is not None:
+        raise SkeletonError(f"{source}: coordinates in {given.name} land outside "
+                            "longitude/latitude; is the CRS right?")
+    raise SkeletonError(
+        f"{source}: coordinates such as {allc[0, 0]:.1f}, {allc[0, 1]:.1f} are not "
+        "longitude/latitude (RFC 7946); give the CRS of projected input, e.g. "
+        "--crs EPSG:25832")
+
+
+def _local_tmerc(centre: tuple[float, float]) -> Project:
+    """Lon/lat -> metres in a transverse Mercator centred on ``centre``."""
+    local = pyproj.CRS.from_proj4(
+        f"+proj=tmerc +lat_0={centre[1]} +lon_0={centre[0]} +k=1 +x_0=0 +y_0=0 "
+        "+ellps=WGS84 +units=m +no_defs")
+    tf = pyproj.Transformer.from_crs("EPSG:4326", local, always_xy=True)
+
+    def to_local(c: Coords) -> Coords:
+        return np.column_stack(tf.transform(c[:, 0], c[:, 1]))
+    return to_local
 
 
 def angle_between(u: np.ndarray, v: np.ndarray) -> float:
@@ -136,7 +363,7 @@ def angle_between(u: np.ndarray, v: np.ndarray) -> float:
     return math.degrees(math.atan2(u[0] * v[1] - u[1] * v[0], u[0] * v[0] + u[1] * v[1]))
 
 
-def lonlat_from_local(points, origin: tuple[float, float]) -> list[list[float]]:
+def lonlat_from_local(points: Any, origin: tuple[float, float]) -> list[list[float]]:
     """Local metric points (x east, y north, metres) around ``origin`` (lon, lat) ->
     lon/lat, through the same transverse Mercator the reader uses; for writing example
     and test input in metres. Rounded to 1e-9 degrees (0.1 mm)."""

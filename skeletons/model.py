@@ -10,19 +10,28 @@ outlines) are cycles. networkx holds the graph for the checks and decompositions
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from typing import Any, Literal, get_args
 
 import networkx as nx
 
 from citysynth.skeletons.geojson import Frame
 
-KINDS = ("end", "corner", "bend", "t_junction")
+KeyPointKind = Literal["end", "corner", "bend", "t_junction"]
+Front = Literal["left", "right"]       # the side of an edge's direction its facade faces
+KINDS: tuple[KeyPointKind, ...] = get_args(KeyPointKind)
+FRONTS: tuple[Front, ...] = get_args(Front)
+
+
+def flip(side: Front) -> Front:
+    """The other side."""
+    return "left" if side == "right" else "right"
 
 
 @dataclass(frozen=True)
 class KeyPoint:
     id: int
     xy: tuple[float, float]
-    kind: str
+    kind: KeyPointKind
     degree: int
     angle: float | None = None     # corners: degrees between the two legs (0-180)
     convex: bool | None = None     # corners: True when the facade turns around the mass
@@ -35,7 +44,7 @@ class Edge:
     a: int
     b: int
     length: float
-    front: str                     # "left" or "right" of the direction a -> b
+    front: Front                   # of the direction a -> b
     constraints: dict[str, tuple[float, float]] = field(default_factory=dict)
     source: str = ""               # the input feature it came from
 
@@ -60,7 +69,7 @@ class Skeleton:
     def length(self) -> float:
         return sum(e.length for e in self.edges)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "closed": self.closed, "frame": self.frame.describe(),
                 "keypoints": [asdict(k) for k in self.keypoints],
                 "edges": [asdict(e) for e in self.edges]}

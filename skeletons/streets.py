@@ -10,15 +10,20 @@ Faces that leave nothing, or only slivers, are skipped with a reason.
 
 from __future__ import annotations
 
+import ast
 import math
+import re
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import shapely
 from shapely.geometry import LineString, MultiLineString, Polygon
 
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.geojson import Feature
+
+_NUMBER = re.compile(r"\s*(\d+(?:[.,]\d+)?|[.,]\d+)")
 
 
 @dataclass(frozen=True)
@@ -37,62 +42,102 @@ class Setbacks:
     lane_width: float = 3.25
     by_class: tuple[tuple[str, float], ...] = ()   # highway class -> setback
 
-    def __call__(self, props: dict) -> float:
+    def __call__(self, props: dict[str, Any]) -> float:
         return street_setback(props, self)
 
 
-def _number(v) -> float | None:
-    """OSM numbers come as text ("7", "7 m", "2;3"); the first number, if any."""
-    if isinstance(v, int | float) and not isinstance(v, bool):
-        return float(v) if math.isfinite(v) and v > 0 else None
+def tag_values(v: Any) -> list[Any]:
+    """A tag's values. osmnx gives a merged edge the list of its ways' values
+    (``["primary", "secondary"]``; GDAL writes it as a JSON array, osmnx's own files as
+    the text of a Python list, ``"['2', '3']"``); OSM separates several values with
+    ``;``. One value is a list of one; a missing one, an empty list."""
     if isinstance(v, str):
-        head = v.replace(",", ".").split(";")[0].split()[0] if v.strip() else ""
-        try:
-            x = float(head)
-        except ValueError:
+        text = v.strip()
+        if text.startswith("[") and text.endswith("]"):
+            try:
+                parsed = ast.literal_eval(text)
+            except (ValueError, SyntaxError):
+                parsed = None
+            if isinstance(parsed, list | tuple):
+                return [x for item in parsed for x in tag_values(item)]
+        return [part.strip() for part in text.split(";") if part.strip()]
+    if isinstance(v, list | tuple):
+        return [x for item in v for x in tag_values(item)]
+    return [] if v is None else [v]
+
+
+def _number(v: Any) -> float | None:
+    """A positive finite number from one OSM value ("7", "7 m", "7,5", 7), if any."""
+    if isinstance(v, bool):
+        return None
+    if isinstance(v, int | float):
+        x = float(v)
+    else:
+        m = _NUMBER.match(str(v))
+        if m is None:
             return None
-        return x if math.isfinite(x) and x > 0 else None
-    return None
+        x = float(m.group(1).replace(",", "."))
+    return x if math.isfinite(x) and x > 0 else None
 
 
-def street_setback(props: dict, s: Setbacks) -> float:
+def widest(v: Any) -> float | None:
+    """The largest number among a tag's values (a merged edge is as wide as its widest
+    way), or None when none is a number."""
+    numbers = [x for x in map(_number, tag_values(v)) if x is not None]
+    return max(numbers, default=None)
+
+
+def highway_classes(props: dict[str, Any]) -> tuple[str, ...]:
+    """A street's ``highway`` classes, one or several (a merged edge), in order."""
+    out: list[str] = []
+    for v in tag_values(props.get("highway")):
+        if isinstance(v, str) and v not in out:
+            out.append(v)
+    return tuple(out)
+
+
+def street_setback(props: dict[str, Any], s: Setbacks) -> float:
     """A street's setback: ``width`` / 2 + sidewalk, else ``lanes`` * lane width / 2 +
-    sidewalk, else its ``highway`` class's setback, else the default."""
-    width = _number(props.get("width"))
+    sidewalk, else the largest setback of its ``highway`` classes, else the default.
+    Several values (osmnx's merged edges, OSM's "2;3") take the widest."""
+    width = widest(props.get("width"))
     if width is not None:
         return width / 2 + s.sidewalk
-    lanes = _number(props.get("lanes"))
+    lanes = widest(props.get("lanes"))
     if lanes is not None:
         return lanes * s.lane_width / 2 + s.sidewalk
     table = dict(s.by_class)
-    cls = props.get("highway")
-    if isinstance(cls, str) and cls in table:
-        return table[cls]
-    return s.default
+    by_class = [table[c] for c in highway_classes(props) if c in table]
+    return max(by_class, default=s.default)
 
 
 def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict], float] = 6.0,
                   *, min_area: float = 50.0) -> tuple[list[Block], list[str]]:
     """The blocks between street centre lines, each cut back by the setbacks of the
-    streets around it, sorted by position; and the reasons for the pieces skipped."""
+    streets around it, sorted by position; and the reasons for the pieces skipped
+    (features that are not lines come first: a Point of an Overpass export is no
+    street). ``Block.streets`` index ``features``."""
     feats = list(features)
-    lines, owners = [], []
-    for f in feats:
+    lines, owners, at, skipped = [], [], [], []
+    for k, f in enumerate(feats):
         g = f.geometry
         if not isinstance(g, LineString | MultiLineString):
-            raise SkeletonError(f"{f.name}: street centre lines must be LineStrings, got "
-                                f"{g.geom_type}")
+            skipped.append(f"{f.where}: a {g.geom_type} is no street centre line "
+                           "(LineString or MultiLineString)")
+            continue
         lines.append(g)
         owners.append(f)
+        at.append(k)
     if not lines:
-        raise SkeletonError("no street centre lines in the input")
+        raise SkeletonError(f"{feats[0].source + ': ' if feats and feats[0].source else ''}"
+                            "no street centre lines (LineStrings) in the input")
     width = setback if callable(setback) else (lambda _p, d=float(setback): d)
     cuts = [g.buffer(width(f.properties), cap_style="square", join_style="mitre",
                      mitre_limit=3.0) for g, f in zip(lines, owners, strict=True)]
     tree = shapely.STRtree(cuts)
     noded = shapely.union_all(lines)
     faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
-    blocks, skipped = [], []
+    blocks = []
     for i, face in enumerate(sorted(faces, key=lambda p: (round(p.centroid.x, 3),
                                                           round(p.centroid.y, 3)))):
         near = tree.query(face, predicate="intersects")
@@ -109,7 +154,7 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
                 skipped.append(f"{where}: {p.area:.1f} m² after the setbacks, below "
                                f"{min_area:g} m²")
                 continue
-            touching = tuple(sorted(int(j) for j in near
+            touching = tuple(sorted(at[int(j)] for j in near
                                     if cuts[j].distance(p) < 0.01))
             blocks.append(Block(shapely.normalize(p), face, touching))
     return blocks, skipped

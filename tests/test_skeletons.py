@@ -78,12 +78,12 @@ def test_t_shaped_building_skeleton():
     assert kinds == ["corner", "end", "end", "end", "t_junction"]
     assert not sk.closed and len(sk.edges) == 4
     t = next(k for k in sk.keypoints if k.kind == "t_junction")
-    assert sk.edges[t.branch].source.startswith("feature 1")
+    assert sk.edges[t.branch].source.startswith("input: feature 1")
     corner = next(k for k in sk.keypoints if k.kind == "corner")
     assert corner.angle == pytest.approx(90, abs=0.01)
     # the wing turns right with its facade on the left: around the mass, convex
     assert corner.convex is True
-    main_edges = [e for e in sk.edges if e.source.startswith("feature 0")]
+    main_edges = [e for e in sk.edges if e.source.startswith("input: feature 0")]
     assert [e.constraints for e in main_edges] == [{"doors": (1.0, 2.0)}] * 2
     assert sum(e.length for e in main_edges) == pytest.approx(40, abs=1e-3)
 
