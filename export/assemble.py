@@ -38,9 +38,8 @@ def _coloured(parts) -> trimesh.Trimesh:
         n += len(v)
     if not verts:
         return trimesh.Trimesh()
-    mesh = trimesh.Trimesh(np.vstack(verts), np.vstack(faces), process=False)
-    mesh.visual.face_colors = np.vstack(colours)
-    return mesh
+    return trimesh.Trimesh(np.vstack(verts), np.vstack(faces), process=False,
+                           face_colors=np.vstack(colours))
 
 
 def world_mesh(lay: Layout, db: PartDB, offset=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:

@@ -28,11 +28,14 @@ skeleton line, never on the street side).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
 
 import numpy as np
 
 from citysynth.export.errors import ExportError
 from citysynth.export.layout import AXIS_DIGITS, COORD_DIGITS, Instance, Layout
+from citysynth.export.plan import Front, PlacementPlan, PlanStage, other_side
 from citysynth.parts_db import Part, PartDB
 
 TOL = 0.001          # metres: the largest gap, overlap or offset the checks accept
@@ -80,134 +83,180 @@ def _leg(p: Part, leg: int) -> float:
     return float(p.legs_measured[leg])
 
 
-def layout(name: str, rank: int, plans: Sequence, solutions: Sequence, db: PartDB) -> Layout:
-    """The layout of ``solutions[i]`` (a :class:`solver.structure.StructureSolution`)
-    on ``plans[i]`` (a :class:`pipeline.structures.StructurePlan`), checked."""
+def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
+           solutions: Sequence[StructureSolution], db: PartDB) -> Layout:
+    """The layout of ``solutions[i]`` (the solver's answer for a structure: the part at
+    each key point and the fillers of each stage) on ``plans[i]``, checked."""
     parts = {p.id: p for p in db.parts}
     out = Layout(name, rank, {"name": db.name, "hash": db.library_hash,
                               "quantum": db.quantum},
-                 plans[0].style if plans else "", plans[0].skeleton.frame.describe()
-                 if plans else "", [])
+                 plans[0].style if plans else "", plans[0].frame if plans else "", [])
     for si, (plan, sol) in enumerate(zip(plans, solutions, strict=True)):
-        instances, record = _place(si, plan, sol, parts)
+        placer = _Placer(si, plan, sol, parts)
+        instances, record = placer.place()
         _check(plan, record, parts, instances)
         out.instances.extend(instances)
         out.structures.append(_summary(plan, sol, record))
     return out
 
 
-def _place(si: int, plan, sol, parts: dict[str, Part]):
-    st = plan.structure
-    paths = [_Path(sp.points) for sp in plan.stages]
-    n_keys = len(plan.keys)
-    ins = {j: None for j in range(n_keys)}
-    outs: dict[int, list[int]] = {j: [] for j in range(n_keys)}
-    for s, d in enumerate(st["stages"]):
-        ins[d["to"]] = s
-        outs[d["from"]].append(s)
-    branch = {j: kp["branch"] for j, kp in enumerate(st["keypoints"]) if "branch" in kp}
-    xy_of = {kp.id: kp.xy for kp in plan.skeleton.keypoints}
-    kxy = {j: np.array(xy_of[plan.keys[j]]) for j in range(n_keys)}
+class StructureSolution(Protocol):
+    """What export reads of a solved structure (the solver's ``StructureSolution``)."""
 
-    def start_leg(s: int) -> int:
-        j = st["stages"][s]["from"]
-        return 2 if branch.get(j) == s else 1
+    keys: list[str]
+    stages: list[list[str]]
+    cost: float
+    resources: list[dict[str, float]]
 
-    def leg_part(j: int, leg: int) -> Part:
+
+@dataclass
+class _StageRecord:
+    fill: list[int]                # instance indices of the stage's fillers
+    stretch: float
+    start_leg: int
+    path: _Path
+    solved: float                  # what its parts measure, unstretched
+
+
+@dataclass
+class _Record:
+    """Which instance realises each key leg, and each stage's fillers: what the checks
+    and the summary read back."""
+
+    keys: dict[tuple[int, int], int] = field(default_factory=dict)
+    stages: dict[int, _StageRecord] = field(default_factory=dict)
+
+
+class _Placer:
+    """Places one structure's solution on its plan: one stretch per stage, then the key
+    parts, then the fillers."""
+
+    def __init__(self, si: int, plan: PlacementPlan, sol: StructureSolution,
+                 parts: dict[str, Part]):
+        self.si, self.plan, self.sol, self.parts = si, plan, sol, parts
+        self.paths = [_Path(st.points) for st in plan.stages]
+        self.ins = plan.incoming()
+        self.outs = plan.outgoing()
+        self.kxy = [np.array(k.xy) for k in plan.keys]
+        self.instances: list[Instance] = []
+        self.record = _Record()
+        self.stretch: list[float] = []
+        self.solved: list[float] = []
+
+    def place(self) -> tuple[list[Instance], _Record]:
+        self._stretches()
+        for j in range(len(self.plan.keys)):
+            self._place_key(j)
+        for s in range(len(self.plan.stages)):
+            self._place_fillers(s)
+        return self.instances, self.record
+
+    # -- what stands at a key point ----------------------------------------------------
+
+    def leg_part(self, j: int, leg: int) -> Part:
         """The part that realises key j's leg: the key part, or for a mitre the end
         part on that side of the corner."""
-        mitre = plan.mitres.get(sol.keys[j])
-        return parts[sol.keys[j]] if mitre is None else parts[mitre[0 if leg == 0 else 1]]
+        mitre = self.plan.mitres.get(self.sol.keys[j])
+        if mitre is None:
+            return self.parts[self.sol.keys[j]]
+        return self.parts[mitre.end_in if leg == 0 else mitre.end_out]
 
-    def leg_len(j: int, leg: int) -> float:
+    def leg_len(self, j: int, leg: int) -> float:
         """How far key j reaches along a leg: its geometry, or a mitre's chosen length."""
-        mitre = plan.mitres.get(sol.keys[j])
-        return _leg(leg_part(j, leg), leg) if mitre is None else mitre[2 if leg == 0 else 3]
+        mitre = self.plan.mitres.get(self.sol.keys[j])
+        if mitre is None:
+            return _leg(self.leg_part(j, leg), leg)
+        return mitre.length_in if leg == 0 else mitre.length_out
 
-    # one stretch per stage: every part on it stretches, except T parts (rigid: their
-    # two main legs are collinear, so no linear map stretches them differently)
-    stretch, solved = [], []
-    for s, d in enumerate(st["stages"]):
-        ends = [(leg_part(d["from"], start_leg(s)), leg_len(d["from"], start_leg(s))),
-                (leg_part(d["to"], 0), leg_len(d["to"], 0))]
-        rigid = sum(x for p, x in ends if p.cls == "t_junction")
-        elastic = sum(x for p, x in ends if p.cls != "t_junction") + \
-            sum(_geom_length(parts[x]) for x in sol.stages[s])
-        stretch.append((paths[s].length - rigid) / elastic if elastic > 0 else 1.0)
-        solved.append(rigid + elastic)
+    def _stretches(self) -> None:
+        """One stretch per stage: every part on it stretches, except T parts (rigid:
+        their two main legs are collinear, so no linear map stretches them by two
+        factors)."""
+        for s, st in enumerate(self.plan.stages):
+            ends = [(self.leg_part(st.start, st.start_leg), self.leg_len(st.start, st.start_leg)),
+                    (self.leg_part(st.end, 0), self.leg_len(st.end, 0))]
+            rigid = sum(x for p, x in ends if p.cls == "t_junction")
+            elastic = sum(x for p, x in ends if p.cls != "t_junction") + \
+                sum(_geom_length(self.parts[x]) for x in self.sol.stages[s])
+            self.stretch.append((self.paths[s].length - rigid) / elastic if elastic > 0
+                                else 1.0)
+            self.solved.append(rigid + elastic)
 
-    instances: list[Instance] = []
-    record = {"keys": {}, "stages": {}}
-    # key parts: each leg is aimed at the point of its stage's polyline that lies its
-    # (stretched) length along from the key point, so legs land on the skeleton even
-    # where a bend comes before the leg ends
-    def reach_in(j: int, length: float) -> np.ndarray:
-        """Vector from key j to the point ``length`` back along its incoming stage."""
-        path = paths[ins[j]]
-        return path.at(path.length - length) - kxy[j]
+    # -- key parts ------------------------------------------------------------------------
+    # each leg is aimed at the point of its stage's polyline that lies its (stretched)
+    # length along from the key point, so legs land on the skeleton even where a bend
+    # comes before the leg ends
 
-    def reach_out(s: int, length: float) -> np.ndarray:
-        """Vector from stage s's start key to the point ``length`` along it."""
-        return paths[s].at(length) - paths[s].p[0]
-
-    for j in range(n_keys):
-        s_in = ins[j]
-        main_out = [s for s in outs[j] if branch.get(j) != s]
-        front = plan.stages[s_in if s_in is not None else main_out[0]].front
+    def _legs(self, j: int) -> dict[int, tuple[Part, np.ndarray]]:
+        """Key j's legs: the part realising each and the vector it spans from the key."""
         legs = {}
+        s_in = self.ins[j]
         if s_in is not None:
-            p = leg_part(j, 0)
-            scale = 1.0 if p.cls == "t_junction" else stretch[s_in]
-            legs[0] = (p, reach_in(j, leg_len(j, 0) * scale))
-        for s in outs[j]:
-            leg = start_leg(s)
-            p = leg_part(j, leg)
-            scale = 1.0 if p.cls == "t_junction" else stretch[s]
-            legs[leg] = (p, reach_out(s, leg_len(j, leg) * scale))
-        p = parts[sol.keys[j]] if sol.keys[j] not in plan.mitres else None
+            p = self.leg_part(j, 0)
+            scale = 1.0 if p.cls == "t_junction" else self.stretch[s_in]
+            path = self.paths[s_in]
+            legs[0] = (p, path.at(path.length - self.leg_len(j, 0) * scale) - self.kxy[j])
+        for s in self.outs[j]:
+            leg = self.plan.stages[s].start_leg
+            p = self.leg_part(j, leg)
+            scale = 1.0 if p.cls == "t_junction" else self.stretch[s]
+            legs[leg] = (p, self.paths[s].at(self.leg_len(j, leg) * scale) - self.paths[s].p[0])
+        return legs
+
+    def _front(self, j: int) -> Front:
+        s_in = self.ins[j]
+        main_out = [s for s in self.outs[j] if self.plan.branch.get(j) != s]
+        return self.plan.stages[s_in if s_in is not None else main_out[0]].front
+
+    def _place_key(self, j: int) -> None:
+        legs = self._legs(j)
+        front = self._front(j)
+        key_id = self.sol.keys[j]
+        p = None if key_id in self.plan.mitres else self.parts[key_id]
         if p is None or p.cls in ("end_left", "end_right"):  # straight: an end, a mitre
             for leg, (q, v) in legs.items():
-                record["keys"][(j, leg)] = len(instances)
-                instances.append(_straight_key(q, si, j, kxy[j], v, leg == 0, front))
+                self.record.keys[(j, leg)] = len(self.instances)
+                self.instances.append(_straight_key(q, self.si, j, self.kxy[j], v, leg == 0,
+                                                    front))
             if p is not None:   # an end part: one instance realises its only leg
                 for leg in (0, 1, 2):
-                    record["keys"][(j, leg)] = len(instances) - 1
-            continue
+                    self.record.keys[(j, leg)] = len(self.instances) - 1
+            return
         if p.cls == "corner":
             a = _fit(np.asarray(p.directions[0]) * p.legs_measured[0],
                      np.asarray(p.directions[1]) * p.legs_measured[1], legs[0][1], legs[1][1])
         else:  # a T: fitted to its in-leg and its branch; its out-leg follows the in-leg
             v_br = legs[2][1]
-            _check_t_sides(plan, j, kxy[j], -legs[0][1], v_br, front,
-                           plan.stages[branch[j]].front)
+            _check_t_sides(self.plan, j, self.kxy[j], -legs[0][1], v_br, front,
+                           self.plan.stages[self.plan.branch[j]].front)
             a = _fit(np.asarray(p.directions[0]) * p.legs_measured[0],
                      np.asarray(p.directions[2]) * p.legs_measured[2], legs[0][1], v_br)
         for leg in (0, 1, 2):
-            record["keys"][(j, leg)] = len(instances)
-        instances.append(_instance(p, si, None, j, a, kxy[j]))
-    # stage fillers, from the end of the start key's leg on
-    for s, d in enumerate(st["stages"]):
-        path, lo = paths[s], d["from"]
-        p_lo = leg_part(lo, start_leg(s))
-        leg = leg_len(lo, start_leg(s))
-        pos = leg if p_lo.cls == "t_junction" else leg * stretch[s]
+            self.record.keys[(j, leg)] = len(self.instances)
+        self.instances.append(_instance(p, self.si, None, j, a, self.kxy[j]))
+
+    # -- fillers, from the end of the start key's leg on ----------------------------------
+
+    def _place_fillers(self, s: int) -> None:
+        st = self.plan.stages[s]
+        path, stretch = self.paths[s], self.stretch[s]
+        p_lo = self.leg_part(st.start, st.start_leg)
+        leg = self.leg_len(st.start, st.start_leg)
+        pos = leg if p_lo.cls == "t_junction" else leg * stretch
         idx = []
-        front = plan.stages[s].front
-        for x in sol.stages[s]:
-            p = parts[x]
-            w = _geom_length(p) * stretch[s]
+        for x in self.sol.stages[s]:
+            p = self.parts[x]
+            w = _geom_length(p) * stretch
             q0, q1 = path.at(pos), path.at(pos + w)
             chord = q1 - q0
             c = float(np.hypot(*chord))
             u = chord / c
             a = np.column_stack([u * (c / _geom_length(p)),
-                                 _left(u) if front == "right" else -_left(u)])
-            idx.append(len(instances))
-            instances.append(_instance(p, si, s, None, a, q0))
+                                 _left(u) if st.front == "right" else -_left(u)])
+            idx.append(len(self.instances))
+            self.instances.append(_instance(p, self.si, s, None, a, q0))
             pos += w
-        record["stages"][s] = {"fill": idx, "stretch": stretch[s], "start_leg": start_leg(s),
-                               "path": path, "solved": solved[s]}
-    return instances, record
+        self.record.stages[s] = _StageRecord(idx, stretch, st.start_leg, path, self.solved[s])
 
 
 def _straight_key(p: Part, si: int, j: int, xy, v, before: bool, front: str) -> Instance:
@@ -236,10 +285,11 @@ def _fit(d0, d1, w0, w1) -> np.ndarray:
     return dst @ np.linalg.inv(src)
 
 
-def _check_t_sides(plan, j, xy, u_in, u_br, front, branch_front) -> None:
+def _check_t_sides(plan: PlacementPlan, j: int, xy, u_in, u_br, front: Front,
+                   branch_front: Front) -> None:
     """The library's T parts have their wing behind the main facade, its own facade to
     the right of the wing's travel when the main facade is to the right of its own."""
-    where = f"{plan.skeleton.name}: the T junction at ({xy[0]:.1f}, {xy[1]:.1f})"
+    where = f"{plan.name}: the T junction at ({xy[0]:.1f}, {xy[1]:.1f})"
     side = u_in[0] * u_br[1] - u_in[1] * u_br[0]   # > 0: the wing leaves to the left
     if (side > 0) != (front == "right"):
         raise ExportError(f"{where}: its wing leaves on the street side of the main line; "
@@ -248,63 +298,78 @@ def _check_t_sides(plan, j, xy, u_in, u_br, front, branch_front) -> None:
     if branch_front != front:
         raise ExportError(f"{where}: the wing's facade faces the other way from the T "
                           "parts' wing; set the wing line's front to "
-                          f'"{_other(branch_front)}"')
+                          f'"{other_side(branch_front)}"')
 
 
-def _other(side: str) -> str:
-    return "left" if side == "right" else "right"
-
-
-def _check(plan, record, parts, inst: list[Instance]) -> None:
+def _check(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
+           inst: list[Instance]) -> None:
     """The layout's geometry against its skeleton; any failure is an ExportError."""
-    name = plan.skeleton.name
-    for s, r in record["stages"].items():
-        path: _Path = r["path"]
-        front = plan.stages[s].front
-        d = plan.structure["stages"][s]
-        k_lo = record["keys"][(d["from"], r["start_leg"])]
-        k_hi = record["keys"][(d["to"], 0)]
+    for s, r in record.stages.items():
+        st = plan.stages[s]
+        k_lo = record.keys[(st.start, r.start_leg)]
+        k_hi = record.keys[(st.end, 0)]
         p_lo, p_hi = parts[inst[k_lo].part], parts[inst[k_hi].part]
-        where = f"{name}: stage {s}"
-        lo, hi = d["constraints"]["length"]
-        if abs(path.length - r["solved"]) > (hi - lo) / 2 + TOL:
-            raise ExportError(f"{where}: its parts measure {r['solved']:.3f} m for "
-                              f"{path.length:.3f} m of skeleton, more than the "
-                              f"{(hi - lo) / 2:g} m a stretch may absorb")
+        where = f"{plan.name}: stage {s}"
+        _check_length(where, st, r)
         # facade segments in travel order: start key's leg, fillers, end key's leg
-        segs = [_key_leg_segment(inst[k_lo], p_lo, r["start_leg"], outgoing=True)]
-        for i in r["fill"]:
+        segs = [_key_leg_segment(inst[k_lo], p_lo, r.start_leg, outgoing=True)]
+        for i in r.fill:
             p = parts[inst[i].part]
             segs.append((inst[i].apply([0.0, 0.0]), inst[i].apply([_geom_length(p), 0.0])))
         segs.append(_key_leg_segment(inst[k_hi], p_hi, 0, outgoing=False))
-        for (_a, b), (c, _d) in zip(segs[:-1], segs[1:], strict=True):
-            gap = float(np.hypot(*(c - b)))
-            if gap > TOL:
-                at = (b + c) / 2
-                hint = "" if r["fill"] else (" (no middle part lies between its key "
-                                             "parts to absorb the difference)")
-                raise ExportError(f"{where}: parts do not meet at ({at[0]:.2f}, "
-                                  f"{at[1]:.2f}), {1e3 * gap:.1f} mm apart{hint}")
-        for (a, b), i in zip(segs, [k_lo, *r["fill"], k_hi], strict=True):
-            for q in (a, b):
-                off = path.distance(q)
-                if off > TOL:
-                    what = "leg of the key part" if i in (k_lo, k_hi) else "part"
-                    raise ExportError(f"{where}: a {what} {inst[i].part} ends "
-                                      f"{1e3 * off:.1f} mm off the skeleton at "
-                                      f"({q[0]:.2f}, {q[1]:.2f})")
-            mid = (a + b) / 2
-            tangent = (b - a) / max(float(np.hypot(*(b - a))), 1e-12)
-            into_mass = _left(tangent) * (1.0 if front == "right" else -1.0)
-            facing = _facade_normal(inst[i], p_lo if i == k_lo else p_hi if i == k_hi
-                                    else parts[inst[i].part], i, k_lo, k_hi, r["start_leg"])
-            if float(facing @ -into_mass) <= 0:
-                raise ExportError(f"{where}: part {inst[i].part} at ({mid[0]:.2f}, "
-                                  f"{mid[1]:.2f}) does not face the street side "
-                                  f"({front} of travel)")
+        _check_joined(where, segs, bool(r.fill))
+        owners = [k_lo, *r.fill, k_hi]
+        for (a, b), i in zip(segs, owners, strict=True):
+            p = p_lo if i == k_lo else p_hi if i == k_hi else parts[inst[i].part]
+            _check_on_path(where, r.path, (a, b), inst[i].part,
+                           "leg of the key part" if i in (k_lo, k_hi) else "part")
+            facing = _facade_normal(inst[i], p, i, k_lo, k_hi, r.start_leg)
+            _check_facing(where, (a, b), facing, st.front, inst[i].part)
 
 
-def _key_leg_segment(inst: Instance, p: Part, leg: int, *, outgoing: bool):
+def _check_length(where: str, st: PlanStage, r: _StageRecord) -> None:
+    lo, hi = st.length_interval
+    if abs(r.path.length - r.solved) > (hi - lo) / 2 + TOL:
+        raise ExportError(f"{where}: its parts measure {r.solved:.3f} m for "
+                          f"{r.path.length:.3f} m of skeleton, more than the "
+                          f"{(hi - lo) / 2:g} m a stretch may absorb")
+
+
+def _check_joined(where: str, segs: list[tuple[np.ndarray, np.ndarray]],
+                  has_fill: bool) -> None:
+    """Consecutive facade segments meet (gap or overlap under TOL)."""
+    for (_a, b), (c, _d) in zip(segs[:-1], segs[1:], strict=True):
+        gap = float(np.hypot(*(c - b)))
+        if gap > TOL:
+            at = (b + c) / 2
+            hint = "" if has_fill else (" (no middle part lies between its key "
+                                        "parts to absorb the difference)")
+            raise ExportError(f"{where}: parts do not meet at ({at[0]:.2f}, "
+                              f"{at[1]:.2f}), {1e3 * gap:.1f} mm apart{hint}")
+
+
+def _check_on_path(where: str, path: _Path, seg: tuple[np.ndarray, np.ndarray],
+                   part: str, what: str) -> None:
+    for q in seg:
+        off = path.distance(q)
+        if off > TOL:
+            raise ExportError(f"{where}: a {what} {part} ends {1e3 * off:.1f} mm off the "
+                              f"skeleton at ({q[0]:.2f}, {q[1]:.2f})")
+
+
+def _check_facing(where: str, seg: tuple[np.ndarray, np.ndarray], facing: np.ndarray,
+                  front: Front, part: str) -> None:
+    a, b = seg
+    mid = (a + b) / 2
+    tangent = (b - a) / max(float(np.hypot(*(b - a))), 1e-12)
+    into_mass = _left(tangent) * (1.0 if front == "right" else -1.0)
+    if float(facing @ -into_mass) <= 0:
+        raise ExportError(f"{where}: part {part} at ({mid[0]:.2f}, {mid[1]:.2f}) does not "
+                          f"face the street side ({front} of travel)")
+
+
+def _key_leg_segment(inst: Instance, p: Part, leg: int, *,
+                     outgoing: bool) -> tuple[np.ndarray, np.ndarray]:
     """The facade segment of a key part's leg, in travel order."""
     if p.cls in ("end_left", "end_right"):
         return inst.apply([0.0, 0.0]), inst.apply([_geom_length(p), 0.0])
@@ -328,33 +393,28 @@ def _facade_normal(inst: Instance, p: Part, i: int, k_lo: int, k_hi: int,
     return a @ n
 
 
-def _summary(plan, sol, record) -> dict:
-    st = plan.structure
+def _summary(plan: PlacementPlan, sol: StructureSolution, record: _Record) -> dict[str, Any]:
     stages = []
-    for s, d in enumerate(st["stages"]):
-        r = record["stages"][s]
+    for s, st in enumerate(plan.stages):
+        r = record.stages[s]
         stages.append({
-            "from": d["from"], "to": d["to"], "front": plan.stages[s].front,
-            "length": r["path"].length, "stretch": r["stretch"],
-            "parts": [sol.keys[d["from"]], *sol.stages[s], sol.keys[d["to"]]],
-            "asked": {k: list(v) for k, v in d["constraints"].items()},
+            "from": st.start, "to": st.end, "front": st.front,
+            "length": r.path.length, "stretch": r.stretch,
+            "parts": [sol.keys[st.start], *sol.stages[s], sol.keys[st.end]],
+            "asked": {k: list(v) for k, v in st.asked.items()},
             "met": dict(sol.resources[s]),
-            "skeleton_edges": list(plan.stages[s].edges),
+            "skeleton_edges": list(st.edges),
         })
-    kp_of = {kp.id: kp for kp in plan.skeleton.keypoints}
-    keys = []
-    for j, v in enumerate(plan.keys):
-        kp = kp_of[v]
-        keys.append({"part": sol.keys[j], "kind": kp.kind, "xy": list(kp.xy),
-                     "skeleton_key": kp.id})
+    keys = [{"part": sol.keys[j], "kind": k.kind, "xy": list(k.xy),
+             "skeleton_key": k.skeleton_key} for j, k in enumerate(plan.keys)]
     total: dict[str, float] = {}
     for res in sol.resources:
-        for k, v in res.items():
-            total[k] = total.get(k, 0.0) + v
-    out = {"name": plan.skeleton.name, "closed": plan.skeleton.closed, "cost": sol.cost,
+        for name, v in res.items():
+            total[name] = total.get(name, 0.0) + v
+    out = {"name": plan.name, "closed": plan.closed, "cost": sol.cost,
            "keys": keys, "stages": stages, "resources": total}
-    if st.get("constraints"):
-        out["asked"] = {k: list(v) for k, v in st["constraints"].items()}
+    if plan.asked:
+        out["asked"] = {k: list(v) for k, v in plan.asked.items()}
     return out
 
 

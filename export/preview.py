@@ -111,6 +111,7 @@ def contact_sheet(db: PartDB, library_dir: str | Path, out_png: str | Path, *,
     for i, part in enumerate(db.parts):
         plotter.subplot(i // columns, i % columns)
         mesh = trimesh.load(str(root / part.file), force="mesh")
+        assert isinstance(mesh, trimesh.Trimesh)   # force="mesh" concatenates a scene
         poly = to_polydata(mesh)
         _add_coloured(plotter, poly)
         plotter.add_text(f"{part.id}\n{part.cls}, {part.length:g} m", font_size=7,

@@ -12,20 +12,17 @@ shared part prototypes once.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from citysynth.export.gltf import write_glb
 from citysynth.export.layout import Layout
 from citysynth.export.place import layout, max_stretch
-from citysynth.export.usd import write_layout
+from citysynth.export.writers import FORMATS, Format, write
 from citysynth.parts_db import PartDB
-from citysynth.parts_db.files import write_text
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
 from citysynth.skeletons import Skeleton, SkeletonError
-from citysynth.solver.structures import Structure, solve_structure
-
-FORMATS = ("json", "usd", "glb", "png")
+from citysynth.solver.structures import solve_structure
 
 
 @dataclass
@@ -56,21 +53,22 @@ def check_style(db: PartDB, style: str) -> None:
 def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
                   k: int = 1, **options) -> Built:
     """The k best layouts of one building or block (checked; see module docstring).
-    ``options`` go to :func:`pipeline.structures.skeleton_structure` (corner tolerance,
-    mitres, stretch, per-side and per-structure constraints)."""
+    ``options`` go to
+    :func:`~citysynth.pipeline.skeleton_to_structure.skeleton_structure` (corner
+    tolerance, mitres, stretch, per-side and per-structure constraints)."""
     check_style(db, style)
     t0 = time.perf_counter()
     plans = [skeleton_structure(sk, db, style, k=k, **options) for sk in skeletons]
     t1 = time.perf_counter()
-    results = [solve_structure(Structure.from_dict(p.structure, sk.name), k)
-               for p, sk in zip(plans, skeletons, strict=True)]
+    results = [solve_structure(p.structure, k) for p in plans]
     t2 = time.perf_counter()
     timings = {"structure_s": t1 - t0, "solve_s": t2 - t1}
     for sk, r in zip(skeletons, results, strict=True):
         if r.status != "ok":
             return Built(name, "infeasible", reason=f"{sk.name}: {r.reason}", timings=timings)
     count = max(len(r.solutions) for r in results)
-    layouts = [layout(name, i + 1, plans,
+    placements = [p.placement for p in plans]
+    layouts = [layout(name, i + 1, placements,
                       [r.solutions[min(i, len(r.solutions) - 1)] for r in results], db)
                for i in range(count)]
     timings["layout_s"] = time.perf_counter() - t2
@@ -83,30 +81,19 @@ def output_stem(lay: Layout, k: int) -> str:
 
 
 def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
-                  formats=FORMATS, k: int | None = None) -> list[Path]:
-    """Write each layout of ``built`` in ``formats`` to ``out_dir``; the file paths."""
+                  formats: Sequence[Format] = FORMATS, k: int | None = None) -> list[Path]:
+    """Write each layout of ``built`` in ``formats`` to ``out_dir``; the file paths.
+    Export and preview times add up in ``built.timings``."""
     out = Path(out_dir)
     k = len(built.layouts) if k is None else k
     paths = []
     for lay in built.layouts:
-        stem = output_stem(lay, k)
-        t = time.perf_counter()
-        if "json" in formats:
-            paths.append(write_text(out / f"{stem}.layout.json", lay.to_json()))
-        if "usd" in formats:
-            paths.append(write_layout(lay, db, out / f"{stem}.usda"))
-        if "glb" in formats:
-            paths.append(write_glb(lay, db, out / f"{stem}.glb"))
-        t_png = time.perf_counter()
-        if "png" in formats:
-            from citysynth.export.preview import render_layout  # pyvista: only when previewing
-
-            title = (f"{lay.name}  #{lay.rank}  cost {lay.cost:g}  "
-                     f"{len(lay.instances)} parts")
-            paths.append(render_layout(lay, db, out / f"{stem}.png", title=title))
-        built.timings["export_s"] = built.timings.get("export_s", 0.0) + t_png - t
-        built.timings["preview_s"] = built.timings.get("preview_s", 0.0) + \
-            time.perf_counter() - t_png
+        stem = out / output_stem(lay, k)
+        for fmt in formats:
+            t = time.perf_counter()
+            paths.append(write(lay, db, stem, fmt))
+            key = "preview_s" if fmt == "png" else "export_s"
+            built.timings[key] = built.timings.get(key, 0.0) + time.perf_counter() - t
     return paths
 
 

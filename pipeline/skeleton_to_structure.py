@@ -23,37 +23,23 @@ attribute constraints (only the middle parts' do).
 from __future__ import annotations
 
 from collections import defaultdict
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from citysynth.parts_db import PartDB
+from citysynth.export.plan import (
+    Front,
+    Mitre,
+    PlacementPlan,
+    PlanKey,
+    PlanStage,
+    Point,
+    other_side,
+)
+from citysynth.parts_db import Part, PartDB
 from citysynth.skeletons import Skeleton, match_corner_angles
 from citysynth.skeletons.errors import SkeletonError
-
-
-@dataclass(frozen=True)
-class StagePath:
-    """Where a stage lies: its polyline from its start key point to its end key point
-    (through any bends) and the side its facades face, seen along that direction."""
-
-    points: tuple[tuple[float, float], ...]
-    front: str                     # "left" or "right" of travel
-    edges: tuple[int, ...]         # skeleton edge indices, in travel order
-
-
-@dataclass(frozen=True)
-class StructurePlan:
-    """A skeleton made into a structure: the solver's input and the way back."""
-
-    skeleton: Skeleton
-    style: str
-    structure: dict                # see ``solver.structure.Structure.from_dict``
-    keys: tuple[int, ...]          # skeleton key point of each structure key point
-    stages: tuple[StagePath, ...]  # one per structure stage, in the same order
-    # mitre id -> (incoming end part, outgoing end part, their lengths along the stages)
-    mitres: dict[str, tuple[str, str, float, float]] = field(default_factory=dict)
-
+from citysynth.solver.structures import Stage, Structure
 
 MITRE = "mitre:"   # key elements made of an end part on each side of a corner
 MITRE_SHIFTS = 3   # a mitre's end parts may stretch or shrink by up to this many quanta
@@ -101,15 +87,13 @@ def _chains(sk: Skeleton) -> tuple[list[int], list[_Chain]]:
     return keys, chains
 
 
-def _front_along(sk: Skeleton, chain: _Chain, forward: bool) -> str:
+def _front_along(sk: Skeleton, chain: _Chain, forward: bool) -> Front:
     """The side the chain's facades face when it is walked a -> b (forward) or back."""
     e = sk.edges[chain.edges[0]]
-    side = e.front if e.a == chain.vertices[0] else _flip(e.front)
-    return side if forward else _flip(side)
-
-
-def _flip(side: str) -> str:
-    return "left" if side == "right" else "right"
+    side: Front = "right" if e.front == "right" else "left"
+    if e.a != chain.vertices[0]:
+        side = other_side(side)
+    return side if forward else other_side(side)
 
 
 def _orient(sk: Skeleton, keys: list[int], chains: list[_Chain]) -> tuple[int, dict]:
@@ -179,6 +163,24 @@ def _orient(sk: Skeleton, keys: list[int], chains: list[_Chain]) -> tuple[int, d
     return best, walks[best]
 
 
+@dataclass(frozen=True)
+class StructurePlan:
+    """A skeleton made into a structure: the solver's input and export's way back."""
+
+    structure: Structure           # what the solver solves
+    placement: PlacementPlan       # what export places the solution on
+
+
+@dataclass(frozen=True)
+class _KeyParts:
+    """What may stand at each structure key point, and the parts and mitres behind it."""
+
+    options: tuple[tuple[str, ...], ...]      # key element ids per key point
+    branch: dict[int, int]                    # T key point -> its branch stage
+    parts: dict[str, Part]                    # key parts used, by id
+    mitres: dict[str, tuple[Part, Part, float]]   # id -> (end_right, end_left, shift)
+
+
 def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                        angle_tol: float = 7.5, mitre_cost: float | None = None,
                        stretch: float = 0.0, per_side: dict | None = None,
@@ -198,10 +200,6 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
     is larger. ``per_side`` intervals apply to every stage (an edge's own constraints
     win), ``per_structure`` ones to the whole structure."""
     keys, chains = _chains(sk)
-    kp_of = {kp.id: kp for kp in sk.keypoints}
-    corners = db.select("corner", style)
-    if mitre_cost is None:
-        chosen = match_corner_angles(sk, [(p.angle, p.convex) for p in corners], angle_tol)
     root, oriented = _orient(sk, keys, chains)
     # renumber so the root is key point 0
     order = [root] + [j for j in range(len(keys)) if j != root]
@@ -212,26 +210,72 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
     if not fillers:
         raise SkeletonError(f"the library has no middle parts of style {style!r}")
     attrs = sorted({a for p in fillers for a in p.attributes})
+    for name in {**(per_side or {}), **(per_structure or {})}:
+        if name not in attrs:
+            raise SkeletonError(f"{sk.name}: constraint on {name!r}, which no {style} "
+                                f"middle part has (they have {attrs})")
+    kp = _key_parts(sk, db, style, keys, chains, oriented, angle_tol, mitre_cost)
+    stages, placed = _stages(sk, db.quantum, keys, chains, oriented, kp.branch, stretch,
+                             per_side or {}, attrs, style)
+    resources = ("length", *attrs)
+    structure = Structure.build(
+        resources=resources, quantum={"length": db.quantum},
+        **_elements(fillers, kp, resources, mitre_cost),
+        **_transitions(db, fillers, kp),
+        keypoints=kp.options, branch=kp.branch, stages=stages, k=k, source=sk.name,
+        global_constraints={n: (float(lo), float(hi))
+                            for n, (lo, hi) in (per_structure or {}).items()})
+    kp_of = {v.id: v for v in sk.keypoints}
+    placement = PlacementPlan(
+        name=sk.name, closed=sk.closed, style=style, frame=sk.frame.describe(),
+        keys=tuple(PlanKey(kp_of[v].xy, kp_of[v].kind, v) for v in keys),  # type: ignore[arg-type]
+        stages=tuple(PlanStage(st.start, st.end, structure.start_leg(s), *placed[s],
+                               asked=dict(st.constraints))
+                     for s, st in enumerate(structure.stages)),
+        branch=dict(kp.branch), asked=dict(structure.global_constraints),
+        mitres={mid: Mitre(r.id, lft.id, round(r.length + d, 9), round(lft.length + d, 9))
+                for mid, (r, lft, d) in kp.mitres.items()})
+    return StructurePlan(structure, placement)
+
+
+def _mitre_variants(db: PartDB, style: str) -> dict[str, tuple[Part, Part, float]]:
+    """Every (end_right, end_left) pair of the style, each end moved by -MITRE_SHIFTS ..
+    +MITRE_SHIFTS quanta."""
     q = db.quantum
-    mitres = {}   # id -> (end_right, end_left, shift): both ends moved by shift metres
-    if mitre_cost is not None:
-        for r in db.select("end_right", style):
-            for lft in db.select("end_left", style):
-                for i in range(-MITRE_SHIFTS, MITRE_SHIFTS + 1):
-                    mitres[f"{MITRE}{r.id}+{lft.id}{i * q:+.1f}"] = (r, lft, round(i * q, 9))
-    keypoints, key_parts = [], {}
+    mitres = {}
+    for r in db.select("end_right", style):
+        for lft in db.select("end_left", style):
+            for i in range(-MITRE_SHIFTS, MITRE_SHIFTS + 1):
+                mitres[f"{MITRE}{r.id}+{lft.id}{i * q:+.1f}"] = (r, lft, round(i * q, 9))
+    return mitres
+
+
+def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: list[_Chain],
+               oriented: dict[int, tuple[int, int]], angle_tol: float,
+               mitre_cost: float | None) -> _KeyParts:
+    """The key elements each key point admits: corner parts by angle (and mitres, in a
+    city), T parts with their branch stage, end parts by the way the stage runs."""
+    kp_of = {kp.id: kp for kp in sk.keypoints}
+    corners = db.select("corner", style)
+    chosen = None if mitre_cost is not None else match_corner_angles(
+        sk, [(float(p.angle or 0.0), bool(p.convex)) for p in corners], angle_tol)
+    mitres = _mitre_variants(db, style) if mitre_cost is not None else {}
+    options: list[tuple[str, ...]] = []
+    branch: dict[int, int] = {}
+    parts: dict[str, Part] = {}
     for j, v in enumerate(keys):
         kp = kp_of[v]
-        extra = []
-        if kp.kind == "corner" and mitre_cost is None:
+        extra: list[str] = []
+        if kp.kind == "corner" and chosen is not None:
             angle, convex = chosen[v]
             opts = [p for p in corners if (p.angle, p.convex) == (angle, convex)]
         elif kp.kind == "corner":
-            opts = [p for p in corners if p.convex == kp.convex
-                    and abs(p.angle - kp.angle) <= angle_tol]
+            opts = [p for p in corners if p.convex == kp.convex and p.angle is not None
+                    and kp.angle is not None and abs(p.angle - kp.angle) <= angle_tol]
             extra = sorted(mitres)
         elif kp.kind == "t_junction":
             opts = db.select("t_junction", style)
+            branch[j] = next(s for s, c in enumerate(chains) if kp.branch in c.edges)
         else:
             starts = any(a == j for a, _b in oriented.values())
             opts = db.select("end_left" if starts else "end_right", style)
@@ -239,72 +283,85 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
             raise SkeletonError(f"{sk.name}: the library has no {kp.kind} part of style "
                                 f"{style!r} for the key point at ({kp.xy[0]:.1f}, "
                                 f"{kp.xy[1]:.1f})")
-        entry = {"elements": [p.id for p in opts] + extra}
-        if kp.kind == "t_junction":
-            entry["branch"] = next(s for s, c in enumerate(chains) if kp.branch in c.edges)
-        keypoints.append(entry)
-        for p in opts:
-            key_parts[p.id] = p
-    for name in {**(per_side or {}), **(per_structure or {})}:
-        if name not in attrs:
-            raise SkeletonError(f"{sk.name}: constraint on {name!r}, which no {style} "
-                                f"middle part has (they have {attrs})")
+        options.append(tuple([p.id for p in opts] + extra))
+        parts.update((p.id, p) for p in opts)
+    return _KeyParts(tuple(options), branch, parts, mitres)
 
-    stage_dicts = []
-    paths = []
+
+def _stages(sk: Skeleton, q: float, keys: list[int], chains: list[_Chain],
+            oriented: dict[int, tuple[int, int]], branch: dict[int, int], stretch: float,
+            per_side: dict, attrs: list[str], style: str
+            ) -> tuple[list[Stage], list[tuple[tuple[Point, ...], Front, tuple[int, ...]]]]:
+    """Each chain as a stage (its intervals: the length within half a quantum or the
+    stretch, and the attribute intervals), with its polyline, front and edges in travel
+    order."""
+    kp_of = {kp.id: kp for kp in sk.keypoints}
+    stages, placed = [], []
     for s, chain in enumerate(chains):
         lo, hi = oriented[s]
         forward = chain.a == keys[lo]
         verts = chain.vertices if forward else chain.vertices[::-1]
-        paths.append(StagePath(tuple(kp_of[v].xy for v in verts),
-                               _front_along(sk, chain, forward),
-                               chain.edges if forward else chain.edges[::-1]))
-        length = chain.length
-        tol = max(q / 2, stretch * length)
-        c = {"length": [round(length - tol, 6), round(length + tol, 6)]}
-        for name, iv in {**(per_side or {}), **chain.constraints}.items():
+        placed.append((tuple(kp_of[v].xy for v in verts), _front_along(sk, chain, forward),
+                       chain.edges if forward else chain.edges[::-1]))
+        tol = max(q / 2, stretch * chain.length)
+        c = {"length": (round(chain.length - tol, 6), round(chain.length + tol, 6))}
+        for name, iv in {**per_side, **chain.constraints}.items():
             if name not in attrs:
                 raise SkeletonError(f"{sk.name}: edge constraint on {name!r}, which no "
                                     f"{style} middle part has (they have {attrs})")
-            c[name] = list(iv)
-        stage_dicts.append({"from": lo, "to": hi, "constraints": c})
+            c[name] = (float(iv[0]), float(iv[1]))
+        stages.append(Stage(c, None, lo, hi))
+    return stages, placed
 
-    def legs(p):
-        if p.cls in ("end_left", "end_right"):
-            return [{"length": p.length}, {"length": p.length}]
-        return [{"length": x} for x in p.legs]
 
-    elements = [{"id": p.id, "resources": {"length": p.length, **p.attributes}}
-                for p in fillers]
-    elements += [{"id": pid, "legs": legs(p)} for pid, p in key_parts.items()]
-    elements += [{"id": mid, "legs": [{"length": round(r.length + d, 9)},
-                                      {"length": round(lft.length + d, 9)}],
-                  "cost": mitre_cost + MITRE_SHIFT_COST * abs(d)}
-                 for mid, (r, lft, d) in sorted(mitres.items())]
-    # a transition runs from the part at an element's end to the part at the next one's
-    # start; for a mitre those are its two end parts
-    first = {p.id: p.id for p in [*fillers, *key_parts.values()]}
+def _legs(p: Part) -> tuple[float, ...]:
+    if p.cls in ("end_left", "end_right"):
+        return (p.length, p.length)
+    return tuple(p.legs)
+
+
+def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
+              mitre_cost: float | None) -> dict:
+    """Fillers with their length and attributes; key parts and mitres with their legs
+    (a mitre's end parts moved by its shift, at its cost)."""
+    zero = dict.fromkeys(resources, 0.0)
+    elements: dict[str, dict[str, float]] = {}
+    costs: dict[str, float] = {}
+    legs: dict[str, tuple[dict[str, float], ...]] = {}
+    for p in fillers:
+        elements[p.id] = {**zero, "length": p.length,
+                          **{a: float(v) for a, v in p.attributes.items()}}
+        costs[p.id] = 0.0
+    for pid, p in kp.parts.items():
+        elements[pid], costs[pid] = dict(zero), 0.0
+        legs[pid] = tuple({**zero, "length": x} for x in _legs(p))
+    for mid, (r, lft, d) in sorted(kp.mitres.items()):
+        elements[mid] = dict(zero)
+        costs[mid] = (mitre_cost or 0.0) + MITRE_SHIFT_COST * abs(d)
+        legs[mid] = ({**zero, "length": round(r.length + d, 9)},
+                     {**zero, "length": round(lft.length + d, 9)})
+    return {"elements": elements, "costs": costs, "legs": legs}
+
+
+def _transitions(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
+    """The database's costs between every pair of elements: a transition runs from the
+    part at an element's end to the part at the next one's start (for a mitre, its two
+    end parts); from a T's branch leg, the branch costs."""
+    first = {p.id: p.id for p in [*fillers, *kp.parts.values()]}
     last = dict(first)
-    for mid, (r, lft, _d) in mitres.items():
+    for mid, (r, lft, _d) in kp.mitres.items():
         first[mid], last[mid] = r.id, lft.id
-    ids = [p.id for p in fillers] + list(key_parts) + sorted(mitres)
+    ids = [p.id for p in fillers] + list(kp.parts) + sorted(kp.mitres)
     idx = db.index()
-    trans, btrans = [], []
+    trans, btrans = {}, {}
     for x in ids:
         for y in ids:
             i, j = idx[last[x]], idx[first[y]]
             if db.allowed[i, j] and np.isfinite(db.cost[i, j]):
-                trans.append([x, y, float(db.cost[i, j])])
+                trans[(x, y)] = float(db.cost[i, j])
             if np.isfinite(db.cost_branch[i, j]):
-                btrans.append([x, y, float(db.cost_branch[i, j])])
-    structure = {"resources": ["length", *attrs], "quantum": {"length": q},
-                 "elements": elements, "transitions": trans, "branch_transitions": btrans,
-                 "keypoints": keypoints, "stages": stage_dicts, "k": k}
-    if per_structure:
-        structure["constraints"] = {n: list(iv) for n, iv in per_structure.items()}
-    return StructurePlan(sk, style, structure, tuple(keys), tuple(paths),
-                         {mid: (r.id, lft.id, round(r.length + d, 9), round(lft.length + d, 9))
-                          for mid, (r, lft, d) in mitres.items()})
+                btrans[(x, y)] = float(db.cost_branch[i, j])
+    return {"transitions": trans, "branch_transitions": btrans}
 
 
 def shortest_stage(db: PartDB, style: str) -> float:

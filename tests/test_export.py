@@ -25,7 +25,7 @@ from citysynth.pipeline.cli import main
 from citysynth.pipeline.layouts import solve_layouts
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
 from citysynth.skeletons import parse_geojson, read_geojson, skeleton_from_lines
-from citysynth.solver.structures import Structure, solve_structure
+from citysynth.solver.structures import solve_structure
 
 ROOT = Path(__file__).resolve().parent.parent
 LIB = ROOT / "examples" / "library"
@@ -159,19 +159,19 @@ def _t_plan(db, **wing_props):
 
 def test_t_wing_on_the_wrong_side_is_an_error(db):
     plan = _t_plan(db, wing={"front": "left"})
-    sol = solve_structure(Structure.from_dict(plan.structure)).solutions[0]
+    sol = solve_structure(plan.structure).solutions[0]
     with pytest.raises(ExportError, match="wing's facade faces the other way.*\"right\""):
-        layout("t", 1, [plan], [sol], db)
+        layout("t", 1, [plan.placement], [sol], db)
 
 
 def test_parts_that_do_not_meet_are_an_error(db, monkeypatch):
     plan = _t_plan(db)
-    sol = solve_structure(Structure.from_dict(plan.structure)).solutions[0]
+    sol = solve_structure(plan.structure).solutions[0]
     bad = replace(sol, stages=[s[:-1] if i == 0 else s for i, s in enumerate(sol.stages)])
     with pytest.raises(ExportError, match="stage 0: its parts measure .* a stretch may absorb"):
-        layout("t", 1, [plan], [bad], db)   # one filler short: no stretch may hide that
+        layout("t", 1, [plan.placement], [bad], db)   # one filler short: no stretch may hide that
     # a placement bug that opens a gap: move one filler by 5 mm
-    lay = layout("t", 1, [plan], [sol], db)
+    lay = layout("t", 1, [plan.placement], [sol], db)
     assert max_stretch(lay) < 0.005
     from citysynth.export import place
     orig = place._instance
@@ -182,7 +182,7 @@ def test_parts_that_do_not_meet_are_an_error(db, monkeypatch):
         return orig(p, structure, stage, key, a, origin)
     monkeypatch.setattr(place, "_instance", shifted)
     with pytest.raises(ExportError, match="stage 0: parts do not meet at .* mm apart"):
-        layout("t", 1, [plan], [sol], db)
+        layout("t", 1, [plan.placement], [sol], db)
 
 
 def test_a_building_drawn_backwards_is_the_same_building(db):

@@ -16,7 +16,7 @@ from citysynth.skeletons import (
     skeleton_from_lines,
     skeletons_from_polygons,
 )
-from citysynth.solver.structures import Structure, solve_structure
+from citysynth.solver.structures import solve_structure
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_skeletons import fc, feat, metres  # noqa: E402
@@ -39,7 +39,7 @@ def block(w, h):
 def test_block_cycle_from_a_footprint(db):
     sk = block(90, 70)
     d = skeleton_structure(sk, db, "classic", k=3).structure
-    r = solve_structure(Structure.from_dict(d))
+    r = solve_structure(d)
     assert r.status == "ok" and len(r.solutions) == 3
     edge = sorted(e.length for e in sk.edges)
     for s in r.solutions:
@@ -53,7 +53,7 @@ def test_t_shaped_building(db):
                                     feat("LineString", metres([(40, 0), (40, 50)]))))
     sk = skeleton_from_lines(feats, frame)
     d = skeleton_structure(sk, db, "modern", k=2).structure
-    r = solve_structure(Structure.from_dict(d))
+    r = solve_structure(d)
     assert r.status == "ok"
     best = r.solutions[0]
     assert sorted(best.keys) == ["modern_end_left", "modern_end_right", "modern_end_right",
@@ -63,7 +63,7 @@ def test_t_shaped_building(db):
 
 def test_infeasible_block_names_the_stage(db):
     plan = skeleton_structure(block(100, 64), db, "classic")
-    r = solve_structure(Structure.from_dict(plan.structure))
+    r = solve_structure(plan.structure)
     assert r.status == "infeasible"
     assert "stage" in r.reason and "nearest achievable" in r.reason
 

@@ -13,6 +13,7 @@ import re
 import sys
 from pathlib import Path
 
+from citysynth.export.writers import FORMATS
 from citysynth.parts_db import load_library
 from citysynth.pipeline.layouts import (
     Built,
@@ -71,7 +72,7 @@ def _prepare(args):
 def _finish(args, db, built_all: list[Built]) -> int:
     """Write every layout (after all were solved and checked: a bad one writes
     nothing), report, and choose the exit code."""
-    formats = ("json", "usd", "glb") if args.no_preview else ("json", "usd", "glb", "png")
+    formats = [f for f in FORMATS if f != "png" or not args.no_preview]
     status = 0
     for built in built_all:
         if built.status != "ok":

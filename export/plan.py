@@ -1,0 +1,97 @@
+"""What export places from: a skeleton made into a structure, seen from the ground.
+
+The solver's answer is a sequence of part ids per stage and one per key point; to put
+it back on the ground the export needs where each key point stands, each stage's
+polyline (through its bends) and the side its facades face, which key point a stage
+leaves and reaches, and by which leg of the key part it leaves (leg 1, or leg 2 for a
+T junction's branch). A :class:`PlacementPlan` carries exactly that, as plain typed
+data, so export reads no solver structure and no skeleton: the pipeline builds one
+beside every structure it hands the solver (see
+:func:`citysynth.pipeline.skeleton_to_structure.skeleton_structure`).
+
+Key points are numbered like the structure's (key point 0 is the root, or where a
+cycle is cut); stages like the structure's stages.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+Front = Literal["left", "right"]
+"""The side of travel a stage's facades face (the canonical facade faces the right)."""
+
+KeyKind = Literal["end", "corner", "t_junction"]
+"""What stands at a structure key point (bends are not key points)."""
+
+Point = tuple[float, float]
+
+
+def other_side(side: Front) -> Front:
+    return "left" if side == "right" else "right"
+
+
+@dataclass(frozen=True)
+class PlanKey:
+    """A structure key point on the ground."""
+
+    xy: Point
+    kind: KeyKind
+    skeleton_key: int              # the skeleton key point it stands on
+
+
+@dataclass(frozen=True)
+class PlanStage:
+    """A stage on the ground: from key point ``start`` to ``end`` along ``points``."""
+
+    start: int
+    end: int
+    start_leg: int                 # the leg of the start key part it leaves by (1, or 2)
+    points: tuple[Point, ...]      # its polyline, start to end, through any bends
+    front: Front
+    edges: tuple[int, ...]         # skeleton edge indices, in travel order
+    asked: dict[str, tuple[float, float]]   # its intervals (length first)
+
+    @property
+    def length_interval(self) -> tuple[float, float]:
+        return self.asked["length"]
+
+
+@dataclass(frozen=True)
+class Mitre:
+    """A corner made of the style's two end parts: ``end_in`` closes the incoming stage,
+    ``end_out`` opens the outgoing one, each reaching its length along its stage."""
+
+    end_in: str
+    end_out: str
+    length_in: float
+    length_out: float
+
+
+@dataclass(frozen=True)
+class PlacementPlan:
+    """One skeleton (a building, or one ring of a block) ready to receive a solution."""
+
+    name: str
+    closed: bool
+    style: str
+    frame: str                     # the local metric frame, described for people
+    keys: tuple[PlanKey, ...]
+    stages: tuple[PlanStage, ...]
+    branch: dict[int, int] = field(default_factory=dict)    # T key point -> branch stage
+    asked: dict[str, tuple[float, float]] = field(default_factory=dict)  # whole structure
+    mitres: dict[str, Mitre] = field(default_factory=dict)  # key element id -> its mitre
+
+    def incoming(self) -> dict[int, int | None]:
+        """Each key point's incoming stage (None at a tree's root)."""
+        ins: dict[int, int | None] = {j: None for j in range(len(self.keys))}
+        for s, st in enumerate(self.stages):
+            ins[st.end] = s
+        return ins
+
+    def outgoing(self) -> dict[int, list[int]]:
+        """Each key point's outgoing stages, in stage order."""
+        outs: dict[int, list[int]] = {j: [] for j in range(len(self.keys))}
+        for s, st in enumerate(self.stages):
+            outs[st.start].append(s)
+        return outs
