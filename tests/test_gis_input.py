@@ -1,0 +1,430 @@
+"""Street files as GIS tools really write them give the same blocks as the plain file.
+
+The plain file is the shipped demo district (examples/city/district_streets.geojson,
+RFC 7946 lon/lat). Each variant is written by the tool itself where the tool runs
+offline: geopandas (pyogrio, GDAL's GeoJSON driver) with its default options (a legacy
+``"crs"`` member naming CRS84) and with RFC7946=YES, in Web Mercator, in a UTM zone
+near the data and in one far from it; a QGIS-style MultiLineString Z layer with null
+geometries; osmnx's ``graph_to_gdfs`` with list-valued tags (on a graph built here,
+and on a real osmnx graph read from OSM XML and simplified); an Overpass-style export
+that mixes nodes (Points) with ways. "The same blocks" is checked on the city run's
+jobs (``prepare``): the same block ids (a hash of the outline to the millimetre, so
+the same outlines), zones, styles and input hashes (so the same layouts), and for
+input that stays in its own projected frame, the same outlines within the length
+tolerance once mapped back to lon/lat.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import pytest
+import shapely
+
+from citysynth.pipeline.city.config import load_config
+from citysynth.pipeline.city.run import CityInputs, prepare
+from citysynth.skeletons import InputWarning, SkeletonError, parse_geojson, read_geojson
+from citysynth.skeletons.streets import Setbacks, highway_classes, street_setback, tag_values
+
+gpd = pytest.importorskip("geopandas")
+pytest.importorskip("pyogrio")
+
+ROOT = Path(__file__).resolve().parent.parent
+LIB = ROOT / "examples" / "library"
+CITY = ROOT / "examples" / "city"
+DISTRICT = CITY / "district_streets.geojson"
+CRS84_NAME = "urn:ogc:def:crs:OGC:1.3:CRS84"
+LENGTH_TOL = 1e-5            # 1 mm per 100 m
+
+
+# --- helpers ------------------------------------------------------------------------------
+
+def jobs_of(path: Path, crs: str | None = None) -> CityInputs:
+    """The demo district's city jobs (zones, styles, setbacks from examples/city)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InputWarning)
+        return prepare(path, None, load_config(CITY / "city.toml"), LIB, crs)
+
+
+def summary(inputs: CityInputs) -> list[tuple[str, str, str, str]]:
+    return [(j.id, j.zone, j.style, j.input_hash) for j in inputs.jobs]
+
+
+def feature_skips(inputs: CityInputs) -> list[str]:
+    return [s["reason"] for s in inputs.skipped if s["kind"] == "feature"]
+
+
+def outlines_lonlat(inputs: CityInputs, frame_crs: str) -> list[shapely.Polygon]:
+    """Each job's outline back in lon/lat (x east, y north, degrees)."""
+    to_lonlat = pyproj.Transformer.from_crs(frame_crs, "EPSG:4326", always_xy=True)
+    ox, oy = inputs.frame.origin
+    unit = pyproj.CRS(frame_crs).axis_info[0].unit_conversion_factor
+
+    def back(c: np.ndarray) -> np.ndarray:
+        return np.column_stack(to_lonlat.transform(c[:, 0] / unit + ox, c[:, 1] / unit + oy))
+    return [shapely.transform(shapely.from_wkt(j.wkt), back) for j in inputs.jobs]
+
+
+def outlines_in(inputs: CityInputs) -> list[shapely.Polygon]:
+    return [shapely.from_wkt(j.wkt) for j in inputs.jobs]
+
+
+@pytest.fixture(scope="module")
+def plain() -> CityInputs:
+    inputs = jobs_of(DISTRICT)
+    assert len(inputs.jobs) >= 20 and any(j.zone == "main roads" for j in inputs.jobs)
+    assert not feature_skips(inputs)
+    return inputs
+
+
+@pytest.fixture(scope="module")
+def district_gdf():
+    g = gpd.read_file(DISTRICT)            # pyogrio, geopandas' default engine
+    assert str(g.crs) == "EPSG:4326" and len(g) == 489
+    return g
+
+
+def crs_member(path: Path) -> str | None:
+    member = json.loads(path.read_text()).get("crs")
+    return None if member is None else member["properties"]["name"]
+
+
+# --- geopandas, default options and RFC 7946 ----------------------------------------------
+
+def test_geopandas_default_geojson_with_its_crs84_member(plain, district_gdf, tmp_path):
+    f = tmp_path / "streets.geojson"
+    district_gdf.to_file(f, driver="GeoJSON")
+    assert crs_member(f) == CRS84_NAME        # what GDAL, QGIS and osmnx write
+    got = jobs_of(f)
+    assert summary(got) == summary(plain) and got.frame == plain.frame
+
+
+def test_geopandas_rfc7946(plain, district_gdf, tmp_path):
+    f = tmp_path / "streets.geojson"
+    district_gdf.to_file(f, driver="GeoJSON", RFC7946="YES")
+    assert crs_member(f) is None
+    assert summary(jobs_of(f)) == summary(plain)
+
+
+# --- QGIS: MultiLineString Z, null geometries and null attributes ---------------------------
+
+def test_qgis_style_multilinestring_z_with_nulls(plain, district_gdf, tmp_path):
+    g = district_gdf.copy()
+    g["geometry"] = [shapely.MultiLineString([shapely.force_3d(line, 12.5)])
+                     for line in g.geometry]
+    blanks = g.iloc[[3, 50, 200]].copy()
+    blanks["geometry"] = None                         # QGIS keeps rows whose geometry
+    blanks["lanes"] = None                            # was deleted, with null values
+    g = gpd.GeoDataFrame(
+        gpd.pd.concat([g.iloc[:10], blanks.iloc[:1], g.iloc[10:300], blanks.iloc[1:],
+                       g.iloc[300:]], ignore_index=True), crs=g.crs)
+    f = tmp_path / "qgis.geojson"
+    g.to_file(f, driver="GeoJSON")
+    raw = json.loads(f.read_text())
+    assert raw["features"][0]["geometry"]["type"] == "MultiLineString"
+    assert len(raw["features"][0]["geometry"]["coordinates"][0][0]) == 3     # x, y, z
+    nulls = [i for i, ft in enumerate(raw["features"]) if ft["geometry"] is None]
+    assert nulls == [10, 301, 302]
+    with pytest.warns(InputWarning) as caught:
+        feats, _ = read_geojson(f, accept="lines")
+    messages = [str(w.message) for w in caught]
+    assert feats.skipped == messages and len(messages) == 3
+    for i, msg in zip(nulls, messages, strict=True):
+        assert re.match(rf"{re.escape(str(f))}: feature {i}\b", msg), msg
+        assert "no geometry (null)" in msg
+    got = jobs_of(f)
+    assert summary(got) == summary(plain)
+    assert feature_skips(got) == messages     # counted in the run's report
+
+
+# --- osmnx: list-valued tags ------------------------------------------------------------------
+
+def _as_osmnx_edges(gdf):
+    """The district as osmnx's ``graph_to_gdfs`` gives merged edges, through osmnx itself:
+    a MultiDiGraph in osmnx's layout (nodes with x, y; edges with geometry and osmid), every
+    street carrying list-valued tags as a merged edge would, each list's widest value
+    being the street's own (lanes ["1", "2"] for a two-lane street; primary streets as
+    ["secondary", "primary"], so a zone on primary must match any class of the list)."""
+    ox = pytest.importorskip("osmnx")
+    import networkx as nx
+    g = nx.MultiDiGraph(crs="EPSG:4326")
+    nodes: dict[tuple[float, float], int] = {}
+    for i, row in gdf.iterrows():
+        coords = list(row.geometry.coords)
+        u, v = (nodes.setdefault(tuple(c), len(nodes)) for c in (coords[0], coords[-1]))
+        lanes = row["lanes"]
+        cls = row["highway"]
+        g.add_edge(u, v, osmid=[1000 + i, 2000 + i],
+                   highway=["secondary", "primary"] if cls == "primary" else [cls, "service"],
+                   lanes=sorted({str(int(lanes) - 1 or 1), lanes}) if isinstance(lanes, str)
+                   else None,
+                   name=[row["name"]] * 2 if isinstance(row["name"], str) else None,
+                   oneway=row["oneway"] == "yes", reversed=[False, True],
+                   length=float(row.geometry.length), geometry=row.geometry)
+    for (x, y), n in nodes.items():
+        g.add_node(n, x=x, y=y)
+    return ox.graph_to_gdfs(g, nodes=False)
+
+
+def test_osmnx_edges_with_list_valued_tags(plain, district_gdf, tmp_path):
+    edges = _as_osmnx_edges(district_gdf)
+    f = tmp_path / "osmnx.geojson"
+    edges.to_file(f, driver="GeoJSON")
+    raw = json.loads(f.read_text())
+    props = [ft["properties"] for ft in raw["features"]]
+    assert {"u", "v", "key", "osmid"} <= set(props[0])
+    assert all(isinstance(p["highway"], list) for p in props)      # JSON arrays
+    assert any(isinstance(p["lanes"], list) and len(p["lanes"]) == 2 for p in props)
+    got = jobs_of(f)
+    assert summary(got) == summary(plain)        # widest setbacks; zones match any class
+    assert any(j.zone == "main roads" and j.style == "modern" for j in got.jobs)
+
+
+def test_a_real_osmnx_graph_read_from_osm_xml(district_gdf, tmp_path):
+    """osmnx's own pipeline, offline: OSM XML -> graph_from_xml (simplified: ways merged
+    into edges with list-valued tags) -> graph_to_gdfs -> GeoJSON. Every edge is read and
+    a merged edge's setback comes from its widest lanes value."""
+    ox = pytest.importorskip("osmnx")
+    osm = tmp_path / "district.osm"
+    osm.write_text(_osm_xml(district_gdf), encoding="utf-8")
+    graph = ox.graph_from_xml(osm, simplify=True, retain_all=True)
+    edges = ox.graph_to_gdfs(graph, nodes=False)
+    f = tmp_path / "osmnx.geojson"
+    edges.to_file(f, driver="GeoJSON")
+    feats, _ = read_geojson(f, accept="lines")
+    assert len(feats) == len(edges) and not feats.skipped
+    s = Setbacks(lane_width=3.25, sidewalk=2.5)
+    merged = [ft for ft in feats if isinstance(ft.properties.get("lanes"), list)]
+    assert merged, "osmnx merged ways with different lanes into list-valued edges"
+    for ft in merged:
+        lanes = [float(x) for x in ft.properties["lanes"]]
+        assert len(set(lanes)) > 1
+        assert street_setback(ft.properties, s) == max(lanes) * 3.25 / 2 + 2.5
+
+
+def _osm_xml(gdf) -> str:
+    from xml.sax.saxutils import quoteattr
+    nodes: dict[tuple[float, float], int] = {}
+    ways = []
+    for i, row in gdf.iterrows():
+        refs = [nodes.setdefault(tuple(c), len(nodes) + 1) for c in row.geometry.coords]
+        tags = {k: row[k] for k in ("highway", "lanes", "name", "oneway")
+                if isinstance(row[k], str)}
+        ways.append((i + 1, refs, tags))
+    out = ['<?xml version="1.0" encoding="UTF-8"?>', '<osm version="0.6">']
+    out += [f'<node id="{n}" lat="{y}" lon="{x}" version="1"/>' for (x, y), n in nodes.items()]
+    for wid, refs, tags in ways:
+        out.append(f'<way id="{wid}" version="1">')
+        out += [f'<nd ref="{r}"/>' for r in refs]
+        out += [f"<tag k={quoteattr(k)} v={quoteattr(str(v))}/>" for k, v in tags.items()]
+        out.append("</way>")
+    return "\n".join([*out, "</osm>"])
+
+
+def test_list_valued_and_multi_valued_tags():
+    s = Setbacks(default=6.0, sidewalk=2.5, lane_width=3.0,
+                 by_class=(("primary", 10.0), ("secondary", 9.0), ("living_street", 4.0)))
+    assert s({"lanes": ["2", "3"]}) == s({"lanes": "3"}) == s({"lanes": "2;3"}) == 7.0
+    assert s({"lanes": "['2', '3']"}) == 7.0                  # osmnx's own files
+    assert s({"width": ["7", "9 m", "n/a"]}) == 9 / 2 + 2.5
+    assert s({"width": [None, "x"], "lanes": [1, 2]}) == 5.5  # no width: lanes
+    assert s({"highway": ["secondary", "primary"]}) == 10.0
+    assert s({"highway": ["living_street", "unclassified"]}) == 6.0   # the default is wider
+    assert s({"highway": ["track", "path"]}) == 6.0
+    assert highway_classes({"highway": ["secondary", "primary", "secondary"]}) == \
+        ("secondary", "primary")
+    assert highway_classes({"highway": "['primary', 'trunk']"}) == ("primary", "trunk")
+    assert highway_classes({"highway": None}) == () and tag_values("a; b") == ["a", "b"]
+
+
+# --- Overpass: ways mixed with nodes ------------------------------------------------------------
+
+def test_overpass_export_with_points(plain, tmp_path):
+    data = json.loads(DISTRICT.read_text())
+    features = []
+    for i, ft in enumerate(data["features"]):
+        way = {"type": "Feature", "id": f"way/{1000 + i}",
+               "properties": {"@id": f"way/{1000 + i}", **ft["properties"]},
+               "geometry": ft["geometry"]}
+        features.append(way)
+        if i % 50 == 7:       # a traffic signal on the way: a node, a Point
+            x, y = ft["geometry"]["coordinates"][0]
+            features.append({"type": "Feature", "id": f"node/{i}",
+                             "properties": {"@id": f"node/{i}", "highway": "traffic_signals"},
+                             "geometry": {"type": "Point", "coordinates": [x, y]}})
+    f = tmp_path / "export.geojson"
+    f.write_text(json.dumps({"type": "FeatureCollection", "generator": "overpass-turbo",
+                             "copyright": "The data included in this document is from "
+                             "www.openstreetmap.org.", "features": features}))
+    points = [i for i, ft in enumerate(features) if ft["geometry"]["type"] == "Point"]
+    got = jobs_of(f)
+    assert summary(got) == summary(plain)
+    skips = feature_skips(got)
+    assert len(skips) == len(points) == 10
+    for i, msg in zip(points, skips, strict=True):
+        assert re.match(rf"{re.escape(str(f))}: feature {i}\b", msg), msg
+        assert "a Point cannot be a line" in msg
+
+
+# --- projected CRSs ---------------------------------------------------------------------------
+
+def test_web_mercator_is_reprojected_to_true_lengths(plain, district_gdf, tmp_path):
+    f = tmp_path / "mercator.geojson"
+    district_gdf.to_crs("EPSG:3857").to_file(f, driver="GeoJSON")
+    assert crs_member(f) == "urn:ogc:def:crs:EPSG::3857"
+    merc, frame = read_geojson(f, origin_digits=2)
+    ref, ref_frame = read_geojson(DISTRICT, origin_digits=2)
+    assert frame.crs == ref_frame.crs and frame.origin == ref_frame.origin
+    assert frame.source_crs == "EPSG:3857"
+    for a, b in zip(merc, ref, strict=True):
+        assert abs(a.geometry.length - b.geometry.length) <= LENGTH_TOL * b.geometry.length
+    got = jobs_of(f)
+    assert len(got.jobs) == len(plain.jobs)
+    for a, b in zip(outlines_in(got), outlines_in(plain), strict=True):
+        assert shapely.hausdorff_distance(a, b) < 0.002
+    assert summary(got) == summary(plain)
+
+
+def test_a_far_utm_zone_is_reprojected(plain, district_gdf, tmp_path):
+    """Helsinki in UTM zone 31 (central meridian 3° E, 22° away): 4 % off true scale."""
+    f = tmp_path / "far.geojson"
+    district_gdf.to_crs("EPSG:32631").to_file(f, driver="GeoJSON")
+    feats, frame = read_geojson(f, origin_digits=2)
+    assert frame.crs == plain.frame.crs and frame.source_crs == "EPSG:32631"
+    assert summary(jobs_of(f)) == summary(plain)
+
+
+def test_a_near_utm_zone_stays_in_its_own_frame(plain, district_gdf, tmp_path):
+    """ETRS-TM35FIN (EPSG:3067, UTM zone 35 extended over Finland) is true to scale over
+    Helsinki within 0.03 %: kept as it is, so blocks come out in its axes. Mapped into
+    the plain file's frame they are the plain file's blocks within 2 cm: the setbacks,
+    measured in the zone's metres, are off by its 0.024 % scale error (2.4 mm on 10 m,
+    more at sharp corners), and the outlines are simplified at 1 cm."""
+    f = tmp_path / "tm35fin.geojson"
+    district_gdf.to_crs("EPSG:3067").to_file(f, driver="GeoJSON")
+    got = jobs_of(f)
+    assert got.frame.crs.endswith("(projected)") and got.frame.source_crs == "EPSG:3067"
+    assert len(got.jobs) == len(plain.jobs)
+    to_plain = pyproj.Transformer.from_crs("EPSG:4326", _tmerc(plain), always_xy=True)
+    ref = outlines_in(plain)
+    for p, job in zip(outlines_lonlat(got, "EPSG:3067"), got.jobs, strict=True):
+        p = shapely.transform(p, lambda c: np.column_stack(to_plain.transform(c[:, 0],
+                                                                               c[:, 1])))
+        k = min(range(len(ref)), key=lambda r: ref[r].centroid.distance(p.centroid))
+        assert len(p.exterior.coords) == len(ref[k].exterior.coords)
+        assert shapely.hausdorff_distance(p, ref[k]) < 0.02
+        assert (job.zone, job.style) == (plain.jobs[k].zone, plain.jobs[k].style)
+
+
+def _tmerc(inputs: CityInputs) -> str:
+    lon, lat = inputs.frame.origin
+    return (f"+proj=tmerc +lat_0={lat} +lon_0={lon} +k=1 +x_0=0 +y_0=0 +ellps=WGS84 "
+            "+units=m +no_defs")
+
+
+# --- CRS spellings, and what is refused ------------------------------------------------------
+
+LINE = {"type": "FeatureCollection", "features": [
+    {"type": "Feature", "properties": {"name": "a"},
+     "geometry": {"type": "LineString", "coordinates": [[24.94, 60.17], [24.95, 60.171]]}}]}
+
+
+@pytest.mark.parametrize("name", [
+    "urn:ogc:def:crs:OGC:1.3:CRS84", "urn:ogc:def:crs:OGC::CRS84", "OGC:CRS84", "CRS84",
+    "urn:ogc:def:crs:EPSG::4326", "urn:ogc:def:crs:EPSG:6.6:4326", "EPSG:4326", "epsg:4326",
+    "http://www.opengis.net/def/crs/OGC/1.3/CRS84",
+    "http://www.opengis.net/def/crs/EPSG/0/4326", "EPSG:4979",
+])
+def test_every_spelling_of_lon_lat_means_lon_lat(name):
+    ref, ref_frame = parse_geojson(LINE)
+    member = dict(LINE, crs={"type": "name", "properties": {"name": name}})
+    for feats, frame in (parse_geojson(member), parse_geojson(LINE, crs=name)):
+        assert frame == ref_frame
+        assert shapely.equals_exact(feats[0].geometry, ref[0].geometry, tolerance=0)
+    old = dict(LINE, crs={"type": "EPSG", "properties": {"code": 4326}})
+    assert parse_geojson(old)[1] == ref_frame
+
+
+def test_another_geographic_crs_goes_through_lon_lat():
+    etrs = dict(LINE, crs={"type": "name", "properties": {"name": "EPSG:4258"}})
+    feats, frame = parse_geojson(etrs)
+    ref, _ = parse_geojson(LINE)
+    assert frame.source_crs == "EPSG:4258" and "reprojected" in frame.describe()
+    assert feats[0].geometry.length == pytest.approx(ref[0].geometry.length, rel=LENGTH_TOL)
+
+
+def test_crs_members_that_cannot_be_read():
+    link = dict(LINE, crs={"type": "link", "properties": {"href": "http://x/crs.wkt"}})
+    with pytest.raises(SkeletonError, match="links to a CRS definition"):
+        parse_geojson(link, "s.geojson")
+    with pytest.raises(SkeletonError, match='s.geojson: cannot read the "crs" member'):
+        parse_geojson(dict(LINE, crs="EPSG:4326"), "s.geojson")
+
+
+def test_nothing_usable_is_refused_naming_the_file_and_feature(tmp_path):
+    f = tmp_path / "nulls.geojson"
+    f.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"name": "x"}, "geometry": None},
+        {"type": "Feature", "properties": None, "geometry": None}]}))
+    with pytest.raises(SkeletonError) as exc:
+        read_geojson(f)
+    msg = str(exc.value)
+    assert msg.startswith(f"{f}: no usable features: all 2 left out (feature 0 (x): no "
+                          "geometry (null); ...)")
+    assert "NoneType" not in msg
+    points = copy.deepcopy(LINE)
+    points["features"][0]["geometry"] = {"type": "Point", "coordinates": [24.9, 60.1]}
+    with pytest.raises(SkeletonError, match="p.geojson: no usable features: all 1 left out "
+                                            r"\(feature 0 \(a\): a Point cannot be a line"):
+        parse_geojson(points, "p.geojson", accept="lines")
+
+
+def test_bad_features_name_the_file_and_index():
+    bad = copy.deepcopy(LINE)
+    bad["features"].append({"type": "Feature", "properties": {},
+                            "geometry": {"type": "LineString", "coordinates": [[1]]}})
+    with pytest.raises(SkeletonError, match="s.geojson: feature 1: malformed geometry"):
+        parse_geojson(bad, "s.geojson")
+    bad["features"][1] = {"type": "Feature", "properties": ["x"], "geometry": None}
+    with pytest.raises(SkeletonError, match="s.geojson: feature 1: properties must be"):
+        parse_geojson(bad, "s.geojson")
+    bad["features"][1] = ["not", "a", "feature"]
+    with pytest.raises(SkeletonError, match="s.geojson: feature 1 is not a GeoJSON Feature"):
+        parse_geojson(bad, "s.geojson")
+
+
+def test_downstream_messages_name_the_file(tmp_path):
+    from citysynth.skeletons import skeleton_from_lines
+    from citysynth.skeletons.streets import street_blocks
+    f = tmp_path / "mixed.geojson"
+    data = copy.deepcopy(LINE)
+    data["features"].append({"type": "Feature", "properties": {},
+                             "geometry": {"type": "Point", "coordinates": [24.9, 60.1]}})
+    f.write_text(json.dumps(data))
+    feats, frame = read_geojson(f)              # any geometry: the caller decides
+    with pytest.raises(SkeletonError, match=f"{f}: feature 1: a skeleton is made of "
+                                            "LineStrings, got Point"):
+        skeleton_from_lines(feats, frame)
+    blocks, skipped = street_blocks(feats)
+    assert blocks == [] and skipped == [f"{f}: feature 1: a Point is no street centre line "
+                                        "(LineString or MultiLineString)"]
+
+
+def test_the_skeleton_command_warns_and_goes_on(tmp_path, capsys):
+    from citysynth.pipeline.cli import main
+    data = json.loads(DISTRICT.read_text())
+    data["features"].insert(5, {"type": "Feature", "properties": {"highway": "crossing"},
+                                "geometry": {"type": "Point", "coordinates": [24.94, 60.17]}})
+    data["features"].insert(9, {"type": "Feature", "properties": {}, "geometry": None})
+    f = tmp_path / "streets.geojson"
+    f.write_text(json.dumps(data))
+    with pytest.warns(InputWarning, match=f"{f}: feature 9: no geometry"):
+        assert main(["skeleton", str(f), "--kind", "streets"]) == 0
+    out = capsys.readouterr().out
+    assert f"skipped {f}: feature 5: a Point is no street centre line" in out
