@@ -98,8 +98,8 @@ def highway_classes(props: dict[str, Any]) -> tuple[str, ...]:
 
 def street_setback(props: dict[str, Any], s: Setbacks) -> float:
     """A street's setback: ``width`` / 2 + sidewalk, else ``lanes`` * lane width / 2 +
-    sidewalk, else the largest setback of its ``highway`` classes, else the default.
-    Several values (osmnx's merged edges, OSM's "2;3") take the widest."""
+    sidewalk, else its ``highway`` class's setback (the default for a class not in the
+    table). Several values (osmnx's merged edges, OSM's "2;3") take the widest."""
     width = widest(props.get("width"))
     if width is not None:
         return width / 2 + s.sidewalk
@@ -107,8 +107,7 @@ def street_setback(props: dict[str, Any], s: Setbacks) -> float:
     if lanes is not None:
         return lanes * s.lane_width / 2 + s.sidewalk
     table = dict(s.by_class)
-    by_class = [table[c] for c in highway_classes(props) if c in table]
-    return max(by_class, default=s.default)
+    return max((table.get(c, s.default) for c in highway_classes(props)), default=s.default)
 
 
 def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict], float] = 6.0,
