@@ -7,5 +7,7 @@ This package knows nothing of skeletons or the solver.
 
 from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.library import Part, PartDB, ingest, load_db, load_library
+from citysynth.parts_db.manifest import CLASSES, PartClass
 
-__all__ = ["LibraryError", "Part", "PartDB", "ingest", "load_db", "load_library"]
+__all__ = ["CLASSES", "LibraryError", "Part", "PartClass", "PartDB", "ingest", "load_db",
+           "load_library"]

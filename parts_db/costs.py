@@ -14,18 +14,19 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import shapely
 
+from citysynth.parts_db.manifest import PartClass
 from citysynth.parts_db.sections import disagreement
 
-GROUPS = {
+GROUPS: dict[PartClass, str] = {
     "end_left": "facade", "middle": "facade", "corner": "facade", "t_junction": "facade",
     "end_right": "facade", "building": "building",
     "ground_floor": "tower", "floor": "tower", "roof": "tower",
 }
-FIRST_ONLY = {"end_left", "ground_floor"}   # nothing may precede these
-LAST_ONLY = {"end_right", "roof"}           # nothing may follow these
+FIRST_ONLY: set[PartClass] = {"end_left", "ground_floor"}   # nothing may precede these
+LAST_ONLY: set[PartClass] = {"end_right", "roof"}           # nothing may follow these
 
 
-def allowed_matrix(classes: list[str]) -> np.ndarray:
+def allowed_matrix(classes: list[PartClass]) -> np.ndarray:
     """allowed[e, f]: may f directly follow e (class rules only)."""
     g = np.array([GROUPS[c] for c in classes])
     first = np.array([c in FIRST_ONLY for c in classes])

@@ -23,7 +23,7 @@ import shapely
 from citysynth.parts_db.costs import allowed_matrix, cost_matrix
 from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.files import atomic_path, write_text
-from citysynth.parts_db.manifest import Manifest, read_manifest
+from citysynth.parts_db.manifest import Manifest, PartClass, read_manifest
 from citysynth.parts_db.measure import STACKED, STRAIGHT, measure
 from citysynth.parts_db.meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh
 
@@ -40,7 +40,7 @@ class Part:
     """One measured part. Lengths in metres; ``legs`` snapped to the quantum."""
 
     id: str
-    cls: str
+    cls: PartClass
     style: str
     file: str
     attributes: dict[str, float]
@@ -92,7 +92,8 @@ class PartDB:
     def index(self) -> dict[str, int]:
         return {p.id: i for i, p in enumerate(self.parts)}
 
-    def select(self, cls: str | None = None, style: str | None = None) -> list[Part]:
+    def select(self, cls: PartClass | None = None, style: str | None = None) -> list[Part]:
+        """The parts of class ``cls`` and style ``style`` (None: any), in library order."""
         return [p for p in self.parts if (cls is None or p.cls == cls)
                 and (style is None or p.style == style)]
 
@@ -268,7 +269,24 @@ def _read_cached(out_dir: Path, digest: str) -> PartDB | None:
 
 def load_library(path: str | Path) -> PartDB:
     """The database of a library folder (ingesting it, or reading the cache), or of a
-    database folder written by ``citysynth ingest -o``."""
+    database folder written by ``citysynth ingest -o``.
+
+    The sample library that ships with citysynth; the first call measures every part,
+    later ones read the cache (here a folder of our own, unless ``$CITYSYNTH_CACHE``
+    names one already: see :func:`cache_dir`):
+
+    >>> import os, tempfile
+    >>> from citysynth.examples import SAMPLE_LIBRARY
+    >>> _ = os.environ.setdefault("CITYSYNTH_CACHE", tempfile.mkdtemp())
+    >>> db = load_library(SAMPLE_LIBRARY)
+    >>> db.name, db.quantum, sorted({p.style for p in db.parts})
+    ('citysynth sample', 0.2, ['classic', 'modern', 'tower'])
+    >>> load_library(SAMPLE_LIBRARY).cache_hit        # unchanged: read back, not measured
+    True
+    >>> corner = db.select("corner", "classic")[0]
+    >>> corner.id, corner.angle, corner.convex, corner.legs   # legs snapped to 0.2 m
+    ('classic_corner_90_convex', 90.0, True, [16.2, 16.2])
+    """
     p = Path(path)
     if (p / "manifest.toml").is_file():
         return ingest(p)

@@ -11,11 +11,15 @@ import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal, cast, get_args
 
 from citysynth.parts_db.errors import LibraryError
 
-CLASSES = ("end_left", "end_right", "middle", "corner", "t_junction", "floor",
-           "ground_floor", "roof", "building")
+PartClass = Literal["end_left", "end_right", "middle", "corner", "t_junction", "floor",
+                    "ground_floor", "roof", "building"]
+"""What a part is for: facade parts (the ends of an open facade, fillers, corners, T
+junctions), complete buildings for a street front, and the storeys of a tower."""
+CLASSES: tuple[PartClass, ...] = get_args(PartClass)
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048, "in": 0.0254}
 _PART_KEYS = {"id", "file", "class", "style", "angle", "convex", "length", "attributes"}
 _LIB_KEYS = {"name", "quantum", "units", "rescale"}
@@ -25,7 +29,7 @@ _LIB_KEYS = {"name", "quantum", "units", "rescale"}
 class PartSpec:
     id: str
     file: str
-    cls: str
+    cls: PartClass
     style: str
     angle: float | None = None       # corners: the angle between the two legs (degrees)
     convex: bool | None = None       # corners: True for an outer corner
@@ -81,7 +85,7 @@ def read_manifest(library_dir: str | Path) -> Manifest:
                     bool(lib.get("rescale", True)), tuple(parts))
 
 
-def _positive(v, where: str) -> float:
+def _positive(v: object, where: str) -> float:
     if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
         raise LibraryError(f"{where}: must be a positive number, got {v!r}")
     return float(v)
@@ -132,4 +136,4 @@ def _part(p: dict, i: int, path: Path, seen: set[str]) -> PartSpec:
             raise LibraryError(f"{where}: attribute {k} must be a non-negative number, "
                                f"got {v!r}")
         attrs[k] = float(v)
-    return PartSpec(pid, f, cls, style, angle, convex, length, attrs)
+    return PartSpec(pid, f, cast(PartClass, cls), style, angle, convex, length, attrs)

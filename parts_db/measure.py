@@ -21,12 +21,12 @@ import numpy as np
 from shapely.geometry.base import BaseGeometry
 
 from citysynth.parts_db.errors import LibraryError
-from citysynth.parts_db.manifest import PartSpec
+from citysynth.parts_db.manifest import PartClass, PartSpec
 from citysynth.parts_db.sections import body_labels, plane_section
 
 EPS = 0.005
-STRAIGHT = ("middle", "building", "end_left", "end_right")
-STACKED = ("floor", "ground_floor", "roof")
+STRAIGHT: tuple[PartClass, ...] = ("middle", "building", "end_left", "end_right")
+STACKED: tuple[PartClass, ...] = ("floor", "ground_floor", "roof")
 PLAUSIBLE_LENGTH = (0.2, 150.0)  # metres along the primary axis
 PLAUSIBLE_STOREY = (0.5, 30.0)   # metres of a floor, ground floor or roof
 
@@ -45,6 +45,8 @@ class Measured:
 
 def leg_directions(spec: PartSpec) -> list[tuple[float, float]]:
     if spec.cls == "corner":
+        if spec.angle is None:   # read_manifest refuses such a corner; a hand-made spec
+            raise LibraryError(f'part "{spec.id}": a corner needs an angle')
         turn = math.radians(180.0 - spec.angle) * (1 if spec.convex else -1)
         return [(-1.0, 0.0), (math.cos(turn), math.sin(turn))]
     if spec.cls == "t_junction":

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from citysynth.parts_db import Part, PartDB
+from citysynth.parts_db import LibraryError, Part, PartDB
 
 
-def _transitions(db: PartDB, parts: list[Part]) -> list[list]:
+def _transitions(db: PartDB, parts: list[Part]) -> list[list[str | float]]:
     idx = db.index()
-    out = []
+    out: list[list[str | float]] = []
     for a in parts:
         for b in parts:
             i, j = idx[a.id], idx[b.id]
@@ -32,7 +32,8 @@ def street_front_problem(db: PartDB, length: float, *, style: str | None = None,
     optional intervals on attributes such as doors or balconies."""
     parts = db.select("building", style)
     if not parts:
-        raise ValueError(f"the library has no buildings{f' of style {style}' if style else ''}")
+        raise LibraryError(f"the library {db.name!r} has no buildings"
+                           f"{f' of style {style}' if style else ''}")
     attrs = sorted({a for p in parts for a in p.attributes})
     cons = {"length": [length, length], **(constraints or {})}
     return {
@@ -56,7 +57,9 @@ def tower_problem(db: PartDB, height: float, floor_area: tuple[float, float], *,
              and (style is None or p.style == style)]
     if not any(p.cls == "ground_floor" for p in parts) or not any(
             p.cls == "roof" for p in parts):
-        raise ValueError("a tower needs ground_floor, floor and roof parts")
+        raise LibraryError(f"the library {db.name!r} has no tower"
+                           f"{f' of style {style}' if style else ''}: a tower needs "
+                           "ground_floor, floor and roof parts")
 
     def area(p: Part) -> float:
         return 0.0 if p.cls == "roof" else float(np.round(p.floor_area or 0.0, 3))
