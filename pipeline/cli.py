@@ -1,10 +1,11 @@
 """``citysynth``: the command line.
 
-Every sub-command maps user errors (:class:`solver.ProblemError`,
-:class:`parts_db.LibraryError`, :class:`skeletons.SkeletonError`,
-:class:`export.errors.ExportError` and their kin) to one line on stderr and exit code 2,
-with no traceback; an infeasible problem is an answer, not an error, and exits 1
-with its reason. Sub-commands live in their own modules and register themselves here.
+Every sub-command maps user errors (the classes of
+:data:`citysynth.pipeline.errors.USER_ERRORS`: a malformed problem, a bad library, bad
+GeoJSON, a failed layout check, a wrong option or city.toml) to one line on stderr and
+exit code 2, with no traceback; an infeasible problem is an answer, not an error, and
+exits 1 with its reason. Any other exception is a bug and keeps its traceback.
+Sub-commands live in :mod:`citysynth.pipeline.commands` and register themselves here.
 """
 
 from __future__ import annotations
@@ -14,14 +15,18 @@ import os
 import sys
 from importlib.metadata import PackageNotFoundError, version
 
-from citysynth.export.errors import ExportError
-from citysynth.parts_db import LibraryError
 from citysynth.parts_db.library import CACHE_ENV
 from citysynth.pipeline.commands import build, city, demo, diff, ingest, skeleton, solve
-from citysynth.skeletons import SkeletonError
-from citysynth.solver import ProblemError
+from citysynth.pipeline.errors import (
+    EXIT_BAD_INPUT,
+    EXIT_INFEASIBLE,
+    EXIT_INTERNAL,
+    EXIT_OK,
+    USER_ERRORS,
+)
 
-EXIT_OK, EXIT_INFEASIBLE, EXIT_BAD_INPUT = 0, 1, 2
+__all__ = ["EXIT_BAD_INPUT", "EXIT_INFEASIBLE", "EXIT_INTERNAL", "EXIT_OK", "build_parser",
+           "main"]
 
 
 def _version() -> str:
@@ -54,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
         os.environ[CACHE_ENV] = os.path.abspath(args.cache)
     try:
         return int(args.run(args))
-    except (ProblemError, LibraryError, SkeletonError, ExportError) as exc:
+    except USER_ERRORS as exc:
         print(f"citysynth {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:

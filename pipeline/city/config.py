@@ -39,20 +39,23 @@ from __future__ import annotations
 
 import math
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, get_args
 
 from shapely.geometry import Polygon
 
-from citysynth.skeletons.errors import SkeletonError
+from citysynth.pipeline.errors import ConfigError
 from citysynth.skeletons.streets import Setbacks
 
-PICKS = ("best", "vary")
+Pick = Literal["best", "vary"]   # which of a block's k layouts it keeps
+PICKS: tuple[Pick, ...] = get_args(Pick)
 
+_Err = Callable[[str, str], ConfigError]   # (key, message) -> the error naming the file
 
-class ConfigError(SkeletonError):
-    """A bad city.toml (exit code 2, like any bad input)."""
+__all__ = ["PICKS", "BuildSettings", "CityConfig", "ConfigError", "Pick", "Zone",
+           "load_config", "parse_config"]
 
 
 @dataclass(frozen=True)
@@ -62,7 +65,7 @@ class BuildSettings:
     library: str | None = None
     style: str | None = None
     k: int = 3
-    pick: str = "vary"
+    pick: Pick = "vary"
     per_side: dict[str, tuple[float, float]] = field(default_factory=dict)
     per_block: dict[str, tuple[float, float]] = field(default_factory=dict)
 
@@ -90,9 +93,6 @@ class CityConfig:
     zones: tuple[Zone, ...] = ()
     path: Path | None = None
 
-    def zone_polygons(self) -> list[tuple[Zone, Polygon]]:
-        return [(z, Polygon(z.polygon)) for z in self.zones if z.polygon]
-
 
 _SETTINGS = {"library", "style", "k", "pick", "per_side", "per_block"}
 _TOP = _SETTINGS | {"seed", "stretch", "corner_tolerance", "mitre_cost", "min_edge",
@@ -116,6 +116,9 @@ def load_config(path: str | Path | None) -> CityConfig:
 
 
 def parse_config(data: dict, path: Path | None = None) -> CityConfig:
+    """A validated :class:`CityConfig` from parsed TOML; the first bad key raises a
+    :class:`ConfigError` naming it (``path`` names the file and anchors relative library
+    folders)."""
     src = str(path) if path else "city.toml"
 
     def err(key: str, msg: str) -> ConfigError:
@@ -124,49 +127,9 @@ def parse_config(data: dict, path: Path | None = None) -> CityConfig:
     _known(data, _TOP, "", err)
     base = path.parent if path else Path(".")
     settings = _settings(data, BuildSettings(), "", base, err)
-    sb = data.get("setback", {})
-    if not isinstance(sb, dict):
-        raise err("setback", "must be a table")
-    _known(sb, _SETBACK, "setback.", err)
-    table = sb.get("highway", {})
-    if not isinstance(table, dict):
-        raise err("setback.highway", "must be a table like { primary = 11.0 }")
-    setbacks = Setbacks(
-        _pos(sb, "default", 6.0, "setback.", err), _pos(sb, "sidewalk", 2.5, "setback.", err,
-                                                        zero=True),
-        _pos(sb, "lane_width", 3.25, "setback.", err),
-        tuple(sorted((str(c), _pos(table, c, 0, "setback.highway.", err)) for c in table)))
-    zones = []
-    raw = data.get("zone", [])
-    if not isinstance(raw, list):
-        raise err("zone", "must be an array of tables ([[zone]])")
-    for i, z in enumerate(raw):
-        where = f"zone[{i}]."
-        if not isinstance(z, dict):
-            raise err(f"zone[{i}]", "must be a table")
-        _known(z, _ZONE, where, err)
-        name = str(z.get("name", f"zone {i}"))
-        poly = z.get("polygon")
-        hw = z.get("highway", [])
-        if poly is None and not hw:
-            raise err(f"zone[{i}]", 'needs a polygon = [[lon, lat], ...] or highway = [...]')
-        if poly is not None:
-            if (not isinstance(poly, list) or len(poly) < 3 or not all(
-                    isinstance(q, list) and len(q) == 2 and all(_isnum(c) for c in q)
-                    for q in poly)):
-                raise err(where + "polygon", "must be a list of at least 3 [lon, lat] pairs")
-            if not Polygon(poly).is_valid:
-                raise err(where + "polygon", "crosses itself")
-            poly = tuple((float(a), float(b)) for a, b in poly)
-        if isinstance(hw, str):
-            hw = [hw]
-        if not isinstance(hw, list) or not all(isinstance(h, str) for h in hw):
-            raise err(where + "highway", 'must be a list of highway classes, e.g. ["primary"]')
-        zones.append(Zone(name, _settings(z, settings, where, base, err), poly, tuple(hw)))
-    origin = data.get("origin")
-    if origin is not None and (not isinstance(origin, list) or len(origin) != 2
-                               or not all(_isnum(c) for c in origin)):
-        raise err("origin", "must be [lon, lat]")
+    setbacks = _setbacks(data, err)
+    zones = _zones(data, settings, base, err)
+    origin = _origin(data, err)
     seed = data.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int):
         raise err("seed", f"must be an integer, got {seed!r}")
@@ -174,27 +137,88 @@ def parse_config(data: dict, path: Path | None = None) -> CityConfig:
     if stretch > 0.05:
         raise err("stretch", f"{stretch:g} would stretch parts by more than 5 %; use at "
                              "most 0.05")
-    return CityConfig(settings, seed, stretch, _pos(data, "corner_tolerance", 25.0, "", err,
-                                                    zero=True),
+    return CityConfig(settings, seed, stretch,
+                      _pos(data, "corner_tolerance", 25.0, "", err, zero=True),
                       _pos(data, "mitre_cost", 10.0, "", err, zero=True),
                       _pos(data, "min_edge", 4.0, "", err, zero=True),
                       _pos(data, "min_width", 8.0, "", err, zero=True),
                       _pos(data, "min_area", 50.0, "", err, zero=True),
-                      tuple(float(c) for c in origin) if origin else None, setbacks,
-                      tuple(zones), path)
+                      origin, setbacks, zones, path)
+
+
+def _setbacks(data: dict, err: _Err) -> Setbacks:
+    sb = data.get("setback", {})
+    if not isinstance(sb, dict):
+        raise err("setback", "must be a table")
+    _known(sb, _SETBACK, "setback.", err)
+    table = sb.get("highway", {})
+    if not isinstance(table, dict):
+        raise err("setback.highway", "must be a table like { primary = 11.0 }")
+    return Setbacks(
+        _pos(sb, "default", 6.0, "setback.", err),
+        _pos(sb, "sidewalk", 2.5, "setback.", err, zero=True),
+        _pos(sb, "lane_width", 3.25, "setback.", err),
+        tuple(sorted((str(c), _pos(table, c, 0, "setback.highway.", err)) for c in table)))
+
+
+def _origin(data: dict, err: _Err) -> tuple[float, float] | None:
+    origin = data.get("origin")
+    if origin is None:
+        return None
+    if not isinstance(origin, list) or len(origin) != 2 or not all(_isnum(c) for c in origin):
+        raise err("origin", "must be [lon, lat]")
+    return float(origin[0]), float(origin[1])
+
+
+def _zones(data: dict, settings: BuildSettings, base: Path, err: _Err) -> tuple[Zone, ...]:
+    raw = data.get("zone", [])
+    if not isinstance(raw, list):
+        raise err("zone", "must be an array of tables ([[zone]])")
+    return tuple(_zone(z, i, settings, base, err) for i, z in enumerate(raw))
+
+
+def _zone(z: Any, i: int, settings: BuildSettings, base: Path, err: _Err) -> Zone:
+    """``[[zone]]`` number ``i``: a polygon and/or street classes, and the settings it
+    overrides (inheriting the top level's)."""
+    where = f"zone[{i}]."
+    if not isinstance(z, dict):
+        raise err(f"zone[{i}]", "must be a table")
+    _known(z, _ZONE, where, err)
+    name = str(z.get("name", f"zone {i}"))
+    poly = z.get("polygon")
+    hw = z.get("highway", [])
+    if poly is None and not hw:
+        raise err(f"zone[{i}]", 'needs a polygon = [[lon, lat], ...] or highway = [...]')
+    polygon = None if poly is None else _polygon(poly, where, err)
+    if isinstance(hw, str):
+        hw = [hw]
+    if not isinstance(hw, list) or not all(isinstance(h, str) for h in hw):
+        raise err(where + "highway", 'must be a list of highway classes, e.g. ["primary"]')
+    return Zone(name, _settings(z, settings, where, base, err), polygon, tuple(hw))
+
+
+def _polygon(poly: Any, where: str, err: _Err) -> tuple[tuple[float, float], ...]:
+    if (not isinstance(poly, list) or len(poly) < 3 or not all(
+            isinstance(q, list) and len(q) == 2 and all(_isnum(c) for c in q)
+            for q in poly)):
+        raise err(where + "polygon", "must be a list of at least 3 [lon, lat] pairs")
+    if not Polygon(poly).is_valid:
+        raise err(where + "polygon", "crosses itself")
+    return tuple((float(a), float(b)) for a, b in poly)
 
 
 def _isnum(x: Any) -> bool:
     return isinstance(x, int | float) and not isinstance(x, bool) and math.isfinite(x)
 
 
-def _known(d: dict, allowed: set[str], prefix: str, err) -> None:
+def _known(d: dict, allowed: set[str], prefix: str, err: _Err) -> None:
     for k in d:
         if k not in allowed:
             raise err(prefix + k, f"unknown key (known: {', '.join(sorted(allowed))})")
 
 
-def _pos(d: dict, key: str, default, prefix: str, err, *, zero: bool = False) -> float:
+def _pos(d: dict, key: str, default: float, prefix: str, err: _Err, *,
+         zero: bool = False) -> float:
     v = d.get(key, default)
     if not _isnum(v) or v < 0 or (v == 0 and not zero):
         raise err(prefix + key, f"must be a {'non-negative' if zero else 'positive'} number, "
@@ -202,7 +226,7 @@ def _pos(d: dict, key: str, default, prefix: str, err, *, zero: bool = False) ->
     return float(v)
 
 
-def _intervals(d: Any, key: str, err) -> dict[str, tuple[float, float]]:
+def _intervals(d: Any, key: str, err: _Err) -> dict[str, tuple[float, float]]:
     if not isinstance(d, dict):
         raise err(key, 'must be a table like { doors = [1, 3] }')
     out = {}
@@ -214,7 +238,8 @@ def _intervals(d: Any, key: str, err) -> dict[str, tuple[float, float]]:
     return out
 
 
-def _settings(d: dict, inherit: BuildSettings, prefix: str, base: Path, err) -> BuildSettings:
+def _settings(d: dict, inherit: BuildSettings, prefix: str, base: Path,
+              err: _Err) -> BuildSettings:
     s = inherit
     if "library" in d:
         if not isinstance(d["library"], str):

@@ -6,7 +6,8 @@ import json
 import sys
 
 from citysynth.pipeline.commands.results_text import format_result
-from citysynth.solver import METHODS, Problem, ProblemError, solve
+from citysynth.pipeline.errors import UsageError
+from citysynth.solver import METHODS, Problem, solve
 from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.problem import load_json
 from citysynth.solver.structures import Structure, solve_structure
@@ -29,7 +30,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     if args.k is not None and args.k < 1:
-        raise ProblemError(f"--k must be a positive integer, got {args.k}")
+        raise UsageError(f"--k must be a positive integer, got {args.k}")
     data = load_json(args.file)
     if isinstance(data, dict) and "stages" in data:
         return run_structure(args, Structure.from_dict(data, args.file))

@@ -1,0 +1,43 @@
+"""The errors a user can cause, in one list, so a bug is never mistaken for one.
+
+Each stage raises its own class (a malformed problem, a bad library, bad GeoJSON, a
+layout that fails its checks, a wrong option or run setting), always with one message
+that says what is wrong, where, and how to fix it. :data:`USER_ERRORS` lists them all.
+The command line prints those as one line and exits 2; a city worker records them as
+the block's reason. Anything else (a ``KeyError``, an ``IndexError``, a ``ValueError``
+from numpy) is a bug in citysynth: it keeps its traceback and is reported as one.
+"""
+
+from __future__ import annotations
+
+from citysynth.export.errors import ExportError
+from citysynth.parts_db.errors import LibraryError
+from citysynth.skeletons.errors import SkeletonError
+from citysynth.solver.errors import ProblemError, TooLargeError
+
+EXIT_OK = 0
+EXIT_INFEASIBLE = 1     # an answer: the problem has no solution, with its reason
+EXIT_BAD_INPUT = 2      # a user error: one line on stderr, nothing written
+EXIT_INTERNAL = 3       # a bug: its traceback on stderr (the city run: in report.json)
+
+
+class UsageError(ValueError):
+    """A command-line option or a run setting is wrong (``--k 0``, ``--workers 0``, a
+    folder that is not a run); the message names the option and what it accepts."""
+
+
+class ConfigError(UsageError):
+    """A bad ``city.toml`` (the message names the key), or a city run asked for what it
+    cannot do (no inputs, no library, an unreachable Dask scheduler)."""
+
+
+USER_ERRORS: tuple[type[Exception], ...] = (
+    ProblemError, TooLargeError, LibraryError, SkeletonError, ExportError, UsageError,
+    ConfigError,
+)
+"""Every error class a user can cause; subclasses are listed too, so the list reads as
+the complete catalogue. ``except USER_ERRORS`` catches exactly the user's mistakes."""
+
+__all__ = ["EXIT_BAD_INPUT", "EXIT_INFEASIBLE", "EXIT_INTERNAL", "EXIT_OK", "USER_ERRORS",
+           "ConfigError", "ExportError", "LibraryError", "ProblemError", "SkeletonError",
+           "TooLargeError", "UsageError"]
