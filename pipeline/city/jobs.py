@@ -9,6 +9,9 @@ is unchanged. :func:`run_block` writes ``<id>.layout.json`` and ``<id>.usda`` (e
 atomically), then, last, the marker ``<id>.done.json``, which records the hash: a run
 killed at any moment leaves either a complete block or one that is redone. A bad or
 infeasible block is an answer (status "failed" with its reason), never an exception.
+Only the user's errors (:data:`~citysynth.pipeline.errors.USER_ERRORS`) are such
+answers: any other exception is a bug, recorded as status "error" with its traceback
+and no marker (a rerun tries the block again), and reported as a bug by the run.
 """
 
 from __future__ import annotations
@@ -19,13 +22,16 @@ import time
 import traceback
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import Literal, NotRequired, TypedDict, cast, get_args
 
 import shapely
 
 from citysynth.export.layout import SCHEMA, VERSION
 from citysynth.export.place import max_stretch
-from citysynth.parts_db import PartDB, load_library
+from citysynth.parts_db import LibraryError, PartDB, load_library
 from citysynth.parts_db.files import write_text
+from citysynth.pipeline.city.config import Pick
+from citysynth.pipeline.errors import USER_ERRORS
 from citysynth.pipeline.layouts import Built, solve_layouts, write_outputs
 from citysynth.pipeline.skeleton_to_structure import shortest_stage
 from citysynth.skeletons import Feature, Frame, skeletons_from_polygons
@@ -35,11 +41,45 @@ from citysynth.skeletons.from_geometry import STRAIGHT_TOL
 JOB_VERSION = 1          # bump when a block's output changes for the same inputs
 BLOCKS_DIR = "blocks"
 
+BlockKind = Literal["block", "footprint"]    # a street block, or a building footprint
+BlockStatus = Literal["built", "failed", "skipped", "error"]
+"""built: its files are written; failed: the user's input cannot be built (infeasible,
+or a user error), with the reason; skipped: nothing buildable is left of it; error: a
+bug in citysynth, with its traceback (the only status that writes no marker)."""
+STATUSES: tuple[BlockStatus, ...] = get_args(BlockStatus)
+
+
+class BlockRecord(TypedDict):
+    """What a block job answers, and (but for "error") what its marker records."""
+
+    id: str
+    kind: BlockKind
+    zone: str
+    input_hash: str
+    style: str
+    files: list[str]                       # relative to the run folder
+    status: NotRequired[BlockStatus]
+    reason: NotRequired[str]               # why it failed or was skipped
+    error: NotRequired[str]                # status "error": the exception, one line
+    traceback: NotRequired[str]            # status "error": where it was raised
+    timings: NotRequired[dict[str, float]]
+    rank: NotRequired[int]                 # the layout kept: #rank of the `of` solved
+    of: NotRequired[int]
+    cost: NotRequired[float]
+    instances: NotRequired[int]
+    stretch: NotRequired[float]
+    cached: NotRequired[bool]              # set by the run: read from an earlier run
+
+
+def frame_tuple(frame: Frame) -> tuple[str, float, float]:
+    """A frame as a job carries it (and its hash covers): CRS description and origin."""
+    return (frame.crs, frame.origin[0], frame.origin[1])
+
 
 @dataclass(frozen=True)
 class BlockJob:
     id: str
-    kind: str                                   # "block" or "footprint"
+    kind: BlockKind
     wkt: str                                    # outline in the city frame (metres)
     frame: tuple[str, float, float]             # CRS description and origin
     zone: str
@@ -47,7 +87,7 @@ class BlockJob:
     library_hash: str
     style: str
     k: int
-    pick: str                                   # "best" or "vary"
+    pick: Pick
     seed: int
     per_side: tuple[tuple[str, float, float], ...]
     per_block: tuple[tuple[str, float, float], ...]
@@ -65,13 +105,13 @@ class BlockJob:
         return replace(self, input_hash=hashlib.sha256(text.encode()).hexdigest())
 
 
-def block_id(kind: str, wkt: str) -> str:
+def block_id(kind: BlockKind, wkt: str) -> str:
     """A stable id from the outline: a block keeps its id (and its cached output) when
     streets elsewhere change."""
     return ("b" if kind == "block" else "f") + hashlib.sha256(wkt.encode()).hexdigest()[:10]
 
 
-def outline_wkt(poly) -> str:
+def outline_wkt(poly: shapely.Polygon) -> str:
     return shapely.to_wkt(shapely.normalize(poly), rounding_precision=3)
 
 
@@ -79,7 +119,7 @@ def marker_path(out: Path, job_id: str) -> Path:
     return out / BLOCKS_DIR / f"{job_id}.done.json"
 
 
-def cached(out: Path, job: BlockJob) -> dict | None:
+def cached(out: Path, job: BlockJob) -> BlockRecord | None:
     """The result recorded for ``job`` by an earlier run, if its inputs are unchanged
     and its files are all there."""
     try:
@@ -90,7 +130,7 @@ def cached(out: Path, job: BlockJob) -> dict | None:
         return None
     if not all((out / f).is_file() for f in rec.get("files", [])):
         return None
-    return rec
+    return cast(BlockRecord, rec)
 
 
 _LIBRARIES: dict[str, PartDB] = {}
@@ -110,52 +150,61 @@ def _pick_rank(job: BlockJob, count: int) -> int:
     return 1 + int.from_bytes(h[:8], "big") % count
 
 
-def run_block(job: BlockJob, out_dir: str) -> dict:
+def run_block(job: BlockJob, out_dir: str) -> BlockRecord:
     """Build one block and write its files; the record (also written as its marker)."""
     out = Path(out_dir)
     t0 = time.perf_counter()
-    rec = {"id": job.id, "kind": job.kind, "zone": job.zone, "input_hash": job.input_hash,
-           "style": job.style, "files": []}
+    rec: BlockRecord = {"id": job.id, "kind": job.kind, "zone": job.zone,
+                        "input_hash": job.input_hash, "style": job.style, "files": []}
     try:
-        db = _library(job.library)
-        if db.library_hash != job.library_hash:
-            raise RuntimeError(f"the library at {job.library} changed during the run")
-        poly = shapely.from_wkt(job.wkt)
-        clean = absorb_short_edges(poly, min_edge=job.min_edge,
-                                   min_stage=shortest_stage(db, job.style),
-                                   straight_tol=STRAIGHT_TOL)
-        if clean is None:
-            return _finish(out, rec, "skipped", t0, reason="nothing buildable is left once "
-                           "its sides too short for corners are absorbed")
-        frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
-        rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
-        built = solve_layouts(job.id, rings, db, job.style, job.k,
-                              angle_tol=job.corner_tolerance, mitre_cost=job.mitre_cost,
-                              stretch=job.stretch,
-                              per_side={n: (lo, hi) for n, lo, hi in job.per_side},
-                              per_structure={n: (lo, hi) for n, lo, hi in job.per_block})
-        rec["timings"] = dict(built.timings)
-        if built.status != "ok":
-            return _finish(out, rec, "failed", t0, reason=built.reason)
-        rank = _pick_rank(job, len(built.layouts))
-        lay = built.layouts[rank - 1]
-        t1 = time.perf_counter()
-        chosen = Built(job.id, "ok", [lay], timings={})
-        paths = write_outputs(chosen, db, out / BLOCKS_DIR, formats=("json", "usd"), k=1)
-        rec["timings"]["write_s"] = time.perf_counter() - t1
-        rec["files"] = [str(p.relative_to(out)) for p in paths]
-        rec.update(rank=rank, of=len(built.layouts), cost=lay.cost,
-                   instances=len(lay.instances), stretch=max_stretch(lay))
-        return _finish(out, rec, "built", t0)
-    except Exception as exc:  # one bad block never stops the city: it is reported
-        reason = str(exc) or type(exc).__name__
-        if not isinstance(exc, ValueError | RuntimeError):   # user errors are ValueErrors
-            reason = f"internal error: {type(exc).__name__}: {reason} " \
-                     f"({traceback.extract_tb(exc.__traceback__)[-1].name})"
-        return _finish(out, rec, "failed", t0, reason=reason)
+        return _build(job, out, rec, t0)
+    except USER_ERRORS as exc:   # one bad block never stops the city: it is reported
+        return _finish(out, rec, "failed", t0, reason=str(exc) or type(exc).__name__)
+    except Exception as exc:     # a bug: never a block's reason, and never cached
+        rec["status"] = "error"
+        rec["error"] = f"{type(exc).__name__}: {exc}"
+        rec["traceback"] = traceback.format_exc()
+        rec.setdefault("timings", {})["total_s"] = time.perf_counter() - t0
+        return rec
 
 
-def _finish(out: Path, rec: dict, status: str, t0: float, reason: str | None = None) -> dict:
+def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord:
+    """Clean the outline, solve its layouts, keep the picked one and write it."""
+    db = _library(job.library)
+    if db.library_hash != job.library_hash:
+        raise LibraryError(f"{job.library}: the library changed during the run; run again "
+                           "once it is as it should be")
+    poly = shapely.from_wkt(job.wkt)
+    clean = absorb_short_edges(poly, min_edge=job.min_edge,
+                               min_stage=shortest_stage(db, job.style),
+                               straight_tol=STRAIGHT_TOL)
+    if clean is None:
+        return _finish(out, rec, "skipped", t0, reason="nothing buildable is left once "
+                       "its sides too short for corners are absorbed")
+    frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
+    rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
+    built = solve_layouts(job.id, rings, db, job.style, job.k,
+                          angle_tol=job.corner_tolerance, mitre_cost=job.mitre_cost,
+                          stretch=job.stretch,
+                          per_side={n: (lo, hi) for n, lo, hi in job.per_side},
+                          per_structure={n: (lo, hi) for n, lo, hi in job.per_block})
+    rec["timings"] = dict(built.timings)
+    if built.status != "ok":
+        return _finish(out, rec, "failed", t0, reason=built.reason)
+    rank = _pick_rank(job, len(built.layouts))
+    lay = built.layouts[rank - 1]
+    t1 = time.perf_counter()
+    chosen = Built(job.id, "ok", [lay], timings={})
+    paths = write_outputs(chosen, db, out / BLOCKS_DIR, formats=("json", "usd"), k=1)
+    rec["timings"]["write_s"] = time.perf_counter() - t1
+    rec["files"] = [str(p.relative_to(out)) for p in paths]
+    rec["rank"], rec["of"], rec["cost"] = rank, len(built.layouts), lay.cost
+    rec["instances"], rec["stretch"] = len(lay.instances), max_stretch(lay)
+    return _finish(out, rec, "built", t0)
+
+
+def _finish(out: Path, rec: BlockRecord, status: BlockStatus, t0: float,
+            reason: str | None = None) -> BlockRecord:
     rec["status"] = status
     if reason:
         rec["reason"] = reason

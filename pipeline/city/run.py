@@ -1,6 +1,7 @@
-"""A city run: streets (and footprints) in, a folder of blocks, a city stage and a
-report out. Independent per-block jobs run in a local process pool, or on a Dask
-cluster; reruns skip blocks whose inputs are unchanged.
+"""A city run: streets (and footprints) in, a folder of blocks out. Independent
+per-block jobs (:mod:`.jobs`) run in a local process pool, or on a Dask cluster; reruns
+skip blocks whose inputs are unchanged. What the run leaves beside its blocks (manifest,
+report, city stage, overview) is written by :mod:`.outputs`.
 
 The run folder::
 
@@ -8,13 +9,12 @@ The run folder::
     OUT/city.png             overview: perspective beside a top view
     OUT/manifest.json        every block: input hash, status, files, cost (no timings,
                              so two runs of the same inputs write the same manifest)
-    OUT/report.json          counts, reasons, time per stage
+    OUT/report.json          counts, reasons, bugs met (with tracebacks), time per stage
     OUT/blocks/<id>.layout.json, <id>.usda, <id>.done.json, parts/<part>.usdc
 """
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 import time
@@ -22,30 +22,38 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Protocol, TextIO
 
 import shapely
 
 from citysynth.parts_db import PartDB, load_library
-from citysynth.parts_db.files import sweep_temporaries, write_text
-from citysynth.pipeline.city.config import BuildSettings, CityConfig, ConfigError
+from citysynth.parts_db.files import sweep_temporaries
+from citysynth.pipeline.city.config import BuildSettings, CityConfig
 from citysynth.pipeline.city.jobs import (
     BLOCKS_DIR,
+    STATUSES,
     BlockJob,
+    BlockKind,
+    BlockRecord,
     block_id,
     cached,
+    frame_tuple,
     outline_wkt,
     run_block,
 )
+from citysynth.pipeline.city.outputs import Report, write_summary
+from citysynth.pipeline.errors import ConfigError
 from citysynth.pipeline.layouts import check_style, default_style
-from citysynth.skeletons import Frame, parse_geojson, read_geojson
-from citysynth.skeletons.streets import Block, street_blocks
+from citysynth.skeletons import Feature, Frame, parse_geojson, read_geojson
+from citysynth.skeletons.geojson import LONLAT_FRAME
+from citysynth.skeletons.streets import Block, highway_classes, street_blocks
 
-MANIFEST = "manifest.json"
-REPORT = "report.json"
-RUN_SCHEMA = "citysynth.run"
 CONNECT_TIMEOUT = "10s"      # to reach a Dask scheduler
 ORIGIN_DIGITS = 2            # the frame's lon/lat origin, rounded: streets edited at the
                              # edge of a network do not move every block (and its id)
+
+Outline = tuple[BlockKind, shapely.Polygon, tuple[str, ...]]   # kind, polygon, highways
+Progress = Callable[[int, int, BlockRecord], None]   # (done, to do, the record just done)
 
 
 @dataclass
@@ -56,104 +64,128 @@ class CityInputs:
     timings: dict[str, float] = field(default_factory=dict)
 
 
-def _frame_tuple(frame: Frame) -> tuple[str, float, float]:
-    return (frame.crs, frame.origin[0], frame.origin[1])
-
-
 def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: CityConfig,
             library: str | Path | None, crs: str | None = None) -> CityInputs:
     """Read the inputs and turn every block and footprint into a job."""
     t0 = time.perf_counter()
-    if streets is None and footprints is None:
-        raise ConfigError("nothing to build: give --streets, --footprints or both")
-    origin = cfg.origin
-    libraries: dict[str, PartDB] = {}
-
-    def settings_db(s: BuildSettings) -> tuple[PartDB, str, str]:
-        path = s.library or (str(Path(library).resolve()) if library else None)
-        if path is None:
-            raise ConfigError("no part library: give --library or library = \"...\" in the "
-                              "config")
-        if path not in libraries:
-            libraries[path] = load_library(path)
-        db = libraries[path]
-        style = s.style or default_style(db)
-        check_style(db, style)
-        return db, path, style
-
-    outlines: list[tuple[str, object, tuple[str, ...]]] = []   # (kind, polygon, highways)
+    outlines: list[Outline] = []
     skipped: list[dict] = []
     frame = None
     if streets is not None:
-        feats, frame = read_geojson(streets, crs=crs, origin=origin,
-                                    origin_digits=ORIGIN_DIGITS)
-        blocks, reasons = street_blocks(feats, cfg.setbacks, min_area=cfg.min_area)
-        skipped += [{"kind": "block", "reason": r} for r in reasons]
-        for b in blocks:
-            width = 2 * b.polygon.area / b.polygon.length
-            if width < cfg.min_width:
-                c = b.polygon.centroid
-                skipped.append({"kind": "block", "reason": f"block at ({c.x:.1f}, {c.y:.1f}): "
-                                f"a sliver, {width:.1f} m wide on average (min_width "
-                                f"{cfg.min_width:g} m)"})
-                continue
-            outlines.append(("block", b.polygon, _highways(b, feats)))
+        frame = _street_outlines(streets, cfg, crs, outlines, skipped)
     if footprints is not None:
-        feats, fframe = read_geojson(footprints, crs=crs,
-                                     origin=frame.origin if frame else origin,
-                                     origin_digits=ORIGIN_DIGITS)
+        fframe = _footprint_outlines(footprints, cfg, crs,
+                                     frame.origin if frame else cfg.origin, outlines, skipped)
         frame = frame or fframe
-        for f in feats:
-            polys = shapely.get_parts(f.geometry)
-            for p in polys:
-                if p.geom_type != "Polygon":
-                    raise ConfigError(f"{footprints}: {f.name}: footprints must be Polygons, "
-                                      f"got {p.geom_type}")
-                if not p.is_valid or p.area < cfg.min_area:
-                    skipped.append({"kind": "footprint", "reason": f"{f.name}: "
-                                    + ("invalid outline" if not p.is_valid else
-                                       f"{p.area:.1f} m², below min_area {cfg.min_area:g}")})
-                    continue
-                outlines.append(("footprint", p, ()))
-    zones = _zone_polygons(cfg, frame, crs)
+    if frame is None:
+        raise ConfigError("nothing to build: give --streets, --footprints or both")
+    jobs = _jobs(outlines, cfg, _zone_polygons(cfg, frame, crs), frame, library)
+    return CityInputs(jobs, skipped, frame, {"inputs_s": time.perf_counter() - t0})
+
+
+def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
+                     outlines: list[Outline], skipped: list[dict]) -> Frame:
+    """The blocks between the streets (slivers skipped, with reasons); the frame."""
+    feats, frame = read_geojson(streets, crs=crs, origin=cfg.origin,
+                                origin_digits=ORIGIN_DIGITS, accept="lines")
+    skipped += [{"kind": "feature", "reason": r} for r in feats.skipped]
+    blocks, reasons = street_blocks(feats, cfg.setbacks, min_area=cfg.min_area)
+    skipped += [{"kind": "block", "reason": r} for r in reasons]
+    for b in blocks:
+        width = 2 * b.polygon.area / b.polygon.length
+        if width < cfg.min_width:
+            c = b.polygon.centroid
+            skipped.append({"kind": "block", "reason": f"block at ({c.x:.1f}, {c.y:.1f}): "
+                            f"a sliver, {width:.1f} m wide on average (min_width "
+                            f"{cfg.min_width:g} m)"})
+            continue
+        outlines.append(("block", b.polygon, _highways(b, feats)))
+    return frame
+
+
+def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None,
+                        origin: tuple[float, float] | None, outlines: list[Outline],
+                        skipped: list[dict]) -> Frame:
+    """Every footprint polygon (invalid or small ones skipped, with reasons); the
+    frame, at the streets' origin when there are streets."""
+    feats, frame = read_geojson(footprints, crs=crs, origin=origin,
+                                origin_digits=ORIGIN_DIGITS, accept="polygons")
+    skipped += [{"kind": "feature", "reason": r} for r in feats.skipped]
+    for f in feats:
+        for p in shapely.get_parts(f.geometry):
+            if p.geom_type != "Polygon":
+                raise ConfigError(f"{footprints}: {f.name}: footprints must be Polygons, "
+                                  f"got {p.geom_type}")
+            if not p.is_valid or p.area < cfg.min_area:
+                skipped.append({"kind": "footprint", "reason": f"{f.name}: "
+                                + ("invalid outline" if not p.is_valid else
+                                   f"{p.area:.1f} m², below min_area {cfg.min_area:g}")})
+                continue
+            outlines.append(("footprint", p, ()))
+    return frame
+
+
+def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry | None],
+          frame: Frame, library: str | Path | None) -> list[BlockJob]:
+    """One job per distinct outline (the same outline twice is one block), by id."""
+    libraries: dict[str, PartDB] = {}
     jobs: dict[str, BlockJob] = {}
     for kind, poly, highways in outlines:
         wkt = outline_wkt(poly)
         zone_name, s = _zone_for(cfg, zones, poly, highways)
-        db, path, style = settings_db(s)
-        job = BlockJob(block_id(kind, wkt), kind, wkt, _frame_tuple(frame), zone_name, path,
+        db, path, style = _library_style(s, library, libraries)
+        job = BlockJob(block_id(kind, wkt), kind, wkt, frame_tuple(frame), zone_name, path,
                        db.library_hash, style, s.k, s.pick, cfg.seed,
                        tuple((n, lo, hi) for n, (lo, hi) in sorted(s.per_side.items())),
                        tuple((n, lo, hi) for n, (lo, hi) in sorted(s.per_block.items())),
                        cfg.stretch, cfg.corner_tolerance, cfg.mitre_cost,
                        cfg.min_edge).with_hash()
-        jobs.setdefault(job.id, job)   # the same outline twice is one block
-    return CityInputs(sorted(jobs.values(), key=lambda j: j.id), skipped, frame,
-                      {"inputs_s": time.perf_counter() - t0})
+        jobs.setdefault(job.id, job)
+    return sorted(jobs.values(), key=lambda j: j.id)
 
 
-def _highways(b: Block, feats) -> tuple[str, ...]:
-    return tuple(sorted({str(feats[i].properties.get("highway")) for i in b.streets
-                         if feats[i].properties.get("highway")}))
+def _library_style(s: BuildSettings, library: str | Path | None,
+                   libraries: dict[str, PartDB]) -> tuple[PartDB, str, str]:
+    """The part database (each library loaded once, kept in ``libraries``), its folder
+    and the style a block with settings ``s`` is built in (checked to exist)."""
+    path = s.library or (str(Path(library).resolve()) if library else None)
+    if path is None:
+        raise ConfigError("no part library: give --library or library = \"...\" in the "
+                          "config")
+    if path not in libraries:
+        libraries[path] = load_library(path)
+    db = libraries[path]
+    style = s.style or default_style(db)
+    check_style(db, style)
+    return db, path, style
 
 
-def _zone_polygons(cfg: CityConfig, frame: Frame, crs: str | None) -> list:
+def _highways(b: Block, feats: list[Feature]) -> tuple[str, ...]:
+    """The classes of the streets around a block (a merged osmnx edge has several)."""
+    return tuple(sorted({c for i in b.streets for c in highway_classes(feats[i].properties)}))
+
+
+def _zone_polygons(cfg: CityConfig, frame: Frame,
+                   crs: str | None) -> list[shapely.Geometry | None]:
     """Each zone's polygon in the city frame (projected like the streets), or None for
     a zone chosen by street class; in the order of ``cfg.zones``."""
-    with_poly = [z for z in cfg.zones if z.polygon]
+    with_poly = [(z.name, z.polygon) for z in cfg.zones if z.polygon]
     if not with_poly:
         return [None] * len(cfg.zones)
     fc = {"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"name": z.name},
-         "geometry": {"type": "Polygon", "coordinates": [[*map(list, z.polygon),
-                                                          list(z.polygon[0])]]}}
-        for z in with_poly]}
-    feats, _ = parse_geojson(fc, "city.toml zones", crs, frame.origin)
+        {"type": "Feature", "properties": {"name": name},
+         "geometry": {"type": "Polygon", "coordinates": [[*map(list, poly), list(poly[0])]]}}
+        for name, poly in with_poly]}
+    feats, _ = parse_geojson(fc, "city.toml zones", None if frame.crs == LONLAT_FRAME else crs,
+                             frame.origin)   # lon/lat zones into a lon/lat-based frame
     geoms = iter(f.geometry for f in feats)
     return [next(geoms) if z.polygon else None for z in cfg.zones]
 
 
-def _zone_for(cfg: CityConfig, zones, poly, highways) -> tuple[str, BuildSettings]:
+def _zone_for(cfg: CityConfig, zones: list[shapely.Geometry | None], poly: shapely.Polygon,
+              highways: tuple[str, ...]) -> tuple[str, BuildSettings]:
+    """The first zone the block falls in (its representative point inside the zone's
+    polygon, or a street of the zone's classes along it), and its settings."""
     c = poly.representative_point()
     for z, geom in zip(cfg.zones, zones, strict=True):
         if (geom is not None and geom.contains(c)) or (set(z.highway) & set(highways)):
@@ -163,7 +195,13 @@ def _zone_for(cfg: CityConfig, zones, poly, highways) -> tuple[str, BuildSetting
 
 # --- executing ------------------------------------------------------------------------
 
-def _local(jobs: list[BlockJob], out: Path, workers: int) -> Iterator[dict]:
+class _Finished(Protocol):
+    """A finished future, local or Dask."""
+
+    def result(self) -> BlockRecord: ...
+
+
+def _local(jobs: list[BlockJob], out: Path, workers: int) -> Iterator[BlockRecord]:
     if workers <= 1:
         for job in jobs:
             yield run_block(job, str(out))
@@ -174,7 +212,7 @@ def _local(jobs: list[BlockJob], out: Path, workers: int) -> Iterator[dict]:
             yield _result(fut, futures[fut])
 
 
-def _dask(jobs: list[BlockJob], out: Path, address: str) -> Iterator[dict]:
+def _dask(jobs: list[BlockJob], out: Path, address: str) -> Iterator[BlockRecord]:
     try:
         from distributed import Client
         from distributed import as_completed as dask_completed
@@ -194,7 +232,7 @@ def _dask(jobs: list[BlockJob], out: Path, address: str) -> Iterator[dict]:
             yield _result(fut, by_key[fut.key])
 
 
-def _result(fut, job: BlockJob) -> dict:
+def _result(fut: _Finished, job: BlockJob) -> BlockRecord:
     """A finished job's record; a worker that died (killed, out of memory, lost from
     the cluster) fails its block instead of the run. No marker is written, so a rerun
     tries the block again."""
@@ -208,7 +246,7 @@ def _result(fut, job: BlockJob) -> dict:
 
 def run_city(inputs: CityInputs, out_dir: str | Path, *, workers: int = 1,
              scheduler: str | None = None,
-             progress: Callable[[int, int, dict], None] | None = None) -> dict:
+             progress: Progress | None = None) -> Report:
     """Run every job not already done; write the manifest and the report; the report."""
     out = Path(out_dir)
     (out / BLOCKS_DIR).mkdir(parents=True, exist_ok=True)
@@ -216,7 +254,7 @@ def run_city(inputs: CityInputs, out_dir: str | Path, *, workers: int = 1,
         sweep_temporaries(folder)
     _remove_stale(out, {j.id for j in inputs.jobs})
     t0 = time.perf_counter()
-    results: dict[str, dict] = {}
+    results: dict[str, BlockRecord] = {}
     todo = []
     for job in inputs.jobs:
         rec = cached(out, job)
@@ -224,14 +262,14 @@ def run_city(inputs: CityInputs, out_dir: str | Path, *, workers: int = 1,
             results[job.id] = {**rec, "cached": True}
         else:
             todo.append(job)
-    stream: Iterable[dict] = _dask(todo, out, scheduler) if scheduler else \
+    stream: Iterable[BlockRecord] = _dask(todo, out, scheduler) if scheduler else \
         _local(todo, out, workers)
     for done, rec in enumerate(stream, 1):
         results[rec["id"]] = rec
         if progress:
             progress(done, len(todo), rec)
     t_blocks = time.perf_counter() - t0
-    return _write_summary(inputs, results, out, t_blocks, workers, scheduler)
+    return write_summary(inputs, results, out, t_blocks, workers, scheduler)
 
 
 def _remove_stale(out: Path, keep: set[str]) -> None:
@@ -244,56 +282,19 @@ def _remove_stale(out: Path, keep: set[str]) -> None:
                 (out / BLOCKS_DIR / f"{bid}{suffix}").unlink(missing_ok=True)
 
 
-def _write_summary(inputs: CityInputs, results: dict[str, dict], out: Path,
-                   t_blocks: float, workers: int, scheduler: str | None) -> dict:
-    ids = sorted(results)
-    manifest = {"schema": RUN_SCHEMA, "version": 1, "frame": list(_frame_tuple(inputs.frame)),
-                "blocks": {i: {k: results[i].get(k) for k in
-                               ("kind", "zone", "input_hash", "status", "reason", "files",
-                                "cost", "rank", "of", "style")
-                               if results[i].get(k) is not None} for i in ids},
-                "skipped": inputs.skipped}
-    write_text(out / MANIFEST, json.dumps(manifest, sort_keys=True, indent=1) + "\n")
-    counts = {s: sum(1 for r in results.values() if r["status"] == s)
-              for s in ("built", "failed", "skipped")}
-    counts["skipped"] += len(inputs.skipped)
-    counts["cached"] = sum(1 for r in results.values() if r.get("cached"))
-    stage: dict[str, float] = dict(inputs.timings)
-    for r in results.values():
-        if r.get("cached"):
-            continue
-        for k, v in r.get("timings", {}).items():
-            if k != "total_s":
-                stage[k] = stage.get(k, 0.0) + v
-    stage["blocks_wall_s"] = t_blocks
-    attempted = counts["built"] + counts["failed"]
-    report = {"counts": counts, "blocks": len(inputs.jobs),
-              "built_share": counts["built"] / attempted if attempted else 1.0,
-              "failed": [{"id": i, "reason": results[i].get("reason")} for i in ids
-                         if results[i]["status"] == "failed"],
-              "skipped": inputs.skipped + [{"id": i, "reason": results[i].get("reason")}
-                                           for i in ids if results[i]["status"] == "skipped"],
-              "timings": stage, "workers": workers, "scheduler": scheduler,
-              "built": [i for i in ids if results[i]["status"] == "built"]}
-    write_report(out, report)
-    return report
-
-
-def write_report(out: Path, report: dict) -> None:
-    write_text(out / REPORT, json.dumps(report, sort_keys=True, indent=1) + "\n")
-
-
-def progress_printer(stream=sys.stderr) -> Callable[[int, int, dict], None]:
+def progress_printer(stream: TextIO = sys.stderr) -> Progress:
     """One updating line on a terminal; a line per tenth of the work otherwise."""
     tty = stream.isatty()
     t0 = time.perf_counter()
-    state = {"built": 0, "failed": 0, "skipped": 0, "step": 0}
+    state = dict.fromkeys((*STATUSES, "step"), 0)
 
-    def show(done: int, total: int, rec: dict) -> None:
+    def show(done: int, total: int, rec: BlockRecord) -> None:
         state[rec["status"]] += 1
         rate = done / max(time.perf_counter() - t0, 1e-9)
+        bugs = f", internal errors {state['error']}" if state["error"] else ""
         line = (f"[{done:>{len(str(total))}}/{total}] built {state['built']}, failed "
-                f"{state['failed']}, skipped {state['skipped']} ({rate:.1f} blocks/s)")
+                f"{state['failed']}, skipped {state['skipped']}{bugs} "
+                f"({rate:.1f} blocks/s)")
         if tty:
             print("\r" + line, end="\n" if done == total else "", file=stream, flush=True)
         elif total and (done * 10 // total > state["step"] or done == total):
@@ -307,58 +308,3 @@ def cpu_count() -> int:
         (os.cpu_count() or 1)
 
 
-# --- city-wide outputs ------------------------------------------------------------------
-
-def finish_city(inputs: CityInputs, report: dict, out: Path, *, overview: bool = True,
-                started: float | None = None) -> tuple[Path, Path | None]:
-    """After the blocks: ``city.usda`` and (with ``overview``) ``city.png``, their times
-    (and the total since ``started``) added to the report, which is written again."""
-    t = time.perf_counter()
-    city = write_city_stage(out, report)
-    report["timings"]["city_stage_s"] = time.perf_counter() - t
-    png = None
-    if overview:
-        t = time.perf_counter()
-        png = render_overview(out, inputs, report)
-        report["timings"]["overview_s"] = time.perf_counter() - t
-    if started is not None:
-        report["timings"]["total_s"] = time.perf_counter() - started
-    write_report(out, report)
-    return city, png
-
-
-def write_city_stage(out: Path, report: dict) -> Path:
-    """``city.usda``: every built block's layer, in the city's one frame."""
-    from citysynth.export.usd import write_city
-
-    return write_city(out / "city.usda", [(f"block_{b}", f"{BLOCKS_DIR}/{b}.usda")
-                                          for b in report["built"]])
-
-
-def render_overview(out: Path, inputs: CityInputs, report: dict, *,
-                    max_triangles: int = 3_000_000) -> Path | None:
-    """``city.png``: the built blocks from a perspective and from above; full geometry
-    when it fits ``max_triangles``, else each part as its bounding box."""
-    import trimesh
-
-    from citysynth.export.assemble import triangle_count, world_boxes, world_mesh
-    from citysynth.export.layout import Layout
-    from citysynth.export.preview import render_meshes
-
-    if not report["built"]:
-        return None
-    jobs = {j.id: j for j in inputs.jobs}
-    dbs: dict[str, PartDB] = {}
-    lays = []
-    for bid in report["built"]:
-        path = jobs[bid].library
-        dbs.setdefault(path, load_library(path))
-        d = json.loads((out / BLOCKS_DIR / f"{bid}.layout.json").read_text(encoding="utf-8"))
-        lays.append((Layout.from_dict(d), dbs[path]))
-    total = sum(triangle_count(lay, db) for lay, db in lays)
-    make = world_mesh if total <= max_triangles else world_boxes
-    mesh = trimesh.util.concatenate([make(lay, db) for lay, db in lays])
-    counts = report["counts"]
-    title = (f"{counts['built']} blocks built, {counts['failed']} failed, "
-             f"{counts['skipped']} skipped")
-    return render_meshes(mesh, out / "city.png", title=title, size=(1600, 800), zoom=1.7)

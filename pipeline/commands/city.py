@@ -2,17 +2,21 @@
 
 Exit codes: 0 when the run finished (blocks that failed are listed, with reasons, in
 the summary and in report.json: one bad block never stops the city); 2 on bad input
-(streets, footprints, config, library), with one line and nothing written.
+(streets, footprints, config, library), with one line and nothing written; 3 when a
+block met a bug in citysynth (the rest of the city is still built and written; each
+bug's traceback goes to stderr and report.json).
 """
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
 from citysynth.pipeline.city.config import load_config
-from citysynth.pipeline.city.run import cpu_count, finish_city, prepare, progress_printer, run_city
-from citysynth.skeletons.errors import SkeletonError
+from citysynth.pipeline.city.outputs import Report, finish_city
+from citysynth.pipeline.city.run import cpu_count, prepare, progress_printer, run_city
+from citysynth.pipeline.errors import EXIT_INTERNAL, EXIT_OK, UsageError
 
 
 def register(sub) -> None:
@@ -43,7 +47,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     if args.workers is not None and args.workers < 1:
-        raise SkeletonError(f"--workers must be at least 1, got {args.workers}")
+        raise UsageError(f"--workers must be at least 1, got {args.workers}")
     t0 = time.perf_counter()
     cfg = load_config(args.config)
     inputs = prepare(args.streets, args.footprints, cfg, args.library, args.crs)
@@ -60,14 +64,25 @@ def run(args) -> int:
                             started=t0)
     print(summary_table(report))
     print(f"wrote {city}" + (f", {png}" if png else "") + f", {Path(args.out) / 'report.json'}")
-    return 0
+    return report_bugs(report, "citysynth city")
 
 
-def summary_table(report: dict) -> str:
+def report_bugs(report: Report, who: str) -> int:
+    """Print every bug the blocks met, with its traceback, on stderr; the exit code
+    (:data:`EXIT_INTERNAL` when there was one)."""
+    for e in report["errors"]:
+        print(f"{who}: internal error in block {e['id']} (a bug in citysynth; please "
+              f"report it with this traceback):\n{e['traceback'].rstrip()}", file=sys.stderr)
+    return EXIT_INTERNAL if report["errors"] else EXIT_OK
+
+
+def summary_table(report: Report) -> str:
     c = report["counts"]
     lines = ["", f"{'blocks':<22}{'count':>8}", "-" * 30]
     for k in ("built", "failed", "skipped", "cached"):
         lines.append(f"{k:<22}{c[k]:>8}")
+    if c["error"]:
+        lines.append(f"{'internal errors':<22}{c['error']:>8}")
     lines.append(f"{'built / attempted':<22}{100 * report['built_share']:>7.1f}%")
     t = report["timings"]
     lines += ["", f"{'stage':<22}{'seconds':>8}", "-" * 30]
@@ -83,4 +98,6 @@ def summary_table(report: dict) -> str:
         lines.append(f"failed {f['id']}: {f['reason']}")
     if len(report["failed"]) > 20:
         lines.append(f"... and {len(report['failed']) - 20} more in report.json")
+    for e in report["errors"]:
+        lines.append(f"internal error {e['id']}: {e['error']} (traceback on stderr)")
     return "\n".join(lines)

@@ -23,7 +23,9 @@ from citysynth.export.errors import ExportError
 from citysynth.export.usd import validate
 from citysynth.parts_db import load_library
 from citysynth.pipeline.city.config import load_config
-from citysynth.pipeline.city.run import cpu_count, finish_city, prepare, progress_printer, run_city
+from citysynth.pipeline.city.outputs import finish_city
+from citysynth.pipeline.city.run import cpu_count, prepare, progress_printer, run_city
+from citysynth.pipeline.commands.city import report_bugs
 from citysynth.pipeline.commands.results_text import format_result
 from citysynth.pipeline.layouts import solve_layouts, summary_line, write_outputs
 from citysynth.skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
@@ -102,4 +104,4 @@ def run(args) -> int:
           f" and {png}")
     for e in errors:
         print(f"  {e}")
-    return 1 if errors else status
+    return report_bugs(report, "citysynth demo") or (1 if errors else status)

@@ -12,9 +12,10 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
-from citysynth.pipeline.city.run import MANIFEST, RUN_SCHEMA
-from citysynth.skeletons.errors import SkeletonError
+from citysynth.pipeline.city.outputs import MANIFEST, RUN_SCHEMA
+from citysynth.pipeline.errors import UsageError
 
 
 def register(sub) -> None:
@@ -33,12 +34,12 @@ def _manifest(run: Path) -> dict:
     try:
         m = json.loads((run / MANIFEST).read_text(encoding="utf-8"))
     except OSError:
-        raise SkeletonError(f"{run}: not a citysynth run folder (no {MANIFEST}); give the "
+        raise UsageError(f"{run}: not a citysynth run folder (no {MANIFEST}); give the "
                             "-o folder of citysynth city") from None
     except ValueError as exc:
-        raise SkeletonError(f"{run / MANIFEST}: unreadable ({exc})") from None
+        raise UsageError(f"{run / MANIFEST}: unreadable ({exc})") from None
     if m.get("schema") != RUN_SCHEMA:
-        raise SkeletonError(f"{run / MANIFEST}: not a {RUN_SCHEMA} manifest")
+        raise UsageError(f"{run / MANIFEST}: not a {RUN_SCHEMA} manifest")
     return m
 
 
@@ -50,26 +51,29 @@ def _layout(run: Path, rec: dict) -> tuple[bytes, dict] | None:
     return data, json.loads(data)
 
 
-def diff_runs(run_a: str | Path, run_b: str | Path) -> dict:
+def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
+    """Every difference between two run folders, block by block (see the module)."""
     a, b = Path(run_a), Path(run_b)
     ma, mb = _manifest(a), _manifest(b)
     ba, bb = ma["blocks"], mb["blocks"]
-    out = {"added": sorted(set(bb) - set(ba)), "removed": sorted(set(ba) - set(bb)),
-           "status": [], "changed": [], "same": 0}
+    added, removed = sorted(set(bb) - set(ba)), sorted(set(ba) - set(bb))
+    status: list[dict[str, Any]] = []
+    changed: list[dict[str, Any]] = []
+    same = 0
     for bid in sorted(set(ba) & set(bb)):
         ra, rb = ba[bid], bb[bid]
         if ra.get("status") != rb.get("status"):
-            out["status"].append({"id": bid, "a": ra.get("status"), "b": rb.get("status"),
-                                  "reason": rb.get("reason") or ra.get("reason")})
+            status.append({"id": bid, "a": ra.get("status"), "b": rb.get("status"),
+                           "reason": rb.get("reason") or ra.get("reason")
+                           or rb.get("error") or ra.get("error")})
             continue
         la, lb = _layout(a, ra), _layout(b, rb)
         if la is None or lb is None or la[0] == lb[0]:
-            out["same"] += 1
+            same += 1
             continue
-        out["changed"].append(_block_change(bid, la[1], lb[1]))
-    out["identical"] = not (out["added"] or out["removed"] or out["status"]
-                            or out["changed"])
-    return out
+        changed.append(_block_change(bid, la[1], lb[1]))
+    return {"added": added, "removed": removed, "status": status, "changed": changed,
+            "same": same, "identical": not (added or removed or status or changed)}
 
 
 def _block_change(bid: str, la: dict, lb: dict) -> dict:

@@ -1,0 +1,123 @@
+"""User errors against bugs: one list of user-error classes (USER_ERRORS), a usage error
+for options, and a city worker that reports a bug as a bug (status "error", traceback,
+no marker, exit 3) instead of as a block's reason."""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import json
+from pathlib import Path
+
+import pytest
+
+from citysynth.pipeline.city import jobs as city_jobs
+from citysynth.pipeline.city.config import CityConfig
+from citysynth.pipeline.city.run import prepare
+from citysynth.pipeline.cli import build_parser, main
+from citysynth.pipeline.errors import (
+    EXIT_BAD_INPUT,
+    EXIT_INTERNAL,
+    USER_ERRORS,
+    ConfigError,
+    UsageError,
+)
+from citysynth.skeletons import SkeletonError
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "examples"
+LIB = EXAMPLES / "library"
+DISTRICT = EXAMPLES / "city" / "district_streets.geojson"
+# exceptions used as signals inside citysynth, caught where they are raised' callers and
+# never reaching a user (each a deliberate exception to USER_ERRORS)
+SIGNALS = {("citysynth.solver.structures.stage_graphs", "NotExact")}
+
+
+def _error_classes() -> set[tuple[str, str]]:
+    """(module, name) of every class in citysynth's sources derived from an ...Error or
+    ...Exception (read from the source, so nothing is imported for it)."""
+    found = set()
+    for sub in ("solver", "parts_db", "skeletons", "export", "pipeline"):
+        folder = Path(importlib.import_module(f"citysynth.{sub}").__path__[0])
+        for f in sorted(folder.rglob("*.py")):
+            rel = f.relative_to(folder).with_suffix("")
+            parts = [p for p in rel.parts if p != "__init__"]
+            module = ".".join(["citysynth", sub, *parts])
+            for node in ast.walk(ast.parse(f.read_text(encoding="utf-8"))):
+                if isinstance(node, ast.ClassDef) and any(
+                        ast.unparse(b).endswith(("Error", "Exception")) for b in node.bases):
+                    found.add((module, node.name))
+    return found
+
+
+def test_every_error_class_of_citysynth_is_a_listed_user_error():
+    """A new error class missing from USER_ERRORS would reach the user as a traceback
+    (and a city worker would report it as a bug)."""
+    listed = {(c.__module__, c.__name__) for c in USER_ERRORS}
+    assert _error_classes() - SIGNALS == listed
+    assert all(issubclass(c, ValueError) for c in USER_ERRORS)
+    assert issubclass(ConfigError, UsageError)
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["solve", str(EXAMPLES / "facade_small.json"), "--k", "0"],
+     "--k must be a positive integer, got 0"),
+    (["city", "--streets", str(DISTRICT), "--workers", "0"], "--workers must be at least 1"),
+])
+def test_a_bad_option_exits_2_with_a_usage_message(capsys, argv, fragment):
+    assert main(argv) == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert fragment in err and f"citysynth {argv[0]}: error:" in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    args = build_parser().parse_args(argv)
+    with pytest.raises(UsageError):
+        args.run(args)
+
+
+@pytest.fixture(scope="module")
+def job():
+    return prepare(DISTRICT, None, CityConfig(), LIB).jobs[0]
+
+
+def _raises(exc: Exception):
+    def solve_layouts(*args, **kwargs):
+        raise exc
+    return solve_layouts
+
+
+def test_a_bug_in_a_block_is_not_a_user_error(job, tmp_path, monkeypatch):
+    monkeypatch.setattr(city_jobs, "solve_layouts", _raises(KeyError("stage 7")))
+    rec = city_jobs.run_block(job, str(tmp_path))
+    assert rec["status"] == "error" and "reason" not in rec
+    assert rec["error"] == "KeyError: 'stage 7'"
+    assert "Traceback" in rec["traceback"] and "in solve_layouts" in rec["traceback"]
+    # no marker: the next run builds the block again instead of reusing the bug
+    assert city_jobs.cached(tmp_path, job) is None
+    assert not city_jobs.marker_path(tmp_path, job.id).exists()
+
+
+def test_a_user_error_in_a_block_is_its_reason(job, tmp_path, monkeypatch):
+    monkeypatch.setattr(city_jobs, "solve_layouts",
+                        _raises(SkeletonError("two cycles; split the outline")))
+    rec = city_jobs.run_block(job, str(tmp_path))
+    assert rec["status"] == "failed" and rec["reason"] == "two cycles; split the outline"
+    assert "error" not in rec and "traceback" not in rec
+    assert city_jobs.cached(tmp_path, job) == rec      # an answer: kept for the rerun
+
+
+def test_a_city_run_reports_a_bug_with_its_traceback(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(city_jobs, "solve_layouts", _raises(KeyError("stage 7")))
+    out = tmp_path / "run"
+    code = main(["city", "--streets", str(DISTRICT), "--library", str(LIB), "-o", str(out),
+                 "--workers", "1", "--no-overview"])   # one worker: in this process
+    assert code == EXIT_INTERNAL
+    cap = capsys.readouterr()
+    assert "internal error in block" in cap.err and "KeyError: 'stage 7'" in cap.err
+    assert "Traceback" in cap.err
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["error"] == len(report["errors"]) > 0
+    assert report["failed"] == [] and report["built"] == []
+    assert all("KeyError" in e["traceback"] for e in report["errors"])
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert {b["status"] for b in manifest["blocks"].values()} == {"error"}
+    assert not list((out / "blocks").glob("*.done.json"))
