@@ -20,11 +20,24 @@ from __future__ import annotations
 
 import gc
 import heapq
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from typing import Any, TypeVar
+
+from citysynth.solver.structures.model import Structure
+
+X = TypeVar("X")
+Y = TypeVar("Y")
+Tag = TypeVar("Tag")
 
 Share = tuple[int, ...]
-StageLists = Callable[[int, str, str], dict[Share, list[tuple[float, object]]]]
+StageList = list[tuple[float, Any]]   # cost-sorted (cost, payload of the stage's provider)
+StageLists = Callable[[int, str, str], dict[Share, StageList]]
+# stage -> (element at its end, the stage list's payload, the payload below that end)
+Payload = dict[int, tuple[str, Any, "Payload"]]
+Completions = list[tuple[float, Payload]]
+# every share (encoded as one int) of a key point's completions, ascending
+Below = list[tuple[int, Completions]]
 
 
 @contextmanager
@@ -42,16 +55,21 @@ def paused_gc() -> Iterator[None]:
             gc.enable()
 
 
-def ksum(A: list, B: list, k: int) -> list:
+def ksum(A: Sequence[tuple[float, X]], B: Sequence[tuple[float, Y]], k: int
+         ) -> list[tuple[float, tuple[X, Y]]]:
     """The k smallest a + b over two cost-sorted lists of (cost, payload); payloads
-    pair up."""
+    pair up.
+
+    >>> ksum([(0.0, "a"), (2.0, "b")], [(1.0, "x"), (1.5, "y")], 3)
+    [(1.0, ('a', 'x')), (1.5, ('a', 'y')), (3.0, ('b', 'x'))]
+    """
     if not A or not B:
         return []
     if k == 1 or (len(A) == 1 and len(B) == 1):
         return [(A[0][0] + B[0][0], (A[0][1], B[0][1]))]
     heap = [(A[0][0] + B[0][0], 0, 0)]
     seen = {(0, 0)}
-    out = []
+    out: list[tuple[float, tuple[X, Y]]] = []
     while heap and len(out) < k:
         c, i, j = heapq.heappop(heap)
         out.append((c, (A[i][1], B[j][1])))
@@ -62,7 +80,9 @@ def ksum(A: list, B: list, k: int) -> list:
     return out
 
 
-def merge_sums(pairs: list, k: int) -> list:
+def merge_sums(pairs: Sequence[tuple[Sequence[tuple[float, X]], Sequence[tuple[float, Y]],
+                                     float, Tag]], k: int
+               ) -> list[tuple[float, tuple[Tag, X, Y]]]:
     """The k smallest a + (b + offset) over several pairs (A, B, offset, tag) of
     cost-sorted lists, as (cost, (tag, payload of a, payload of b)): one heap over
     all pairs, so only k sums are ever taken. Ties come out by pair, then by
@@ -71,7 +91,7 @@ def merge_sums(pairs: list, k: int) -> list:
             for t, (A, B, off, _tag) in enumerate(pairs) if A and B]
     heapq.heapify(heap)
     seen = {(t, 0, 0) for _c, t, _i, _j in heap}
-    out = []
+    out: list[tuple[float, tuple[Tag, X, Y]]] = []
     while heap and len(out) < k:
         c, t, i, j = heapq.heappop(heap)
         A, B, off, tag = pairs[t]
@@ -83,111 +103,145 @@ def merge_sums(pairs: list, k: int) -> list:
     return out
 
 
-def _best(lists: dict, k: int) -> dict:
+def _best(lists: dict[int, Completions], k: int) -> dict[int, Completions]:
     return {g: sorted(ls, key=lambda t: t[0])[:k] for g, ls in lists.items()}
 
 
-def root_of(st) -> int:
+def root_of(st: Structure) -> int:
     """Where the program starts: key point 0 of a cycle, else the one no stage enters."""
     if st.closed:
         return 0
     return next(v for v in range(len(st.keypoints)) if all(s.end != v for s in st.stages))
 
 
-def best_structures(st, k: int, ghi: list[int], glo: list[int], stage_lists: StageLists
-                    ) -> list[tuple[float, str, dict]]:
+def best_structures(st: Structure, k: int, ghi: list[int], glo: list[int],
+                    stage_lists: StageLists) -> list[tuple[float, str, Payload]]:
     """The k best (cost, element at the root, payload) of structure ``st``. A payload
     maps each stage to (element at its end, the stage list's payload, payload below
     that end). ``ghi``/``glo``: bounds of the structure-wide resources in quanta."""
-    n = len(st.keypoints)
-    out: list[list[int]] = [[] for _ in range(n)]
-    for i, s in enumerate(st.stages):
-        out[s.start].append(i)
-    # Shares travel as one int each: digit i (radix 2 * (ghi[i] + 1)) holds resource i,
-    # so adding two shares that fit never carries, and a sum fits when every digit is at
-    # most its bound. With one structure-wide resource (the usual case) a share is just
-    # its value; these loops run a million times on a block with a per-block interval.
-    radix = [2 * (h + 1) for h in ghi]
-    single = len(ghi) == 1
-    H = ghi[0] if single else 0
+    return _Program(st, k, ghi, stage_lists).run(glo)
 
-    def encode(g: Share) -> int:
+
+class _Program:
+    """The k-best dynamic program over the key points of one structure.
+
+    Shares travel as one int each: digit i (radix 2 * (ghi[i] + 1)) holds resource i,
+    so adding two shares that fit never carries, and a sum fits when every digit is at
+    most its bound. With one structure-wide resource (the usual case) a share is just
+    its value; the loops of :meth:`_stage_options` run a million times on a block with
+    a per-block interval."""
+
+    def __init__(self, st: Structure, k: int, ghi: list[int], stage_lists: StageLists):
+        self.st, self.k, self.ghi, self.stage_lists = st, k, ghi, stage_lists
+        self.out: list[list[int]] = [[] for _ in st.keypoints]
+        for i, s in enumerate(st.stages):
+            self.out[s.start].append(i)
+        self.radix = [2 * (h + 1) for h in ghi]
+        self.single = len(ghi) == 1
+        H = ghi[0] if self.single else 0
+        self.fits: Callable[[int], bool] = (
+            (lambda code: code <= H) if self.single
+            else self._fits_any if ghi else (lambda code: True))
+        self.closing = (next(i for i, s in enumerate(st.stages) if s.end == 0)
+                        if st.closed else -1)
+
+    def encode(self, g: Share) -> int:
         code = 0
-        for x, r in zip(reversed(g), reversed(radix), strict=True):
+        for x, r in zip(reversed(g), reversed(self.radix), strict=True):
             code = code * r + x
         return code
 
-    def decode(code: int) -> Share:
+    def decode(self, code: int) -> Share:
         digits = []
-        for r in radix:
+        for r in self.radix:
             code, x = divmod(code, r)
             digits.append(x)
         return tuple(digits)
 
-    def fits_any(code: int) -> bool:
-        return all(x <= h for x, h in zip(decode(code), ghi, strict=True))
+    def _fits_any(self, code: int) -> bool:
+        return all(x <= h for x, h in zip(self.decode(code), self.ghi, strict=True))
 
-    fits = (lambda code: code <= H) if single else fits_any if ghi else (lambda code: True)
-
-    def lists(s: int, e: str, f: str) -> list:
+    def lists(self, s: int, e: str, f: str) -> list[tuple[int, StageList]]:
         """stage_lists with shares encoded, in increasing order of share."""
-        return sorted((encode(g), ls) for g, ls in stage_lists(s, e, f).items())
+        return sorted((self.encode(g), ls) for g, ls in self.stage_lists(s, e, f).items())
 
-    root = root_of(st)
-    closing = next(i for i, s in enumerate(st.stages) if s.end == 0) if st.closed else -1
+    def run(self, glo: list[int]) -> list[tuple[float, str, Payload]]:
+        """The k best over every element at the root whose totals reach ``glo``."""
+        st = self.st
+        root = root_of(st)
+        results: list[tuple[float, str, Payload]] = []
+        memo: dict[tuple[int, str], Below] = {}
+        for e in st.keypoints[root]:
+            if st.closed:  # every completion depends on the element the cycle closes on
+                memo = {}
+            for code, ls in self.below(root, e, e if st.closed else None, memo):
+                if all(x >= lo for x, lo in zip(self.decode(code), glo, strict=True)):
+                    results.extend((c + st.costs[e], e, payload) for c, payload in ls)
+        results.sort(key=lambda t: t[0])
+        return results[:self.k]
 
-    def below(v: int, e: str, fixed_root: str | None, memo: dict) -> dict:
-        """share -> k best completions of everything after key point v holding e."""
+    def below(self, v: int, e: str, fixed_root: str | None,
+              memo: dict[tuple[int, str], Below]) -> Below:
+        """share -> k best completions of everything after key point v holding e;
+        ``fixed_root``: the element a cycle closes on (None for a tree)."""
         key = (v, e)
         if key in memo:
             return memo[key]
-        acc: dict | None = None
-        for s in out[v]:
-            w = st.stages[s].end
-            if s == closing:  # the cycle closes on key point 0's element, paid there
-                options = {g: [(c, (fixed_root, h, {})) for c, h in ls]
-                           for g, ls in lists(s, e, fixed_root)}
-            else:  # (the stage to f, the k best below f holding f) for every f
-                pairs: dict = {}
-                for f in st.keypoints[w]:
-                    sub = below(w, f, fixed_root, memo)
-                    if not sub:
-                        continue
-                    cf = st.costs[f]
-                    for g1, ls in lists(s, e, f):
-                        for g2, lw in sub:
-                            g = g1 + g2
-                            if fits(g):
-                                pairs.setdefault(g, []).append((ls, lw, cf, f))
-                            elif single:   # shares ascend: the rest are larger still
-                                break
-                options = {g: merge_sums(ps, k) for g, ps in pairs.items()}
+        acc: dict[int, Completions] | None = None
+        for s in self.out[v]:
+            if s == self.closing:  # the cycle closes on key point 0's element, paid there
+                assert fixed_root is not None  # a cycle's program always fixes it
+                options = self._closing_options(s, e, fixed_root)
+            else:
+                options = self._stage_options(s, e, fixed_root, memo)
             if acc is None:  # the first stage out of v: nothing to combine with yet
                 acc = {g: [(c, {s: p}) for c, p in ls] for g, ls in options.items()}
             else:
-                nxt: dict = {}
-                for g1, la in acc.items():
-                    for g2, lb in options.items():
-                        g = g1 + g2
-                        if fits(g):
-                            nxt.setdefault(g, []).extend(
-                                (c, {**pa, s: pb}) for c, (pa, pb) in ksum(la, lb, k))
-                acc = _best(nxt, k)
+                acc = self._join(acc, s, options)
             if not acc:
                 break
-        if acc is None:  # a leaf
-            acc = {0: [(0.0, {})]}
-        acc = sorted(acc.items()) if isinstance(acc, dict) else acc
-        memo[key] = acc
-        return acc
+        done = [(0, [(0.0, {})])] if acc is None else sorted(acc.items())  # None: a leaf
+        memo[key] = done
+        return done
 
-    results = []
-    memo: dict = {}
-    for e in st.keypoints[root]:
-        if st.closed:  # every completion depends on the element the cycle closes on
-            memo = {}
-        for code, ls in below(root, e, e if st.closed else None, memo):
-            if all(x >= lo for x, lo in zip(decode(code), glo, strict=True)):
-                results.extend((c + st.costs[e], e, payload) for c, payload in ls)
-    results.sort(key=lambda t: t[0])
-    return results[:k]
+    def _closing_options(self, s: int, e: str, root_element: str
+                         ) -> dict[int, list[tuple[float, tuple[str, Any, Payload]]]]:
+        """The closing stage of a cycle, from e back to the root's element."""
+        return {g: [(c, (root_element, h, {})) for c, h in ls]
+                for g, ls in self.lists(s, e, root_element)}
+
+    def _stage_options(self, s: int, e: str, fixed_root: str | None,
+                       memo: dict[tuple[int, str], Below]
+                       ) -> dict[int, list[tuple[float, tuple[str, Any, Payload]]]]:
+        """(the stage to f, the k best below f holding f) for every element f at the
+        end of stage s, k best per share."""
+        st, fits, single = self.st, self.fits, self.single
+        w = st.stages[s].end
+        pairs: dict[int, list[tuple[StageList, Completions, float, str]]] = {}
+        for f in st.keypoints[w]:
+            sub = self.below(w, f, fixed_root, memo)
+            if not sub:
+                continue
+            cf = st.costs[f]
+            for g1, ls in self.lists(s, e, f):
+                for g2, lw in sub:
+                    g = g1 + g2
+                    if fits(g):
+                        pairs.setdefault(g, []).append((ls, lw, cf, f))
+                    elif single:   # shares ascend: the rest are larger still
+                        break
+        return {g: merge_sums(ps, self.k) for g, ps in pairs.items()}
+
+    def _join(self, acc: dict[int, Completions], s: int,
+              options: dict[int, list[tuple[float, tuple[str, Any, Payload]]]]
+              ) -> dict[int, Completions]:
+        """The k best per share of the stages so far (``acc``) together with stage s."""
+        fits, k = self.fits, self.k
+        nxt: dict[int, Completions] = {}
+        for g1, la in acc.items():
+            for g2, lb in options.items():
+                g = g1 + g2
+                if fits(g):
+                    nxt.setdefault(g, []).extend(
+                        (c, {**pa, s: pb}) for c, (pa, pb) in ksum(la, lb, k))
+        return _best(nxt, k)

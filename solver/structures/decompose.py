@@ -14,24 +14,31 @@ Exact, and slow: a 40-corner block with three corner parts is 360 problems.
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 from citysynth.solver.problem import Element, Problem
 from citysynth.solver.solve import solve
+from citysynth.solver.structures.combine import Share, StageList
+from citysynth.solver.structures.model import Interval, Stage, Structure
+
+# the structure-wide resources on their integer grid: names, quanta, bounds in quanta
+Grid = tuple[list[str], list[float], list[int], list[int]]
 
 
-def start_leg(st, s: int) -> int:
-    """The leg of the element at stage s's start that counts toward s: the branch leg
-    (2) for a T's branch stage, else the out-leg (1). The end always uses leg 0."""
-    return 2 if st.branch.get(st.stages[s].start) == s else 1
+def start_leg(st: Structure, s: int) -> int:
+    """The leg of the element at stage s's start that counts toward s (see
+    :meth:`Structure.start_leg`)."""
+    return st.start_leg(s)
 
 
-def stage_fillers(st, i: int) -> tuple[str, ...]:
+def stage_fillers(st: Structure, i: int) -> tuple[str, ...]:
     """The elements that may fill stage i (never a key element)."""
     stage = st.stages[i]
     return tuple(x for x in (stage.elements or st.elements) if x not in st.legs)
 
 
-def share_allowed(stage, share: tuple[int, ...], gnames, gq) -> bool:
+def share_allowed(stage: Stage, share: tuple[int, ...], gnames: list[str], gq: list[float]
+                  ) -> bool:
     """A stage's share of a structure-wide resource it also constrains locally must lie
     inside its own interval too."""
     for r, x, q in zip(gnames, share, gq, strict=True):
@@ -46,11 +53,13 @@ class StageBuilder:
     """One-stage problems of a structure, built straight from validated data (no
     re-parsing: a 40-corner block needs hundreds of them)."""
 
-    def __init__(self, st, k: int):
+    def __init__(self, st: Structure, k: int):
         self.st, self.k = st, k
-        self._inner: dict[tuple[str, ...], tuple] = {}
+        self._inner: dict[tuple[str, ...], tuple[tuple[Element, ...],
+                                                 tuple[tuple[str, str, float], ...]]] = {}
 
-    def inner(self, fillers: tuple[str, ...]):
+    def inner(self, fillers: tuple[str, ...]
+              ) -> tuple[tuple[Element, ...], tuple[tuple[str, str, float], ...]]:
         """Filler elements and filler-to-filler transitions, shared by every stage with
         the same fillers."""
         if fillers not in self._inner:
@@ -61,7 +70,8 @@ class StageBuilder:
             self._inner[fillers] = (els, trans)
         return self._inner[fillers]
 
-    def problem(self, i: int, a: str, b: str, extra: dict | None = None) -> Problem:
+    def problem(self, i: int, a: str, b: str, extra: dict[str, Interval] | None = None
+                ) -> Problem:
         """Stage i between key elements a (at its start) and b (at its end); the keys'
         unary costs are counted at their key points, not here."""
         st = self.st
@@ -88,20 +98,20 @@ class PairProblems:
     """Stage lists (see :mod:`citysynth.solver.structures.combine`) solved pair by pair,
     on demand; a list's payload is the stage's (fillers, resource totals)."""
 
-    def __init__(self, st, k: int, grid, solve_kw: dict):
+    def __init__(self, st: Structure, k: int, grid: Grid, solve_kw: dict[str, Any]):
         self.st, self.k = st, k
         self.gnames, self.gq, _glo, ghi = grid
         self.shares = list(itertools.product(*[range(h + 1) for h in ghi]))
         self.solve_kw = solve_kw
         self.builder = StageBuilder(st, k)
-        self.cache: dict[tuple[int, str, str], dict] = {}
+        self.cache: dict[tuple[int, str, str], dict[Share, StageList]] = {}
         self.why: list[str] = []
 
-    def lists(self, i: int, a: str, b: str) -> dict:
+    def lists(self, i: int, a: str, b: str) -> dict[Share, StageList]:
         """share of the structure-wide resources -> k best fillings of stage i"""
         if (i, a, b) not in self.cache:
             gnames, gq = self.gnames, self.gq
-            lists = {}
+            lists: dict[Share, StageList] = {}
             for g in self.shares:
                 if not share_allowed(self.st.stages[i], g, gnames, gq):
                     continue
@@ -116,13 +126,15 @@ class PairProblems:
             self.cache[(i, a, b)] = lists
         return self.cache[(i, a, b)]
 
-    def filling(self, i: int, a: str, b: str, payload) -> tuple[list[str], dict]:
+    def filling(self, i: int, a: str, b: str, payload: Any
+                ) -> tuple[list[str], dict[str, float]]:
+        """The fillers of a stage list entry and the stage's totals (legs included)."""
         fill, res = payload
         return list(fill), res
 
     def reason(self) -> str | None:
         return self.why[0] if self.why else None
 
-    def stats(self) -> dict:
+    def stats(self) -> dict[str, Any]:
         return {"stages_by": f"pairs ({self.solve_kw.get('method', 'rcksp')})",
                 "stage_problems": len(self.shares) * len(self.cache)}

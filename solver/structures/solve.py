@@ -15,17 +15,21 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, get_args
 
 from citysynth.solver.errors import ProblemError
 from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.quantize import exact_divisor, is_multiple
-from citysynth.solver.structures.combine import best_structures, paused_gc, root_of
-from citysynth.solver.structures.decompose import PairProblems
+from citysynth.solver.structures.combine import Payload, best_structures, paused_gc, root_of
+from citysynth.solver.structures.decompose import Grid, PairProblems
 from citysynth.solver.structures.model import Structure
 from citysynth.solver.structures.stage_graphs import NotExact, StageGraphs
 
-METHODS = ("rcksp", "decompose", "fgs")
+# how stage lists are made: shared stage graphs, or one problem per stage and key pair
+# solved by the intermediate graph ("decompose", the reference) or by FGS
+StructureMethod = Literal["rcksp", "decompose", "fgs"]
+METHODS: tuple[StructureMethod, ...] = get_args(StructureMethod)
+Provider = StageGraphs | PairProblems
 
 
 @dataclass
@@ -38,15 +42,18 @@ class StructureSolution:
 
 @dataclass
 class StructureResult:
-    status: str
+    status: Literal["ok", "infeasible"]
     solutions: list[StructureSolution]
     stats: dict[str, Any] = field(default_factory=dict)
     reason: str | None = None
 
 
-def _global_grid(st: Structure) -> tuple[list[str], list[float], list[int], list[int]]:
+def _global_grid(st: Structure) -> Grid:
     """Structure-wide resources on an exact integer grid: names, quanta, bounds."""
-    names, qs, los, his = [], [], [], []
+    names: list[str] = []
+    qs: list[float] = []
+    los: list[int] = []
+    his: list[int] = []
     for r, (lo, hi) in st.global_constraints.items():
         values = [v[r] for v in st.elements.values()] + [leg[r] for legs in st.legs.values()
                                                          for leg in legs]
@@ -68,9 +75,9 @@ def _global_grid(st: Structure) -> tuple[list[str], list[float], list[int], list
     return names, qs, los, his
 
 
-def solve_structure(st: Structure, k: int | None = None, method: str = "rcksp", *,
-                    max_memory_mb: float = DEFAULT_MAX_MEMORY_MB, table: str = "auto",
-                    **solve_kw) -> StructureResult:
+def solve_structure(st: Structure, k: int | None = None, method: StructureMethod = "rcksp",
+                    *, max_memory_mb: float = DEFAULT_MAX_MEMORY_MB, table: str = "auto",
+                    **solve_kw: Any) -> StructureResult:
     """The k cheapest distinct fillings of a tree or cycle structure.
 
     ``method``: "rcksp" (default) fills stages from shared stage graphs; "decompose"
@@ -81,7 +88,35 @@ def solve_structure(st: Structure, k: int | None = None, method: str = "rcksp", 
     share of each structure-wide resource. Raises :class:`TooLargeError` when a stage
     graph would exceed ``max_memory_mb``. ``table`` forces the graphs' row tables
     ("dense" or "hash", as in :func:`citysynth.solver.solve`); ``solve_kw`` go to the one-stage
-    solves. ``stats["stages_by"]`` says which way the stages were filled."""
+    solves. ``stats["stages_by"]`` says which way the stages were filled.
+
+    A rectangle of 10 x 7 with a corner part at every corner, walls and windows
+    between (a window costs 0.25, two windows side by side 0.5 more, and no window
+    may follow a corner directly):
+
+    >>> from citysynth.solver.structures import Structure, solve_structure
+    >>> ids = ("wall", "window", "corner")
+    >>> st = Structure.from_dict({
+    ...     "resources": ["length"],
+    ...     "elements": [{"id": "wall", "resources": {"length": 2}},
+    ...                  {"id": "window", "resources": {"length": 3}, "cost": 0.25},
+    ...                  {"id": "corner", "legs": [{"length": 1}, {"length": 1}]}],
+    ...     "transitions": [[a, b, 0.5 if a == b == "window" else 0.0]
+    ...                     for a in ids for b in ids if (a, b) != ("corner", "window")],
+    ...     "keypoints": [{"elements": ["corner"]}] * 4,
+    ...     "stages": [{"constraints": {"length": [L, L]}} for L in (10, 7, 10, 7)],
+    ...     "closed": True})
+    >>> r = solve_structure(st, k=3)
+    >>> r.status, [s.cost for s in r.solutions]
+    ('ok', [0.5, 1.5, 1.5])
+    >>> best = r.solutions[0]
+    >>> for fill, totals in zip(best.stages, best.resources):
+    ...     print(fill, totals)
+    ['wall', 'wall', 'wall', 'wall'] {'length': 10.0}
+    ['wall', 'window'] {'length': 7.0}
+    ['wall', 'wall', 'wall', 'wall'] {'length': 10.0}
+    ['wall', 'window'] {'length': 7.0}
+    """
     if method not in METHODS:
         raise ProblemError(f"unknown structure method {method!r}; choose one of "
                            f"{', '.join(METHODS)}")
@@ -91,33 +126,10 @@ def solve_structure(st: Structure, k: int | None = None, method: str = "rcksp", 
     t0 = time.perf_counter()
     grid = _global_grid(st)
     gnames, _gq, glo, ghi = grid
-    provider: StageGraphs | PairProblems | None = None
     with paused_gc():
-        if method == "rcksp":
-            try:
-                provider = StageGraphs(st, k, grid, max_memory_mb, table)
-            except NotExact:
-                provider = None
-        if provider is None:
-            provider = PairProblems(st, k, grid, {
-                "method": "fgs" if method == "fgs" else "rcksp",
-                "max_memory_mb": max_memory_mb, "table": table, **solve_kw})
+        provider = _provider(st, k, method, grid, max_memory_mb, table, solve_kw)
         results = best_structures(st, k, ghi, glo, provider.lists)
-    sols = []
-    for cost, e, payload in results:
-        keys: list[str | None] = [None] * len(st.keypoints)
-        fills: list[list[str]] = [[] for _ in st.stages]
-        totals: list[dict] = [{} for _ in st.stages]
-        keys[root_of(st)] = e
-        todo = [payload]
-        while todo:  # parents first: a stage's start key is known before the stage
-            p = todo.pop()
-            for s, (f, h, sub) in p.items():
-                stage = st.stages[s]
-                keys[stage.end] = f
-                fills[s], totals[s] = provider.filling(s, keys[stage.start], f, h)
-                todo.append(sub)
-        sols.append(StructureSolution(keys, fills, cost, totals))
+    sols = [_solution(st, provider, cost, e, payload) for cost, e, payload in results]
     stats = {"method": method, **provider.stats(), "solve_s": time.perf_counter() - t0}
     if not sols:
         why = provider.reason()
@@ -128,3 +140,35 @@ def solve_structure(st: Structure, k: int | None = None, method: str = "rcksp", 
                                f"constraints{wide}{detail}")
     return StructureResult("ok", sols, stats)
 
+
+
+def _provider(st: Structure, k: int, method: StructureMethod, grid: Grid,
+              max_memory_mb: float, table: str, solve_kw: dict[str, Any]) -> Provider:
+    """Where the stage lists come from: shared stage graphs for rcksp (unless a
+    rounding quantum needs the one-stage solves), else one problem per stage and pair."""
+    if method == "rcksp":
+        try:
+            return StageGraphs(st, k, grid, max_memory_mb, table)
+        except NotExact:
+            pass
+    return PairProblems(st, k, grid, {
+        "method": "fgs" if method == "fgs" else "rcksp",
+        "max_memory_mb": max_memory_mb, "table": table, **solve_kw})
+
+
+def _solution(st: Structure, provider: Provider, cost: float, root_element: str,
+              payload: Payload) -> StructureSolution:
+    """A combined payload read back into key elements, fillers and stage totals."""
+    keys = {root_of(st): root_element}
+    fills: list[list[str]] = [[] for _ in st.stages]
+    totals: list[dict[str, float]] = [{} for _ in st.stages]
+    todo = [payload]
+    while todo:  # parents first: a stage's start key is known before the stage
+        p = todo.pop()
+        for s, (f, h, sub) in p.items():
+            stage = st.stages[s]
+            keys[stage.end] = f
+            fills[s], totals[s] = provider.filling(s, keys[stage.start], f, h)
+            todo.append(sub)
+    return StructureSolution([keys[v] for v in range(len(st.keypoints))], fills, cost,
+                             totals)

@@ -24,7 +24,9 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -33,13 +35,23 @@ from citysynth.solver.estimate import DENSE_TABLE_MAX_BYTES, row_bytes
 from citysynth.solver.graph import STATUS_OK, _grow_graph
 from citysynth.solver.quantize import bounds_in_quanta, exact_divisor, is_multiple
 from citysynth.solver.solve import solve
+from citysynth.solver.structures.combine import Share, StageList
 from citysynth.solver.structures.decompose import (
+    Grid,
     StageBuilder,
     share_allowed,
     stage_fillers,
     start_leg,
 )
+from citysynth.solver.structures.model import Structure
 from citysynth.solver.structures.stage_kbest import StageGraph, _stage_kbest
+
+# (stage, end element, share) of each query, and their boxes and weights as arrays
+Queries = tuple[list[tuple[int, str, Share]], np.ndarray, np.ndarray, np.ndarray]
+
+
+def _empty() -> np.ndarray:
+    return np.zeros(0, dtype=np.int64)
 
 
 class NotExact(Exception):
@@ -53,13 +65,17 @@ class _Group:
     fillers: tuple[str, ...]
     dims: tuple[str, ...]      # constrained resources, stage-local and structure-wide
     stages: list[int]
-    r: np.ndarray | None = None     # int64 [fillers, dims] consumption in quanta
-    cap: np.ndarray | None = None   # state box (start leg and fillers so far)
-    max_len: int = 0                # most fillers in one stage
-    W: np.ndarray | None = None     # weights over [start, fillers...], column 0 empty
+    # set by StageGraphs._plan: consumption of each filler in quanta (int64 [fillers,
+    # dims]), the state box (start leg and fillers so far), the most fillers in one
+    # stage, the weights over [start, fillers...] (column 0 empty)
+    r: np.ndarray = field(default_factory=_empty)
+    cap: np.ndarray = field(default_factory=_empty)
+    max_len: int = 0
+    W: np.ndarray = field(default_factory=_empty)
 
 
-def _quanta(st, names: set[str], gnames, gq) -> dict[str, float]:
+def _quanta(st: Structure, names: set[str], gnames: list[str], gq: list[float]
+            ) -> dict[str, float]:
     """One exact quantum per tracked resource, for the whole structure (structure-wide
     resources keep the grid of their shares)."""
     used = sorted({x for i in range(len(st.stages)) for x in stage_fillers(st, i)})
@@ -100,7 +116,8 @@ class StageGraphs:
     """Every stage list of a structure, computed up front from shared graphs; a list's
     payload is (graph index, path index)."""
 
-    def __init__(self, st, k: int, grid, max_memory_mb: float, table: str = "auto"):
+    def __init__(self, st: Structure, k: int, grid: Grid, max_memory_mb: float,
+                 table: str = "auto"):
         if table not in ("auto", "dense", "hash"):
             raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
         self.st, self.k, self.table = st, k, table
@@ -110,7 +127,7 @@ class StageGraphs:
         tracked = {r for s in st.stages for r in s.constraints} | set(gnames)
         self.q = _quanta(st, tracked, gnames, gq)
         self.budget = int(max_memory_mb * 2**20)
-        self._lists: dict[tuple[int, str, str], dict] = {}
+        self._lists: dict[tuple[int, str, str], dict[Share, StageList]] = {}
         self._paths: list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = []
         self.counts = {"stage_graphs": 0, "stage_queries": 0, "graph_rows": 0}
         groups = self._groups()
@@ -122,18 +139,19 @@ class StageGraphs:
                 self._solve(grp, a, leg)
 
     # ---- layout -----------------------------------------------------------------
-    def _ints(self, values: dict[str, float], dims) -> np.ndarray:
+    def _ints(self, values: dict[str, float], dims: Sequence[str]) -> np.ndarray:
         """Values in quanta (exact: every value is a multiple of its quantum)."""
         return np.array([round(values[r] / self.q[r]) for r in dims], dtype=np.int64)
 
-    def _bounds(self, i: int, dims) -> tuple[np.ndarray, np.ndarray]:
+    def _bounds(self, i: int, dims: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
         """Stage i's own intervals in quanta; a structure-wide resource it does not
         constrain itself lies in [0, its structure-wide maximum]."""
         stage = self.st.stages[i]
         lo, hi = [], []
         for r in dims:
-            a, b = (bounds_in_quanta(*stage.constraints[r], self.q[r])
-                    if r in stage.constraints else (0, 1 << 62))
+            a, b = 0, 1 << 62
+            if r in stage.constraints:
+                a, b = bounds_in_quanta(*stage.constraints[r], q=self.q[r])
             if r in self.gnames:
                 b = min(b, self.ghi[self.gnames.index(r)])
             lo.append(a)
@@ -142,7 +160,7 @@ class StageGraphs:
 
     def _groups(self) -> list[_Group]:
         st = self.st
-        groups: dict[tuple, _Group] = {}
+        groups: dict[tuple[tuple[str, ...], tuple[str, ...]], _Group] = {}
         for i, stage in enumerate(st.stages):
             dims = tuple(r for r in st.resources
                          if r in stage.constraints or r in self.gnames)
@@ -206,7 +224,7 @@ class StageGraphs:
         return [i for i in grp.stages
                 if start_leg(st, i) == leg and a in st.keypoints[st.stages[i].start]]
 
-    def _queries(self, grp: _Group, a: str, leg: int):
+    def _queries(self, grp: _Group, a: str, leg: int) -> Queries:
         """The (stage, end element, share) queries on the graph of (a, leg): their
         boxes of admissible states before the end key's leg, and the weights of the
         edges into the end key (from the start itself, then from each filler)."""
@@ -214,7 +232,8 @@ class StageGraphs:
         first = st.branch_transitions if leg == 2 else st.transitions
         wide = [grp.dims.index(r) for r in self.gnames]
         cap = grp.cap.tolist()
-        meta, lo_rows, hi_rows, w_rows = [], [], [], []
+        meta: list[tuple[int, str, Share]] = []
+        lo_rows, hi_rows, w_rows = [], [], []
         for i in self._stages_from(grp, a, leg):  # plain lists: a few values each
             stage = st.stages[i]
             lo, hi = (x.tolist() for x in self._bounds(i, grp.dims))
@@ -241,7 +260,8 @@ class StageGraphs:
                 np.array(hi_rows, dtype=np.int64).reshape(-1, R),
                 np.array(w_rows, dtype=np.float64).reshape(-1, len(grp.fillers) + 1))
 
-    def _graph(self, grp: _Group, a: str, leg: int, queries) -> tuple[StageGraph, int]:
+    def _graph(self, grp: _Group, a: str, leg: int, queries: Queries
+               ) -> tuple[StageGraph, int]:
         """Grow the graph of start element a on leg ``leg`` (forward only) and wrap it
         with its queries for the kernel; returns it and its row count."""
         st = self.st
@@ -295,11 +315,12 @@ class StageGraphs:
         self.counts["stage_queries"] += len(meta)
         self.counts["graph_rows"] += rows
 
-    # ---- the provider interface (see citysynth.solver.structures.combine) ------------------------
-    def lists(self, i: int, a: str, b: str) -> dict:
+    # ---- the provider interface (see citysynth.solver.structures.combine) --------
+    def lists(self, i: int, a: str, b: str) -> dict[Share, StageList]:
         return self._lists.get((i, a, b), {})
 
-    def filling(self, i: int, a: str, b: str, payload) -> tuple[list[str], dict]:
+    def filling(self, i: int, a: str, b: str, payload: tuple[int, int]
+                ) -> tuple[list[str], dict[str, float]]:
         """The fillers of a stage list entry and the stage's totals in original units
         (legs included), summed exactly as one-stage solutions are."""
         gid, p = payload
@@ -311,7 +332,7 @@ class StageGraphs:
                                         + [st.elements[x][r] for x in ids]), 9)
                      for r in st.resources}
 
-    def stats(self) -> dict:
+    def stats(self) -> dict[str, Any]:
         return {"stages_by": "graphs", **self.counts}
 
     def reason(self) -> str | None:

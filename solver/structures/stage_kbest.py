@@ -123,7 +123,8 @@ def _stage_choices(v, G, c, out_f, out_i):
 
 @overload(graph_choices)
 def _graph_choices_stage(v, G, c, out_f, out_i):
-    if isinstance(G, types.BaseNamedTuple) and G.instance_class is StageGraph:
+    # numba's NamedTuple types carry the Python class (not in its annotations)
+    if isinstance(G, types.BaseNamedTuple) and getattr(G, "instance_class", None) is StageGraph:
         return lambda v, G, c, out_f, out_i: _stage_choices(v, G, c, out_f, out_i)
     return None
 
