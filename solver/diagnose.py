@@ -16,8 +16,6 @@ from citysynth.solver.compiled import Compiled, with_bounds
 from citysynth.solver.estimate import dense_rows
 from citysynth.solver.graph import grow
 
-_UNSET = object()
-
 
 def _fmt(x: float) -> str:
     return f"{round(x, 9):g}"
@@ -56,7 +54,10 @@ def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
     asked = [tuple(q.asked) for q in cp.quant]
     details: list[dict] = []
     blocking: list[str] = []
-    no_minimums = _UNSET  # grown on first need, shared by every blocking resource
+    # totals with every lower bound dropped: grown on first need, shared by every
+    # blocking resource
+    no_minimums: np.ndarray | None = None
+    grown = False
     any_reach = False
     for i, name in enumerate(cp.bounded):
         lo = cp.lo.copy()
@@ -80,19 +81,20 @@ def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
             continue
         below = vals[vals < cp.lo[i]]
         above = vals[vals > cp.hi[i]]
-        d = {"constraint": name, "asked": [asked[i][0], asked[i][1]],
-             "nearest_below": round(float(below.max()) * q, 9) if len(below) else None,
-             "nearest_above": round(float(above.min()) * q, 9) if len(above) else None}
-        details.append(d)
+        nearest_below = round(float(below.max()) * q, 9) if len(below) else None
+        nearest_above = round(float(above.min()) * q, 9) if len(above) else None
+        details.append({"constraint": name, "asked": [asked[i][0], asked[i][1]],
+                        "nearest_below": nearest_below, "nearest_above": nearest_above})
         near = []
-        if d["nearest_below"] is not None:
-            near.append(f"{_fmt(d['nearest_below'])} (below)")
-        if d["nearest_above"] is not None:
-            near.append(f"{_fmt(d['nearest_above'])} (above)")
+        if nearest_below is not None:
+            near.append(f"{_fmt(nearest_below)} (below)")
+        if nearest_above is not None:
+            near.append(f"{_fmt(nearest_above)} (above)")
         why = "cannot be met together with the other constraints"
-        if no_minimums is _UNSET:
+        if not grown:
             no_minimums = _reachable_totals(
                 with_bounds(cp, np.zeros_like(cp.lo), cp.hi.copy()), max_rows)
+            grown = True
         if _alone_blocks(cp, i, no_minimums):
             why = "is out of reach even ignoring the other minimums"
         if cp.lo[i] > cp.hi[i]:

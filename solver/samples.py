@@ -10,6 +10,8 @@ the benchmark and ``examples/street_front.json`` agree.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 N_BUILDINGS = 74
@@ -47,8 +49,9 @@ def street_front(length_m: float, *, resources: int = 1, seed: int = 7, k: int =
 def fig1c_like() -> dict:
     """A cycle of four corners with a wing at key point 1 whose end has a T of its own
     (nested T junctions hanging off a cycle), as in the paper's Fig. 1(c)."""
-    fill = [{"id": f"m{L}", "resources": {"length": L}, "cost": 0.0} for L in (2, 3)]
-    keys = [
+    fill: list[dict[str, Any]] = [{"id": f"m{L}", "resources": {"length": L}, "cost": 0.0}
+                                  for L in (2, 3)]
+    keys: list[dict[str, Any]] = [
         {"id": "corner", "legs": [{"length": 1}, {"length": 1}]},
         {"id": "corner_alt", "legs": [{"length": 1}, {"length": 1}], "cost": 0.25},
         {"id": "t_plain", "legs": [{"length": 1}, {"length": 1}, {"length": 1}]},
