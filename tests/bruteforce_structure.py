@@ -8,13 +8,21 @@ Asked for the k smallest totals only, it first drops, for each choice of key
 elements, every stage filling beaten by k others of the same stage with the same
 structure-wide totals: such a filling can be swapped for any of those k in a
 combination, so no combination using it is among the k cheapest. That keeps the
-product over stages small without changing the k smallest totals.
+product over stages small without changing the k smallest totals. Each stage is
+filled once per pair of key elements at its ends, not once per choice of all of them.
+
+Bounded like :mod:`tests.bruteforce`: the stage sequences and combinations a draw
+would visit are counted first (per stage, a count per (last element, totals)), and a
+hypothesis draw over ``LIMIT`` of them is rejected and counted instead of enumerated.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+from collections import Counter, defaultdict
+
+from tests.bruteforce import within_budget
 
 EPS = 1e-9
 
@@ -50,58 +58,143 @@ def _read(d: dict):
     return res, el, vals, omega, legs, delta, bdelta, kps, stages
 
 
-def enumerate_structure(d: dict, k: int | None = None) -> list[float]:
-    """Every feasible total in ascending order, or only the k smallest."""
-    res, el, vals, omega, legs, delta, bdelta, kps, stages = _read(d)
+def _stage_specs(d: dict, read) -> list[tuple]:
+    """Per stage: start and end key point, whether it leaves its start on the branch
+    leg, its first transition table, its intervals, its fillers and the most fillers
+    it can hold."""
+    res, el, vals, omega, legs, delta, bdelta, kps, stages = read
     fillers_all = [i for i in el if i not in legs]
-    wide = d.get("constraints", {})
-
-    def fillings(s_index, a, b):
-        start, _end, spec = stages[s_index]
+    out = []
+    for s_index, (start, end, spec) in enumerate(stages):
         branch_leg = kps[start].get("branch") == s_index
-        first = bdelta if branch_leg else delta
         cons = spec["constraints"]
         fillers = [x for x in spec.get("elements", fillers_all) if x not in legs]
-        max_fill = _most_fillers(cons, fillers, vals)
-        out = []
+        out.append((start, end, branch_leg, bdelta if branch_leg else delta, cons, fillers,
+                    _most_fillers(cons, fillers, vals)))
+    return out
 
-        def ok(tot, final):
-            return all(tot[r] <= hi + EPS and (not final or tot[r] >= lo - EPS)
-                       for r, (lo, hi) in cons.items())
 
-        def rec(last, trans, seq, cost, tot):
+def _ok(cons: dict, tot: dict, final: bool) -> bool:
+    return all(tot[r] <= hi + EPS and (not final or tot[r] >= lo - EPS)
+               for r, (lo, hi) in cons.items())
+
+
+def _stage_work(read, spec: tuple, a: str, b: str, wide: dict, k: int | None) -> tuple[int, int]:
+    """Without enumerating: how many filler sequences :func:`_fillings` visits for one
+    stage between key elements ``a`` and ``b``, and how many fillings it keeps (a
+    count per (last element, totals), layer by layer)."""
+    res, _el, vals, _omega, legs, delta, _bdelta, _kps, _stages = read
+    _start, _end, branch_leg, first, cons, fillers, max_fill = spec
+    layer = {(a, tuple(legs[a][2 if branch_leg else 1][r] for r in res)): 1}
+    trans, visited, groups = first, 0, Counter()
+    for depth in range(max_fill + 1):
+        nxt: dict[tuple, int] = defaultdict(int)
+        for (last, tot), n in layer.items():
+            visited += n
+            t = dict(zip(res, tot, strict=True))
             if (last, b) in trans:
-                t2 = {r: tot[r] + legs[b][0][r] for r in res}
-                if ok(t2, True):
-                    out.append((cost + trans[(last, b)], t2))
-            if len(seq) >= max_fill:
-                return
+                t2 = {r: t[r] + legs[b][0][r] for r in res}
+                if _ok(cons, t2, True):
+                    groups[tuple(round(t2[r], 9) for r in wide)] += n
+            if depth == max_fill:
+                continue
             for f in fillers:
                 if (last, f) in trans:
-                    t2 = {r: tot[r] + vals[f][r] for r in res}
-                    if ok(t2, False):
-                        rec(f, delta, seq + [f], cost + trans[(last, f)] + omega[f], t2)
+                    t2 = {r: t[r] + vals[f][r] for r in res}
+                    if _ok(cons, t2, False):
+                        nxt[(f, tuple(t2[r] for r in res))] += n
+        layer, trans = nxt, delta
+    kept = sum(groups.values()) if k is None else sum(min(n, k) for n in groups.values())
+    return visited, kept
 
-        rec(a, first, [], 0.0, dict(legs[a][2 if branch_leg else 1]))
-        if k is not None:  # k best per structure-wide totals (see the module docstring)
-            groups: dict = {}
-            for c, t in sorted(out, key=lambda x: x[0]):
-                ls = groups.setdefault(tuple(round(t[r], 9) for r in wide), [])
-                if len(ls) < k:
-                    ls.append((c, t))
-            out = [x for ls in groups.values() for x in ls]
-        return out
 
-    totals = []
-    for keys in itertools.product(*[k_["elements"] for k_ in kps]):
-        parts = [fillings(i, keys[a], keys[b]) for i, (a, b, _s) in enumerate(stages)]
+def _fillings(read, spec: tuple, a: str, b: str, wide: dict,
+              k: int | None) -> tuple[list, int]:
+    """Every filling of one stage between key elements ``a`` and ``b`` as (cost,
+    totals), asked for the k smallest only k per structure-wide totals (see the
+    module docstring); and the number of filler sequences visited."""
+    res, _el, vals, omega, legs, delta, _bdelta, _kps, _stages = read
+    _start, _end, branch_leg, first, cons, fillers, max_fill = spec
+    out = []
+    visited = 0
+
+    def rec(last, trans, seq, cost, tot):
+        nonlocal visited
+        visited += 1
+        if (last, b) in trans:
+            t2 = {r: tot[r] + legs[b][0][r] for r in res}
+            if _ok(cons, t2, True):
+                out.append((cost + trans[(last, b)], t2))
+        if len(seq) >= max_fill:
+            return
+        for f in fillers:
+            if (last, f) in trans:
+                t2 = {r: tot[r] + vals[f][r] for r in res}
+                if _ok(cons, t2, False):
+                    rec(f, delta, seq + [f], cost + trans[(last, f)] + omega[f], t2)
+
+    rec(a, first, [], 0.0, dict(legs[a][2 if branch_leg else 1]))
+    if k is not None:  # k best per structure-wide totals (see the module docstring)
+        groups: dict = {}
+        for c, t in sorted(out, key=lambda x: x[0]):
+            ls = groups.setdefault(tuple(round(t[r], 9) for r in wide), [])
+            if len(ls) < k:
+                ls.append((c, t))
+        out = [x for ls in groups.values() for x in ls]
+    return out, visited
+
+
+def structure_work(d: dict, k: int | None = None) -> int:
+    """How many stage sequences and combinations :func:`enumerate_structure` visits,
+    counted without enumerating them."""
+    read = _read(d)
+    specs = _stage_specs(d, read)
+    wide = d.get("constraints", {})
+    work: dict[tuple, tuple[int, int]] = {}
+    total = 0
+    for keys in itertools.product(*[kp["elements"] for kp in read[7]]):
+        kept = 1
+        for i, spec in enumerate(specs):
+            ab = (i, keys[spec[0]], keys[spec[1]])
+            if ab not in work:
+                work[ab] = _stage_work(read, spec, ab[1], ab[2], wide, k)
+                total += work[ab][0]
+            kept *= work[ab][1]
+        total += kept
+    return total
+
+
+def enumerate_structure(d: dict, k: int | None = None) -> list[float]:
+    """Every feasible total in ascending order, or only the k smallest."""
+    within_budget("enumerate_structure", structure_work(d, k))
+    return _enumerate_structure(d, k)[0]
+
+
+def _enumerate_structure(d: dict, k: int | None) -> tuple[list[float], int]:
+    """The totals, and the number of stage sequences and combinations visited. Each
+    stage's fillings are enumerated once per pair of key elements at its ends."""
+    read = _read(d)
+    omega, kps = read[3], read[7]
+    specs = _stage_specs(d, read)
+    wide = d.get("constraints", {})
+    memo: dict[tuple, list] = {}
+    totals, visited = [], 0
+    for keys in itertools.product(*[kp["elements"] for kp in kps]):
+        parts = []
+        for i, spec in enumerate(specs):
+            ab = (i, keys[spec[0]], keys[spec[1]])
+            if ab not in memo:
+                memo[ab], n = _fillings(read, spec, ab[1], ab[2], wide, k)
+                visited += n
+            parts.append(memo[ab])
         base = sum(omega[x] for x in keys)
+        visited += math.prod(len(p) for p in parts)
         for combo in itertools.product(*parts):
             if all(lo - EPS <= sum(t[r] for _c, t in combo) <= hi + EPS
                    for r, (lo, hi) in wide.items()):
                 totals.append(base + sum(c for c, _t in combo))
     totals.sort()
-    return totals if k is None else totals[:k]
+    return (totals if k is None else totals[:k]), visited
 
 
 def solution_cost(d: dict, keys: list[str], fills: list[list[str]]) -> float:

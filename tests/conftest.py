@@ -1,8 +1,15 @@
+"""Shared test setup: hypothesis profiles, one part-database cache per session (never in
+the source tree), the sample library ingested once, and the skips of the bounded
+brute-force oracles in the terminal summary."""
+
+from __future__ import annotations
+
 import os
 import sys
 import tempfile
 from pathlib import Path
 
+import pytest
 from hypothesis import settings
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -12,8 +19,53 @@ if str(ROOT) not in sys.path:
 # Part-database caches go to one folder per session, never into the source tree.
 os.environ.setdefault("CITYSYNTH_CACHE", tempfile.mkdtemp(prefix="citysynth-cache-"))
 
-# CI runs a fixed set of examples so a landing never hinges on a lucky draw; locally
-# every run explores new ones.
-settings.register_profile("ci", derandomize=True, print_blob=True)
-if os.environ.get("CI"):
-    settings.load_profile("ci")
+# Hypothesis profiles. "default" (also in CI): the example counts the tests declare,
+# drawn from a seed fixed per test, so a run's time and verdict never hinge on a lucky
+# draw, and no example database is written. "deep" (HYPOTHESIS_PROFILE=deep, `make
+# test-deep`): DEEP_FACTOR times the declared counts, new draws every run, no deadline;
+# the database under .hypothesis/ replays a failure it found.
+DEEP_FACTOR = 8
+BUILTIN = settings.get_profile("default")   # not "ci", which hypothesis loads when $CI
+settings.register_profile("default", BUILTIN, derandomize=True, print_blob=True)
+settings.register_profile("deep", BUILTIN, deadline=None, print_blob=True)
+PROFILE = os.environ.get("HYPOTHESIS_PROFILE", "default")
+settings.load_profile(PROFILE)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Under the deep profile, multiply each property test's declared example count
+    (a test's own ``@settings(max_examples=...)`` overrides any profile's)."""
+    if PROFILE != "deep":
+        return
+    for item in items:
+        test = getattr(item, "obj", None)
+        if not getattr(test, "is_hypothesis_test", False):
+            continue
+        declared = getattr(test, "_hypothesis_internal_use_settings", None)
+        if declared is None:  # hypothesis moved its settings: fail, never run shallow
+            raise pytest.UsageError(f"{item.nodeid}: cannot find its hypothesis settings "
+                                    "to deepen")
+        test._hypothesis_internal_use_settings = settings(
+            declared, max_examples=declared.max_examples * DEEP_FACTOR)
+
+
+@pytest.fixture(scope="session")
+def sample_db():
+    """The sample part library's database, ingested once per session into the
+    session's cache (later ``load_library`` calls on it, the CLI's included, read that
+    cache). Shared: tests read it, never change it."""
+    from citysynth.examples import SAMPLE_LIBRARY
+    from citysynth.parts_db import load_library
+    return load_library(SAMPLE_LIBRARY)
+
+
+def pytest_terminal_summary(terminalreporter) -> None:
+    """How many hypothesis draws the brute-force oracles skipped as too large to
+    enumerate (hypothesis drew others in their place)."""
+    oracle = sys.modules.get("tests.bruteforce")
+    if oracle is None:
+        return
+    skipped = dict(sorted(oracle.SKIPPED.items()))
+    counts = ", ".join(f"{n} by {name}" for name, n in skipped.items()) or "none"
+    terminalreporter.write_line(f"brute-force oracles, draws skipped as over {oracle.LIMIT} "
+                                f"sequences: {counts} (hypothesis profile {PROFILE})")
