@@ -20,7 +20,6 @@ from citysynth.export.gltf import sheared
 from citysynth.export.layout import Layout
 from citysynth.export.place import layout, max_stretch
 from citysynth.export.usd import validate, write_city
-from citysynth.parts_db import load_library
 from citysynth.pipeline.cli import main
 from citysynth.pipeline.layouts import solve_layouts
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
@@ -33,9 +32,10 @@ T_BUILDING = ROOT / "examples" / "skeletons" / "t_building.geojson"
 BLOCK = ROOT / "examples" / "blocks" / "block.geojson"
 
 
-@pytest.fixture(scope="module")
-def db():
-    return load_library(LIB)
+@pytest.fixture
+def db(sample_db):
+    """The sample library, ingested once per session (conftest)."""
+    return sample_db
 
 
 @pytest.fixture(scope="module")

@@ -4,31 +4,21 @@ solution meets the asked intervals in original units, not only after rounding.""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
-import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from citysynth.parts_db import ingest
 from citysynth.pipeline.library_problems import street_front_problem, tower_problem
 from citysynth.solver import Problem, solve
 from tests.bruteforce import enumerate_feasible
 
-SAMPLE = Path(__file__).resolve().parent.parent / "examples" / "library"
 
-
-@pytest.fixture(scope="module")
-def db(tmp_path_factory):
-    return ingest(SAMPLE, tmp_path_factory.mktemp("db"))
-
-
-def test_tower_of_exact_height_with_floor_area_interval(db):
-    p = Problem.from_dict(tower_problem(db, 60.0, (3000, 3500), k=5))
+def test_tower_of_exact_height_with_floor_area_interval(sample_db):
+    p = Problem.from_dict(tower_problem(sample_db, 60.0, (3000, 3500), k=5))
     r = solve(p)
     assert r.status == "ok" and len(r.solutions) == 5
     assert not r.stats["quantisation"]["floor_area"]["exact"]
-    cls = {q.id: q.cls for q in db.parts}
+    cls = {q.id: q.cls for q in sample_db.parts}
     costs = [s.cost for s in r.solutions]
     assert costs == sorted(costs)
     for s in r.solutions:
@@ -38,8 +28,8 @@ def test_tower_of_exact_height_with_floor_area_interval(db):
         assert all(cls[x] == "floor" for x in s.sequence[1:-1])
 
 
-def test_street_front_from_complete_buildings(db):
-    p = Problem.from_dict(street_front_problem(db, 83.4, constraints={"doors": [3, 5]}, k=4))
+def test_street_front_from_complete_buildings(sample_db):
+    p = Problem.from_dict(street_front_problem(sample_db, 83.4, constraints={"doors": [3, 5]}, k=4))
     r = solve(p)
     fgs = solve(p, method="fgs")
     assert r.status == "ok" and [s.cost for s in r.solutions] == [s.cost for s in fgs.solutions]

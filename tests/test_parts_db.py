@@ -88,11 +88,6 @@ def test_class_rules():
     assert a[4, 4] and a[5, 6] and not a[6, 5]
 
 
-@pytest.fixture(scope="module")
-def sample_db(tmp_path_factory):
-    return ingest(SAMPLE, tmp_path_factory.mktemp("sampledb"))
-
-
 def test_sample_library_contents(sample_db):
     db = sample_db
     by = {}

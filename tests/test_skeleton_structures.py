@@ -8,7 +8,6 @@ from pathlib import Path
 
 import pytest
 
-from citysynth.parts_db import ingest
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
 from citysynth.skeletons import (
     SkeletonError,
@@ -21,12 +20,11 @@ from citysynth.solver.structures import solve_structure
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_skeletons import fc, feat, metres  # noqa: E402
 
-SAMPLE = Path(__file__).resolve().parent.parent / "examples" / "library"
 
-
-@pytest.fixture(scope="module")
-def db(tmp_path_factory):
-    return ingest(SAMPLE, tmp_path_factory.mktemp("db"))
+@pytest.fixture
+def db(sample_db):
+    """The sample library, ingested once per session (conftest)."""
+    return sample_db
 
 
 def block(w, h):
