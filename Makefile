@@ -26,8 +26,13 @@ typecheck: $(STAMP)
 		ln -sfn ../../../$$d build/typecheck/citysynth/$$d; done
 	cd build/typecheck && ../../$(BIN)/mypy --config-file ../../pyproject.toml -p citysynth
 
+# Hypothesis draws a fixed set of examples per test (profile "default"); test-deep draws
+# new ones every run, eight times as many, with no deadline (tests/conftest.py).
 test: lint
 	$(BIN)/python -m pytest
+
+test-deep: lint
+	HYPOTHESIS_PROFILE=deep $(BIN)/python -m pytest
 
 bench: $(STAMP)
 	$(BIN)/python -m bench.street
