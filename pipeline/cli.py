@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import warnings
 from importlib.metadata import PackageNotFoundError, version
 
 from citysynth.parts_db.library import CACHE_ENV
@@ -24,6 +25,7 @@ from citysynth.pipeline.errors import (
     EXIT_OK,
     USER_ERRORS,
 )
+from citysynth.skeletons import InputWarning
 
 __all__ = ["EXIT_BAD_INPUT", "EXIT_INFEASIBLE", "EXIT_INTERNAL", "EXIT_OK", "build_parser",
            "main"]
@@ -52,7 +54,19 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_plain_format = warnings.formatwarning
+
+
+def _format_warning(message: Warning | str, category: type[Warning], filename: str,
+                    lineno: int, line: str | None = None) -> str:
+    """A feature left out of the input is one plain line (it names file and feature)."""
+    if issubclass(category, InputWarning):
+        return f"citysynth: warning: {message}\n"
+    return _plain_format(message, category, filename, lineno, line)
+
+
 def main(argv: list[str] | None = None) -> int:
+    warnings.formatwarning = _format_warning
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.cache:   # the environment carries it into worker processes too
