@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, get_args
 
 from citysynth.solver.compiled import Compiled, compile_problem
 from citysynth.solver.diagnose import diagnose
@@ -23,7 +23,11 @@ from citysynth.solver.graph import build_graph
 from citysynth.solver.kbest import k_best
 from citysynth.solver.problem import Problem
 
-METHODS = ("rcksp", "fgs")
+# the one-stage methods (see solve); the CLI offers METHODS
+Method = Literal["rcksp", "fgs"]
+METHODS: tuple[Method, ...] = get_args(Method)
+# a result holds the k best sequences, or none and the reason
+Status = Literal["ok", "infeasible"]
 
 
 @dataclass(frozen=True)
@@ -39,7 +43,7 @@ class Solution:
 
 @dataclass
 class Result:
-    status: str                      # "ok" | "infeasible"
+    status: Status
     solutions: list[Solution]
     stats: dict[str, Any]
     reason: str | None = None        # why infeasible
@@ -72,7 +76,7 @@ def _sequence_resources(p: Problem, seq: list[int]) -> dict[str, float]:
     return {r: round(math.fsum(el[i].resources[r] for i in seq), 9) for r in p.resources}
 
 
-def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
+def solve(problem: Problem, k: int | None = None, method: Method = "rcksp", *,
           max_memory_mb: float = DEFAULT_MAX_MEMORY_MB, table: str = "auto",
           explain: bool = True) -> Result:
     """The k cheapest distinct feasible sequences of ``problem`` in ascending cost.
@@ -83,6 +87,25 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
     ``table`` forces the graph's row table ("dense" or "hash"; tests and benchmarks
     use it, "auto" picks dense when the state box is small). ``explain=False`` skips
     the diagnosis of an infeasible problem (callers that solve many sub-problems).
+
+    A front of 14 to 18 m with one or two shops (a shop has a door), its four
+    cheapest fillings:
+
+    >>> from citysynth.solver import Problem, solve
+    >>> p = Problem.from_dict({
+    ...     "resources": ["length", "doors"],
+    ...     "elements": [{"id": "shop", "resources": {"length": 6.0, "doors": 1}},
+    ...                  {"id": "flat", "resources": {"length": 4.0}, "cost": 0.5}],
+    ...     "transitions": [["shop", "flat", 0.0], ["flat", "flat", 0.25],
+    ...                     ["flat", "shop", 1.0]],
+    ...     "constraints": {"length": [14, 18], "doors": [1, 2]}})
+    >>> r = solve(p, k=4)
+    >>> for s in r.solutions:
+    ...     print(s.cost, s.sequence, s.resources)
+    1.25 ['shop', 'flat', 'flat'] {'length': 14.0, 'doors': 1.0}
+    1.5 ['shop', 'flat', 'shop'] {'length': 16.0, 'doors': 2.0}
+    2.0 ['shop', 'flat', 'flat', 'flat'] {'length': 18.0, 'doors': 1.0}
+    2.0 ['flat', 'shop', 'flat'] {'length': 14.0, 'doors': 1.0}
     """
     if method not in METHODS:
         raise ProblemError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
@@ -127,7 +150,7 @@ def solve(problem: Problem, k: int | None = None, method: str = "rcksp", *,
                      meet_level=graph.meet_level, kbest_nodes=touched)
     else:
         t1 = time.perf_counter()
-        counters = {}
+        counters: dict[str, int] = {}
 
         def enumerate_k(kk: int) -> list[list[int]]:
             status, seqs, _, settled, labels = fgs(

@@ -20,6 +20,7 @@ from typing import Any, Literal, get_args
 from citysynth.solver.errors import ProblemError
 from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.quantize import exact_divisor, is_multiple
+from citysynth.solver.solve import Status
 from citysynth.solver.structures.combine import Payload, best_structures, paused_gc, root_of
 from citysynth.solver.structures.decompose import Grid, PairProblems
 from citysynth.solver.structures.model import Structure
@@ -42,7 +43,7 @@ class StructureSolution:
 
 @dataclass
 class StructureResult:
-    status: Literal["ok", "infeasible"]
+    status: Status
     solutions: list[StructureSolution]
     stats: dict[str, Any] = field(default_factory=dict)
     reason: str | None = None
