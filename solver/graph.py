@@ -79,8 +79,9 @@ def _row_of(s, create, nrows, limit, row_state, G, H, keys, vals, shift):
     return nrows, nrows + 1
 
 
+# C901: a numba kernel, one loop nest on purpose (a call per row or successor is slower)
 @njit(cache=True, fastmath=_FM)
-def _forward_level(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, G, H,
+def _forward_level(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, G, H,  # noqa: C901
                    row_state, headF, nxtF, inF, nrows, limit, create, mask_h,
                    dense, keys, vals, shift, c, gv, idx):
     """Push g from every row listed at ``head[lvl]`` to successor nodes whose level
@@ -227,8 +228,10 @@ def _reserve(need, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, va
     return G, H, row_state, nxtF, nxtB, inF, inB, keys, vals, shift
 
 
+# C901: a numba kernel: growth, meeting and both completing passes in one compiled
+# call, inlined for speed
 @njit(cache=True)
-def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,
+def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,  # noqa: C901
                 front, back, omega, dense, rows_hint, max_rows, forward_only, complete):
     R = len(cap)
     if dense:
