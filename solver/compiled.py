@@ -82,10 +82,9 @@ def compile_problem(p: Problem) -> Compiled:
     quant: list[Quantisation] = []
     cols = []
     for name in bounded:
-        lo, hi = p.constraints[name]
-        qz, ints = quantise_resource(
-            name, [e.resources[name] for e in p.elements], lo, hi, p.quantum.get(name)
-        )
+        asked_lo, asked_hi = p.constraints[name]
+        qz, ints = quantise_resource(name, [e.resources[name] for e in p.elements],
+                                     asked_lo, asked_hi, p.quantum.get(name))
         quant.append(qz)
         cols.append(ints)
     R = len(bounded)
