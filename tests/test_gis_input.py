@@ -428,3 +428,18 @@ def test_the_skeleton_command_warns_and_goes_on(tmp_path, capsys):
         assert main(["skeleton", str(f), "--kind", "streets"]) == 0
     out = capsys.readouterr().out
     assert f"skipped {f}: feature 5: a Point is no street centre line" in out
+
+
+def test_zone_polygons_stay_lon_lat_when_the_streets_are_reprojected(district_gdf, tmp_path):
+    """city.toml zone polygons are lon/lat; with Web Mercator streets given by --crs they
+    still land where they do for lon/lat streets."""
+    cfg = tmp_path / "city.toml"
+    cfg.write_text(f'library = "{LIB}"\n[[zone]]\nname = "east"\nstyle = "modern"\n'
+                   "polygon = [[24.9470, 60.160], [24.960, 60.160], [24.960, 60.180], "
+                   "[24.9470, 60.180]]\n")
+    f = tmp_path / "mercator.geojson"
+    district_gdf.to_crs("EPSG:3857").to_file(f, driver="GeoJSON")
+    ref = prepare(DISTRICT, None, load_config(cfg), None)
+    got = prepare(f, None, load_config(cfg), None, "EPSG:3857")
+    assert {j.zone for j in ref.jobs} == {"", "east"}
+    assert summary(got) == summary(ref)
