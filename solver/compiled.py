@@ -9,12 +9,16 @@ node table) small for resources like doors that are bounded loosely.
 The unary cost of an element is folded into the weight of every edge entering it
 (and of the source edge), so the kernels only ever add edge weights. Successor and
 predecessor tables are CSR arrays sorted by element index: the order is part of the
-deterministic tie-breaking.
+deterministic tie-breaking. The dense n x n table ``W`` is built only when a kernel
+asks for it (:attr:`Compiled.W`): a motion graph of 9,700 segments with 32 successors
+each has 310,000 transitions, and its dense table would take 750 MB to hold them.
+Kernels walk the lists instead when the table is sparse (:attr:`Compiled.sparse`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from operator import itemgetter
 
 import numpy as np
 
@@ -23,6 +27,9 @@ from citysynth.solver.problem import Problem
 from citysynth.solver.quantize import Quantisation, quantise_resource
 
 MAX_DENSE_TRANSITIONS_BYTES = 1 << 30
+# Below this share of the n x n pairs the transition lists are walked, not the matrix:
+# a dense row costs n contiguous (vectorised) steps, a list entry one indirect step.
+SPARSE_DENSITY = 0.25
 
 
 @dataclass
@@ -46,10 +53,38 @@ class Compiled:
     pred_ptr: np.ndarray
     pred_elem: np.ndarray
     pred_w: np.ndarray     # float64   delta(p, e) + omega(e)
-    W: np.ndarray          # float64 [n, n]  W[f, e] = delta(e, f) + omega(f), inf if e->f
     front: np.ndarray      # bool [n]
     back: np.ndarray       # bool [n]
     max_len: int
+    _W: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def W(self) -> np.ndarray:
+        """float64 [n, n]: W[f, e] = delta(e, f) + omega(f), inf where e -> f is not
+        allowed; the same table as the lists, dense and transposed, so a kernel relaxes
+        every transition into f (or out of e, read as W[e, :]) as one contiguous vector
+        operation. Built on first use."""
+        if self._W is None:
+            n = self.n
+            if n * n * 8 > MAX_DENSE_TRANSITIONS_BYTES:
+                raise ProblemError(
+                    f"{n:,} elements need a {n * n * 8 / 2**30:.1f} GB dense transition "
+                    f"table, more than the {MAX_DENSE_TRANSITIONS_BYTES / 2**30:.0f} GB "
+                    "allowed; split the library by style or class so each problem holds "
+                    "fewer elements")
+            W = np.full((n, n), np.inf)
+            rows = np.repeat(np.arange(n), np.diff(self.pred_ptr))
+            W[rows, self.pred_elem] = self.pred_w
+            self._W = W
+        return self._W
+
+    @property
+    def sparse(self) -> bool:
+        """Kernels should walk the transition lists: few transitions per element, or a
+        dense table too large to build."""
+        n = self.n
+        return (len(self.succ_elem) < SPARSE_DENSITY * n * n
+                or n * n * 8 > MAX_DENSE_TRANSITIONS_BYTES)
 
     @property
     def n(self) -> int:
@@ -66,11 +101,23 @@ class Compiled:
 
 
 def _csr(n: int, rows: np.ndarray, cols: np.ndarray, w: np.ndarray):
-    order = np.lexsort((cols, rows))
+    order = np.argsort(rows * n + cols, kind="stable")  # by row, then column
     rows, cols, w = rows[order], cols[order], w[order]
     ptr = np.zeros(n + 1, dtype=np.int64)
-    np.add.at(ptr, rows + 1, 1)
-    return np.cumsum(ptr), cols.astype(np.int64), w.astype(np.float64)
+    ptr[1:] = np.cumsum(np.bincount(rows, minlength=n))
+    return ptr, cols.astype(np.int64), w.astype(np.float64)
+
+
+def _transition_arrays(p: Problem, index: dict[str, int]):
+    """(from, to, delta) of every transition as arrays, in one pass over the list."""
+    m = len(p.transitions)
+    if not m:
+        z = np.zeros(0, dtype=np.int64)
+        return z, z, np.zeros(0, dtype=np.float64)
+    tr, get = p.transitions, index.__getitem__
+    a = np.fromiter(map(get, map(itemgetter(0), tr)), dtype=np.int64, count=m)
+    b = np.fromiter(map(get, map(itemgetter(1), tr)), dtype=np.int64, count=m)
+    return a, b, np.fromiter(map(itemgetter(2), tr), dtype=np.float64, count=m)
 
 
 def compile_problem(p: Problem) -> Compiled:
@@ -104,26 +151,10 @@ def compile_problem(p: Problem) -> Compiled:
     box = _box(r, lev, lo, hi)
 
     omega = np.array([e.cost for e in p.elements], dtype=np.float64)
-    if p.transitions:
-        a = np.array([index[t[0]] for t in p.transitions], dtype=np.int64)
-        b = np.array([index[t[1]] for t in p.transitions], dtype=np.int64)
-        d = np.array([t[2] for t in p.transitions], dtype=np.float64)
-    else:
-        a = b = np.zeros(0, dtype=np.int64)
-        d = np.zeros(0, dtype=np.float64)
+    a, b, d = _transition_arrays(p, index)
     w = d + omega[b]
     succ_ptr, succ_elem, succ_w = _csr(n, a, b, w)
     pred_ptr, pred_elem, pred_w = _csr(n, b, a, w)
-    if n * n * 8 > MAX_DENSE_TRANSITIONS_BYTES:
-        raise ProblemError(
-            f"{n:,} elements need a {n * n * 8 / 2**30:.1f} GB dense transition table, "
-            f"more than the {MAX_DENSE_TRANSITIONS_BYTES / 2**30:.0f} GB allowed; split the "
-            "library by style or class so each problem holds fewer elements")
-    # The same table dense and transposed: row f holds every way into f, so the
-    # kernels relax all transitions into f (or out of e, read as W[e, :] = "into e
-    # from p") as one contiguous vector operation.
-    W = np.full((n, n), np.inf)
-    W[b, a] = w
 
     front = np.zeros(n, dtype=np.bool_)
     front[[index[x] for x in p.front]] = True
@@ -134,7 +165,7 @@ def compile_problem(p: Problem) -> Compiled:
         ids=ids, bounded=bounded, quant=quant, r=r, lo=lo, hi=hi,
         lev=lev.astype(np.int64), omega=omega,
         succ_ptr=succ_ptr, succ_elem=succ_elem, succ_w=succ_w,
-        pred_ptr=pred_ptr, pred_elem=pred_elem, pred_w=pred_w, W=W,
+        pred_ptr=pred_ptr, pred_elem=pred_elem, pred_w=pred_w,
         front=front, back=back, **box,
     )
 

@@ -24,7 +24,7 @@ DEFAULT_MAX_MEMORY_MB = 2048
 @dataclass(frozen=True)
 class Estimate:
     nodes: int          # upper bound on nodes (elements x states)
-    bytes: int          # memory for every state row, the row table and W
+    bytes: int          # memory for every state row, the row table and W (if dense)
     dense: bool         # rows indexed by state (else hashed)
     max_rows: int       # row budget enforced during growth
 
@@ -48,7 +48,7 @@ def estimate(cp: Compiled, max_memory_mb: float = DEFAULT_MAX_MEMORY_MB) -> Esti
     fitting = int((cp.r <= cp.cap).all(axis=1).sum())
     nodes = max(fitting, 1) * cp.S
     dense = dense_rows(cp)
-    fixed = 8 * cp.n * cp.n
+    fixed = 0 if cp.sparse else 8 * cp.n * cp.n  # the dense transition table, if used
     need = cp.S * row_bytes(cp.n, dense) + fixed
     max_rows = max((budget - fixed) // row_bytes(cp.n, dense), 1)
     est = Estimate(int(nodes), int(need), dense, int(max_rows))

@@ -27,6 +27,10 @@ contiguous vector operation per successor element (min over e of g[e] + W[f, e])
 the same inner loop as a plain dynamic program — instead of one table lookup per
 edge. Rows are indexed by the state itself when the state box is small ("dense"),
 else through a hash table that allocates rows only for states actually reached.
+When the transition table is sparse (a motion graph: 32 successors out of 600) the
+vector loops over all n elements would mostly meet "no transition"; the sweeps then
+walk the successor and predecessor lists instead (:func:`_forward_level_lists`,
+:func:`_backward_level_lists`), so a row costs its transitions, not n x n.
 Kernels are numba-compiled; :func:`build_graph` is the only entry point.
 """
 
@@ -194,6 +198,137 @@ def _backward_level(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, 
     return nrows, work, True
 
 
+@njit(cache=True, fastmath=_FM)
+def _forward_level_lists(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, lists, G,
+                         H, row_state, headF, nxtF, inF, nrows, limit, create, mask_h,
+                         dense, keys, vals, shift, c, gv, idx):
+    """:func:`_forward_level` over the successor lists: every finite g of a row offers
+    g + w to each listed successor (the best per successor gathered in ``gv``, the
+    successors touched in ``idx``), then each touched successor is checked and
+    stored once. ``gv`` must hold inf on entry and holds inf again on return."""
+    sptr, selem, sw = lists[0], lists[1], lists[2]
+    work = 0
+    u = head[lvl]
+    while u >= 0:
+        s = row_state[u]
+        decode(s, cap, stride, c)
+        m = 0
+        for e in range(n):
+            x = G[u, e]
+            if x == np.inf or (mask_h and H[u, e] == np.inf):
+                continue
+            for j in range(sptr[e], sptr[e + 1]):
+                f = selem[j]
+                if gv[f] == np.inf:
+                    idx[m] = f
+                    m += 1
+                gv[f] = min(gv[f], x + sw[j])
+            work += sptr[e + 1] - sptr[e]
+        for t in range(m):
+            f = idx[t]
+            best = gv[f]
+            gv[f] = np.inf
+            l2 = lvl + lev[f]
+            if l2 > tmax or l2 < tmin or not fits(c, r, f, cap):
+                continue
+            s2 = s + off[f]
+            if dense:
+                u2 = s2
+            else:
+                u2, nrows = _row_of(s2, create, nrows, limit, row_state, G, H,
+                                    keys, vals, shift)
+                if u2 == _SKIP:
+                    continue
+                if u2 == _FULL:
+                    for t2 in range(t + 1, m):
+                        gv[idx[t2]] = np.inf
+                    return nrows, work, False
+            if best < G[u2, f]:
+                G[u2, f] = best
+                if inF[u2] == 0:
+                    inF[u2] = 1
+                    nxtF[u2] = headF[l2]
+                    headF[l2] = u2
+        u = nxt[u]
+    return nrows, work, True
+
+
+@njit(cache=True, fastmath=_FM)
+def _backward_level_lists(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, lists,
+                          G, H, row_state, headB, nxtB, inB, nrows, limit, create, mask_g,
+                          dense, keys, vals, shift, c):
+    """:func:`_backward_level` over the predecessor lists: a node's h reaches only its
+    listed predecessors."""
+    pptr, pelem, pw = lists[3], lists[4], lists[5]
+    R = len(cap)
+    work = 0
+    u = head[lvl]
+    while u >= 0:
+        s = row_state[u]
+        decode(s, cap, stride, c)
+        for e in range(n):
+            he = H[u, e]
+            if he == np.inf or pptr[e + 1] == pptr[e] or (mask_g and G[u, e] == np.inf):
+                continue
+            lp = lvl - lev[e]
+            if lp < tmin or lp > tmax:
+                continue
+            ok = True
+            for i in range(R):
+                if c[i] < r[e, i]:
+                    ok = False
+            if not ok:
+                continue
+            sp = s - off[e]
+            if dense:
+                up = sp
+            else:
+                up, nrows = _row_of(sp, create, nrows, limit, row_state, G, H,
+                                    keys, vals, shift)
+                if up == _SKIP:
+                    continue
+                if up == _FULL:
+                    return nrows, work, False
+            for j in range(pptr[e], pptr[e + 1]):
+                p = pelem[j]
+                H[up, p] = min(H[up, p], pw[j] + he)
+            work += pptr[e + 1] - pptr[e]
+            if inB[up] == 0:
+                inB[up] = 1
+                nxtB[up] = headB[lp]
+                headB[lp] = up
+        u = nxt[u]
+    return nrows, work, True
+
+
+@njit(cache=True)
+def _fwd(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, lists, G, H, row_state,
+         headF, nxtF, inF, nrows, limit, create, mask_h, dense, keys, vals, shift, c, gv,
+         idx):
+    """A forward sweep of one level, over the matrix or (``lists[6]`` set) the lists.
+    The list sweep needs ``gv`` all inf; the matrix sweep overwrites it."""
+    if lists[6][0]:
+        return _forward_level_lists(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev,
+                                    lists, G, H, row_state, headF, nxtF, inF, nrows, limit,
+                                    create, mask_h, dense, keys, vals, shift, c, gv, idx)
+    return _forward_level(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, G, H,
+                          row_state, headF, nxtF, inF, nrows, limit, create, mask_h, dense,
+                          keys, vals, shift, c, gv, idx)
+
+
+@njit(cache=True)
+def _bwd(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, lists, G, H, row_state,
+         headB, nxtB, inB, npred, nrows, limit, create, mask_g, dense, keys, vals, shift, c):
+    """A backward sweep of one level, over the matrix or (``lists[6]`` set) the lists."""
+    if lists[6][0]:
+        return _backward_level_lists(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev,
+                                     lists, G, H, row_state, headB, nxtB, inB, nrows, limit,
+                                     create, mask_g, dense, keys, vals, shift, c)
+    return _backward_level(lvl, tmin, tmax, head, nxt, n, r, cap, stride, off, lev, W, G, H,
+                           row_state, headB, nxtB, inB, npred, nrows, limit, create, mask_g,
+                           dense, keys, vals, shift, c)
+
+
 @njit(cache=True)
 def _level_rows(head, nxt, lvl):
     m = 0
@@ -228,11 +363,107 @@ def _reserve(need, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, va
     return G, H, row_state, nxtF, nxtB, inF, inB, keys, vals, shift
 
 
+@njit(cache=True)
+def _front_roots(n, r, cap, off, lev, front, omega, G, H, row_state, headF, nxtF, inF,
+                 nrows, max_rows, dense, keys, vals, shift, c):
+    """Forward roots: g = omega for every front element that fits; returns the row
+    count. Room is reserved."""
+    for e in range(n):
+        c[:] = 0
+        if not (front[e] and fits(c, r, e, cap)):
+            continue
+        s = off[e]
+        if dense:
+            u = s
+        else:
+            u, nrows = _row_of(s, True, nrows, max_rows, row_state, G, H, keys, vals, shift)
+        G[u, e] = omega[e]
+        if inF[u] == 0:
+            inF[u] = 1
+            nxtF[u] = headF[lev[e]]
+            headF[lev[e]] = u
+    return nrows
+
+
+@njit(cache=True)
+def _back_roots(n, r, lo, cap, stride, back, H, row_state, G, headB, nxtB, inB, nrows,
+                max_rows, dense, keys, vals, shift, c):
+    """Backward roots: h = 0 for every back element on every admissible total (a
+    mixed-radix counter over [lo, cap]); returns the row count. Room is reserved."""
+    R = len(cap)
+    for i in range(R):
+        c[i] = lo[i]
+    while True:
+        s = 0
+        lvl = 0
+        for i in range(R):
+            s += c[i] * stride[i]
+            lvl += c[i]
+        if dense:
+            u = s
+        else:
+            u, nrows = _row_of(s, True, nrows, max_rows, row_state, G, H, keys, vals, shift)
+        for e in range(n):
+            if back[e] and covers(c, r, e):
+                H[u, e] = 0.0
+                if inB[u] == 0:
+                    inB[u] = 1
+                    nxtB[u] = headB[lvl]
+                    headB[lvl] = u
+        i = 0
+        while i < R:
+            c[i] += 1
+            if c[i] <= cap[i]:
+                break
+            c[i] = lo[i]
+            i += 1
+        if i == R:
+            return nrows
+
+
+@njit(cache=True)
+def _complete(lam, top, maxlev, n, r, cap, stride, off, lev, W, lists, G, H, row_state,
+              headF, nxtF, inF, headB, nxtB, inB, npred, nrows, dense, keys, vals, shift, c,
+              gv, idx):
+    """The two completing passes after the sides met at λ: exact h on the forward
+    side, exact g on the backward side (no new rows)."""
+    # exact h below λ: first the edges that cross λ, then downwards
+    for lvl in range(lam, min(top, lam + maxlev - 1) + 1):
+        _bwd(lvl, 0, lam - 1, headB, nxtB, n, r, cap, stride, off, lev, W, lists, G, H,
+             row_state, headB, nxtB, inB, npred, nrows, nrows, False, False, dense, keys,
+             vals, shift, c)
+    for lvl in range(lam - 1, -1, -1):
+        _bwd(lvl, 0, top, headF, nxtF, n, r, cap, stride, off, lev, W, lists, G, H,
+             row_state, headB, nxtB, inB, npred, nrows, nrows, False, True, dense, keys,
+             vals, shift, c)
+    # exact g from λ up: first the edges that cross λ, then upwards
+    for lvl in range(max(0, lam - maxlev), lam):
+        _fwd(lvl, lam, top, headF, nxtF, n, r, cap, stride, off, lev, W, lists, G, H,
+             row_state, headF, nxtF, inF, nrows, nrows, False, False, dense, keys, vals,
+             shift, c, gv, idx)
+    for lvl in range(lam, top + 1):
+        _fwd(lvl, 0, top, headB, nxtB, n, r, cap, stride, off, lev, W, lists, G, H,
+             row_state, headF, nxtF, inF, nrows, nrows, False, True, dense, keys, vals,
+             shift, c, gv, idx)
+
+
+@njit(cache=True)
+def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,
+                front, back, omega, dense, rows_hint, max_rows, forward_only, complete):
+    """:func:`_grow` over the dense matrix W (the stage graphs build their own W)."""
+    z = np.zeros(1, dtype=np.int64)
+    lists = (z, z, np.zeros(1), z, z, np.zeros(1), np.zeros(1, dtype=np.bool_))
+    return _grow(n, r, lo, cap, stride, S, off, lev, top, W, lists, npred, front, back,
+                 omega, dense, rows_hint, max_rows, forward_only, complete)
+
+
 # C901: a numba kernel: growth, meeting and both completing passes in one compiled
 # call, inlined for speed
 @njit(cache=True)
-def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,  # noqa: C901
-                front, back, omega, dense, rows_hint, max_rows, forward_only, complete):
+def _grow(n, r, lo, cap, stride, S, off, lev, top, W, lists, npred,  # noqa: C901
+          front, back, omega, dense, rows_hint, max_rows, forward_only, complete):
+    """Grow, meet and complete. ``lists`` = (succ_ptr, succ_elem, succ_w, pred_ptr,
+    pred_elem, pred_w, [walk the lists]): with the flag set W is not read."""
     R = len(cap)
     if dense:
         m0 = S
@@ -265,7 +496,7 @@ def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,  # noqa: C901
     headF = np.full(top + 1, -1, dtype=np.int32)
     headB = np.full(top + 1, -1, dtype=np.int32)
     c = np.zeros(R, dtype=np.int64)
-    gv = np.empty(n)
+    gv = np.full(n, np.inf)
     idx = np.empty(n, dtype=np.int64)
     maxlev = np.max(lev)
 
@@ -275,54 +506,15 @@ def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,  # noqa: C901
         n_adm *= max(cap[i] - lo[i] + 1, 0)
     if forward_only:
         n_adm = 0
-    if n + n_adm > max_rows:
+    if not dense and n + n_adm > max_rows:  # dense rows are all allocated already
         return (STATUS_TOO_LARGE, nrows, G, H, row_state, 0, 0, 0), (keys, vals, shift)
     G, H, row_state, nxtF, nxtB, inF, inB, keys, vals, shift = _reserve(
         n + n_adm, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift)
-    for e in range(n):
-        c[:] = 0
-        if not (front[e] and fits(c, r, e, cap)):
-            continue
-        s = off[e]
-        if dense:
-            u = s
-        else:
-            u, nrows = _row_of(s, True, nrows, max_rows, row_state, G, H, keys, vals, shift)
-        G[u, e] = omega[e]
-        if inF[u] == 0:
-            inF[u] = 1
-            nxtF[u] = headF[lev[e]]
-            headF[lev[e]] = u
+    nrows = _front_roots(n, r, cap, off, lev, front, omega, G, H, row_state, headF, nxtF,
+                         inF, nrows, max_rows, dense, keys, vals, shift, c)
     if n_adm > 0:
-        for i in range(R):
-            c[i] = lo[i]
-        while True:
-            s = 0
-            lvl = 0
-            for i in range(R):
-                s += c[i] * stride[i]
-                lvl += c[i]
-            if dense:
-                u = s
-            else:
-                u, nrows = _row_of(s, True, nrows, max_rows, row_state, G, H, keys, vals,
-                                   shift)
-            for e in range(n):
-                if back[e] and covers(c, r, e):
-                    H[u, e] = 0.0
-                    if inB[u] == 0:
-                        inB[u] = 1
-                        nxtB[u] = headB[lvl]
-                        headB[lvl] = u
-            i = 0  # next admissible total: a mixed-radix counter over [lo, cap]
-            while i < R:
-                c[i] += 1
-                if c[i] <= cap[i]:
-                    break
-                c[i] = lo[i]
-                i += 1
-            if i == R:
-                break
+        nrows = _back_roots(n, r, lo, cap, stride, back, H, row_state, G, headB, nxtB, inB,
+                            nrows, max_rows, dense, keys, vals, shift, c)
 
     # Bidirectional growth: the side that has done less work takes its next level.
     lf = 0
@@ -340,17 +532,17 @@ def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,  # noqa: C901
             need, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift)
         limit = nrows + need
         if fwd:
-            nrows, work, done = _forward_level(
-                lf, 0, lb, headF, nxtF, n, r, cap, stride, off, lev, W, G, H, row_state,
-                headF, nxtF, inF, nrows, limit, True, False, dense, keys, vals, shift,
-                c, gv, idx)
+            nrows, work, done = _fwd(
+                lf, 0, lb, headF, nxtF, n, r, cap, stride, off, lev, W, lists, G, H,
+                row_state, headF, nxtF, inF, nrows, limit, True, False, dense, keys, vals,
+                shift, c, gv, idx)
             work_f += work
             lf += 1
         else:
-            nrows, work, done = _backward_level(
-                lb, lf, top, headB, nxtB, n, r, cap, stride, off, lev, W, G, H, row_state,
-                headB, nxtB, inB, npred, nrows, limit, True, False, dense, keys, vals, shift,
-                c)
+            nrows, work, done = _bwd(
+                lb, lf, top, headB, nxtB, n, r, cap, stride, off, lev, W, lists, G, H,
+                row_state, headB, nxtB, inB, npred, nrows, limit, True, False, dense, keys,
+                vals, shift, c)
             work_b += work
             lb -= 1
         if not done:
@@ -358,24 +550,9 @@ def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,  # noqa: C901
     lam = lf  # levels < lam were expanded forward, levels >= lam backward
 
     if complete:
-        # exact h below λ: first the edges that cross λ, then downwards
-        for lvl in range(lam, min(top, lam + maxlev - 1) + 1):
-            _backward_level(lvl, 0, lam - 1, headB, nxtB, n, r, cap, stride, off, lev, W,
-                            G, H, row_state, headB, nxtB, inB, npred, nrows, nrows, False,
-                            False, dense, keys, vals, shift, c)
-        for lvl in range(lam - 1, -1, -1):
-            _backward_level(lvl, 0, top, headF, nxtF, n, r, cap, stride, off, lev, W,
-                            G, H, row_state, headB, nxtB, inB, npred, nrows, nrows, False,
-                            True, dense, keys, vals, shift, c)
-        # exact g from λ up: first the edges that cross λ, then upwards
-        for lvl in range(max(0, lam - maxlev), lam):
-            _forward_level(lvl, lam, top, headF, nxtF, n, r, cap, stride, off, lev, W, G, H,
-                           row_state, headF, nxtF, inF, nrows, nrows, False, False, dense,
-                           keys, vals, shift, c, gv, idx)
-        for lvl in range(lam, top + 1):
-            _forward_level(lvl, 0, top, headB, nxtB, n, r, cap, stride, off, lev, W, G, H,
-                           row_state, headF, nxtF, inF, nrows, nrows, False, True, dense,
-                           keys, vals, shift, c, gv, idx)
+        _complete(lam, top, maxlev, n, r, cap, stride, off, lev, W, lists, G, H, row_state,
+                  headF, nxtF, inF, headB, nxtB, inB, npred, nrows, dense, keys, vals, shift,
+                  c, gv, idx)
     return (STATUS_OK, nrows, G, H, row_state, lam, work_f, work_b), (keys, vals, shift)
 
 
@@ -421,8 +598,12 @@ def grow(cp: Compiled, *, dense: bool, rows_hint: int, max_rows: int,
     """Run the growth kernel; returns ((status, rows, G, H, row_state, λ, work_f,
     work_b), hash_table)."""
     npred = np.diff(cp.pred_ptr).astype(np.int64)
-    return _grow_graph(
-        cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.S, cp.off, cp.lev, cp.top, cp.W, npred,
+    sparse = cp.sparse
+    W = np.zeros((1, 1)) if sparse else cp.W
+    lists = (cp.succ_ptr, cp.succ_elem, cp.succ_w, cp.pred_ptr, cp.pred_elem, cp.pred_w,
+             np.full(1, sparse, dtype=np.bool_))
+    return _grow(
+        cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.S, cp.off, cp.lev, cp.top, W, lists, npred,
         cp.front, cp.back, cp.omega, dense, rows_hint, max_rows, forward_only, complete,
     )
 

@@ -1,5 +1,6 @@
 """Sample problems shipped with citysynth: the street front of the paper's Fig. 7, a
-building like its Fig. 1(c) and block cycles (structures).
+building like its Fig. 1(c), block cycles (structures) and a motion graph like the
+one of the paper's Tables 2 and 3.
 
 A street front filled with complete buildings: 74 buildings 4-20 m wide on the 0.2 m
 grid, every transition allowed, seeded transition costs. The one-resource variant
@@ -10,6 +11,7 @@ the benchmark and ``examples/street_front.json`` agree.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -98,4 +100,67 @@ def block_cycle(corners: int = 40, *, seed: int = 1, k: int = 1) -> dict:
     return {"resources": ["length"], "quantum": {"length": 0.2}, "elements": fill + keys,
             "transitions": trans, "keypoints": [{"elements": [x["id"] for x in keys]}] * corners,
             "stages": [{"constraints": {"length": [L, L]}} for L in sides], "closed": True,
+            "k": k}
+
+
+MOTION_FPS = 30   # 5 m in 146 frames (paper, Table 3) is a walk at 30 frames a second
+
+
+@lru_cache(maxsize=4)
+def _motion_segments(n: int, successors: int, seed: int):
+    """Segments (distance in 5 cm steps, frames, lateral drift) and, for each, its
+    ``successors`` best-matching next segments with the pose distance."""
+    rng = np.random.default_rng(seed)
+    styles = rng.normal(size=(8, 4))                     # walking styles
+    style = rng.integers(0, len(styles), n)
+    frames = rng.integers(20, 61, n)
+    speed = 0.85 + 0.08 * style + rng.normal(0.0, 0.08, n)   # m/s, per style
+    steps = np.maximum(1, np.round(speed * frames / MOTION_FPS / 0.05)).astype(np.int64)
+    period = 1.1 + 0.05 * rng.normal(size=n)             # gait cycle, seconds
+    phase0 = rng.random(n) * 2 * np.pi
+    phase1 = phase0 + 2 * np.pi * frames / (MOTION_FPS * period)
+    body = styles[style] + rng.normal(0.0, 0.15, (n, 4))
+    start = np.column_stack([body, np.cos(phase0), np.sin(phase0), speed])
+    end = np.column_stack([body + rng.normal(0.0, 0.1, (n, 4)), np.cos(phase1),
+                           np.sin(phase1), speed])
+    heading = np.radians(rng.normal(0.0, 4.0, n))        # turn over the segment
+    drift = 0.5 * steps * 0.05 * np.abs(np.sin(heading)) + rng.uniform(0.005, 0.03, n)
+    succ = np.empty((n, successors), dtype=np.int64)
+    cost = np.empty((n, successors))
+    for a in range(0, n, 512):                           # pose distances, in blocks
+        d = np.sqrt(((end[a:a + 512, None, :] - start[None, :, :]) ** 2).sum(axis=2))
+        near = np.argpartition(d, successors, axis=1)[:, :successors]
+        near.sort(axis=1)
+        succ[a:a + 512] = near
+        cost[a:a + 512] = np.take_along_axis(d, near, axis=1)
+    return steps, frames, drift, succ, cost
+
+
+def motion_graph(distance_m: float, frames: int | None = None, *, segments: int = 600,
+                 successors: int = 32, alpha: float = 0.5, seed: int = 11,
+                 k: int = 1) -> dict:
+    """A synthetic motion graph shaped like the walk subset of HDM05 the paper times
+    (Tables 2 and 3), as a problem dict: ``segments`` walking segments of 20-60 frames
+    (at 30 frames a second) covering their distance in 5 cm steps, each followed only
+    by the ``successors`` segments whose start pose best matches its end pose (the
+    transition cost delta is that pose-feature distance, as a motion graph is built).
+    The cost is eq. 4 of the paper, alpha * omega(e) + (1 - alpha) * delta(e, f), with
+    omega the segment's mean distance from the path: the path is a straight line and
+    every segment starts on it heading along it, so omega is its own lateral drift.
+    Constraints: the distance exactly, and the frame count exactly when given
+    (otherwise frames are only summed). ``segments=9709`` is HDM05's full size."""
+    steps, nframes, drift, succ, cost = _motion_segments(segments, successors, seed)
+    ids = [f"s{i:05d}" for i in range(segments)]
+    elements = [{"id": ids[i], "resources": {"distance": round(0.05 * int(steps[i]), 2),
+                                             "frames": int(nframes[i])},
+                 "cost": alpha * float(drift[i])} for i in range(segments)]
+    transitions = [[ids[a], ids[int(b)], (1 - alpha) * float(c)]
+                   for a in range(segments)
+                   for b, c in zip(succ[a], cost[a], strict=True)]
+    D = round(float(distance_m), 2)
+    constraints: dict[str, list[float]] = {"distance": [D, D]}
+    if frames is not None:
+        constraints["frames"] = [float(frames), float(frames)]
+    return {"resources": ["distance", "frames"], "quantum": {"distance": 0.05},
+            "elements": elements, "transitions": transitions, "constraints": constraints,
             "k": k}

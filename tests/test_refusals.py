@@ -101,12 +101,21 @@ def test_83_4_m_from_0_2_m_parts_is_exact():
     assert [s.cost for s in fgs.solutions] == [s.cost for s in r.solutions]
 
 
-def test_too_many_elements_for_the_transition_table_is_refused():
+def test_many_elements_with_few_transitions_need_no_dense_table():
+    """12,000 elements: a dense transition table would take 1.1 GB, more than allowed;
+    the transitions are sparse, so every method walks the lists and solves."""
     p = Problem.from_dict({
         "resources": ["length"],
-        "elements": [{"id": str(i), "resources": {"length": 1}} for i in range(12000)],
-        "transitions": [],
-        "constraints": {"length": [1, 1]},
+        "elements": [{"id": str(i), "resources": {"length": 1 + i % 2}}
+                     for i in range(12000)],
+        "transitions": [[str(i), str(i + 1), 0.5] for i in range(0, 11999, 2)],
+        "constraints": {"length": [3, 3]},
+        "back": ["1", "3"],
     })
+    for method in ("rcksp", "fgs"):
+        r = solve(p, k=2, method=method)
+        assert [s.sequence for s in r.solutions] == [["0", "1"], ["2", "3"]], method
+    cp = compile_problem(p)
+    assert cp.sparse
     with pytest.raises(ProblemError, match="dense transition table"):
-        solve(p)
+        cp.W  # noqa: B018  (only a kernel that insists on the matrix is refused)
