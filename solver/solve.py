@@ -1,10 +1,11 @@
 """The public entry point: ``solve(problem, k, method)``.
 
 A thin layer over the kernels (like shapely's Python API over its vectorised core):
-compile and quantise, estimate and refuse if too large, build the intermediate
-graph and enumerate the k best paths (``rcksp``) or run the baseline (``fgs``),
-then map indices back to ids, recompute every cost and resource total from the
-sequence itself in one canonical order, and explain infeasibility.
+compile and quantise, pick the method, estimate and refuse if too large, find the k
+best sequences (the cost-bounded search ``bounded``, the intermediate graph and its
+k best paths ``rcksp``, or the baseline ``fgs``), then map indices back to ids,
+recompute every cost and resource total from the sequence itself in one canonical
+order, and explain infeasibility.
 """
 
 from __future__ import annotations
@@ -16,17 +17,24 @@ from typing import Any, Literal, get_args
 
 import numpy as np
 
+from citysynth.solver.bounded import bounded_k_best, bounds_for
 from citysynth.solver.compiled import Compiled, compile_problem
 from citysynth.solver.diagnose import diagnose
 from citysynth.solver.errors import ProblemError, TooLargeError
-from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB, estimate, row_bytes, too_large_message
+from citysynth.solver.estimate import (
+    DEFAULT_MAX_MEMORY_MB,
+    dense_rows,
+    estimate,
+    row_bytes,
+    too_large_message,
+)
 from citysynth.solver.fgs import fgs
 from citysynth.solver.graph import build_graph
 from citysynth.solver.kbest import k_best
 from citysynth.solver.problem import Problem
 
 # the one-stage methods (see solve); the CLI offers METHODS
-Method = Literal["rcksp", "fgs"]
+Method = Literal["auto", "bounded", "rcksp", "fgs"]
 METHODS: tuple[Method, ...] = get_args(Method)
 # a result holds the k best sequences, or none and the reason
 Status = Literal["ok", "infeasible"]
@@ -89,17 +97,32 @@ def _sequence_resources(p: Problem, seq: list[int]) -> dict[str, float]:
     return {r: round(math.fsum(el[i].resources[r] for i in seq), 9) for r in p.resources}
 
 
-def solve(problem: Problem, k: int | None = None, method: Method = "rcksp", *,
+def choose_method(cp: Compiled) -> Method:
+    """The method ``"auto"`` runs: always the cost-bounded search.
+
+    Measured on every benchmark row (README, "Speed"): with one constrained resource
+    its single table is the exact cost to go, one backward dynamic program with no
+    growth from both ends, faster than the intermediate graph at every street length;
+    with several it explores a few thousand labels where the graph spans millions of
+    nodes. The intermediate graph (``rcksp``) stays selectable and is what the
+    structure solver's stage graphs are made of."""
+    return "bounded"
+
+
+def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
           max_memory_mb: float = DEFAULT_MAX_MEMORY_MB, table: str = "auto",
           explain: bool = True) -> Result:
     """The k cheapest distinct feasible sequences of ``problem`` in ascending cost.
 
-    ``k`` defaults to ``problem.k``. Raises :class:`ProblemError` for problems that
-    cannot be posed (unbounded elements, no common quantum) and
-    :class:`TooLargeError` when the state space exceeds ``max_memory_mb``.
-    ``table`` forces the graph's row table ("dense" or "hash"; tests and benchmarks
-    use it, "auto" picks dense when the state box is small). ``explain=False`` skips
-    the diagnosis of an infeasible problem (callers that solve many sub-problems).
+    ``k`` defaults to ``problem.k``. ``method``: "auto" (the default, see
+    :func:`choose_method`), "bounded" (cost-bounded search), "rcksp" (the paper's
+    intermediate graph) or "fgs" (the baseline); all return the same sequences.
+    Raises :class:`ProblemError` for problems that cannot be posed (unbounded
+    elements, no common quantum) and :class:`TooLargeError` when the search exceeds
+    ``max_memory_mb``. ``table`` forces the row table of rcksp and fgs ("dense" or
+    "hash"; tests and benchmarks use it, "auto" picks dense when the state box is
+    small). ``explain=False`` skips the diagnosis of an infeasible problem (callers
+    that solve many sub-problems).
 
     A front of 14 to 18 m with one or two shops (a shop has a door), its four
     cheapest fillings:
@@ -122,11 +145,15 @@ def solve(problem: Problem, k: int | None = None, method: Method = "rcksp", *,
     """
     if method not in METHODS:
         raise ProblemError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if table not in ("auto", "dense", "hash"):
+        raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
     k = problem.k if k is None else int(k)
     if k < 1:
         raise ProblemError(f"k must be a positive integer, got {k}")
     t0 = time.perf_counter()
     cp = compile_problem(problem)
+    if method == "auto":
+        method = choose_method(cp)
     stats: dict[str, Any] = {
         "method": method, "k": k, "elements": cp.n,
         "quantisation": {q.resource: q.to_dict() for q in cp.quant},
@@ -134,55 +161,13 @@ def solve(problem: Problem, k: int | None = None, method: Method = "rcksp", *,
     }
     if cp.empty_bounds:
         return _infeasible(cp, stats, t0, max_memory_mb, explain=explain)
-    est = estimate(cp, max_memory_mb)
-    if table not in ("auto", "dense", "hash"):
-        raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
-    dense = est.dense if table == "auto" else table == "dense"
-    if dense and cp.S * row_bytes(cp.n, True) > max_memory_mb * 2**20:
-        raise TooLargeError(too_large_message(cp, est.nodes, cp.S * row_bytes(cp.n, True),
-                                              int(max_memory_mb * 2**20)))
-    stats["estimate"] = est.to_dict()
-    stats["estimate"]["table"] = "dense" if dense else "hash"
-    if method == "rcksp":
-        graph = build_graph(cp, dense=dense, rows_hint=min(cp.S, 1 << 12),
-                            max_rows=est.max_rows)
-        if graph is None:
-            raise TooLargeError(too_large_message(cp, est.nodes, est.bytes,
-                                                  int(max_memory_mb * 2**20)))
-        t1 = time.perf_counter()
-        touched = 0
-
-        def enumerate_k(kk: int) -> list[list[int]]:
-            nonlocal touched
-            seqs, _, touched = k_best(graph, kk)
-            return seqs
-
-        seqs = _truly_feasible(problem, cp, k, enumerate_k, stats)
-        t2 = time.perf_counter()
-        stats.update(nodes=graph.kept, nodes_generated=graph.nodes,
-                     meet_level=graph.meet_level, kbest_nodes=touched)
-    else:
-        t1 = time.perf_counter()
-        counters: dict[str, int] = {}
-
-        def enumerate_k(kk: int) -> list[list[int]]:
-            status, seqs, _, settled, labels = fgs(
-                cp, kk, dense=dense, size_hint=min(est.nodes, 1 << 20),
-                max_labels=max(int(max_memory_mb * 2**20) // 64, 1024))
-            if status != 0:
-                raise TooLargeError(
-                    f"FGS stopped after {labels:,} labels: the search exceeds the memory "
-                    f"budget of {max_memory_mb:,.0f} MB; use method rcksp or a smaller k")
-            counters.update(nodes=settled, labels=labels)
-            return seqs
-
-        seqs = _truly_feasible(problem, cp, k, enumerate_k, stats)
-        t2 = time.perf_counter()
-        stats.update(counters)
+    run = {"bounded": _bounded, "rcksp": _rcksp, "fgs": _fgs}[method]
+    seqs, t1 = run(problem, cp, k, max_memory_mb, table, stats)
+    t2 = time.perf_counter()
     stats["setup_s"] = t1 - t0
     stats["solve_s"] = t2 - t1
     if not seqs:
-        return _infeasible(cp, stats, t0, max_memory_mb, est.max_rows, explain=explain)
+        return _infeasible(cp, stats, t0, max_memory_mb, explain=explain)
     keys = _transition_keys(cp)
     sols = []
     for s in seqs:
@@ -191,6 +176,79 @@ def solve(problem: Problem, k: int | None = None, method: Method = "rcksp", *,
         sols.append((cost, s, Solution(ids, cost, _sequence_resources(problem, s))))
     sols.sort(key=lambda t: (t[0], t[1]))
     return Result("ok", [t[2] for t in sols], stats)
+
+
+def _bounded(problem: Problem, cp: Compiled, k: int, max_memory_mb: float, table: str,
+             stats: dict) -> tuple[list[list[int]], float]:
+    """The cost-bounded search (:mod:`solver.bounded`); its setup is the bound tables."""
+    budget = int(max_memory_mb * 2**20)
+    bounds = bounds_for(cp, budget)
+    stats["estimate"] = {"bound_tables_bytes": bounds.nbytes, "table": "hash"}
+    t1 = time.perf_counter()
+    seqs = _truly_feasible(problem, cp, k,
+                           lambda kk: bounded_k_best(cp, kk, budget, bounds, stats), stats)
+    return seqs, t1
+
+
+def _row_table(cp: Compiled, max_memory_mb: float, table: str, stats: dict):
+    """Estimate the intermediate graph and pick its row table; refuses when too large."""
+    est = estimate(cp, max_memory_mb)
+    dense = est.dense if table == "auto" else table == "dense"
+    if dense and cp.S * row_bytes(cp.n, True) > max_memory_mb * 2**20:
+        raise TooLargeError(too_large_message(cp, est.nodes, cp.S * row_bytes(cp.n, True),
+                                              int(max_memory_mb * 2**20)))
+    stats["estimate"] = est.to_dict()
+    stats["estimate"]["table"] = "dense" if dense else "hash"
+    return est, dense
+
+
+def _rcksp(problem: Problem, cp: Compiled, k: int, max_memory_mb: float, table: str,
+           stats: dict) -> tuple[list[list[int]], float]:
+    """The intermediate graph grown, met and pruned, then its k best paths."""
+    est, dense = _row_table(cp, max_memory_mb, table, stats)
+    graph = build_graph(cp, dense=dense, rows_hint=min(cp.S, 1 << 12),
+                        max_rows=est.max_rows)
+    if graph is None:
+        raise TooLargeError(too_large_message(cp, est.nodes, est.bytes,
+                                              int(max_memory_mb * 2**20)))
+    t1 = time.perf_counter()
+    touched = 0
+
+    def enumerate_k(kk: int) -> list[list[int]]:
+        nonlocal touched
+        seqs, _, touched = k_best(graph, kk)
+        return seqs
+
+    seqs = _truly_feasible(problem, cp, k, enumerate_k, stats)
+    stats.update(nodes=graph.kept, nodes_generated=graph.nodes,
+                 meet_level=graph.meet_level, kbest_nodes=touched)
+    return seqs, t1
+
+
+def _fgs(problem: Problem, cp: Compiled, k: int, max_memory_mb: float, table: str,
+         stats: dict) -> tuple[list[list[int]], float]:
+    """The baseline. It needs no row table, only a node table: dense when the box is
+    small, else hashed; the label store is what the budget bounds."""
+    dense = dense_rows(cp) if table == "auto" else table == "dense"
+    stats["estimate"] = {"table": "dense" if dense else "hash"}
+    size_hint = min(cp.S * max(cp.n, 1), 1 << 20)
+    t1 = time.perf_counter()
+    counters: dict[str, int] = {}
+
+    def enumerate_k(kk: int) -> list[list[int]]:
+        status, seqs, _, settled, labels = fgs(
+            cp, kk, dense=dense, size_hint=size_hint,
+            max_labels=max(int(max_memory_mb * 2**20) // 64, 1024))
+        if status != 0:
+            raise TooLargeError(
+                f"FGS stopped after {labels:,} labels: the search exceeds the memory "
+                f"budget of {max_memory_mb:,.0f} MB; use method bounded or a smaller k")
+        counters.update(nodes=settled, labels=labels)
+        return seqs
+
+    seqs = _truly_feasible(problem, cp, k, enumerate_k, stats)
+    stats.update(counters)
+    return seqs, t1
 
 
 def _truly_feasible(problem: Problem, cp: Compiled, k: int, enumerate_k, stats: dict

@@ -41,10 +41,11 @@ def test_motion_graph_is_sparse_and_every_method_agrees():
     cp = compile_problem(p)
     assert cp.sparse and cp._W is None
     rows = [solve(p, k=15, method=m, table=t) for m, t in
-            (("rcksp", "dense"), ("rcksp", "hash"), ("fgs", "auto"))]
+            (("rcksp", "dense"), ("rcksp", "hash"), ("fgs", "auto"), ("bounded", "auto"))]
     assert rows[0].status == "ok" and len(rows[0].solutions) == 15
     for r in rows[1:]:
         assert [s.cost for s in r.solutions] == [s.cost for s in rows[0].solutions]
-    assert [s.sequence for s in rows[1].solutions] == [s.sequence for s in rows[0].solutions]
+    for r in (rows[1], rows[3]):
+        assert [s.sequence for s in r.solutions] == [s.sequence for s in rows[0].solutions]
     build_graph(cp, dense=False, rows_hint=64, max_rows=10**6)
     assert cp._W is None  # the graph grew without the dense table

@@ -1,0 +1,82 @@
+"""The cost-bounded method: the k best sequences without spanning the feasible box.
+
+The intermediate graph (:mod:`solver.graph`) holds every node of the feasible box, and
+with several constraints that box is large (millions of nodes on a three-resource
+street) while the k best sequences pass through a few hundred of them. This method
+spends its work near the answer instead:
+
+1. **Bounds.** The exact cost to go of each one-resource relaxation, by a backward
+   dynamic program per resource (:mod:`solver.bounds`).
+2. **One resource.** The relaxation is the problem, the table is the exact cost to go
+   of every node, and the lazy k-best enumeration (:mod:`solver.kbest`) runs on it
+   directly: a plain dynamic program, then k paths. No growth from both ends, no
+   completing passes.
+3. **Several resources.** A best-first (A*) search over (element, state) labels
+   ordered by g + bound, ties broken lexicographically, returns the first k
+   sequences in (cost, lexicographic) order (:mod:`solver.astar`).
+
+Exact throughout: the bound never exceeds the true cost to go, so nothing cheaper than
+the k-th answer is ever cut, and the sequences are those the other methods return.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from citysynth.solver.astar import STATUS_OK, astar_k_best
+from citysynth.solver.bounds import Bounds, relaxation_bounds
+from citysynth.solver.compiled import Compiled
+from citysynth.solver.errors import TooLargeError
+from citysynth.solver.graph import Graph
+from citysynth.solver.kbest import k_best
+
+BOUNDS_SHARE = 4   # the bound tables may use 1/4 of the memory budget
+
+
+def bounds_for(cp: Compiled, budget_bytes: int) -> Bounds:
+    """The relaxation tables this method uses for ``cp`` under the memory budget."""
+    return relaxation_bounds(cp, budget_bytes // BOUNDS_SHARE)
+
+
+def exact_graph(cp: Compiled, bounds: Bounds) -> Graph:
+    """The single-resource table as an intermediate graph with dense rows (row = state),
+    which is all :func:`solver.kbest.k_best` reads."""
+    S = int(cp.cap[0]) + 1
+    H = bounds.table.reshape(S, cp.n)
+    empty = np.zeros((0, cp.n))
+    return Graph(cp, 0, 0, 0, S, empty, H, np.arange(S, dtype=np.int64), True,
+                 np.full(1, -1, dtype=np.int64), np.full(1, -1, dtype=np.int32), 0, 0, 0)
+
+
+def _refusal(cp: Compiled, labels: int, budget_bytes: int) -> TooLargeError:
+    widest = int(np.argmax(cp.cap))
+    name = cp.bounded[widest]
+    q = cp.quant[widest].quantum
+    return TooLargeError(
+        f"problem too large: the cost-bounded search stopped after {labels:,} labels, "
+        f"the memory budget of {budget_bytes / 2**20:,.0f} MB (the graph states within "
+        f'reach of the k-th cost do not fit). The widest resource is "{name}": use a '
+        f'coarser quantum for it (e.g. "quantum": {{"{name}": {2 * q:g}}}), tighten the '
+        "bounds, ask for a smaller k, or raise the budget (--max-memory MB)")
+
+
+def bounded_k_best(cp: Compiled, k: int, budget_bytes: int, bounds: Bounds | None = None,
+                   stats: dict[str, Any] | None = None) -> list[list[int]]:
+    """The k best sequences (element indices) in (cost, lexicographic) order. Raises
+    TooLargeError beyond ``budget_bytes``."""
+    st: dict[str, Any] = {} if stats is None else stats
+    if bounds is None:
+        bounds = bounds_for(cp, budget_bytes)
+    st["bound_tables"] = [cp.bounded[i] for i in bounds.res]
+    if bounds.exact:
+        seqs, _costs, touched = k_best(exact_graph(cp, bounds), k)
+        st.update(path="exact", nodes=int(bounds.table.size), kbest_nodes=touched)
+        return seqs
+    status, seqs, counters = astar_k_best(cp, bounds, k, budget_bytes - bounds.nbytes)
+    st.update(path="astar", labels=counters["labels"], nodes=counters["nodes"],
+              settled=counters["settled"])
+    if status != STATUS_OK:
+        raise _refusal(cp, counters["labels"], budget_bytes)
+    return seqs

@@ -1,0 +1,220 @@
+"""Lower bounds on the cost to go: exact cost-to-go tables of one-resource relaxations.
+
+Drop every constrained resource but one, i, and the problem becomes a plain
+one-resource problem over nodes (element e, consumed quanta c of resource i). Every
+sequence of the full problem is a sequence of the relaxation with the same cost, so
+the relaxation's exact cost-to-go h_i(e, c) is a lower bound on the real one, and it
+is *consistent*: h_i(e, c) <= w(e, f) + h_i(f, c + r_i(f)) for every transition the
+real problem can take, because that inequality is the relaxation's own Bellman
+equation. The maximum over several resources is a consistent bound too. A node whose
+bound is infinite cannot complete even in the relaxation, so the bound doubles as a
+feasibility test on every kept resource's interval.
+
+One table costs a backward dynamic program over (cap_i + 1) levels, O(transitions x
+levels), filled from the highest level down: a node's value is final once every level
+above it has pushed into it. Elements that consume nothing of resource i (a wall
+with no door, for the door count) stay on the same level; that level is then finished
+by a small Dijkstra over those zero-consumption transitions before it pushes down.
+
+With a single constrained resource the relaxation *is* the problem, and the table is
+the exact cost-to-go of every node: :mod:`solver.bounded` enumerates the k best paths
+on it directly.
+
+Tables are stored one after another in one flat array (:class:`Bounds`) so the kernels
+can take the maximum over them for any state with a few loads.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from citysynth.solver.compiled import Compiled
+
+
+@njit(cache=True, inline="always")
+def _hpush(hk, hv, hs, key, val):
+    """Push (key, val) on a binary min-heap held in hk/hv[:hs]; returns the new size."""
+    pos = hs
+    while pos > 0:
+        par = (pos - 1) // 2
+        if hk[par] <= key:
+            break
+        hk[pos] = hk[par]
+        hv[pos] = hv[par]
+        pos = par
+    hk[pos] = key
+    hv[pos] = val
+    return hs + 1
+
+
+@njit(cache=True, inline="always")
+def _hpop(hk, hv, hs):
+    """Remove the minimum; returns (key, val, new size)."""
+    key, val = hk[0], hv[0]
+    hs -= 1
+    if hs > 0:
+        lk, lv = hk[hs], hv[hs]
+        pos = 0
+        while True:
+            ch = 2 * pos + 1
+            if ch >= hs:
+                break
+            if ch + 1 < hs and hk[ch + 1] < hk[ch]:
+                ch += 1
+            if hk[ch] >= lk:
+                break
+            hk[pos] = hk[ch]
+            hv[pos] = hv[ch]
+            pos = ch
+        hk[pos] = lk
+        hv[pos] = lv
+    return key, val, hs
+
+
+@njit(cache=True)
+def _finish_level(h, c, ri, pred_ptr, pred_elem, pred_w, hk, hv):
+    """Dijkstra on level c over the transitions into elements that consume nothing of
+    the resource (they stay on level c); the level's values are final afterwards."""
+    n = len(ri)
+    hs = 0
+    for f in range(n):
+        if ri[f] == 0 and h[c, f] < np.inf:
+            hs = _hpush(hk, hv, hs, h[c, f], f)
+    while hs > 0:
+        hf, f, hs = _hpop(hk, hv, hs)
+        if hf > h[c, f]:
+            continue  # a stale entry
+        for j in range(pred_ptr[f], pred_ptr[f + 1]):
+            p = pred_elem[j]
+            v = pred_w[j] + hf
+            if v < h[c, p]:
+                h[c, p] = v
+                if ri[p] == 0:
+                    hs = _hpush(hk, hv, hs, v, p)
+
+
+@njit(cache=True, fastmath={"nnan", "nsz"})
+def _push_down(h, c, ri, pred_ptr, pred_elem, pred_w):
+    """Every finished node (f, c) offers pred_w + h to its predecessors on the level
+    its own consumption came from. Full predecessor lists (dense tables) run as one
+    contiguous vector loop, sparse ones entry by entry."""
+    n = len(ri)
+    for f in range(n):
+        hf = h[c, f]
+        if hf == np.inf or ri[f] == 0:
+            continue
+        cp = c - ri[f]
+        if cp < 0:
+            continue
+        a, b = pred_ptr[f], pred_ptr[f + 1]
+        if b - a == n:
+            for p in range(n):
+                h[cp, p] = min(h[cp, p], pred_w[a + p] + hf)
+        else:
+            for j in range(a, b):
+                p = pred_elem[j]
+                h[cp, p] = min(h[cp, p], pred_w[j] + hf)
+
+
+@njit(cache=True)
+def relaxed_cost_to_go(ri, lo, cap, back, pred_ptr, pred_elem, pred_w):
+    """h[c, e]: the exact cheapest completion of a sequence that ends with element e
+    having consumed c quanta of one resource (e's own included), when only that
+    resource's interval [lo, cap] counts; inf when none exists."""
+    n = len(ri)
+    h = np.full((cap + 1, n), np.inf)
+    for c in range(max(lo, 0), cap + 1):
+        for e in range(n):
+            if back[e] and ri[e] <= c:
+                h[c, e] = 0.0
+    zero = False
+    for e in range(n):
+        if ri[e] == 0:
+            zero = True
+    m = len(pred_elem) + n + 1
+    hk = np.empty(m if zero else 1)
+    hv = np.empty(m if zero else 1, dtype=np.int64)
+    for c in range(cap, -1, -1):
+        if zero:
+            _finish_level(h, c, ri, pred_ptr, pred_elem, pred_w, hk, hv)
+        _push_down(h, c, ri, pred_ptr, pred_elem, pred_w)
+    return h
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """Cost-to-go tables of one-resource relaxations, flat: table t holds resource
+    ``res[t]``, value for (c, e) at ``table[base[t] + c * n + e]``."""
+
+    res: np.ndarray    # int64 [T]  which constrained resource each table relaxes to
+    base: np.ndarray   # int64 [T]  where each table starts in ``table``
+    table: np.ndarray  # float64
+    exact: bool        # the only resource is kept: the values are the exact cost-to-go
+
+    @property
+    def count(self) -> int:
+        return len(self.res)
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.table.nbytes)
+
+
+def table_bytes(cp: Compiled, i: int) -> int:
+    """Memory of resource i's table."""
+    return 8 * cp.n * (int(cp.cap[i]) + 1)
+
+
+def relaxation_bounds(cp: Compiled, budget_bytes: int) -> Bounds:
+    """Tables for every constrained resource whose table fits ``budget_bytes`` (the
+    narrowest first; a resource that does not fit is simply not used for bounding).
+    With one resource the single table is exact."""
+    order = sorted(range(cp.R), key=lambda i: (int(cp.cap[i]), i))
+    res: list[int] = []
+    parts: list[np.ndarray] = []
+    used = 0
+    for i in order:
+        need = table_bytes(cp, i)
+        if used + need > budget_bytes:
+            continue
+        h = relaxed_cost_to_go(cp.r[:, i].copy(), int(cp.lo[i]), int(cp.cap[i]), cp.back,
+                               cp.pred_ptr, cp.pred_elem, cp.pred_w)
+        res.append(i)
+        parts.append(h.ravel())
+        used += need
+    base = np.zeros(len(parts), dtype=np.int64)
+    if parts:
+        base[1:] = np.cumsum([len(p) for p in parts])[:-1]
+    table = np.concatenate(parts) if parts else np.zeros(0)
+    return Bounds(np.array(res, dtype=np.int64), base, table, cp.R == 1 and len(res) == 1)
+
+
+@njit(cache=True, inline="always")
+def bound_after(c, f, r, n, bres, bbase, btab):
+    """The bound of node (f, c + r(f)): element f appended to a sequence that has
+    consumed c (decoded). The same as :func:`bound_at`, without the divisions."""
+    best = 0.0
+    for t in range(len(bres)):
+        i = bres[t]
+        v = btab[bbase[t] + (c[i] + r[f, i]) * n + f]
+        if v > best:
+            best = v
+    return best
+
+
+@njit(cache=True, inline="always")
+def bound_at(s, e, n, cap, stride, bres, bbase, btab):
+    """max over the tables of h_i(e, c_i) for linear state s: the lower bound on the
+    cost to go of node (e, s) (0 without tables, inf when some relaxation cannot
+    complete)."""
+    best = 0.0
+    for t in range(len(bres)):
+        i = bres[t]
+        ci = (s // stride[i]) % (cap[i] + 1)
+        v = btab[bbase[t] + ci * n + e]
+        if v > best:
+            best = v
+    return best
