@@ -21,7 +21,7 @@ the exact cost-to-go of every node: :mod:`solver.bounded` enumerates the k best 
 on it directly.
 
 Tables are stored one after another in one flat array (:class:`Bounds`) so the kernels
-can take the maximum over them for any state with a few loads.
+can take the maximum over them for any node with a few loads.
 """
 
 from __future__ import annotations
@@ -194,27 +194,14 @@ def relaxation_bounds(cp: Compiled, budget_bytes: int) -> Bounds:
 
 @njit(cache=True, inline="always")
 def bound_after(c, f, r, n, bres, bbase, btab):
-    """The bound of node (f, c + r(f)): element f appended to a sequence that has
-    consumed c (decoded). The same as :func:`bound_at`, without the divisions."""
+    """The bound of node (f, c + r(f)), element f appended to a sequence that has
+    consumed c: the maximum over the tables of h_i(f, c_i + r_i(f)) (0 without
+    tables, inf when some relaxation cannot complete). Hot loops write this out
+    instead of calling it (see solver.astar._children)."""
     best = 0.0
     for t in range(len(bres)):
         i = bres[t]
         v = btab[bbase[t] + (c[i] + r[f, i]) * n + f]
-        if v > best:
-            best = v
-    return best
-
-
-@njit(cache=True, inline="always")
-def bound_at(s, e, n, cap, stride, bres, bbase, btab):
-    """max over the tables of h_i(e, c_i) for linear state s: the lower bound on the
-    cost to go of node (e, s) (0 without tables, inf when some relaxation cannot
-    complete)."""
-    best = 0.0
-    for t in range(len(bres)):
-        i = bres[t]
-        ci = (s // stride[i]) % (cap[i] + 1)
-        v = btab[bbase[t] + ci * n + e]
         if v > best:
             best = v
     return best
