@@ -2,8 +2,12 @@
 
 Export needs what measuring threw away: the colours. A part mesh (a glTF scene of
 named sub-meshes, or a single OBJ/PLY/STL mesh) becomes a few :class:`Piece` s, one
-per distinct colour, so a USD prototype or a glTF mesh carries one material per piece
-instead of one per window. Coordinates are in metres in the placement frame: a
+per kind of sub-mesh (walls, roof, trim, window, door, balcony: the leading letters of
+its node name) and colour, so a USD prototype or a glTF mesh carries one material per
+piece instead of one per window. Colours are read per face: one sub-mesh may hold
+several (a roof and its walls painted in one mesh, as a modeller's export or an OBJ
+with vertex colours does), and each becomes its own piece rather than being averaged
+into the mesh's dominant colour. Coordinates are in metres in the placement frame: a
 straight part starts at x = 0 and is stretched to its snapped length (when the
 library rescales), a key-point part keeps its key point at the origin. Loaded once per
 process and part (parts repeat hundreds of times in a city).
@@ -44,6 +48,10 @@ def part_pieces(db: PartDB, part: Part) -> tuple[Piece, ...]:
                    tuple(part.origin), part.scale)
 
 
+RGBA = tuple[int, int, int, int]
+Group = list[tuple[np.ndarray, np.ndarray]]   # (vertices, faces) of the sub-meshes
+
+
 @lru_cache(maxsize=1024)
 def _pieces(path: str, part_id: str, meters_per_unit: float,
             origin: tuple[float, float, float], scale: float) -> tuple[Piece, ...]:
@@ -52,50 +60,90 @@ def _pieces(path: str, part_id: str, meters_per_unit: float,
     except Exception as exc:  # trimesh raises many kinds for unreadable files
         raise LibraryError(f'part "{part_id}" ({path}): cannot read the mesh '
                            f"({type(exc).__name__}: {exc}); ingest the library again") from None
-    groups: dict[tuple[int, ...], list] = {}
-    names: dict[tuple[int, ...], str] = {}
+    groups: dict[tuple[str, RGBA], Group] = {}
     if isinstance(loaded, trimesh.Scene):
         for node in sorted(loaded.graph.nodes_geometry):
             transform, geom_name = loaded.graph[node]
             g = loaded.geometry.get(geom_name)
             if not isinstance(g, trimesh.Trimesh) or len(g.faces) == 0:
                 continue
-            key = _colour(g)
-            groups.setdefault(key, []).append((trimesh.transform_points(g.vertices,
-                                                                         transform), g.faces))
             m = _KIND.match(str(node))
-            names.setdefault(key, m.group(0).lower() if m else "surface")
-    else:
-        key = _colour(loaded)
-        groups[key] = [(np.asarray(loaded.vertices, dtype=float), loaded.faces)]
-        names[key] = "surface"
-    lo = np.array(origin, dtype=float)
+            kind = m.group(0).lower() if m else "surface"
+            verts = trimesh.transform_points(g.vertices, transform)
+            for rgba, faces in _by_colour(g):
+                groups.setdefault((kind, rgba), []).append((verts, faces))
+    elif isinstance(loaded, trimesh.Trimesh):
+        verts = np.asarray(loaded.vertices, dtype=np.float64)
+        for rgba, faces in _by_colour(loaded):
+            groups.setdefault(("surface", rgba), []).append((verts, faces))
+    lo = np.array(origin, dtype=np.float64)
     pieces = []
-    for key in sorted(groups, key=lambda c: (names[c], c)):
-        verts, faces, offset = [], [], 0
-        for v, f in groups[key]:
-            verts.append(v)
-            faces.append(np.asarray(f, dtype=np.int64) + offset)
-            offset += len(v)
-        v = np.vstack(verts) * meters_per_unit - lo
+    for key in sorted(groups):
+        v, f = _merge(groups[key])
+        v = v * meters_per_unit - lo
         v[:, 0] *= scale
-        pieces.append(Piece(names[key], key, v, np.vstack(faces)))
+        pieces.append(Piece(key[0], key[1], v, f))
     return tuple(pieces)
 
 
-def _colour(mesh) -> tuple[int, int, int, int]:
+def _merge(group: Group) -> tuple[np.ndarray, np.ndarray]:
+    """One (vertices, faces) from several, keeping only the vertices faces use."""
+    verts: list[np.ndarray] = []
+    faces: list[np.ndarray] = []
+    offset = 0
+    for v, f in group:
+        used, inverse = np.unique(f, return_inverse=True)
+        verts.append(v[used])
+        faces.append(inverse.reshape(-1, 3).astype(np.int64) + offset)
+        offset += len(used)
+    return np.vstack(verts), np.vstack(faces)
+
+
+def _rgba(values) -> RGBA:
+    c = [int(x) for x in np.asarray(values).ravel()[:4]]
+    c += [255] * (4 - len(c))
+    return c[0], c[1], c[2], c[3]
+
+
+def _by_colour(mesh: trimesh.Trimesh) -> list[tuple[RGBA, np.ndarray]]:
+    """The mesh's faces grouped by colour: (rgba, faces) per colour, in colour order.
+    A face takes the colour of its first vertex (vertex colours) or its own (face
+    colours); a mesh without per-face colours is one group of its material's colour."""
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    colours = _face_colours(mesh)
+    if colours is None:
+        return [(_colour(mesh), faces)]
+    keys, inverse = np.unique(colours, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    return [(_rgba(keys[k]), faces[inverse == k]) for k in range(len(keys))]
+
+
+def _face_colours(mesh: trimesh.Trimesh) -> np.ndarray | None:
+    visual = getattr(mesh, "visual", None)
+    try:
+        if visual is not None and visual.kind == "face":
+            return np.asarray(visual.face_colors, dtype=np.uint8)
+        if visual is not None and visual.kind == "vertex":
+            vc = np.asarray(visual.vertex_colors, dtype=np.uint8)
+            return vc[np.asarray(mesh.faces)[:, 0]]
+    except (AttributeError, ValueError, TypeError, IndexError):
+        pass
+    return None
+
+
+def _colour(mesh) -> RGBA:
     """The mesh's dominant colour: vertex/face colours, or a material's base colour."""
     visual = getattr(mesh, "visual", None)
     try:
         if visual is not None and visual.kind in ("vertex", "face"):
-            return tuple(int(x) for x in visual.main_color)
+            return _rgba(visual.main_color)
         material = getattr(visual, "material", None)
         if material is not None:
             c = getattr(material, "baseColorFactor", None)
             if c is None:
                 c = getattr(material, "main_color", None)
             if c is not None:
-                return tuple(int(x) for x in np.asarray(c).ravel()[:4])
+                return _rgba(c)
     except (AttributeError, ValueError, TypeError):
         pass
     return DEFAULT_RGBA

@@ -1,349 +1,301 @@
-"""The sample part library's generator: real mesh files and a manifest, deterministic.
+"""The sample library's generator: real mesh files and a manifest, deterministic.
 
-``python -m citysynth.parts_db.sample [OUT]`` (or ``make library``) writes ``examples/library``:
-two facade styles (middle parts of six or more widths with window bays, doors,
-balconies, string courses and cornices; end parts; corners of 90 and 135 degrees,
-convex and concave; T parts), tower parts (ground floors, floors of varied outlines,
-areas and heights, roofs) and complete buildings 6-24 m wide for street fronts. Every
-part is built from closed boxes and extrusions in the canonical frame (README), and
-windows, doors and balconies are named sub-meshes of each GLB scene, so ingest counts
-them from the files.
+``python -m citysynth.parts_db.sample [OUT]`` (or ``make library``) writes
+``examples/library``:
+
+* two facade styles (:mod:`parts_db.sample_styles`), each with four profile families
+  in five variants. Middle parts are cut from them like segments of real streets: a
+  stretch of one variant, or a seam between two variants of a family, or a step from
+  one family to another (a lower neighbour, a fire wall). End parts for every family,
+  corners of 90, 120, 135 and 150 degrees, convex and concave, and a T part per family
+  (the first family's also in a second variant);
+* tower parts (ground floors, floors of varied outlines, areas and heights, roofs);
+* complete buildings 6-24 m wide for street fronts.
+
+Every part is one closed solid per body (:mod:`parts_db.sample_sweep`), its faces keep
+their materials (walls, roof, trim, glass, doors, balconies), and windows, doors and
+balconies are named sub-meshes of the GLB scene that ingest counts.
 """
 
 from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass
+from collections.abc import Iterator
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
-import shapely
-import trimesh
-from shapely.geometry import Polygon
+
+from citysynth.parts_db.sample_mesh import PartMesh
+from citysynth.parts_db.sample_profiles import Profile, profile
+from citysynth.parts_db.sample_styles import CLASSIC, MODERN, STYLES, Family, Style
+from citysynth.parts_db.sample_sweep import Slice, corner, straight, t_part
+from citysynth.parts_db.sample_towers import FOOTPRINTS, floor_part, ground_floor, roof_part
 
 OUT = Path(__file__).resolve().parent.parent / "examples" / "library"  # in the repository
+QUANTUM = 0.2
+__all__ = ["CLASSIC", "MODERN", "OUT", "STYLES", "facade_chunk", "generate", "middle_specs",
+           "parts"]
+
+
+@dataclass
+class Entry:
+    id: str
+    cls: str
+    style: str
+    mesh: PartMesh
+    meta: dict = field(default_factory=dict)
+
+
+def _up(x: float) -> float:
+    """x rounded up to the quantum."""
+    return round(math.ceil(x / QUANTUM - 1e-9) * QUANTUM, 6)
+
+
+def _label(w: float) -> str:
+    return f"{w:.1f}"
+
+
+# --- middle parts ----------------------------------------------------------------------------
+
+# Steps from one family to another: (family, variant) on each side. They land on a
+# variant other than the next family's own, so a detour into another family and back
+# always costs something.
+STEPS = ((("a", 0), ("b", 3)), (("b", 2), ("a", 0)), (("a", 0), ("c", 3)),
+         (("c", 2), ("a", 0)), (("b", 0), ("d", 3)), (("d", 2), ("b", 0)))
+# Seams between variants of a family inside one part: from the family's own profile to
+# variants 1 and 3, and from 2 and 4 back to it (never there and back, so that an
+# excursion away from the family's own profile is never free).
+SEAMS = ((0, 1), (2, 0), (0, 3), (4, 0))
 
 
 @dataclass(frozen=True)
-class Style:
-    name: str
-    ground_h: float
-    storey_h: float
-    wall_t: float
-    depth: float
-    bay_w: float
-    win_w: float
-    win_h: float
-    sill: float
-    cornice: tuple[tuple[float, float], ...]   # (protrusion, height) steps, bottom up
-    ledge: float
-    pitched: bool
-    wall: tuple[int, int, int]
-    trim: tuple[int, int, int]
+class MidSpec:
+    """A middle part before it is built: its slices (profiles, doors, balconies)."""
+
+    id: str
+    slices: tuple[Slice, ...]
+
+    @property
+    def length(self) -> float:
+        return self.slices[-1].x1
 
 
-CLASSIC = Style("classic", 4.2, 3.4, 0.5, 11.0, 2.6, 1.2, 1.9, 0.9,
-                ((0.25, 0.25), (0.5, 0.3), (0.7, 0.2)), 0.12, True,
-                (221, 205, 170), (245, 240, 228))
-MODERN = Style("modern", 4.0, 3.1, 0.35, 12.0, 3.2, 2.4, 2.1, 0.6,
-               ((0.15, 0.9),), 0.0, False, (168, 172, 176), (60, 62, 66))
-GLASS = (70, 95, 120)
-ROOF = (120, 70, 60)
+class _Cutter:
+    """Cuts a style's middle parts: slices of whole bays, with doors and balconies
+    drawn from the style's seeded generator."""
+
+    def __init__(self, style: Style) -> None:
+        self.style = style
+        self.rng = np.random.default_rng(style.seed)
+
+    def width(self, bays: int, bay: float | None = None) -> float:
+        bw = bay if bay is not None else float(self.rng.choice(self.style.bay_widths))
+        return round(bays * bw, 6)
+
+    def spec(self, widths: list[float], profiles: list[Profile]) -> MidSpec:
+        style, rng = self.style, self.rng
+        slices, x = [], 0.0
+        balconies = rng.random() < style.balcony_share
+        for w, prof in zip(widths, profiles, strict=True):
+            bays = max(1, round(w / style.windows.bay))
+            doors = frozenset({int(rng.integers(0, bays))}) if rng.random() < 0.45 \
+                else frozenset()
+            balc: frozenset[tuple[int, int]] = frozenset()
+            if balconies:
+                bay = int(rng.integers(0, bays))
+                m = prof.massing
+                upper = range(2, m.storeys) if m is not None else range(0)
+                balc = frozenset((st, bay) for st in upper)
+            slices.append(Slice(round(x, 6), round(x + w, 6), prof, doors, balc))
+            x += w
+        tag = "_".join(dict.fromkeys(p.name for p in profiles))
+        return MidSpec(f"{style.name}_mid_{_label(x)}_{tag}", tuple(slices))
 
 
-def _rect(x0, x1, y0, y1) -> Polygon:
-    """The axis-aligned rectangle x0..x1 by y0..y1 (argument order as in _box)."""
-    return Polygon([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+def middle_specs(style: Style) -> list[MidSpec]:
+    """Per family: one stretch of each variant (its own profile three style bays wide,
+    so a stretch between two of its key parts is free only where the length is a
+    multiple of that; no two parts of one profile, whose order would not matter and so
+    tie layouts), and the seams; then the steps between families."""
+    cut = _Cutter(style)
+    fam = {f.key: f for f in style.families}
+    specs = []
+    for f in style.families:
+        specs.append(cut.spec([cut.width(3, style.windows.bay)], [f.profile(0)]))
+        for k in (1, 2, 3, 4):
+            specs.append(cut.spec([cut.width(int(cut.rng.integers(1, 5)))], [f.profile(k)]))
+        for a, b in SEAMS:
+            widths = [cut.width(int(cut.rng.integers(1, 3))) for _ in range(2)]
+            specs.append(cut.spec(widths, [f.profile(a), f.profile(b)]))
+    for (fa, ka), (fb, kb) in STEPS:
+        widths = [cut.width(2), cut.width(2)]
+        specs.append(cut.spec(widths, [fam[fa].profile(ka), fam[fb].profile(kb)]))
+    return specs
 
 
-def _box(x0, x1, y0, y1, z0, z1, color):
-    m = trimesh.creation.box(extents=[x1 - x0, y1 - y0, z1 - z0])
-    m.apply_translation([(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2])
-    m.visual.face_colors = [*color, 255]
-    return m
+def middle_parts(style: Style) -> Iterator[Entry]:
+    for spec in middle_specs(style):
+        pm = PartMesh(style.palette)
+        straight(pm, spec.slices, style.windows)
+        yield Entry(spec.id, "middle", style.name, pm, {"length": round(spec.length, 1)})
 
 
-def _prism(poly: Polygon, z0: float, z1: float, color):
-    m = trimesh.creation.extrude_polygon(shapely.normalize(poly), z1 - z0)
-    m.apply_translation([0, 0, z0])
-    m.visual.face_colors = [*color, 255]
-    return m
+# --- key parts ------------------------------------------------------------------------------
+
+def _suffix(f: Family, k: int = 0) -> str:
+    """The principal family's own profile keeps the plain ids (classic_end_left,
+    classic_t ...); others add the family and variant (classic_t_b, classic_t_a1)."""
+    if k:
+        return f"_{f.key}{k}"
+    return "" if f.key == "a" else f"_{f.key}"
 
 
-def _along_x(profile: Polygon, x0: float, x1: float, color):
-    """A profile drawn in (y, z) extruded along X from x0 to x1."""
-    m = trimesh.creation.extrude_polygon(shapely.normalize(profile), x1 - x0)
-    rot = np.eye(4)
-    rot[:3, :3] = [[0, 0, 1], [1, 0, 0], [0, 1, 0]]
-    m.apply_transform(rot)
-    m.apply_translation([x0, 0, 0])
-    m.visual.face_colors = [*color, 255]
-    return m
+def _reach(prof: Profile) -> float:
+    """How far the profile reaches out of the facade (its cornice)."""
+    return max(u for u, _v in prof.points)
 
 
-class Parts:
-    """Named sub-meshes of one part; the names become the GLB scene's nodes."""
-
-    def __init__(self):
-        self.items: list[tuple[str, trimesh.Trimesh]] = []
-        self.counts = {"window": 0, "door": 0, "balcony": 0}
-
-    def add(self, kind: str, mesh) -> None:
-        if kind in self.counts:
-            name = f"{kind}_{self.counts[kind]:03d}"
-            self.counts[kind] += 1
-        else:
-            name = f"{kind}_{len(self.items):03d}"
-        self.items.append((name, mesh))
-
-    def transform(self, matrix) -> None:
-        for _, m in self.items:
-            m.apply_transform(matrix)
-
-    def extend(self, other: Parts) -> None:
-        for name, m in other.items:
-            kind = name.rsplit("_", 1)[0]
-            self.add(kind, m)
-
-    def glb(self) -> bytes:
-        scene = trimesh.Scene()
-        walls = [m for n, m in self.items if n.startswith("wall")]
-        if walls:
-            scene.add_geometry(trimesh.util.concatenate(walls), node_name="walls",
-                               geom_name="walls")
-        for name, m in self.items:
-            if not name.startswith("wall"):
-                scene.add_geometry(m, node_name=name, geom_name=name)
-        return scene.export(file_type="glb")
+def corner_leg(prof: Profile, angle: float, convex: bool, bay: float) -> float:
+    """Long enough that every line of the profile passes the mitre and two bays of
+    windows fit beyond it on the shorter side."""
+    half = math.radians(angle) / 2
+    inner = prof.depth if convex else _reach(prof)
+    return _up(inner / math.tan(half) + 2 * bay + 0.6)
 
 
-def storey_levels(style: Style, storeys: int) -> list[tuple[float, float]]:
-    zs = [(0.0, style.ground_h)]
-    for _ in range(storeys - 1):
-        z = zs[-1][1]
-        zs.append((z, z + style.storey_h))
-    return zs
+def key_variants(style: Style) -> Iterator[tuple[Family, int, tuple[int, ...]]]:
+    """(family, variant, corner angles): every family's own profile with end parts and
+    corners of 90 degrees (the first two families: of every angle of the style), and
+    every family's variant 1 with a T part (the first family's with 90 degree corners
+    too), so the part at a T or a corner is a choice within a family as well."""
+    for i, f in enumerate(style.families):
+        yield f, 0, style.corner_angles if i < 2 else (90,)
+    for i, f in enumerate(style.families):
+        yield f, 1, (90,) if i == 0 else ()
 
+
+def key_parts(style: Style) -> Iterator[Entry]:
+    win = style.windows
+    for f, k, angles in key_variants(style):
+        prof = f.profile(k)
+        sx = _suffix(f, k)
+        if k == 0:
+            for cls, gables in (("end_left", (True, False)), ("end_right", (False, True))):
+                pm = PartMesh(style.palette)
+                straight(pm, [Slice(0.0, _up(2 * win.bay), prof)], win, gables=gables)
+                yield Entry(f"{style.name}_{cls}{sx}", cls, style.name, pm)
+        for angle in angles:
+            for convex in (True, False):
+                pm = PartMesh(style.palette)
+                corner(pm, prof, angle, convex, corner_leg(prof, angle, convex, win.bay), win)
+                kind = "convex" if convex else "concave"
+                yield Entry(f"{style.name}_corner_{angle}_{kind}{sx}", "corner", style.name,
+                            pm, {"angle": angle, "convex": convex})
+        pm = PartMesh(style.palette)
+        reach = _up(prof.depth + _reach(prof) + 2 * win.bay + 0.4)
+        t_part(pm, prof, reach, reach, win)
+        yield Entry(f"{style.name}_t{sx}", "t_junction", style.name, pm)
+
+
+# --- complete buildings and towers ---------------------------------------------------------
 
 def facade_chunk(style: Style, x0: float, x1: float, storeys: int, *, door: int | None,
-                 balconies: set[int], roof: bool = True) -> Parts:
-    """A building chunk from x0 to x1: body, a front wall with real window and door
-    openings between piers, glass, string courses, balconies, cornice and roof."""
-    P = Parts()
-    s, t, D = style, style.wall_t, style.depth
-    levels = storey_levels(s, storeys)
-    H = levels[-1][1]
-    P.add("wall", _box(x0, x1, t, D, 0, H, s.wall))
-    nb = max(1, round((x1 - x0) / s.bay_w))
-    bw = (x1 - x0) / nb
-    ww = min(s.win_w, bw - 0.9)
-    for b in range(nb):
-        bx0 = x0 + b * bw
-        wx0, wx1 = bx0 + (bw - ww) / 2, bx0 + (bw + ww) / 2
-        P.add("wall", _box(bx0, wx0, 0, t, 0, H, s.wall))
-        P.add("wall", _box(wx1, bx0 + bw, 0, t, 0, H, s.wall))
-        for k, (z0, z1) in enumerate(levels):
-            if k == 0 and b == door:
-                top = min(z0 + 2.6, z1 - 0.4)
-                P.add("wall", _box(wx0, wx1, 0, t, top, z1, s.wall))
-                P.add("door", _box(wx0, wx1, t * 0.6, t * 0.8, z0, top, s.trim))
-                continue
-            sill, head = z0 + s.sill, min(z0 + s.sill + s.win_h, z1 - 0.3)
-            P.add("wall", _box(wx0, wx1, 0, t, z0, sill, s.wall))
-            P.add("wall", _box(wx0, wx1, 0, t, head, z1, s.wall))
-            P.add("window", _box(wx0, wx1, t * 0.55, t * 0.65, sill, head, GLASS))
-            if s.ledge:
-                P.add("wall", _box(wx0 - 0.1, wx1 + 0.1, -0.08, 0, sill - 0.08, sill, s.trim))
-            if k in balconies and k > 0:
-                bal = trimesh.util.concatenate([
-                    _box(wx0 - 0.25, wx1 + 0.25, -1.3, 0, z0, z0 + 0.18, s.trim),
-                    _box(wx0 - 0.25, wx1 + 0.25, -1.3, -1.22, z0 + 0.18, z0 + 1.1, s.trim),
-                    _box(wx0 - 0.25, wx0 - 0.17, -1.3, 0, z0 + 0.18, z0 + 1.1, s.trim),
-                    _box(wx1 + 0.17, wx1 + 0.25, -1.3, 0, z0 + 0.18, z0 + 1.1, s.trim)])
-                P.add("balcony", bal)
-    if s.ledge:
-        for z0, _ in levels[1:]:
-            P.add("wall", _box(x0, x1, -s.ledge, 0, z0 - 0.2, z0, s.trim))
-    z = H
-    for prot, h in s.cornice:  # stepped cornice
-        P.add("wall", _box(x0, x1, -prot, t, z, z + h, s.trim))
-        z += h
-    if roof and s.pitched:
-        ridge = Polygon([(t, z), (D, z), (D, z + 0.2), ((t + D) / 2, z + 3.2), (t, z + 0.2)])
-        P.add("wall", _along_x(ridge, x0, x1, ROOF))
-    elif roof:  # a parapet at the back, as high as the front cornice
-        P.add("wall", _box(x0, x1, D - 0.3, D, H, z, s.wall))
-    return P
+                 balconies: set[int], roof: bool = True) -> PartMesh:
+    """A building of the style's principal family from x0 to x1 with ``storeys``, a door
+    in bay ``door`` and balconies in every bay of the ``balconies`` storeys, under its
+    roof or (``roof`` false) a flat one (used by ``bench/ingest.py`` to write libraries
+    of any size)."""
+    fam = style.families[0]
+    m = replace(fam.massing, storeys=storeys,
+                courses=tuple(c for c in fam.massing.courses if c < storeys))
+    if not roof:
+        m = replace(m, roof="flat", cornice=m.cornice[:1] or ((0.3, 0.3),))
+    bays = max(1, round((x1 - x0) / style.bay_w))
+    sl = Slice(x0, x1, profile(f"{fam.key}_chunk", m),
+               frozenset() if door is None else frozenset({door}),
+               frozenset((s, b) for s in balconies if 0 < s < storeys for b in range(bays)))
+    pm = PartMesh(style.palette)
+    straight(pm, [sl], style.windows)
+    return pm
 
 
-def _rot(angle_deg: float):
-    return trimesh.transformations.rotation_matrix(math.radians(angle_deg), [0, 0, 1])
+def buildings() -> Iterator[Entry]:
+    """72 buildings for street fronts, 6-24 m wide, 2-7 storeys, each with one door."""
+    rng = np.random.default_rng(2024)
+    widths = np.sort(rng.choice(np.arange(30, 121), size=72, replace=False)) * QUANTUM
+    for i, w in enumerate(widths):
+        style = STYLES[i % 2]
+        f = style.families[int(rng.integers(0, len(style.families)))]
+        st = int(rng.integers(2, 8))
+        prof = f.profile(int(rng.integers(0, 3)), storeys=st)
+        w = round(float(w), 6)
+        bays = max(1, round(w / style.windows.bay))
+        upper = [s for s in range(1, st) if rng.random() < 0.3]
+        bay = int(rng.integers(0, bays))
+        sl = Slice(0.0, w, prof, frozenset({int(rng.integers(0, bays))}),
+                   frozenset((s, bay) for s in upper))
+        pm = PartMesh(style.palette)
+        straight(pm, [sl], style.windows)
+        yield Entry(f"bldg_{i:02d}_{w:.1f}m_{style.name}_{st}s", "building", style.name, pm,
+                    {"length": round(w, 1)})
 
 
-def corner(style: Style, angle: float, convex: bool, storeys: int) -> Parts:
-    """In-leg along -X, out-leg turned left (convex) or right (concave) by 180 - angle."""
-    leg = style.depth + 2 * style.bay_w
-    turn = (180.0 - angle) * (1 if convex else -1)
-    P = facade_chunk(style, -leg, 0.0, storeys, door=None, balconies=set())
-    arm = facade_chunk(style, 0.0, leg, storeys, door=None, balconies=set())
-    arm.transform(_rot(turn))
-    P.extend(arm)
-    H = storey_levels(style, storeys)[-1][1]
-    if not convex:  # fill the wedge on the building side between the two arms
-        far = np.array([0.0, style.depth])
-        c, s = math.cos(math.radians(turn)), math.sin(math.radians(turn))
-        wedge = Polygon([(0, 0), tuple(far), (c * far[0] - s * far[1], s * far[0] + c * far[1])])
-        P.add("wall", _prism(wedge.buffer(0.01, join_style=2), 0, H, style.wall))
-    return P
+def towers() -> Iterator[Entry]:
+    names = list(FOOTPRINTS)
+    for i, name in enumerate(names[:3]):
+        yield Entry(f"tower_ground_{name}", "ground_floor", "tower",
+                    ground_floor(FOOTPRINTS[name], 4.6 + 0.2 * i))
+    heights = (3.0, 3.2, 3.4, 3.6, 3.8, 4.0, 4.2, 4.4, 4.6, 4.8, 5.0)
+    for name, h in zip(names, heights, strict=True):
+        yield Entry(f"tower_floor_{name}_{h:.1f}", "floor", "tower",
+                    floor_part(FOOTPRINTS[name], h))
+    for i, name in enumerate(("square18", "octagon20", "square14")):
+        yield Entry(f"tower_roof_{name}", "roof", "tower", roof_part(FOOTPRINTS[name], i % 2))
 
 
-def t_junction(style: Style, storeys: int) -> Parts:
-    """Main chunk along X through the origin, a wing along +Y behind it (its facade
-    facing +X, its mass on the -X side, like any leg's)."""
-    leg = style.depth + 2 * style.bay_w
-    P = facade_chunk(style, -leg, leg, storeys, door=None, balconies=set())
-    wing = facade_chunk(style, 0.0, leg, storeys, door=None, balconies=set())
-    wing.transform(_rot(90.0))
-    P.extend(wing)
-    return P
+def parts() -> Iterator[Entry]:
+    """Every part of the library, in manifest order."""
+    for style in STYLES:
+        yield from middle_parts(style)
+        yield from key_parts(style)
+    yield from towers()
+    yield from buildings()
 
 
-def end_part(style: Style, storeys: int, left: bool) -> Parts:
-    w = 2 * style.bay_w
-    P = facade_chunk(style, 0.0, w, storeys, door=None, balconies=set())
-    H = storey_levels(style, storeys)[-1][1]
-    x = 0.0 if left else w - 0.45
-    P.add("wall", _box(x, x + 0.45, -0.25, style.depth, 0, H, style.trim))  # gable quoin
-    return P
+# --- writing -------------------------------------------------------------------------------
 
-
-FOOTPRINTS = {
-    "square18": _rect(-9, 9, -9, 9),
-    "rect22x16": _rect(-11, 11, -8, 8),
-    "octagon20": Polygon([(-10, -4), (-4, -10), (4, -10), (10, -4), (10, 4), (4, 10),
-                          (-4, 10), (-10, 4)]),
-    "cross20": _rect(-10, 10, -5, 5).union(_rect(-5, 5, -10, 10)),
-    "round16": Polygon([(10 * math.cos(a), 10 * math.sin(a))
-                        for a in np.linspace(0, 2 * math.pi, 17)[:-1]]),
-    "lshape": _rect(-10, 10, -10, 0).union(_rect(-10, 0, 0, 10)),
-    "hexagon": Polygon([(10 * math.cos(a), 10 * math.sin(a))
-                        for a in np.linspace(0, 2 * math.pi, 7)[:-1]]),
-    "square14": _rect(-7, 7, -7, 7),
-    "chamfer16": Polygon([(-8, -6), (-6, -8), (6, -8), (8, -6), (8, 6), (6, 8), (-6, 8),
-                          (-8, 6)]),
-    "rect12x18": _rect(-6, 6, -9, 9),
-    "slim10": _rect(-5, 5, -7, 7),
-}
-
-
-def floor_part(fp: Polygon, h: float, color) -> Parts:
-    P = Parts()
-    P.add("wall", _prism(fp, 0, 0.3, (200, 200, 196)))
-    P.add("window", _prism(fp.buffer(-0.4, join_style=2), 0.3, h, GLASS))
-    for x, y in list(fp.exterior.coords)[:-1]:
-        col = _rect(x - 0.25, x + 0.25, y - 0.25, y + 0.25).intersection(fp)
-        if not col.is_empty and col.area > 0.01:
-            P.add("wall", _prism(col, 0.3, h, color))
-    return P
-
-
-def ground_floor(fp: Polygon, h: float) -> Parts:
-    P = floor_part(fp, h, (90, 90, 95))
-    P.add("wall", _prism(fp.buffer(1.2, join_style=2), 0, 0.25, (150, 150, 150)))
-    minx, miny, maxx, _ = fp.bounds
-    cx = (minx + maxx) / 2
-    P.add("door", _box(cx - 1.5, cx + 1.5, miny - 0.1, miny + 0.2, 0.25, 3.0, (40, 40, 40)))
-    return P
-
-
-def roof(fp: Polygon, kind: int) -> Parts:
-    P = Parts()
-    P.add("wall", _prism(fp, 0, 0.5, (180, 180, 175)))
-    ring = fp.difference(fp.buffer(-0.35, join_style=2))
-    P.add("wall", _prism(ring, 0.5, 1.6, (150, 150, 150)))
-    core = fp.buffer(-3.5, join_style=2)
-    if not core.is_empty:
-        top = 3.0 + kind
-        P.add("wall", _prism(core.minimum_rotated_rectangle.buffer(-1, join_style=2)
-                             if kind else core, 0.5, top, (120, 120, 125)))
-    return P
+def manifest(entries: list[Entry]) -> str:
+    lines = ["# The citysynth sample library, written by parts_db/sample.py (make library).",
+             "# Canonical frame: +X along the primary dimension, facade toward -Y, +Z up.",
+             "", "[library]", 'name = "citysynth sample"', f"quantum = {QUANTUM}",
+             'units = "m"', ""]
+    for e in entries:
+        lines += ["[[part]]", f'id = "{e.id}"', f'file = "meshes/{e.id}.glb"',
+                  f'class = "{e.cls}"', f'style = "{e.style}"']
+        if "angle" in e.meta:
+            lines += [f"angle = {e.meta['angle']}",
+                      f"convex = {str(e.meta['convex']).lower()}"]
+        if "length" in e.meta:
+            lines.append(f"length = {e.meta['length']}")
+        lines.append("")
+    return "\n".join(lines)
 
 
 def generate(out: Path = OUT) -> list[dict]:
     """Write the meshes and manifest.toml into ``out``; returns the manifest entries."""
     mesh_dir = out / "meshes"
     mesh_dir.mkdir(parents=True, exist_ok=True)
-    entries: list[dict] = []
-
-    def write(pid: str, P: Parts, **meta) -> None:
-        (mesh_dir / f"{pid}.glb").write_bytes(P.glb())
-        entries.append({"id": pid, "file": f"meshes/{pid}.glb", **meta})
-
-    for style, widths, storeys in ((CLASSIC, (2.6, 3.8, 5.2, 6.4, 7.8, 9.0, 10.4), (4, 5)),
-                                   (MODERN, (3.2, 4.4, 6.4, 7.6, 9.6, 12.8), (5, 6))):
-        for i, w in enumerate(widths):
-            for st in storeys:
-                bays = max(1, round(w / style.bay_w))
-                door = (bays // 2) if i % 2 == 0 else None
-                balc = {2, 3} if (i + st) % 3 == 0 else set()
-                write(f"{style.name}_mid_{w:.1f}_{st}s", facade_chunk(
-                    style, 0.0, w, st, door=door, balconies=balc),
-                    cls="middle", style=style.name, length=w)
-        st = storeys[0]
-        write(f"{style.name}_end_left", end_part(style, st, True), cls="end_left",
-              style=style.name)
-        write(f"{style.name}_end_right", end_part(style, st, False), cls="end_right",
-              style=style.name)
-        for angle in (90, 135):
-            for convex in (True, False):
-                kind = "convex" if convex else "concave"
-                write(f"{style.name}_corner_{angle}_{kind}", corner(style, angle, convex, st),
-                      cls="corner", style=style.name, angle=angle, convex=convex)
-        write(f"{style.name}_t", t_junction(style, st), cls="t_junction", style=style.name)
-
-    names = list(FOOTPRINTS)
-    for i, name in enumerate(names[:3]):
-        write(f"tower_ground_{name}", ground_floor(FOOTPRINTS[name], 4.6 + 0.2 * i),
-              cls="ground_floor", style="tower")
-    heights = (3.0, 3.2, 3.4, 3.6, 3.8, 4.0, 4.2, 4.4, 4.6, 4.8, 5.0)
-    for name, h in zip(names, heights, strict=True):
-        write(f"tower_floor_{name}_{h:.1f}", floor_part(FOOTPRINTS[name], h, (110, 115, 120)),
-              cls="floor", style="tower")
-    for i, name in enumerate(("square18", "octagon20", "square14")):
-        write(f"tower_roof_{name}", roof(FOOTPRINTS[name], i % 2), cls="roof", style="tower")
-
-    rng = np.random.default_rng(2024)
-    widths = np.sort(rng.choice(np.arange(30, 121), size=72, replace=False)) * 0.2
-    for i, w in enumerate(widths):
-        style = CLASSIC if i % 2 == 0 else MODERN
-        st = int(rng.integers(2, 8))
-        bays = max(1, round(w / style.bay_w))
-        balc = set(rng.choice(np.arange(1, st), size=min(st - 1, int(rng.integers(0, 3))),
-                              replace=False).tolist()) if st > 1 else set()
-        P = facade_chunk(style, 0.0, float(w), st, door=int(rng.integers(0, bays)),
-                         balconies=balc, roof=bool(rng.integers(0, 4)))
-        write(f"bldg_{i:02d}_{w:.1f}m_{style.name}_{st}s", P, cls="building",
-              style=style.name, length=round(float(w), 1))
-
-    lines = ["# The citysynth sample library, written by parts_db/sample.py (make library).",
-             "# Canonical frame: +X along the primary dimension, facade toward -Y, +Z up.",
-             "", "[library]", 'name = "citysynth sample"', "quantum = 0.2", 'units = "m"',
-             ""]
+    entries = list(parts())
+    ids = [e.id for e in entries]
+    if len(set(ids)) != len(ids):
+        raise ValueError("duplicate part ids in the sample library")
     for e in entries:
-        lines.append("[[part]]")
-        lines.append(f'id = "{e["id"]}"')
-        lines.append(f'file = "{e["file"]}"')
-        lines.append(f'class = "{e["cls"]}"')
-        lines.append(f'style = "{e["style"]}"')
-        if "angle" in e:
-            lines.append(f"angle = {e['angle']}")
-            lines.append(f"convex = {str(e['convex']).lower()}")
-        if "length" in e:
-            lines.append(f"length = {e['length']}")
-        lines.append("")
-    (out / "manifest.toml").write_text("\n".join(lines), encoding="utf-8")
-    return entries
+        (mesh_dir / f"{e.id}.glb").write_bytes(e.mesh.glb())
+    (out / "manifest.toml").write_text(manifest(entries), encoding="utf-8")
+    return [{"id": e.id, "file": f"meshes/{e.id}.glb", "cls": e.cls, "style": e.style,
+             **e.meta} for e in entries]
 
 
 if __name__ == "__main__":
