@@ -18,6 +18,7 @@ demo: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
+	$(MAKE) --no-print-directory typecheck
 
 # mypy on the installed layout: a tree of links named citysynth/ under build/
 typecheck: $(STAMP)

@@ -9,14 +9,15 @@ import numpy as np
 import trimesh
 
 from citysynth.export.layout import Instance, Layout
+from citysynth.export.prototypes import prototype_pieces
 from citysynth.parts_db import PartDB
-from citysynth.parts_db.geometry import Piece, part_pieces
+from citysynth.parts_db.geometry import Piece
 
 
 def instances_with_pieces(lay: Layout, db: PartDB) -> Iterator[tuple[Instance, tuple[Piece, ...]]]:
     parts = {p.id: p for p in db.parts}
     for inst in lay.instances:
-        yield inst, part_pieces(db, parts[inst.part])
+        yield inst, prototype_pieces(db, inst, parts)
 
 
 def place(piece: Piece, inst: Instance, offset=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:

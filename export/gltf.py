@@ -46,7 +46,7 @@ def layout_scene(lay: Layout, db: PartDB) -> trimesh.Scene:
     scene = trimesh.Scene(base_frame="world")
     defined: set[str] = set()
     for n, (inst, pieces) in enumerate(instances_with_pieces(lay, db)):
-        node = f"{n:04d}_{inst.part}"
+        node = f"{n:04d}_{inst.proto}"
         if sheared(inst):
             for k, piece in enumerate(pieces):
                 v, f = place(piece, inst)
@@ -55,7 +55,7 @@ def layout_scene(lay: Layout, db: PartDB) -> trimesh.Scene:
             continue
         scene.graph.update(frame_from="world", frame_to=node, matrix=inst.matrix())
         for k, piece in enumerate(pieces):
-            geom = f"{inst.part}_{k}"
+            geom = f"{inst.proto}_{k}"
             if geom not in defined:
                 scene.geometry[geom] = _mesh(piece.vertices, piece.faces, piece)
                 defined.add(geom)

@@ -11,17 +11,48 @@ byte (sorted keys, fixed precision, no timings), so two runs can be compared wit
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from citysynth.export.errors import ExportError
+
 SCHEMA = "citysynth.layout"
-VERSION = 1
+VERSION = 2           # 2: instances may carry a cut (mitre joints, folds); stages a polyline
+READS = (1, 2)
 COORD_DIGITS = 4      # 0.1 mm
 AXIS_DIGITS = 6
 VALUE_DIGITS = 6
+
+
+@dataclass(frozen=True)
+class Cut:
+    """How an instance's part is cut to meet its neighbours at a joint or a fold: its
+    ends first extended by ``extend`` (start, end; metres along the part's own axis, by
+    stretching a thin band at each end, so walls and cornices run on), then kept where
+    ``a*x + b*y <= c`` for every plane (vertical planes, in the part's placement frame),
+    each cut face capped. Rounded so equal cuts are one prototype."""
+
+    extend: tuple[float, float] = (0.0, 0.0)
+    planes: tuple[tuple[float, float, float], ...] = ()
+
+    @property
+    def key(self) -> str:
+        """A short name for the cut (part prototypes are named part~key)."""
+        text = json.dumps([self.extend, self.planes])
+        return hashlib.sha256(text.encode()).hexdigest()[:10]
+
+    def to_dict(self) -> dict:
+        return {"extend": list(self.extend), "planes": [list(p) for p in self.planes]}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Cut:
+        ext = d.get("extend", [0.0, 0.0])
+        return cls((float(ext[0]), float(ext[1])),
+                   tuple((float(a), float(b), float(c)) for a, b, c in d.get("planes", [])))
 
 
 @dataclass(frozen=True)
@@ -39,6 +70,12 @@ class Instance:
     x_axis: tuple[float, float]
     y_axis: tuple[float, float]
     origin: tuple[float, float]
+    cut: Cut | None = None     # a mitre joint or a fold: the part cut (and extended)
+
+    @property
+    def proto(self) -> str:
+        """The prototype this instance shows: its part, or the part cut (``part~key``)."""
+        return self.part if self.cut is None else f"{self.part}~{self.cut.key}"
 
     def matrix(self) -> np.ndarray:
         """4x4, column vectors (p' = M @ p): the affine map in XY, Z unchanged."""
@@ -78,6 +115,13 @@ class Layout:
     def parts_used(self) -> list[str]:
         return sorted({i.part for i in self.instances})
 
+    def prototypes(self) -> dict[str, Instance]:
+        """Every prototype the layout shows, with one instance that shows it."""
+        out: dict[str, Instance] = {}
+        for i in self.instances:
+            out.setdefault(i.proto, i)
+        return dict(sorted(out.items()))
+
     def to_dict(self) -> dict:
         return _rounded({
             "schema": SCHEMA, "version": VERSION, "name": self.name, "rank": self.rank,
@@ -92,11 +136,28 @@ class Layout:
 
     @classmethod
     def from_dict(cls, d: dict) -> Layout:
-        if d.get("schema") != SCHEMA or d.get("version") != VERSION:
-            raise ValueError(f"not a {SCHEMA} version {VERSION} document")
+        """A layout read back from its JSON (``json.load`` of a ``.layout.json``).
+
+        >>> lay = Layout("b", 1, {"name": "lib", "hash": "h", "quantum": 0.2}, "classic",
+        ...              "local", [{"cost": 1.5}],
+        ...              [Instance("mid", "middle", 0, 0, None, (1.0, 0.0), (0.0, 1.0),
+        ...                        (2.0, 3.0), Cut((0.0, 0.4), ((1.0, 0.0, 2.6),)))])
+        >>> back = Layout.from_dict(json.loads(lay.to_json()))
+        >>> back.cost, back.instances[0].proto == lay.instances[0].proto, back == lay
+        (1.5, True, True)
+        >>> Layout.from_dict({"schema": "something else"})
+        Traceback (most recent call last):
+          ...
+        citysynth.export.errors.ExportError: not a citysynth.layout document of version 1 or 2
+        """
+        if d.get("schema") != SCHEMA or d.get("version") not in READS:
+            raise ExportError(f"not a {SCHEMA} document of version "
+                             f"{' or '.join(map(str, READS))}")
         inst = [Instance(i["part"], i["class"], i["structure"], i.get("stage"),
                          i.get("key"), tuple(i["x_axis"]), tuple(i["y_axis"]),
-                         tuple(i["origin"])) for i in d["instances"]]
+                         tuple(i["origin"]),
+                         Cut.from_dict(i["cut"]) if "cut" in i else None)
+                for i in d["instances"]]
         return cls(d["name"], d["rank"], d["library"], d["style"], d["frame"],
                    d["structures"], inst)
 
@@ -110,6 +171,8 @@ def _instance_dict(i: Instance) -> dict:
         d["stage"] = i.stage
     if i.key is not None:
         d["key"] = i.key
+    if i.cut is not None:
+        d["cut"] = i.cut.to_dict()
     return d
 
 

@@ -2,40 +2,44 @@
 
 Along a stage, the key part at its start reaches in by its leg, the key part at its
 end by its leg, and the middle parts fill what lies between, all stretched by the one
-factor that absorbs the quantisation (the solver met the length within half a
-quantum; the stage's ``stretch`` reports the factor). A corner is placed by the affine
-map that sends its legs' canonical directions onto the skeleton's edges, each leg
+factor that absorbs the quantisation (the solver met the length within its interval;
+the stage's ``stretch`` reports the factor). A corner part is placed by the affine map
+that sends its legs' canonical directions onto the skeleton's edges, each leg
 stretched with its own stage, which also adapts it to an angle a few degrees off its
 own. T parts stay rigid (their main legs are collinear, so one linear map cannot
 stretch them by two factors); the rest of their stages absorbs the difference. A stage
 whose facades face the left of travel is placed mirrored (the canonical facade faces
-the right, -Y). A part that spans a bend follows the bend's chord.
+the right, -Y).
 
-A mitre (a corner made of the style's two end parts, see
-:func:`pipeline.structures.skeleton_structure`) is two instances: the end part that
-closes the incoming stage and the one that opens the outgoing stage, meeting at the key
-point at whatever angle the corner has.
+Where no corner part stands at a corner, the key point is a **mitre joint** (a key
+element :func:`~citysynth.export.plan.is_joint`, whose legs are a quantum or a few):
+the last module of the incoming stage and the first of the outgoing one are extended
+over the joint's legs to the corner and cut on the plane that bisects it
+(:mod:`citysynth.export.joints`). A module that
+spans a **bend** of its stage is **folded** there: one instance per straight run,
+each cut on the bend's bisector plane, instead of one instance along the chord.
 
 Then every layout is checked, and a failed check is an error: each stage's parts
-measure its skeleton length within the stage's length interval (half a quantum unless
-the caller allowed a relative stretch; so the stretch only absorbs what was allowed,
-under 0.5 % on stages over 20 m at a 0.2 m quantum), consecutive parts meet
-(gap or overlap under 1 mm), key-part legs end on their edges, every facade has both
-ends on the skeleton and faces the stage's front side (so its mass lies behind the
-skeleton line, never on the street side).
+measure its skeleton length within the stage's length interval, consecutive parts meet
+(gap or overlap under 1 mm), facades end on the skeleton and face the stage's front
+side (so the mass lies behind the skeleton line, never on the street side).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
 
 import numpy as np
+import shapely
+from shapely.geometry import LineString, Polygon
+from shapely.geometry.base import BaseGeometry
 
 from citysynth.export.errors import ExportError
-from citysynth.export.layout import AXIS_DIGITS, COORD_DIGITS, Instance, Layout
-from citysynth.export.plan import Front, PlacementPlan, PlanStage, other_side
+from citysynth.export.joints import HalfPlane, Placed, bisector, facade_span, joint_halves
+from citysynth.export.layout import Instance, Layout
+from citysynth.export.plan import Front, PlacementPlan, PlanStage, is_joint, other_side
 from citysynth.parts_db import Part, PartDB
 
 TOL = 0.001          # metres: the largest gap, overlap or offset the checks accept
@@ -55,9 +59,18 @@ class _Path:
     def length(self) -> float:
         return float(self.cum[-1])
 
+    def segment(self, s: float) -> int:
+        return int(np.clip(np.searchsorted(self.cum, s, side="right") - 1, 0,
+                           len(self.len) - 1))
+
     def at(self, s: float) -> np.ndarray:
-        i = int(np.clip(np.searchsorted(self.cum, s, side="right") - 1, 0, len(self.len) - 1))
+        i = self.segment(s)
         return self.p[i] + self.dir[i] * (s - self.cum[i])
+
+    def bends_within(self, s0: float, s1: float) -> list[int]:
+        """Indices of the inner vertices strictly inside the arc-length range."""
+        return [i for i in range(1, len(self.p) - 1)
+                if s0 + TOL < self.cum[i] < s1 - TOL]
 
     def distance(self, q) -> float:
         """Distance from point q to the polyline."""
@@ -81,6 +94,15 @@ def _leg(p: Part, leg: int) -> float:
     if p.cls in ("end_left", "end_right"):
         return _geom_length(p)
     return float(p.legs_measured[leg])
+
+
+def _y_range(p: Part) -> tuple[float, float]:
+    """A part's extent across its facade line (placement-frame Y): overhang to depth."""
+    sec = p.sec_in
+    if not isinstance(sec, BaseGeometry) or sec.is_empty:
+        return (0.0, 0.0)
+    u0, _v0, u1, _v1 = sec.bounds      # u points out of the facade (-Y)
+    return (-u1, -u0)
 
 
 def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
@@ -111,7 +133,7 @@ class StructureSolution(Protocol):
 
 @dataclass
 class _StageRecord:
-    fill: list[int]                # instance indices of the stage's fillers
+    fill: list[int]                # instance indices of the stage's fillers (and folds)
     stretch: float
     start_leg: int
     path: _Path
@@ -120,16 +142,19 @@ class _StageRecord:
 
 @dataclass
 class _Record:
-    """Which instance realises each key leg, and each stage's fillers: what the checks
-    and the summary read back."""
+    """Which instance realises each key leg, each stage's fillers, and each joint's
+    treatment: what the checks and the summary read back."""
 
     keys: dict[tuple[int, int], int] = field(default_factory=dict)
     stages: dict[int, _StageRecord] = field(default_factory=dict)
+    joints: dict[int, str] = field(default_factory=dict)
+    # where the facades end on either side of a joint (the corner itself for a mitre)
+    joint_ends: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
 class _Placer:
     """Places one structure's solution on its plan: one stretch per stage, then the key
-    parts, then the fillers."""
+    parts, the fillers (folded at bends), and the cuts at mitre joints."""
 
     def __init__(self, si: int, plan: PlacementPlan, sol: StructureSolution,
                  parts: dict[str, Part]):
@@ -138,7 +163,9 @@ class _Placer:
         self.ins = plan.incoming()
         self.outs = plan.outgoing()
         self.kxy = [np.array(k.xy) for k in plan.keys]
-        self.instances: list[Instance] = []
+        self.placed: list[Placed] = []
+        # filler instance -> its part-frame X range (over any joint leg it reaches across)
+        self.span: dict[int, tuple[float, float]] = {}
         self.record = _Record()
         self.stretch: list[float] = []
         self.solved: list[float] = []
@@ -149,34 +176,40 @@ class _Placer:
             self._place_key(j)
         for s in range(len(self.plan.stages)):
             self._place_fillers(s)
-        return self.instances, self.record
+        for j in range(len(self.plan.keys)):
+            if is_joint(self.sol.keys[j]):
+                self._joint(j)
+        self._medial_cuts()
+        return [p.instance() for p in self.placed], self.record
+
+    def _add(self, placed: Placed) -> int:
+        self.placed.append(placed)
+        return len(self.placed) - 1
 
     # -- what stands at a key point ----------------------------------------------------
 
-    def leg_part(self, j: int, leg: int) -> Part:
-        """The part that realises key j's leg: the key part, or for a mitre the end
-        part on that side of the corner."""
-        mitre = self.plan.mitres.get(self.sol.keys[j])
-        if mitre is None:
-            return self.parts[self.sol.keys[j]]
-        return self.parts[mitre.end_in if leg == 0 else mitre.end_out]
+    def leg_part(self, j: int) -> Part | None:
+        """The key part at key j (None for a mitre joint, which has no part)."""
+        key = self.sol.keys[j]
+        return None if is_joint(key) else self.parts[key]
 
     def leg_len(self, j: int, leg: int) -> float:
-        """How far key j reaches along a leg: its geometry, or a mitre's chosen length."""
-        mitre = self.plan.mitres.get(self.sol.keys[j])
-        if mitre is None:
-            return _leg(self.leg_part(j, leg), leg)
-        return mitre.length_in if leg == 0 else mitre.length_out
+        """How far key j reaches along a leg (a mitre joint: what it counts for; the
+        modules beside it are extended over that to the corner)."""
+        p = self.leg_part(j)
+        if p is None:
+            return self.plan.joints[self.sol.keys[j]][0 if leg == 0 else 1]
+        return _leg(p, leg)
 
     def _stretches(self) -> None:
         """One stretch per stage: every part on it stretches, except T parts (rigid:
         their two main legs are collinear, so no linear map stretches them by two
         factors)."""
         for s, st in enumerate(self.plan.stages):
-            ends = [(self.leg_part(st.start, st.start_leg), self.leg_len(st.start, st.start_leg)),
-                    (self.leg_part(st.end, 0), self.leg_len(st.end, 0))]
-            rigid = sum(x for p, x in ends if p.cls == "t_junction")
-            elastic = sum(x for p, x in ends if p.cls != "t_junction") + \
+            ends = [(self.leg_part(st.start), self.leg_len(st.start, st.start_leg)),
+                    (self.leg_part(st.end), self.leg_len(st.end, 0))]
+            rigid = sum(x for p, x in ends if p is not None and p.cls == "t_junction")
+            elastic = sum(x for p, x in ends if p is None or p.cls != "t_junction") + \
                 sum(_geom_length(self.parts[x]) for x in self.sol.stages[s])
             self.stretch.append((self.paths[s].length - rigid) / elastic if elastic > 0
                                 else 1.0)
@@ -187,20 +220,19 @@ class _Placer:
     # length along from the key point, so legs land on the skeleton even where a bend
     # comes before the leg ends
 
-    def _legs(self, j: int) -> dict[int, tuple[Part, np.ndarray]]:
-        """Key j's legs: the part realising each and the vector it spans from the key."""
+    def _legs(self, j: int, p: Part) -> dict[int, np.ndarray]:
+        """The vector each of key j's legs spans from the key point."""
         legs = {}
+        rigid = p.cls == "t_junction"
         s_in = self.ins[j]
         if s_in is not None:
-            p = self.leg_part(j, 0)
-            scale = 1.0 if p.cls == "t_junction" else self.stretch[s_in]
+            scale = 1.0 if rigid else self.stretch[s_in]
             path = self.paths[s_in]
-            legs[0] = (p, path.at(path.length - self.leg_len(j, 0) * scale) - self.kxy[j])
+            legs[0] = path.at(path.length - self.leg_len(j, 0) * scale) - self.kxy[j]
         for s in self.outs[j]:
             leg = self.plan.stages[s].start_leg
-            p = self.leg_part(j, leg)
-            scale = 1.0 if p.cls == "t_junction" else self.stretch[s]
-            legs[leg] = (p, self.paths[s].at(self.leg_len(j, leg) * scale) - self.paths[s].p[0])
+            scale = 1.0 if rigid else self.stretch[s]
+            legs[leg] = self.paths[s].at(self.leg_len(j, leg) * scale) - self.paths[s].p[0]
         return legs
 
     def _front(self, j: int) -> Front:
@@ -209,57 +241,192 @@ class _Placer:
         return self.plan.stages[s_in if s_in is not None else main_out[0]].front
 
     def _place_key(self, j: int) -> None:
-        legs = self._legs(j)
+        p = self.leg_part(j)
+        if p is None:      # a mitre joint: its neighbours are cut in _joint
+            return
+        legs = self._legs(j, p)
         front = self._front(j)
-        key_id = self.sol.keys[j]
-        p = None if key_id in self.plan.mitres else self.parts[key_id]
-        if p is None or p.cls in ("end_left", "end_right"):  # straight: an end, a mitre
-            for leg, (q, v) in legs.items():
-                self.record.keys[(j, leg)] = len(self.instances)
-                self.instances.append(_straight_key(q, self.si, j, self.kxy[j], v, leg == 0,
-                                                    front))
-            if p is not None:   # an end part: one instance realises its only leg
-                for leg in (0, 1, 2):
-                    self.record.keys[(j, leg)] = len(self.instances) - 1
+        if p.cls in ("end_left", "end_right"):   # one straight instance realises its leg
+            (leg, v), = legs.items()
+            i = self._add(_straight_key(p, self.si, j, self.kxy[j], v, leg == 0, front))
+            for leg in (0, 1, 2):
+                self.record.keys[(j, leg)] = i
             return
         if p.cls == "corner":
             a = _fit(np.asarray(p.directions[0]) * p.legs_measured[0],
-                     np.asarray(p.directions[1]) * p.legs_measured[1], legs[0][1], legs[1][1])
+                     np.asarray(p.directions[1]) * p.legs_measured[1], legs[0], legs[1])
         else:  # a T: fitted to its in-leg and its branch; its out-leg follows the in-leg
-            v_br = legs[2][1]
-            _check_t_sides(self.plan, j, self.kxy[j], -legs[0][1], v_br, front,
+            _check_t_sides(self.plan, j, self.kxy[j], -legs[0], legs[2], front,
                            self.plan.stages[self.plan.branch[j]].front)
             a = _fit(np.asarray(p.directions[0]) * p.legs_measured[0],
-                     np.asarray(p.directions[2]) * p.legs_measured[2], legs[0][1], v_br)
+                     np.asarray(p.directions[2]) * p.legs_measured[2], legs[0], legs[2])
+        i = self._add(_instance(p, self.si, None, j, a, self.kxy[j]))
         for leg in (0, 1, 2):
-            self.record.keys[(j, leg)] = len(self.instances)
-        self.instances.append(_instance(p, self.si, None, j, a, self.kxy[j]))
+            self.record.keys[(j, leg)] = i
 
     # -- fillers, from the end of the start key's leg on ----------------------------------
 
     def _place_fillers(self, s: int) -> None:
         st = self.plan.stages[s]
         path, stretch = self.paths[s], self.stretch[s]
-        p_lo = self.leg_part(st.start, st.start_leg)
+        p_lo = self.leg_part(st.start)
         leg = self.leg_len(st.start, st.start_leg)
-        pos = leg if p_lo.cls == "t_junction" else leg * stretch
+        pos = leg if p_lo is not None and p_lo.cls == "t_junction" else leg * stretch
+        fillers = self.sol.stages[s]
+        # next to a mitre joint a module reaches on, over the joint's leg, to the corner
+        reach_lo = 0.0 if p_lo is None else None
+        reach_hi = path.length if self.leg_part(st.end) is None else None
         idx = []
-        for x in self.sol.stages[s]:
+        for n, x in enumerate(fillers):
             p = self.parts[x]
             w = _geom_length(p) * stretch
-            q0, q1 = path.at(pos), path.at(pos + w)
-            chord = q1 - q0
-            c = float(np.hypot(*chord))
-            u = chord / c
-            a = np.column_stack([u * (c / _geom_length(p)),
-                                 _left(u) if st.front == "right" else -_left(u)])
-            idx.append(len(self.instances))
-            self.instances.append(_instance(p, self.si, s, None, a, q0))
+            lo = reach_lo if n == 0 and reach_lo is not None else pos
+            hi = reach_hi if n == len(fillers) - 1 and reach_hi is not None else pos + w
+            scale = w / _geom_length(p)
+            for placed in self._filler(p, s, path, pos, w, (lo, hi), st.front):
+                idx.append(self._add(placed))
+                self.span[idx[-1]] = ((lo - pos) / scale, (hi - pos) / scale)
             pos += w
         self.record.stages[s] = _StageRecord(idx, stretch, st.start_leg, path, self.solved[s])
 
+    def _filler(self, p: Part, s: int, path: _Path, pos: float, w: float,
+                reach: tuple[float, float], front: Front) -> list[Placed]:
+        """A filler placed at arc length [pos, pos + w] and reaching over ``reach``: one
+        instance per straight run it covers, folded at each bend between them."""
+        bends = path.bends_within(*reach)
+        runs = [path.segment(reach[0] + TOL)] + bends
+        out = []
+        for n, k in enumerate(runs):
+            u = path.dir[k]
+            a = np.column_stack([u * (w / _geom_length(p)),
+                                 _left(u) if front == "right" else -_left(u)])
+            placed = _instance(p, self.si, s, None, a, path.p[k] + u * (pos - path.cum[k]))
+            if n > 0:            # after the bend at vertex k: keep what lies past it
+                fold = bisector(path.dir[k - 1], u)
+                placed.halves.append(HalfPlane(tuple(-fold), tuple(path.p[k])))
+            if n < len(runs) - 1:   # before the next bend
+                nxt = runs[n + 1]
+                fold = bisector(u, path.dir[nxt])
+                placed.halves.append(HalfPlane(tuple(fold), tuple(path.p[nxt])))
+            out.append(placed)
+        return out
 
-def _straight_key(p: Part, si: int, j: int, xy, v, before: bool, front: str) -> Instance:
+    # -- where two stages' masses meet away from a corner ----------------------------------
+
+    def _medial_cuts(self) -> None:
+        """Where the masses of two stages that share no key point overlap (a narrow end
+        of a block, a block too small for a courtyard), each module keeps what lies
+        nearer its own facade: the plane of equal depth behind both facades. At a right
+        angle this is the corner's bisector; facing each other, the middle."""
+        stages = self.plan.stages
+        depth = [max((self.placed[i].y_range[1] for i in self.record.stages[s].fill),
+                     default=0.0) for s in range(len(stages))]
+        bands = [_band(st.points, st.front, depth[s]) for s, st in enumerate(stages)]
+        touching = {(a, b) for a, st_a in enumerate(stages) for b, st_b in enumerate(stages)
+                    if {st_a.start, st_a.end} & {st_b.start, st_b.end}}
+        tree = shapely.STRtree(bands)
+        for s in range(len(stages)):
+            for i in self.record.stages[s].fill:
+                foot = _footprint(self.placed[i], self.span[i])
+                for t in tree.query(foot, predicate="intersects"):
+                    if t == s or (s, t) in touching:
+                        continue
+                    if foot.intersection(bands[t]).area > MEDIAL_MIN_AREA:
+                        self._medial(i, s, int(t))
+
+    def _medial(self, i: int, s: int, t: int) -> None:
+        """Cut module i (of stage s) where it lies deeper behind its facade than behind
+        stage t's nearest facade segment."""
+        placed = self.placed[i]
+        centre = placed.origin + placed.a @ np.array([placed.length / 2, 0.0])
+        path_t = self.paths[t]
+        k = int(np.argmin([_seg_distance(centre, path_t.p[n], path_t.p[n + 1])
+                           for n in range(len(path_t.len))]))
+        m_s = _mass_normal(placed.a[:, 0], self.plan.stages[s].front)
+        m_t = _mass_normal(path_t.dir[k], self.plan.stages[t].front)
+        n = m_s - m_t
+        norm = float(np.hypot(*n))
+        if norm < 1e-6:
+            return
+        p_s, p_t = placed.origin, path_t.p[k]
+        c = (float(p_s @ m_s) - float(p_t @ m_t)) / norm
+        n = n / norm
+        facade = np.array([[x, 0.0] for x in self.span[i]]) @ placed.a.T + placed.origin
+        if (facade @ n > c - TOL).any():   # it would cut the facade itself: leave it
+            return
+        placed.halves.append(HalfPlane(tuple(n), tuple(n * c), extends=False))
+
+    # -- mitre joints ---------------------------------------------------------------------
+
+    def _cut_reaching(self, order, half: HalfPlane) -> None:
+        """Add ``half`` to the modules, nearest the corner first, whose footprint
+        reaches past it; the first (the one at the corner) always."""
+        for n, i in enumerate(order):
+            placed = self.placed[i]
+            (x0, x1), (y0, y1) = self.span[i], placed.y_range
+            corners = np.array([[x0, y0], [x1, y0], [x0, y1], [x1, y1]]) @ placed.a.T \
+                + placed.origin
+            if n > 0 and not ((corners - half.point) @ np.asarray(half.normal) > TOL).any():
+                return
+            placed.halves.append(half if n == 0 else replace(half, extends=False))
+
+    def _joint(self, j: int) -> None:
+        """Cut the modules meeting at joint j on its bisector plane."""
+        s_in = self.ins[j]
+        s_out = next((s for s in self.outs[j] if self.plan.branch.get(j) != s), None)
+        if s_in is None or s_out is None:
+            return
+        fill_in = self.record.stages[s_in].fill
+        fill_out = self.record.stages[s_out].fill
+        if not fill_in or not fill_out:
+            xy = self.kxy[j]
+            raise ExportError(f"{self.plan.name}: a side at the corner ({xy[0]:.1f}, "
+                              f"{xy[1]:.1f}) is too short for any module of the style; "
+                              "merge it into its neighbours or use a corner part")
+        mass_left = self.plan.stages[s_in].front == "right"
+        u_in, u_out = self.paths[s_in].dir[-1], self.paths[s_out].dir[0]
+        before, after, how, trim = joint_halves(self.kxy[j], u_in, u_out, mass_left)
+        # every module near the corner whose mass reaches past a plane is cut by it (at
+        # a right angle, the modules within a building depth of the corner)
+        for half in before:
+            self._cut_reaching(reversed(fill_in), half)
+        for half in after:
+            self._cut_reaching(fill_out, half)
+        self.record.joints[j] = how
+        self.record.joint_ends[j] = (self.kxy[j] - u_in * trim, self.kxy[j] + u_out * trim)
+
+
+MEDIAL_MIN_AREA = 0.05   # m²: a module reaching less into another stage's mass is left
+
+
+def _mass_normal(direction: np.ndarray, front: Front) -> np.ndarray:
+    """The unit normal of a facade running along ``direction``, into its mass."""
+    u = np.asarray(direction, dtype=float)
+    u = u / float(np.hypot(*u))
+    return _left(u) if front == "right" else -_left(u)
+
+
+def _band(points, front: Front, depth: float) -> BaseGeometry:
+    """The ground behind a stage's facades, ``depth`` deep."""
+    side = depth if front == "right" else -depth     # the mass lies left of travel
+    return LineString(points).buffer(side, single_sided=True, cap_style="flat",
+                                     join_style="mitre")
+
+
+def _footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
+    """A module's plan rectangle (over its span, front overhang to depth)."""
+    (x0, x1), (y0, y1) = span, placed.y_range
+    pts = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) @ placed.a.T + placed.origin
+    return Polygon(pts)
+
+
+def _seg_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    d = b - a
+    t = float(np.clip((q - a) @ d / max(float(d @ d), 1e-12), 0.0, 1.0))
+    return float(np.hypot(*(q - (a + d * t))))
+
+
+def _straight_key(p: Part, si: int, j: int, xy, v, before: bool, front: str) -> Placed:
     """A straight part spanning vector v from key point xy: before the key (it ends at
     the key, v points back along its stage) or after it."""
     length = float(np.hypot(*v))
@@ -269,13 +436,11 @@ def _straight_key(p: Part, si: int, j: int, xy, v, before: bool, front: str) -> 
     return _instance(p, si, None, j, a, xy + v if before else xy)
 
 
-def _instance(p: Part, structure: int, stage, key, a: np.ndarray, origin) -> Instance:
-    """An instance at the precision the layout JSON keeps, so JSON, USD and glTF
-    carry the same numbers (and the checks test what is written)."""
-    def r(v, nd):
-        return tuple(0.0 if x == 0 else x for x in (round(float(c), nd) for c in v))
-    return Instance(p.id, p.cls, structure, stage, key, r(a[:, 0], AXIS_DIGITS),
-                    r(a[:, 1], AXIS_DIGITS), r(origin, COORD_DIGITS))
+def _instance(p: Part, structure: int, stage, key, a: np.ndarray, origin) -> Placed:
+    """A placed part (cut later where it meets a joint or a bend)."""
+    length = _geom_length(p) if p.cls in ("middle", "end_left", "end_right") else 0.0
+    return Placed(p.id, p.cls, length, _y_range(p), structure, stage, key,
+                  np.asarray(a, dtype=float), np.asarray(origin, dtype=float))
 
 
 def _fit(d0, d1, w0, w1) -> np.ndarray:
@@ -283,8 +448,6 @@ def _fit(d0, d1, w0, w1) -> np.ndarray:
     src = np.column_stack([d0, d1]).astype(float)
     dst = np.column_stack([w0, w1]).astype(float)
     return dst @ np.linalg.inv(src)
-
-
 def _check_t_sides(plan: PlacementPlan, j: int, xy, u_in, u_br, front: Front,
                    branch_front: Front) -> None:
     """The library's T parts have their wing behind the main facade, its own facade to
@@ -301,30 +464,51 @@ def _check_t_sides(plan: PlacementPlan, j: int, xy, u_in, u_br, front: Front,
                           f'"{other_side(branch_front)}"')
 
 
+
+_Segment = tuple[np.ndarray, np.ndarray, int | None, int | None]   # a, b, instance, leg
+
+
 def _check(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
            inst: list[Instance]) -> None:
     """The layout's geometry against its skeleton; any failure is an ExportError."""
     for s, r in record.stages.items():
         st = plan.stages[s]
-        k_lo = record.keys[(st.start, r.start_leg)]
-        k_hi = record.keys[(st.end, 0)]
-        p_lo, p_hi = parts[inst[k_lo].part], parts[inst[k_hi].part]
         where = f"{plan.name}: stage {s}"
         _check_length(where, st, r)
         # facade segments in travel order: start key's leg, fillers, end key's leg
-        segs = [_key_leg_segment(inst[k_lo], p_lo, r.start_leg, outgoing=True)]
+        segs = [_key_segment(plan, record, parts, inst, st.start, r.start_leg, outgoing=True)]
         for i in r.fill:
+            lo, hi = facade_span(inst[i].cut, _geom_length(parts[inst[i].part]))
+            if hi > lo:      # else the nose of an acute corner took its whole facade
+                segs.append((inst[i].apply([lo, 0.0]), inst[i].apply([hi, 0.0]), i, None))
+        segs.append(_key_segment(plan, record, parts, inst, st.end, 0, outgoing=False))
+        _check_joined(where, [(a, b) for a, b, _i, _leg in segs], bool(r.fill))
+        for a, b, idx, leg in segs:
+            if idx is None:     # a mitre joint: a point, and no part of its own
+                continue
+            i = idx
             p = parts[inst[i].part]
-            segs.append((inst[i].apply([0.0, 0.0]), inst[i].apply([_geom_length(p), 0.0])))
-        segs.append(_key_leg_segment(inst[k_hi], p_hi, 0, outgoing=False))
-        _check_joined(where, segs, bool(r.fill))
-        owners = [k_lo, *r.fill, k_hi]
-        for (a, b), i in zip(segs, owners, strict=True):
-            p = p_lo if i == k_lo else p_hi if i == k_hi else parts[inst[i].part]
             _check_on_path(where, r.path, (a, b), inst[i].part,
-                           "leg of the key part" if i in (k_lo, k_hi) else "part")
-            facing = _facade_normal(inst[i], p, i, k_lo, k_hi, r.start_leg)
-            _check_facing(where, (a, b), facing, st.front, inst[i].part)
+                           "leg of the key part" if leg is not None else "part")
+            _check_facing(where, (a, b), _facade_normal(inst[i], p, leg), st.front,
+                          inst[i].part)
+
+
+def _key_segment(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
+                 inst: list[Instance], j: int, leg: int, *, outgoing: bool) -> _Segment:
+    """The facade segment of key j's leg on a stage, in travel order (at a mitre joint:
+    the corner, or across the nose of an acute one)."""
+    i = record.keys.get((j, leg))
+    if i is None:
+        xy = np.asarray(plan.keys[j].xy, dtype=float)
+        a, b = record.joint_ends.get(j, (xy, xy))
+        return a, b, None, None
+    p = parts[inst[i].part]
+    if p.cls in ("end_left", "end_right"):
+        return inst[i].apply([0.0, 0.0]), inst[i].apply([_geom_length(p), 0.0]), i, None
+    key = inst[i].apply([0.0, 0.0])
+    end = inst[i].apply(np.asarray(p.directions[leg]) * p.legs_measured[leg])
+    return (key, end, i, leg) if outgoing else (end, key, i, leg)
 
 
 def _check_length(where: str, st: PlanStage, r: _StageRecord) -> None:
@@ -368,24 +552,12 @@ def _check_facing(where: str, seg: tuple[np.ndarray, np.ndarray], facing: np.nda
                           f"face the street side ({front} of travel)")
 
 
-def _key_leg_segment(inst: Instance, p: Part, leg: int, *,
-                     outgoing: bool) -> tuple[np.ndarray, np.ndarray]:
-    """The facade segment of a key part's leg, in travel order."""
-    if p.cls in ("end_left", "end_right"):
-        return inst.apply([0.0, 0.0]), inst.apply([_geom_length(p), 0.0])
-    key = inst.apply([0.0, 0.0])
-    end = inst.apply(np.asarray(p.directions[leg]) * p.legs_measured[leg])
-    return (key, end) if outgoing else (end, key)
-
-
-def _facade_normal(inst: Instance, p: Part, i: int, k_lo: int, k_hi: int,
-                   start_leg: int) -> np.ndarray:
+def _facade_normal(inst: Instance, p: Part, leg: int | None) -> np.ndarray:
     """Where the facade of this instance (on this stage) faces, in the layout frame:
     the image of the canonical facade normal, the right of the leg's travel."""
-    if p.cls in ("corner", "t_junction") and i in (k_lo, k_hi):
-        leg = start_leg if i == k_lo else 0
+    if p.cls in ("corner", "t_junction") and leg is not None:
         d = np.asarray(p.directions[leg], dtype=float)
-        travel = d if i == k_lo else -d
+        travel = d if leg != 0 else -d
         n = np.array([travel[1], -travel[0]])
     else:
         n = np.array([0.0, -1.0])
@@ -404,9 +576,12 @@ def _summary(plan: PlacementPlan, sol: StructureSolution, record: _Record) -> di
             "asked": {k: list(v) for k, v in st.asked.items()},
             "met": dict(sol.resources[s]),
             "skeleton_edges": list(st.edges),
+            "polyline": [list(p) for p in st.points],
         })
     keys = [{"part": sol.keys[j], "kind": k.kind, "xy": list(k.xy),
-             "skeleton_key": k.skeleton_key} for j, k in enumerate(plan.keys)]
+             "skeleton_key": k.skeleton_key,
+             "joint": record.joints.get(j, "part")}
+            for j, k in enumerate(plan.keys)]
     total: dict[str, float] = {}
     for res in sol.resources:
         for name, v in res.items():
@@ -422,4 +597,3 @@ def max_stretch(lay: Layout) -> float:
     """The largest |stretch - 1| over the layout's stages."""
     return max((abs(s["stretch"] - 1.0) for st in lay.structures for s in st["stages"]),
                default=0.0)
-

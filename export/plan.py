@@ -4,7 +4,8 @@ The solver's answer is a sequence of part ids per stage and one per key point; t
 it back on the ground the export needs where each key point stands, each stage's
 polyline (through its bends) and the side its facades face, which key point a stage
 leaves and reaches, and by which leg of the key part it leaves (leg 1, or leg 2 for a
-T junction's branch). A :class:`PlacementPlan` carries exactly that, as plain typed
+T junction's branch). A corner whose key element is a joint (:func:`is_joint`) is a
+mitre joint. A :class:`PlacementPlan` carries exactly that, as plain typed
 data, so export reads no solver structure and no skeleton: the pipeline builds one
 beside every structure it hands the solver (see
 :func:`citysynth.pipeline.skeleton_to_structure.skeleton_structure`).
@@ -25,6 +26,15 @@ KeyKind = Literal["end", "corner", "t_junction"]
 """What stands at a structure key point (bends are not key points)."""
 
 Point = tuple[float, float]
+
+JOINT = "joint:mitre"
+"""The key elements of a corner with no corner part, mitre joints, are named
+``joint:mitre`` plus their legs (``joint:mitre+0.4+0.2``): the modules on either side
+run to the corner, extended over the joint's legs, and are cut on its bisector plane."""
+
+
+def is_joint(element: str) -> bool:
+    return element.startswith(JOINT)
 
 
 def other_side(side: Front) -> Front:
@@ -58,17 +68,6 @@ class PlanStage:
 
 
 @dataclass(frozen=True)
-class Mitre:
-    """A corner made of the style's two end parts: ``end_in`` closes the incoming stage,
-    ``end_out`` opens the outgoing one, each reaching its length along its stage."""
-
-    end_in: str
-    end_out: str
-    length_in: float
-    length_out: float
-
-
-@dataclass(frozen=True)
 class PlacementPlan:
     """One skeleton (a building, or one ring of a block) ready to receive a solution."""
 
@@ -80,7 +79,7 @@ class PlacementPlan:
     stages: tuple[PlanStage, ...]
     branch: dict[int, int] = field(default_factory=dict)    # T key point -> branch stage
     asked: dict[str, tuple[float, float]] = field(default_factory=dict)  # whole structure
-    mitres: dict[str, Mitre] = field(default_factory=dict)  # key element id -> its mitre
+    joints: dict[str, tuple[float, float]] = field(default_factory=dict)  # id -> legs
 
     def incoming(self) -> dict[int, int | None]:
         """Each key point's incoming stage (None at a tree's root)."""

@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, UsdShade, UsdValidation, Vt
 
-from citysynth.export.layout import Layout
-from citysynth.parts_db import Part, PartDB
+from citysynth.export.layout import Instance, Layout
+from citysynth.export.prototypes import prototype_pieces
+from citysynth.parts_db import PartDB
 from citysynth.parts_db.files import atomic_path
-from citysynth.parts_db.geometry import part_pieces
 
 PARTS_DIR = "parts"
 
@@ -77,18 +77,22 @@ def part_file(part_id: str) -> str:
     return f"{PARTS_DIR}/{prim_name(part_id)}.usdc"
 
 
-def write_part(db: PartDB, part: Part, path: Path) -> None:
-    """One part as a component model with a mesh and a preview material per colour."""
+def write_part(db: PartDB, inst: Instance, path: Path) -> None:
+    """The prototype ``inst`` shows (its part, or the part cut at a joint) as a
+    component model with a mesh and a preview material per colour."""
+    part = next(p for p in db.parts if p.id == inst.part)
     stage = Usd.Stage.CreateInMemory()
-    name = prim_name(part.id)
+    name = prim_name(inst.proto)
     root = UsdGeom.Xform.Define(stage, f"/{name}")
     model = Usd.ModelAPI(root.GetPrim())
     model.SetKind(Kind.Tokens.component)
     root.GetPrim().SetCustomDataByKey("citysynth:part", part.id)
     root.GetPrim().SetCustomDataByKey("citysynth:class", part.cls)
     root.GetPrim().SetCustomDataByKey("citysynth:library", db.library_hash)
+    if inst.cut is not None:
+        root.GetPrim().SetCustomDataByKey("citysynth:cut", _vt(inst.cut.to_dict()))
     looks = UsdGeom.Scope.Define(stage, f"/{name}/Looks")
-    for i, piece in enumerate(part_pieces(db, part)):
+    for i, piece in enumerate(prototype_pieces(db, inst)):
         label = prim_name(f"{piece.name}_{i}")
         mesh = UsdGeom.Mesh.Define(stage, f"/{name}/{label}")
         pts = piece.vertices.astype(np.float32)
@@ -124,15 +128,15 @@ def _preview_material(stage, path: Sdf.Path, piece) -> UsdShade.Material:
     return material
 
 
-def ensure_parts(db: PartDB, part_ids, out_dir: Path) -> list[Path]:
-    """Write the part files a layer references that are not there yet (a part file's
-    name carries no hash: a run folder belongs to one library, see ``write_layout``)."""
-    parts = {p.id: p for p in db.parts}
+def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path) -> list[Path]:
+    """Write the prototype files a layer references that are not there yet (a part
+    file's name carries no library hash: a run folder belongs to one library, see
+    ``write_layout``; a cut prototype's name carries its cut's)."""
     written = []
-    for pid in sorted(set(part_ids)):
-        path = out_dir / part_file(pid)
+    for proto, inst in sorted(prototypes.items()):
+        path = out_dir / part_file(proto)
         if not path.is_file():
-            write_part(db, parts[pid], path)
+            write_part(db, inst, path)
             written.append(path)
     return written
 
@@ -142,7 +146,7 @@ def ensure_parts(db: PartDB, part_ids, out_dir: Path) -> list[Path]:
 def write_layout(lay: Layout, db: PartDB, path: str | Path) -> Path:
     """The layout's layer at ``path`` (and its part files beside it, in ``parts/``)."""
     path = Path(path)
-    ensure_parts(db, lay.parts_used(), path.parent)
+    ensure_parts(db, lay.prototypes(), path.parent)
     layer = Sdf.Layer.CreateAnonymous(".usda")
     root_name = prim_name(lay.name)
     with Sdf.ChangeBlock():
@@ -184,7 +188,7 @@ def write_layout(lay: Layout, db: PartDB, path: str | Path) -> Path:
             spec = Sdf.PrimSpec(groups[(inst.structure, inst.stage)], label,
                                 Sdf.SpecifierDef, "Xform")
             spec.instanceable = True
-            spec.referenceList.Prepend(Sdf.Reference(f"./{part_file(inst.part)}"))
+            spec.referenceList.Prepend(Sdf.Reference(f"./{part_file(inst.proto)}"))
             spec.customData = _vt({"citysynth": {"part": inst.part}})
             m = inst.matrix().T   # USD multiplies row vectors: translation in the last row
             op = Sdf.AttributeSpec(spec, "xformOp:transform", Sdf.ValueTypeNames.Matrix4d)

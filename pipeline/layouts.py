@@ -20,8 +20,9 @@ from citysynth.export.layout import Layout
 from citysynth.export.place import layout, max_stretch
 from citysynth.export.writers import FORMATS, Format, write
 from citysynth.parts_db import PartDB
+from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
-from citysynth.skeletons import Skeleton, SkeletonError
+from citysynth.skeletons import Skeleton
 from citysynth.solver.structures import solve_structure
 
 
@@ -39,14 +40,14 @@ class Built:
 def default_style(db: PartDB) -> str:
     styles = sorted({p.style for p in db.select("middle")})
     if not styles:
-        raise SkeletonError(f"the library {db.name!r} has no middle parts to fill facades")
+        raise UsageError(f"the library {db.name!r} has no middle parts to fill facades")
     return styles[0]
 
 
 def check_style(db: PartDB, style: str) -> None:
     styles = sorted({p.style for p in db.select("middle")})
     if style not in styles:
-        raise SkeletonError(f"the library {db.name!r} has no style {style!r}; it has "
+        raise UsageError(f"the library {db.name!r} has no style {style!r}; it has "
                             f"{', '.join(styles)}")
 
 

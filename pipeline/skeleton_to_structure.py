@@ -28,22 +28,23 @@ from dataclasses import dataclass
 import numpy as np
 
 from citysynth.export.plan import (
+    JOINT,
     Front,
-    Mitre,
     PlacementPlan,
     PlanKey,
     PlanStage,
     Point,
+    is_joint,
     other_side,
 )
 from citysynth.parts_db import Part, PartDB
-from citysynth.skeletons import Skeleton, match_corner_angles
+from citysynth.skeletons import Skeleton
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.solver.structures import Stage, Structure
 
-MITRE = "mitre:"   # key elements made of an end part on each side of a corner
-MITRE_SHIFTS = 3   # a mitre's end parts may stretch or shrink by up to this many quanta
-MITRE_SHIFT_COST = 1.0   # per metre of stretch, so the solver prefers true lengths
+JOINT_COST = 10.0  # a mitre joint's cost (m² of section mismatch, the scale of the costs)
+JOINT_LEGS = 5     # a joint's legs are 1..JOINT_LEGS quanta on either side
+JOINT_LEG_COST = 1.0   # per metre of leg beyond one quantum: modules keep their widths
 
 
 @dataclass(frozen=True)
@@ -178,26 +179,23 @@ class _KeyParts:
     options: tuple[tuple[str, ...], ...]      # key element ids per key point
     branch: dict[int, int]                    # T key point -> its branch stage
     parts: dict[str, Part]                    # key parts used, by id
-    mitres: dict[str, tuple[Part, Part, float]]   # id -> (end_right, end_left, shift)
+    joint: bool                               # some key point may be a mitre joint
 
 
 def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
-                       angle_tol: float = 7.5, mitre_cost: float | None = None,
-                       stretch: float = 0.0, per_side: dict | None = None,
+                       angle_tol: float = 7.5, joint_cost: float = JOINT_COST,
+                       stretch: float = 0.0, slack: float = 0.0,
+                       per_side: dict | None = None,
                        per_structure: dict | None = None) -> StructurePlan:
     """The structure for ``sk`` built from ``db``'s parts of ``style``, with the way
     back to the skeleton.
 
-    By default a corner takes the library's corner parts of the nearest angle within
-    ``angle_tol`` degrees, or is refused. With ``mitre_cost`` (the city run's choice) a
-    corner takes every corner part of its convexity within ``angle_tol`` and, at that
-    extra cost, a mitre: the style's end parts meeting at the corner, which fits any
-    angle and needs far shorter edges than a corner part. A mitre comes in variants
-    whose end parts are stretched or shrunk by up to ``MITRE_SHIFTS`` quanta (at a
-    small extra cost per metre), which gives short stages the slack that a few
-    fixed part lengths lack. Each stage must meet its
-    skeleton length within half a quantum or ``stretch`` (a fraction) of it, whichever
-    is larger. ``per_side`` intervals apply to every stage (an edge's own constraints
+    A corner takes the library's corner parts of its convexity within ``angle_tol``
+    degrees of its angle, or, at ``joint_cost``, a mitre joint (:data:`JOINT`): the
+    modules on either side run to the corner and are cut on its bisector, which fits
+    any angle and needs no length of its own. Each stage must meet its skeleton length
+    within the largest of half a quantum, ``stretch`` (a fraction of it) and ``slack``
+    (metres). ``per_side`` intervals apply to every stage (an edge's own constraints
     win), ``per_structure`` ones to the whole structure."""
     keys, chains = _chains(sk)
     root, oriented = _orient(sk, keys, chains)
@@ -214,13 +212,13 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
         if name not in attrs:
             raise SkeletonError(f"{sk.name}: constraint on {name!r}, which no {style} "
                                 f"middle part has (they have {attrs})")
-    kp = _key_parts(sk, db, style, keys, chains, oriented, angle_tol, mitre_cost)
-    stages, placed = _stages(sk, db.quantum, keys, chains, oriented, kp.branch, stretch,
-                             per_side or {}, attrs, style)
+    kp = _key_parts(sk, db, style, keys, chains, oriented, angle_tol)
+    stages, placed = _stages(sk, max(db.quantum / 2, slack), keys, chains, oriented,
+                             stretch, per_side or {}, attrs, style)
     resources = ("length", *attrs)
     structure = Structure.build(
         resources=resources, quantum={"length": db.quantum},
-        **_elements(fillers, kp, resources, mitre_cost),
+        **_elements(fillers, kp, resources, joint_cost, db.quantum),
         **_transitions(db, fillers, kp),
         keypoints=kp.options, branch=kp.branch, stages=stages, k=k, source=sk.name,
         global_constraints={n: (float(lo), float(hi))
@@ -233,46 +231,27 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                                asked=dict(st.constraints))
                      for s, st in enumerate(structure.stages)),
         branch=dict(kp.branch), asked=dict(structure.global_constraints),
-        mitres={mid: Mitre(r.id, lft.id, round(r.length + d, 9), round(lft.length + d, 9))
-                for mid, (r, lft, d) in kp.mitres.items()})
+        joints=_joint_variants(db.quantum) if kp.joint else {})
     return StructurePlan(structure, placement)
 
 
-def _mitre_variants(db: PartDB, style: str) -> dict[str, tuple[Part, Part, float]]:
-    """Every (end_right, end_left) pair of the style, each end moved by -MITRE_SHIFTS ..
-    +MITRE_SHIFTS quanta."""
-    q = db.quantum
-    mitres = {}
-    for r in db.select("end_right", style):
-        for lft in db.select("end_left", style):
-            for i in range(-MITRE_SHIFTS, MITRE_SHIFTS + 1):
-                mitres[f"{MITRE}{r.id}+{lft.id}{i * q:+.1f}"] = (r, lft, round(i * q, 9))
-    return mitres
-
-
 def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: list[_Chain],
-               oriented: dict[int, tuple[int, int]], angle_tol: float,
-               mitre_cost: float | None) -> _KeyParts:
-    """The key elements each key point admits: corner parts by angle (and mitres, in a
-    city), T parts with their branch stage, end parts by the way the stage runs."""
+               oriented: dict[int, tuple[int, int]], angle_tol: float) -> _KeyParts:
+    """The key elements each key point admits: corner parts by angle and convexity, and
+    a mitre joint; T parts with their branch stage; end parts by the way the stage
+    runs."""
     kp_of = {kp.id: kp for kp in sk.keypoints}
     corners = db.select("corner", style)
-    chosen = None if mitre_cost is not None else match_corner_angles(
-        sk, [(float(p.angle or 0.0), bool(p.convex)) for p in corners], angle_tol)
-    mitres = _mitre_variants(db, style) if mitre_cost is not None else {}
     options: list[tuple[str, ...]] = []
     branch: dict[int, int] = {}
     parts: dict[str, Part] = {}
     for j, v in enumerate(keys):
         kp = kp_of[v]
         extra: list[str] = []
-        if kp.kind == "corner" and chosen is not None:
-            angle, convex = chosen[v]
-            opts = [p for p in corners if (p.angle, p.convex) == (angle, convex)]
-        elif kp.kind == "corner":
+        if kp.kind == "corner":
             opts = [p for p in corners if p.convex == kp.convex and p.angle is not None
                     and kp.angle is not None and abs(p.angle - kp.angle) <= angle_tol]
-            extra = sorted(mitres)
+            extra = list(_joint_variants(db.quantum))
         elif kp.kind == "t_junction":
             opts = db.select("t_junction", style)
             branch[j] = next(s for s, c in enumerate(chains) if kp.branch in c.edges)
@@ -285,16 +264,30 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
                                 f"{kp.xy[1]:.1f})")
         options.append(tuple([p.id for p in opts] + extra))
         parts.update((p.id, p) for p in opts)
-    return _KeyParts(tuple(options), branch, parts, mitres)
+    return _KeyParts(tuple(options), branch, parts,
+                     any(is_joint(x) for o in options for x in o))
 
 
-def _stages(sk: Skeleton, q: float, keys: list[int], chains: list[_Chain],
-            oriented: dict[int, tuple[int, int]], branch: dict[int, int], stretch: float,
+def _joint_variants(q: float) -> dict[str, tuple[float, float]]:
+    """Mitre joints by id: legs of 1..JOINT_LEGS quanta, the same on both sides or one
+    side at one quantum (13 variants; every pair would be 25 and solve twice as
+    slowly). The legs give short sides the slack a few module widths lack: the
+    modules beside the joint are extended over them (a wider corner pier), at a small
+    cost per metre."""
+    pairs = sorted({(a, a) for a in range(1, JOINT_LEGS + 1)}
+                   | {(1, a) for a in range(2, JOINT_LEGS + 1)}
+                   | {(a, 1) for a in range(2, JOINT_LEGS + 1)})
+    return {f"{JOINT}+{a * q:.1f}+{b * q:.1f}": (round(a * q, 9), round(b * q, 9))
+            for a, b in pairs}
+
+
+def _stages(sk: Skeleton, floor: float, keys: list[int], chains: list[_Chain],
+            oriented: dict[int, tuple[int, int]], stretch: float,
             per_side: dict, attrs: list[str], style: str
             ) -> tuple[list[Stage], list[tuple[tuple[Point, ...], Front, tuple[int, ...]]]]:
-    """Each chain as a stage (its intervals: the length within half a quantum or the
-    stretch, and the attribute intervals), with its polyline, front and edges in travel
-    order."""
+    """Each chain as a stage (its intervals: the length within ``floor`` metres or the
+    stretch, whichever is larger, and the attribute intervals), with its polyline,
+    front and edges in travel order."""
     kp_of = {kp.id: kp for kp in sk.keypoints}
     stages, placed = [], []
     for s, chain in enumerate(chains):
@@ -303,7 +296,7 @@ def _stages(sk: Skeleton, q: float, keys: list[int], chains: list[_Chain],
         verts = chain.vertices if forward else chain.vertices[::-1]
         placed.append((tuple(kp_of[v].xy for v in verts), _front_along(sk, chain, forward),
                        chain.edges if forward else chain.edges[::-1]))
-        tol = max(q / 2, stretch * chain.length)
+        tol = max(floor, stretch * chain.length)
         c = {"length": (round(chain.length - tol, 6), round(chain.length + tol, 6))}
         for name, iv in {**per_side, **chain.constraints}.items():
             if name not in attrs:
@@ -321,9 +314,10 @@ def _legs(p: Part) -> tuple[float, ...]:
 
 
 def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
-              mitre_cost: float | None) -> dict:
-    """Fillers with their length and attributes; key parts and mitres with their legs
-    (a mitre's end parts moved by its shift, at its cost)."""
+              joint_cost: float, quantum: float) -> dict:
+    """Fillers with their length and attributes; key parts with their legs; mitre
+    joints at their cost, with their legs (the modules next to a joint are extended
+    over them to reach the corner)."""
     zero = dict.fromkeys(resources, 0.0)
     elements: dict[str, dict[str, float]] = {}
     costs: dict[str, float] = {}
@@ -335,43 +329,40 @@ def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
     for pid, p in kp.parts.items():
         elements[pid], costs[pid] = dict(zero), 0.0
         legs[pid] = tuple({**zero, "length": x} for x in _legs(p))
-    for mid, (r, lft, d) in sorted(kp.mitres.items()):
-        elements[mid] = dict(zero)
-        costs[mid] = (mitre_cost or 0.0) + MITRE_SHIFT_COST * abs(d)
-        legs[mid] = ({**zero, "length": round(r.length + d, 9)},
-                     {**zero, "length": round(lft.length + d, 9)})
+    if kp.joint:
+        for jid, (a, b) in _joint_variants(quantum).items():
+            elements[jid] = dict(zero)
+            costs[jid] = float(joint_cost) + JOINT_LEG_COST * (a + b - 2 * quantum)
+            legs[jid] = ({**zero, "length": a}, {**zero, "length": b})
     return {"elements": elements, "costs": costs, "legs": legs}
 
 
 def _transitions(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
-    """The database's costs between every pair of elements: a transition runs from the
-    part at an element's end to the part at the next one's start (for a mitre, its two
-    end parts); from a T's branch leg, the branch costs."""
-    first = {p.id: p.id for p in [*fillers, *kp.parts.values()]}
-    last = dict(first)
-    for mid, (r, lft, _d) in kp.mitres.items():
-        first[mid], last[mid] = r.id, lft.id
-    ids = [p.id for p in fillers] + list(kp.parts) + sorted(kp.mitres)
+    """The database's costs between every pair of parts; from a T's branch leg, the
+    branch costs. A mitre joint joins anything at no cost of its own: the modules on
+    either side are cut to meet (its cost is its unary cost)."""
+    ids = [p.id for p in fillers] + list(kp.parts)
     idx = db.index()
     trans, btrans = {}, {}
     for x in ids:
         for y in ids:
-            i, j = idx[last[x]], idx[first[y]]
+            i, j = idx[x], idx[y]
             if db.allowed[i, j] and np.isfinite(db.cost[i, j]):
                 trans[(x, y)] = float(db.cost[i, j])
             if np.isfinite(db.cost_branch[i, j]):
                 btrans[(x, y)] = float(db.cost_branch[i, j])
+    if kp.joint:
+        for jid in _joint_variants(db.quantum):
+            for x in ids:
+                trans[(x, jid)] = trans[(jid, x)] = 0.0
     return {"transitions": trans, "branch_transitions": btrans}
 
 
 def shortest_stage(db: PartDB, style: str) -> float:
-    """The shortest stage two mitred corners can close (their end parts shrunk as far
-    as a mitre allows): block sides shorter than this cannot be built, so cleaning
-    absorbs them into their corners."""
-    ends = [p.length for p in db.select("end_left", style) + db.select("end_right", style)]
-    if not ends:
-        return 0.0
-    return max(2 * min(ends) - 2 * MITRE_SHIFTS * db.quantum, 0.0)
+    """The shortest stage two mitre joints can close: one middle part of the style.
+    Block sides shorter than this cannot be built, so cleaning absorbs them into their
+    corners."""
+    return min((p.length for p in db.select("middle", style)), default=0.0)
 
 
 def _on_cycle(s, adj, chains, index) -> bool:

@@ -79,8 +79,8 @@ def test_block_layers_validate_and_corners_vary(helsinki):
     for p in (helsinki / "blocks").glob("*.layout.json"):
         for st in json.loads(p.read_text())["structures"]:
             kinds |= {k["part"].split("+")[0].split("_corner_")[-1] for k in st["keys"]}
-    # real blocks need both: corner parts bent to fit, and mitres where none fits
-    assert any(k.startswith("mitre:") for k in kinds) and "90_convex" in kinds
+    # real blocks need both: corner parts bent to fit, and mitre joints where none fits
+    assert any(k.startswith("joint:mitre") for k in kinds) and "90_convex" in kinds
 
 
 def test_results_do_not_depend_on_the_worker_count(district, tmp_path):

@@ -17,8 +17,9 @@ from pxr import Usd, UsdGeom
 from citysynth.export.assemble import bounds, triangle_count
 from citysynth.export.errors import ExportError
 from citysynth.export.gltf import sheared
-from citysynth.export.layout import Layout
+from citysynth.export.layout import VERSION, Layout
 from citysynth.export.place import layout, max_stretch
+from citysynth.export.prototypes import prototype_pieces
 from citysynth.export.usd import validate, write_city
 from citysynth.pipeline.cli import main
 from citysynth.pipeline.layouts import solve_layouts
@@ -81,7 +82,7 @@ def test_usd_matches_its_layout_and_validates(run_dir, db):
         stage = Usd.Stage.Open(str(usd))
         instances = [p for p in stage.Traverse() if p.IsInstance()]
         assert len(instances) == len(lay.instances)
-        assert len(stage.GetPrototypes()) == len(lay.parts_used())
+        assert len(stage.GetPrototypes()) == len(lay.prototypes())   # parts, cut or not
         assert UsdGeom.GetStageUpAxis(stage) == "Z"
         assert UsdGeom.GetStageMetersPerUnit(stage) == 1.0
         root = stage.GetDefaultPrim()
@@ -116,9 +117,12 @@ def test_glb_loads_back_with_every_triangle(run_dir, db):
         tris = sum(len(scene.geometry[g].faces)
                    for g in (scene.graph[n][1] for n in scene.graph.nodes_geometry))
         assert tris == triangle_count(lay, db)
-        # instanced: each unsheared part's pieces are stored once
-        unsheared = {i.part for i in lay.instances if not sheared(i)}
-        assert len(scene.geometry) < sum(1 for _ in lay.instances) + len(unsheared) * 3
+        # instanced: each unsheared prototype's pieces (a part, or a part cut at a
+        # joint or fold) are stored once; a sheared instance's pieces are baked
+        unsheared = {i.proto: i for i in lay.instances if not sheared(i)}
+        baked = [i for i in lay.instances if sheared(i)]
+        assert len(scene.geometry) == sum(len(prototype_pieces(db, i))
+                                          for i in [*unsheared.values(), *baked])
         np.testing.assert_allclose(scene.bounds, bounds(lay, db), atol=2e-3)
 
 
@@ -130,7 +134,7 @@ def test_layout_json_is_deterministic_and_documented(run_dir, tmp_path):
             assert (tmp_path / f"{name}{ext}").read_bytes() == \
                 (run_dir / f"{name}{ext}").read_bytes()
     d = json.loads((run_dir / "t_building_1.layout.json").read_text())
-    assert d["schema"] == "citysynth.layout" and d["version"] == 1
+    assert d["schema"] == "citysynth.layout" and d["version"] == VERSION
     assert d["library"]["hash"] and d["structures"][0]["stages"][0]["asked"]["doors"] == [1, 3]
     met = d["structures"][0]["stages"][0]["met"]
     assert 1 <= met["doors"] <= 3 and abs(met["length"] - 31.8) <= 0.1 + 1e-9
@@ -211,10 +215,15 @@ def test_block_cli_errors(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "no style 'gothic'" in err and "classic, modern" in err
     assert len(err.strip().splitlines()) == 1 and not list(tmp_path.iterdir())
-    # the classic style cannot fill the block's edges within half a quantum: exit 1,
-    # the reason on stderr, nothing written
-    assert main(["block", str(BLOCK), "--library", str(LIB), "--style", "classic",
+    # sixty doors on every side cannot be had: exit 1, the reason on stderr, nothing
+    # written
+    data = json.loads(BLOCK.read_text())
+    for f in data["features"]:
+        f["properties"]["constraints"] = {"doors": [60, 60]}
+    doors = tmp_path.parent / "block_60_doors.geojson"
+    doors.write_text(json.dumps(data))
+    assert main(["block", str(doors), "--library", str(LIB), "--style", "classic",
                  "-o", str(tmp_path)]) == 1
     err = capsys.readouterr().err
-    assert "infeasible" in err and "nearest achievable" in err
+    assert "infeasible" in err and "stage" in err
     assert not list(tmp_path.iterdir())

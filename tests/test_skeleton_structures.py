@@ -10,7 +10,6 @@ import pytest
 
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
 from citysynth.skeletons import (
-    SkeletonError,
     parse_geojson,
     skeleton_from_lines,
     skeletons_from_polygons,
@@ -60,15 +59,20 @@ def test_t_shaped_building(db):
 
 
 def test_infeasible_block_names_the_stage(db):
-    plan = skeleton_structure(block(100, 64), db, "classic")
+    plan = skeleton_structure(block(100, 64), db, "classic", per_side={"doors": (60, 60)})
     r = solve_structure(plan.structure)
     assert r.status == "infeasible"
     assert "stage" in r.reason and "nearest achievable" in r.reason
 
 
-def test_corner_without_a_part_lists_the_angles(db):
+def test_corner_without_a_part_is_a_mitre_joint(db):
+    """A 60° corner, for which the library has no corner part, is a mitre joint: the
+    modules on either side are cut on its bisector (any angle builds)."""
     tri = metres([(0, 0), (90, 0), (45, 78), (0, 0)])
     feats, frame = parse_geojson(fc(feat("Polygon", [tri])))
     (sk,) = skeletons_from_polygons(feats, frame)
-    with pytest.raises(SkeletonError, match="convex corner of 60.0° .* library has corners of 90"):
-        skeleton_structure(sk, db, "classic")
+    plan = skeleton_structure(sk, db, "classic", slack=0.3)
+    assert all(any(x.startswith("joint:mitre") for x in opts)
+               for opts in plan.structure.keypoints)
+    r = solve_structure(plan.structure)
+    assert r.status == "ok" and all(k.startswith("joint:mitre") for k in r.solutions[0].keys)

@@ -38,7 +38,8 @@ from citysynth.skeletons import Feature, Frame, skeletons_from_polygons
 from citysynth.skeletons.clean import absorb_short_edges
 from citysynth.skeletons.from_geometry import STRAIGHT_TOL
 
-JOB_VERSION = 1          # bump when a block's output changes for the same inputs
+JOB_VERSION = 2          # bump when a block's output changes for the same inputs
+CITY_SLACK = 0.3         # m: any block side may be met this closely (short sides need it)
 BLOCKS_DIR = "blocks"
 
 BlockKind = Literal["block", "footprint"]    # a street block, or a building footprint
@@ -184,8 +185,8 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
     frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
     rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
     built = solve_layouts(job.id, rings, db, job.style, job.k,
-                          angle_tol=job.corner_tolerance, mitre_cost=job.mitre_cost,
-                          stretch=job.stretch,
+                          angle_tol=job.corner_tolerance, joint_cost=job.mitre_cost,
+                          stretch=job.stretch, slack=CITY_SLACK,
                           per_side={n: (lo, hi) for n, lo, hi in job.per_side},
                           per_structure={n: (lo, hi) for n, lo, hi in job.per_block})
     rec["timings"] = dict(built.timings)

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from citysynth.export.writers import FORMATS
 from citysynth.parts_db import load_library
+from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import (
     Built,
     default_style,
@@ -62,7 +63,7 @@ def safe_name(text: str) -> str:
 
 def _prepare(args):
     if args.k < 1:
-        raise SkeletonError(f"--k must be a positive integer, got {args.k}")
+        raise UsageError(f"--k must be a positive integer, got {args.k}")
     db = load_library(args.library)
     style = args.style or default_style(db)
     feats, frame = read_geojson(args.file, crs=args.crs)

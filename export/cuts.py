@@ -1,0 +1,160 @@
+"""Part prototypes cut for mitre joints and folds.
+
+Where two facade runs meet at an angle no corner part fits, or where a run bends under
+a part, the modules meeting there are cut along the joint's bisector plane and the cut
+is capped, so walls, cornices and roofs meet exactly, convex or concave, at any angle.
+A :class:`~citysynth.export.layout.Cut` says how, in the part's own placement frame:
+
+1. **Extend.** Where the bisector plane lies beyond a part's end (behind a concave
+   corner, or in front of a convex one, where a cornice overhangs), the part's end is
+   first extended by stretching a thin band at that end (:data:`BAND` wide): a wall or
+   cornice face that runs to the end runs on, with its profile, and nothing else moves.
+2. **Cut.** Every face is clipped to the kept side of each plane (trimesh's
+   ``slice_faces_plane``), piece by piece, so each keeps its material.
+3. **Cap.** The part's solid cross-section on each plane (the even-odd section of its
+   bodies, as ingest measures sections) is triangulated and added to the walls piece,
+   facing out of the cut, so the cut part is closed again.
+
+The cut pieces of a (part, cut) pair are computed once per process and, being plain
+prototypes, are instanced by USD and glTF like any part.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+import trimesh
+from shapely.geometry import box
+
+from citysynth.export.layout import Cut
+from citysynth.parts_db import Part, PartDB
+from citysynth.parts_db.geometry import Piece, part_pieces
+from citysynth.parts_db.sections import body_labels, plane_section
+
+BAND = 0.02            # m at each end of a part: what an extension stretches
+_CACHE: dict[tuple[str, str, Cut], tuple[Piece, ...]] = {}
+_LABELS: dict[tuple[str, str], np.ndarray] = {}
+CAP_PIECE = "walls"    # the material a cap takes (else the part's first piece's)
+
+
+def cut_pieces(db: PartDB, part: Part, cut: Cut) -> tuple[Piece, ...]:
+    """The pieces of ``part`` extended, cut and capped as ``cut`` says (cached)."""
+    key = (db.library_hash, part.id, cut)
+    if key not in _CACHE:
+        pieces = part_pieces(db, part)
+        labels = _LABELS.get(key[:2])
+        if labels is None:   # which body each face belongs to: the same for every cut
+            labels = _LABELS[key[:2]] = body_labels(_whole(pieces, [p.vertices for p in pieces]))
+        _CACHE[key] = _cut(pieces, length(part), cut, labels)
+    return _CACHE[key]
+
+
+def length(part: Part) -> float:
+    """A straight part's length along X in its placement frame."""
+    return float(part.legs_measured[0] * part.scale)
+
+
+def extend(v: np.ndarray, length: float, ext: tuple[float, float]) -> np.ndarray:
+    """Vertices with each end of the part moved out by ext[0] (start, -X) and ext[1]
+    (end, +X), stretching only the band of :data:`BAND` at that end."""
+    v = v.copy()
+    x = v[:, 0]
+    band = min(BAND, length / 4)
+    if ext[1] > 0:
+        at = x > length - band
+        x[at] = (length - band) + (x[at] - (length - band)) * (band + ext[1]) / band
+    if ext[0] > 0:
+        at = x < band
+        x[at] = band - (band - x[at]) * (band + ext[0]) / band
+    return v
+
+
+def _whole(pieces: tuple[Piece, ...], vertices: list[np.ndarray]) -> trimesh.Trimesh:
+    """All pieces as one mesh (vertices given per piece, e.g. extended)."""
+    return trimesh.Trimesh(np.concatenate(vertices),
+                           np.concatenate(_offset_faces([p.faces for p in pieces],
+                                                        [len(v) for v in vertices])),
+                           process=False)
+
+
+def _cut(pieces: tuple[Piece, ...], length_: float, cut: Cut,
+         labels: np.ndarray) -> tuple[Piece, ...]:
+    moved = [(p, extend(p.vertices, length_, cut.extend)) for p in pieces]
+    out: list[Piece] = []
+    for piece, v in moved:
+        verts, faces = v, piece.faces
+        for a, b, c in cut.planes:
+            if len(faces) == 0:
+                break
+            normal = np.array([-a, -b, 0.0])          # trimesh keeps the +normal side
+            verts, faces = trimesh.intersections.slice_faces_plane(
+                verts, faces, plane_normal=normal,
+                plane_origin=np.array([a * c, b * c, 0.0]))[:2]
+        if len(faces):
+            out.append(Piece(piece.name, piece.rgba, np.asarray(verts, dtype=float),
+                             np.asarray(faces, dtype=np.int64)))
+    whole = _whole(pieces, [v for _p, v in moved])
+    caps = [c for c in (_cap(whole, plane, cut.planes, labels) for plane in cut.planes)
+            if c is not None]
+    if not caps:
+        return tuple(out)
+    return _with_caps(out, pieces, caps)
+
+
+def _offset_faces(faces: list[np.ndarray], counts: list[int]) -> list[np.ndarray]:
+    offsets = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    return [f + o for f, o in zip(faces, offsets, strict=True)]
+
+
+def _cap(whole: trimesh.Trimesh, plane: tuple[float, float, float],
+         planes: tuple[tuple[float, float, float], ...], labels: np.ndarray
+         ) -> tuple[np.ndarray, np.ndarray] | None:
+    """The triangulated cross-section of the part on ``plane`` (within the other
+    planes), facing out of the kept side: (vertices, faces), or None when empty."""
+    a, b, c = plane
+    origin = np.array([a * c, b * c, 0.0])
+    normal = np.array([a, b, 0.0])
+    u = np.array([-b, a, 0.0])                 # horizontal, in the plane
+    w = np.array([0.0, 0.0, 1.0])
+    section = plane_section(whole, origin, normal, u, w, labels)
+    for a2, b2, c2 in planes:                  # the other planes bound it along u
+        if (a2, b2, c2) == plane:
+            continue
+        k = a2 * -b + b2 * a                   # (a2, b2) . u
+        base = a2 * origin[0] + b2 * origin[1]
+        if abs(k) < 1e-9:
+            continue
+        limit = (c2 - base) / k
+        half = box(-1e6, -1e6, limit, 1e6) if k > 0 else box(limit, -1e6, 1e6, 1e6)
+        section = section.intersection(half)
+    polys = [g for g in shapely.get_parts(section) if g.geom_type == "Polygon" and g.area > 1e-8]
+    if not polys:
+        return None
+    verts, faces = [], []
+    n = 0
+    for poly in polys:
+        v2, f = trimesh.creation.triangulate_polygon(poly)
+        v3 = origin + np.outer(v2[:, 0], u) + np.outer(v2[:, 1], w)
+        tri = v3[f]
+        facing = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]) @ normal
+        f = np.where((facing < 0)[:, None], f[:, ::-1], f)   # out of the kept side
+        verts.append(v3)
+        faces.append(f + n)
+        n += len(v3)
+    return np.concatenate(verts), np.concatenate(faces)
+
+
+def _with_caps(out: list[Piece], original: tuple[Piece, ...],
+               caps: list[tuple[np.ndarray, np.ndarray]]) -> tuple[Piece, ...]:
+    """The caps joined to the walls piece (or, failing one, added as the first piece's
+    material)."""
+    cv = np.concatenate([v for v, _f in caps])
+    offsets = np.concatenate([[0], np.cumsum([len(v) for v, _f in caps])[:-1]])
+    cf = np.concatenate([f + o for (_v, f), o in zip(caps, offsets, strict=True)])
+    for i, p in enumerate(out):
+        if p.name == CAP_PIECE:
+            out[i] = Piece(p.name, p.rgba, np.concatenate([p.vertices, cv]),
+                           np.concatenate([p.faces, cf + len(p.vertices)]))
+            return tuple(out)
+    ref = next((p for p in original if p.name == CAP_PIECE), original[0])
+    return (*out, Piece(ref.name, ref.rgba, cv, cf))

@@ -1,0 +1,160 @@
+"""Mitre joints and folds in world space, and the cuts they become on each part.
+
+Two facade runs meeting at a key point with no corner part (a *mitre joint*), or a run
+bending under a part (a *fold*), meet on the vertical plane through the meeting point
+that bisects their directions: its normal is the mean of the incoming and outgoing
+travel directions. The module before it keeps what lies before the plane, the module
+after it what lies after; each is first extended as far as the plane needs (behind a
+concave joint, in front of a convex one where a cornice overhangs). So walls, cornices
+and roofs meet exactly on one plane, convex or concave, at any angle.
+
+**Acute corners.** Below :data:`ACUTE_DEG` between the two facades, a mitred convex
+corner would end in a sliver of wall, sharper than any building. There the tip is cut
+off square to the bisector, :data:`NOSE` metres wide, and capped: a short end wall
+facing the street corner (the "nose" of a flatiron building). Nothing then reaches past
+the outline. A concave joint that sharp is only extended up to :data:`MAX_EXTEND_DEPTHS`
+building depths behind the corner; what the bisector would need beyond that stays open
+at the back, out of sight from the street.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from citysynth.export.layout import AXIS_DIGITS, COORD_DIGITS, Cut, Instance
+
+ACUTE_DEG = 40.0          # below this angle between the facades, a convex corner gets a nose
+NOSE = 2.0                # m: the width of that end wall
+MAX_EXTEND_DEPTHS = 2.0   # an end is extended at most this many part depths
+PLANE_DIGITS = 6          # plane normals in the part frame
+EXTEND_MARGIN = 0.01      # m beyond what the plane needs, so the cut always finds material
+
+
+@dataclass(frozen=True)
+class HalfPlane:
+    """Keep world points X with (X - point) . normal <= 0 (a vertical plane). A part
+    next to the plane (``extends``) is extended to reach it; a part further off is only
+    cut where its mass reaches past it."""
+
+    normal: tuple[float, float]
+    point: tuple[float, float]
+    extends: bool = True
+
+
+@dataclass
+class Placed:
+    """A part instance before it is written: its 2D affine placement and the world
+    half-planes it is cut by (none for most)."""
+
+    part: str
+    cls: str
+    length: float                  # the part's length in its placement frame
+    y_range: tuple[float, float]   # its extent across (placement-frame Y)
+    structure: int
+    stage: int | None
+    key: int | None
+    a: np.ndarray                  # 2x2: placement-frame XY -> layout XY
+    origin: np.ndarray
+    halves: list[HalfPlane] = field(default_factory=list)
+
+    def instance(self) -> Instance:
+        """The instance at the precision the layout JSON keeps (so JSON, USD and glTF
+        carry the same numbers and the checks test what is written)."""
+        def r(v, nd):
+            return tuple(0.0 if x == 0 else x for x in (round(float(c), nd) for c in v))
+        cut = self.cut()
+        return Instance(self.part, self.cls, self.structure, self.stage, self.key,
+                        r(self.a[:, 0], AXIS_DIGITS), r(self.a[:, 1], AXIS_DIGITS),
+                        r(self.origin, COORD_DIGITS), cut)
+
+    def local_planes(self, extending: bool = False) -> list[tuple[float, float, float]]:
+        """The half-planes in the part's frame: keep a*x + b*y <= c, (a, b) unit (only
+        those the part is extended to, with ``extending``)."""
+        out = set()
+        for h in self.halves:
+            if extending and not h.extends:
+                continue
+            n = np.asarray(h.normal, dtype=float)
+            g = self.a.T @ n
+            norm = float(np.hypot(*g))
+            if norm < 1e-12:
+                continue
+            c = float((np.asarray(h.point) - self.origin) @ n) / norm
+            a_, b_ = (round(float(x) / norm, PLANE_DIGITS) for x in g)
+            out.add((a_ + 0.0, b_ + 0.0, round(c, COORD_DIGITS) + 0.0))
+        return sorted(out)
+
+    def cut(self) -> Cut | None:
+        planes = self.local_planes()
+        if not planes:
+            return None
+        return Cut(_extension(self.local_planes(extending=True), self.length, self.y_range),
+                   tuple(planes))
+
+
+
+def facade_span(cut: Cut | None, length: float) -> tuple[float, float]:
+    """The part-frame X range of a part's facade line (Y = 0) that a cut leaves."""
+    if cut is None:
+        return 0.0, length
+    lo, hi = -cut.extend[0], length + cut.extend[1]
+    for a, _b, c in cut.planes:
+        if a > 1e-9:
+            hi = min(hi, c / a)
+        elif a < -1e-9:
+            lo = max(lo, c / a)
+    return lo, hi
+
+
+def _extension(planes: list[tuple[float, float, float]], length: float,
+               y_range: tuple[float, float]) -> tuple[float, float]:
+    """How far each end must reach for every plane to find material across the part's
+    whole depth (capped at MAX_EXTEND_DEPTHS depths)."""
+    start = end = 0.0
+    cap = MAX_EXTEND_DEPTHS * max(abs(y_range[0]), abs(y_range[1]), 1.0)
+    for a, b, c in planes:
+        if abs(a) < 1e-6:
+            continue
+        xs = [(c - b * y) / a for y in y_range]
+        if a > 0:
+            end = max(end, max(xs) - length)
+        else:
+            start = max(start, -min(xs))
+    start = min(start + EXTEND_MARGIN, cap) if start > 0 else 0.0
+    end = min(end + EXTEND_MARGIN, cap) if end > 0 else 0.0
+    return round(start, 3), round(end, 3)
+
+
+def bisector(u_in: np.ndarray, u_out: np.ndarray) -> np.ndarray:
+    """The normal of the plane where a run arriving along ``u_in`` meets one leaving
+    along ``u_out``: their mean direction (the plane bisects the angle)."""
+    n = np.asarray(u_in, dtype=float) + np.asarray(u_out, dtype=float)
+    norm = float(np.hypot(*n))
+    if norm < 1e-9:   # a full reversal: the plane is square to the runs' common line
+        return np.array([-u_in[1], u_in[0]])
+    return n / norm
+
+
+def joint_halves(p: np.ndarray, u_in: np.ndarray, u_out: np.ndarray, mass_left: bool
+                 ) -> tuple[list[HalfPlane], list[HalfPlane], str, float]:
+    """The half-planes for the module arriving at ``p`` and the one leaving it, the
+    treatment ("mitre", or "nose" for an acute convex corner), and how far back from
+    ``p`` each facade then ends (0 for a mitre)."""
+    n = bisector(u_in, u_out)
+    before = [HalfPlane(tuple(n), tuple(p))]
+    after = [HalfPlane(tuple(-n), tuple(p))]
+    turn = math.degrees(math.atan2(u_in[0] * u_out[1] - u_in[1] * u_out[0],
+                                   float(u_in @ u_out)))
+    convex = (turn > 0) == mass_left            # turning toward the mass
+    between = 180.0 - abs(turn)                 # the angle between the two facades
+    if convex and between < ACUTE_DEG:
+        into = -np.asarray(u_in) + np.asarray(u_out)   # the bisector, into the mass
+        into = into / float(np.hypot(*into))
+        depth = NOSE / (2 * math.tan(math.radians(between) / 2))
+        nose = HalfPlane(tuple(-into), tuple(np.asarray(p) + into * depth))
+        trim = depth / float(np.asarray(u_out) @ into)
+        return before + [nose], after + [nose], "nose", trim
+    return before, after, "mitre", 0.0
