@@ -6,7 +6,7 @@ work from an empty folder (caches in the user's cache folder, nothing written be
 site-packages), and uninstalling either distribution leaves the other whole.
 
 The fresh venv gets citysynth's dependencies without downloading: a .pth file points
-at the test environment's site-packages (.pth files inside that folder are not run,
+at the test environment's site-packages folders (.pth files inside them are not run,
 so its editable citysynth stays invisible). The demo compiles the numba kernels
 afresh in the new install, about a minute: the one slow step of this module.
 """
@@ -20,9 +20,9 @@ import importlib.metadata
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
-import sysconfig
 import zipfile
 from pathlib import Path
 
@@ -34,6 +34,8 @@ STUDIO = {  # studio-tools: top-level packages named like citysynth's subpackage
     "export/__init__.py": "NAME = 'studio export'\n",
     "export/fbx.py": "def write(path):\n    return f'fbx to {path}'\n",
 }
+JUNK = (".git", ".venv", "build", "dist", "*.egg-info", "__pycache__", ".*_cache", ".hypothesis",
+        ".citysynth", "out")
 TIMEOUT = 1800  # s; the demo's numba compile on a busy machine stays well inside
 
 
@@ -70,9 +72,12 @@ def _source_copy(dest: Path) -> Path:
     """The repository's files as a clean clone of the working tree would hold them
     (tracked and new files, not ignored ones), so the build writes nothing into the
     source tree."""
-    git = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"],
-                         cwd=ROOT, capture_output=True)
-    assert git.returncode == 0, git.stderr.decode()
+    try:
+        git = subprocess.run(["git", "ls-files", "-z", "--cached", "--others",
+                              "--exclude-standard"], cwd=ROOT, capture_output=True, check=True)
+    except (OSError, subprocess.CalledProcessError):  # not a git checkout: skip the usual junk
+        shutil.copytree(ROOT, dest, ignore=shutil.ignore_patterns(*JUNK))
+        return dest
     for rel in filter(None, git.stdout.decode().split("\0")):
         src = ROOT / rel
         if src.is_file():  # (a tracked file deleted in the working tree is not)
@@ -153,9 +158,8 @@ def venv(wheels, tmp_path_factory) -> Path:
     """A fresh venv with both wheels installed, citysynth's dependencies borrowed."""
     v = tmp_path_factory.mktemp("venv") / "fresh"
     _run([sys.executable, "-m", "venv", "--without-pip", v])
-    site = _site(v)
-    deps = sysconfig.get_paths()["purelib"]
-    (site / "_citysynth_test_dependencies.pth").write_text(deps + "\n")
+    deps = dict.fromkeys(p for p in sys.path if Path(p).name in ("site-packages", "dist-packages"))
+    (_site(v) / "_citysynth_test_dependencies.pth").write_text("".join(f"{p}\n" for p in deps))
     _install(v, *wheels)
     return v
 
