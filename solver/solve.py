@@ -97,16 +97,39 @@ def _sequence_resources(p: Problem, seq: list[int]) -> dict[str, float]:
     return {r: round(math.fsum(el[i].resources[r] for i in seq), 9) for r in p.resources}
 
 
-def choose_method(cp: Compiled) -> Method:
-    """The method ``"auto"`` runs: always the cost-bounded search.
+# What "auto" weighs, measured (README "Speed"): asked for thousands of sequences, the
+# best-first search spends 120-180 us per sequence (80 m three-resource street, motion
+# graph 5 m / 146 frames, k = 1,000-4,000); the intermediate graph sweeps its state
+# box for about 1.8 ns per (state, transition) on the dense matrix, 0.7 ns on the
+# lists, whatever k. Below MANY sequences the search wins on every benchmark row.
+SEARCH_S_PER_RESULT = 150e-6
+GRAPH_S_PER_EDGE = {False: 1.8e-9, True: 0.7e-9}   # by Compiled.sparse
+MANY = 1000
 
-    Measured on every benchmark row (README, "Speed"): with one constrained resource
-    its single table is the exact cost to go, one backward dynamic program with no
-    growth from both ends, faster than the intermediate graph at every street length;
-    with several it explores a few thousand labels where the graph spans millions of
-    nodes. The intermediate graph (``rcksp``) stays selectable and is what the
-    structure solver's stage graphs are made of."""
-    return "bounded"
+
+def choose_method(cp: Compiled, k: int, max_memory_mb: float) -> Method:
+    """The method ``"auto"`` runs.
+
+    * One constrained resource: ``bounded``. Its one table is the exact cost to go,
+      one backward dynamic program, less work than growing the intermediate graph
+      from both ends and completing it, at every street length.
+    * Several: ``bounded`` as well (a few thousand labels where the graph spans
+      millions of nodes), unless k is so large that the search would cost more than
+      sweeping the whole state box once and the graph fits the budget: then
+      ``rcksp``, whose k paths cost little once it is built (k = 10,000 on an 80 m
+      three-resource street: 0.7 s against 1.3 s; on the motion graph at 5 m / 146
+      frames 0.5 s against 2.1 s).
+    """
+    if cp.R < 2 or k < MANY:
+        return "bounded"
+    graph_s = GRAPH_S_PER_EDGE[cp.sparse] * cp.S * max(len(cp.succ_elem), 1)
+    if k * SEARCH_S_PER_RESULT <= graph_s:
+        return "bounded"
+    try:
+        estimate(cp, max_memory_mb)
+    except TooLargeError:
+        return "bounded"
+    return "rcksp"
 
 
 def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
@@ -153,7 +176,7 @@ def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
     t0 = time.perf_counter()
     cp = compile_problem(problem)
     if method == "auto":
-        method = choose_method(cp)
+        method = choose_method(cp, k, max_memory_mb)
     stats: dict[str, Any] = {
         "method": method, "k": k, "elements": cp.n,
         "quantisation": {q.resource: q.to_dict() for q in cp.quant},

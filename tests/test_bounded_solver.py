@@ -21,6 +21,7 @@ from citysynth.solver.bounded import bounds_for
 from citysynth.solver.bounds import Bounds, relaxed_cost_to_go
 from citysynth.solver.compiled import compile_problem
 from citysynth.solver.samples import street_front
+from citysynth.solver.solve import choose_method
 from tests.bruteforce import EPS, enumerate_feasible
 from tests.test_solver_bruteforce import problems
 
@@ -193,3 +194,25 @@ def test_search_beyond_the_budget_is_refused_with_advice():
     assert "coarser quantum" in msg and "--max-memory" in msg
     r = solve(p)  # within the default budget it finds out
     assert r.status == "infeasible"
+
+
+def test_auto_takes_the_graph_only_for_thousands_of_sequences_on_a_small_box():
+    small = compile_problem(Problem.from_dict(street_front(40.0, resources=3)))
+    wide = compile_problem(Problem.from_dict(street_front(200.0, resources=3)))
+    one = compile_problem(Problem.from_dict(street_front(200.0)))
+    assert choose_method(small, 100, 2048) == "bounded"
+    assert choose_method(small, 1000, 2048) == "rcksp"
+    assert choose_method(small, 1000, 1) == "bounded"      # the graph would not fit
+    assert choose_method(wide, 10_000, 2048) == "bounded"  # its box is 612,000 states
+    assert choose_method(one, 10**6, 2048) == "bounded"    # one resource: the exact table
+    p = Problem.from_dict(street_front(40.0, resources=3))
+    a = solve(p, k=1000)
+    b = solve(p, k=1000, method="bounded")
+    assert a.stats["method"] == "rcksp" and b.stats["method"] == "bounded"
+    assert [s.cost for s in a.solutions] == [s.cost for s in b.solutions]
+    # Costs here are sums of 4-decimal floats: sequences whose costs agree only up to
+    # rounding may be ordered by different sums (the graph sums backwards), so the
+    # sequences are compared below the last cost, where no such tie can cut the list.
+    last = a.solutions[-1].cost
+    assert [s.to_dict() for s in a.solutions if s.cost < last] == \
+        [s.to_dict() for s in b.solutions if s.cost < last]
