@@ -5,6 +5,7 @@ brute-force oracles in the terminal summary."""
 from __future__ import annotations
 
 import os
+import shutil
 import sys
 import tempfile
 from pathlib import Path
@@ -16,8 +17,17 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-# Part-database caches go to one folder per session, never into the source tree.
-os.environ.setdefault("CITYSYNTH_CACHE", tempfile.mkdtemp(prefix="citysynth-cache-"))
+# Part-database caches go to one folder per session, never into the source tree (one
+# named by the caller's $CITYSYNTH_CACHE is used as it is, and kept).
+SESSION_CACHE = None if "CITYSYNTH_CACHE" in os.environ else tempfile.mkdtemp(
+    prefix="citysynth-cache-")
+if SESSION_CACHE:
+    os.environ["CITYSYNTH_CACHE"] = SESSION_CACHE
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    if SESSION_CACHE:
+        shutil.rmtree(SESSION_CACHE, ignore_errors=True)
 
 # Hypothesis profiles. "default" (also in CI): the example counts the tests declare,
 # drawn from a seed fixed per test, so a run's time and verdict never hinge on a lucky
