@@ -131,15 +131,20 @@ def crossing_errors(tris: np.ndarray, axis: int, h: float = 0.3) -> int:
     tri, ci, cj, l1, l2 = tri[inside], ci[inside], cj[inside], l1[inside], l2[inside]
     z = tris[tri, 0, axis] + l1 * (tris[tri, 1, axis] - tris[tri, 0, axis]) \
         + l2 * (tris[tri, 2, axis] - tris[tri, 0, axis])
-    exits = n[tri, axis] > 0
+    sign = np.where(n[tri, axis] > 0, 1, -1)              # +1 leaves, -1 enters
     cell = ci.astype(np.int64) * 1_000_003 + cj
-    order = np.lexsort((~exits, np.round(z, 5), cell))
-    cell, exits = cell[order], exits[order]
+    # crossings at one point (a line grazing an edge, two bodies touching) cancel out
+    keys, inverse = np.unique(np.stack([cell, np.round(z / 1e-5).astype(np.int64)], axis=1),
+                              axis=0, return_inverse=True)
+    net = np.bincount(inverse.reshape(-1), weights=sign, minlength=len(keys)).astype(int)
+    doubled = len(np.unique(keys[np.abs(net) > 1, 0]))
+    keys, net = keys[net != 0], net[net != 0]                # sorted by cell, then z
+    cell, leaves = keys[:, 0], net > 0
     starts = np.r_[0, np.nonzero(np.diff(cell))[0] + 1]
-    rank = np.arange(len(cell)) - np.repeat(starts, np.diff(np.r_[starts, len(cell)]))
-    bad = exits != (rank % 2 == 1)
-    ends_open = np.diff(np.r_[starts, len(cell)]) % 2 == 1
-    return len(np.unique(cell[bad])) + int(ends_open.sum())
+    sizes = np.diff(np.r_[starts, len(cell)])
+    rank = np.arange(len(cell)) - np.repeat(starts, sizes)
+    bad = leaves != (rank % 2 == 1)
+    return doubled + len(np.unique(cell[bad])) + int((sizes % 2 == 1).sum())
 
 
 def unpaired_edges(faces: np.ndarray) -> int:
