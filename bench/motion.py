@@ -15,10 +15,11 @@ and the path-following cost of the paper's eq. 4. Rows, as in the paper:
 For each row and k = 1 and k = 100: the default method's setup and solve time (as the
 solver reports them) and total wall time, FGS's total, and the ratio of the totals;
 at k = 1 also the paper's intermediate graph (rcksp, walking the transition lists).
-All measured in the same run: a warm-up, then the median of --runs runs, the methods
-interleaved. A method beyond its memory budget shows "refused".
+All measured in the same run: a warm-up, then the median of --runs runs (bench/timing.py:
+more for calls of a few milliseconds; --cpu for CPU time), the methods interleaved. A
+method beyond its memory budget shows "refused".
 
-    python -m bench.motion [--runs 5] [--quick] [--no-hdm05]
+    python -m bench.motion [--runs 5] [--cpu] [--quick] [--no-hdm05]
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import argparse
 import statistics
 from pathlib import Path
 
-from bench.timing import interleaved, run_child
+from bench.timing import interleaved, run_child, use_cpu_time
 from citysynth.solver import Problem, solve
 from citysynth.solver.samples import motion_graph
 
@@ -112,8 +113,9 @@ print(json.dumps(out))
 """
 
 
-def hdm05_row(method: str, distance: float, frames: int) -> None:
-    """The full-size row in a child process: times and peak memory."""
+def hdm05_row(method: str, distance: float, frames: int) -> dict:
+    """The full-size row in a child process: times and peak memory; returns the
+    child's figures."""
     d = run_child(_CHILD.format(root=str(ROOT), distance=distance, frames=frames,
                                 segments=HDM05, method=method))
     for k in ("1", "100"):
@@ -123,20 +125,25 @@ def hdm05_row(method: str, distance: float, frames: int) -> None:
                      f"{run['cost']:.4f}")
         print(f"  {method:<6} k={k:<3} {what}; peak {d[k + '_peak_mb']:,.0f} MB "
               f"(interpreter and problem: {d['base_mb']:,.0f} MB)")
+    return d
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=5, help="timed runs per case (median)")
+    ap.add_argument("--cpu", action="store_true",
+                    help="time with CPU time instead of wall time (a shared machine)")
     ap.add_argument("--quick", action="store_true", help="fewer rows, for a smoke run")
     ap.add_argument("--no-hdm05", action="store_true", help="skip the full-size row")
     args = ap.parse_args(argv)
+    use_cpu_time(args.cpu)
     one = [5.0, 6.0, 7.0, 8.0]
     two = [(5.0, 146), (6.0, 146), (7.0, 187)]
     if args.quick:
         one, two = [5.0], [(5.0, 146)]
-    print(f"citysynth bench/motion.py — median of {args.runs} runs after warm-up; ours = "
-          "the default method; ratio = ours total / FGS total")
+    print(f"citysynth bench/motion.py — median of {args.runs} runs after warm-up (more for "
+          f"calls of a few ms), {'CPU' if args.cpu else 'wall'} time; ours = the default "
+          "method; ratio = ours total / FGS total")
     header("Table 2: one constraint (distance), 600 segments, 19,200 transitions")
     for D in one:
         row(f"{D:g} m", Problem.from_dict(motion_graph(D)), args.runs)
@@ -148,8 +155,11 @@ def main(argv=None) -> None:
     if not args.no_hdm05:
         print(f"\n== HDM05 size: {HDM05:,} segments, {32 * HDM05:,} transitions, "
               "7 m / 187 frames, default budget (child process, peak RSS) ==")
-        hdm05_row("auto", 7.0, 187)
-        hdm05_row("fgs", 7.0, 187)
+        ours = hdm05_row("auto", 7.0, 187)
+        fgs = hdm05_row("fgs", 7.0, 187)
+        print("  ratio (one run each): " + ", ".join(
+            f"k={k} {ours[k]['s'] / fgs[k]['s']:.3f}" for k in ("1", "100")
+            if "refused" not in ours[k] and "refused" not in fgs[k]))
 
 
 if __name__ == "__main__":

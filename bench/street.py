@@ -8,7 +8,7 @@ k = 100: the default method's setup/solve/total, FGS's total and the ratio of th
 totals; for one resource also the paper's intermediate graph (rcksp, k = 1) and the
 plain compiled DP over (length, last element) (k = 1 only: the floor). All measured
 in the same run, the methods called in turn: a warm-up, then the median of --runs
-runs.
+runs (bench/timing.py: more for calls of a few milliseconds; --cpu for CPU time).
 
 The DP floor is timed on the compiled problem; a solve also compiles it (parsing
 ids and transitions, quantising: about 1 ms here), so the ratio to the floor is
@@ -17,7 +17,7 @@ the whole solve against compiling plus the DP. The growth exponent is the slope 
 log(time) over log(length). Peak memory of the 200 m three-resource case is the
 peak RSS (VmHWM) of a child process that solves only that case.
 
-    python -m bench.street [--runs 5] [--quick]
+    python -m bench.street [--runs 5] [--cpu] [--quick]
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ import statistics
 from pathlib import Path
 
 from bench.dp_floor import dp_cost
-from bench.timing import interleaved, ms, ratio, run_child, stat_median
+from bench.timing import interleaved, ms, ratio, run_child, stat_median, use_cpu_time
 from citysynth.solver import Problem, solve
 from citysynth.solver.compiled import compile_problem
 from citysynth.solver.samples import street_front
@@ -137,14 +137,18 @@ def peak_memory(length: float, k: int, method: str | None = None) -> None:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=5, help="timed runs per case (median)")
+    ap.add_argument("--cpu", action="store_true",
+                    help="time with CPU time instead of wall time (a shared machine)")
     ap.add_argument("--quick", action="store_true", help="fewer lengths, for a smoke run")
     args = ap.parse_args(argv)
+    use_cpu_time(args.cpu)
     one = [20, 40, 60, 80, 100, 120, 140, 160, 180, 200]
     three = [20, 40, 80, 120, 200]
     if args.quick:
         one, three = [20, 80, 200], [20, 80]
-    print(f"citysynth bench/street.py — median of {args.runs} runs after warm-up; "
-          "times in ms; k1/k100 = the default method at k=1/k=100; ratios are totals")
+    print(f"citysynth bench/street.py — median of {args.runs} runs after warm-up (more for "
+          f"calls of a few ms), {'CPU' if args.cpu else 'wall'} time in ms; k1/k100 = the "
+          "default method at k=1/k=100; ratios are totals")
     print()
     peak_memory(200.0, 1)
     peak_memory(200.0, 100)

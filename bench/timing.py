@@ -3,6 +3,10 @@
 Methods are compared in the same run, called in turn (a warm-up round first, then
 ``runs`` timed rounds), so a machine that is busy with something else slows them
 alike and their ratio stays meaningful; each figure is the median of its rounds.
+Rounds of a few milliseconds are repeated until they fill SHORT seconds (at least
+``runs`` of them): a short spike of another process then moves the median less.
+``CLOCK`` is wall time; the benches' --cpu switches it to this process's CPU time,
+which a shared machine disturbs less (the kernels are single-threaded).
 """
 
 from __future__ import annotations
@@ -17,27 +21,42 @@ from typing import Any
 
 from citysynth.solver import TooLargeError
 
+SHORT = 0.3
+CLOCK: list[Callable[[], float]] = [time.perf_counter]
+
+
+def use_cpu_time(on: bool) -> None:
+    """Time with this process's CPU time instead of wall time."""
+    CLOCK[0] = time.process_time if on else time.perf_counter
+
 
 def interleaved(fns: dict[str, Callable[[], Any]], runs: int
                 ) -> dict[str, tuple[float | None, list[Any]]]:
-    """Median wall time and the results of each function (None for a function that
-    was refused with TooLargeError: then its time is None too)."""
+    """Median time and the results of each function (None for a function that was
+    refused with TooLargeError: then its time is None too)."""
+    clock = CLOCK[0]
     times: dict[str, list[float]] = {name: [] for name in fns}
     outs: dict[str, list[Any]] = {name: [] for name in fns}
     refused: set[str] = set()
-    for rep in range(runs + 1):
+    rounds, rep, spent = runs, 0, 0.0
+    while rep <= rounds:
+        t_round = clock()
         for name, fn in fns.items():
             if name in refused:
                 continue
-            t = time.perf_counter()
+            t = clock()
             try:
                 out = fn()
             except TooLargeError:
                 refused.add(name)
                 continue
             if rep:
-                times[name].append(time.perf_counter() - t)
+                times[name].append(clock() - t)
                 outs[name].append(out)
+        if rep:
+            spent += clock() - t_round
+            rounds = max(runs, min(10 * runs, int(SHORT * rep / max(spent, 1e-9))))
+        rep += 1
     return {name: (None if name in refused else statistics.median(times[name]),
                    outs[name]) for name in fns}
 

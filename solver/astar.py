@@ -1,7 +1,7 @@
 """Best-first (A*) k-best search over (element, state) labels, guided by the lower
-bounds of :mod:`solver.bounds`.
+bounds of :mod:`citysynth.solver.bounds`.
 
-The FGS baseline (:mod:`solver.fgs`) settles labels in order of their cost g; here
+The FGS baseline (:mod:`citysynth.solver.fgs`) settles labels in order of their cost g; here
 they are settled in order of f = g + h, h being the maximum of the one-resource
 relaxations' exact costs to go. h is consistent, so, exactly as in Dijkstra's
 algorithm, the i-th label settled at a node is that node's i-th cheapest prefix, a
@@ -20,7 +20,9 @@ the first k in (cost, lexicographic) order, the same as the intermediate graph's
 enumeration returns, without any extra pass. Comparing two sequences walks their
 parent chains up to where they part, and happens only when two f are exactly equal.
 On a problem where every cost is zero the order is a depth-first walk in
-lexicographic order, which reaches the first complete sequence at once.
+lexicographic order, which reaches the first complete sequence at once. g is summed
+front to back, exactly as the reported cost is, so ties are judged on the very
+numbers reported.
 
 **Lazy children.** Settling a label computes the f of each of its children (its
 successors, and its end when the sequence may end there) into a small heap of its

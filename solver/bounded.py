@@ -1,19 +1,19 @@
 """The cost-bounded method: the k best sequences without spanning the feasible box.
 
-The intermediate graph (:mod:`solver.graph`) holds every node of the feasible box, and
+The intermediate graph (:mod:`citysynth.solver.graph`) holds every node of the feasible box, and
 with several constraints that box is large (millions of nodes on a three-resource
 street) while the k best sequences pass through a few hundred of them. This method
 spends its work near the answer instead:
 
 1. **Bounds.** The exact cost to go of each one-resource relaxation, by a backward
-   dynamic program per resource (:mod:`solver.bounds`).
+   dynamic program per resource (:mod:`citysynth.solver.bounds`).
 2. **One resource.** The relaxation is the problem, the table is the exact cost to go
-   of every node, and the lazy k-best enumeration (:mod:`solver.kbest`) runs on it
+   of every node, and the lazy k-best enumeration (:mod:`citysynth.solver.kbest`) runs on it
    directly: a plain dynamic program, then k paths. No growth from both ends, no
    completing passes.
 3. **Several resources.** A best-first (A*) search over (element, state) labels
    ordered by g + bound, ties broken lexicographically, returns the first k
-   sequences in (cost, lexicographic) order (:mod:`solver.astar`).
+   sequences in (cost, lexicographic) order (:mod:`citysynth.solver.astar`).
 
 Exact throughout: the bound never exceeds the true cost to go, so nothing cheaper than
 the k-th answer is ever cut, and the sequences are those the other methods return.
@@ -32,17 +32,19 @@ from citysynth.solver.errors import TooLargeError
 from citysynth.solver.graph import Graph
 from citysynth.solver.kbest import k_best
 
-BOUNDS_SHARE = 4   # the bound tables may use 1/4 of the memory budget
+BOUNDS_SHARE = 4   # bound tables may use 1/4 of the memory budget, the search the rest
+EXACT_SHARE = 2    # a single resource's exact table 1/2, its enumeration the rest
 
 
 def bounds_for(cp: Compiled, budget_bytes: int) -> Bounds:
     """The relaxation tables this method uses for ``cp`` under the memory budget."""
-    return relaxation_bounds(cp, budget_bytes // BOUNDS_SHARE)
+    share = EXACT_SHARE if cp.R == 1 else BOUNDS_SHARE
+    return relaxation_bounds(cp, budget_bytes // share)
 
 
 def exact_graph(cp: Compiled, bounds: Bounds) -> Graph:
     """The single-resource table as an intermediate graph with dense rows (row = state),
-    which is all :func:`solver.kbest.k_best` reads."""
+    which is all :func:`citysynth.solver.kbest.k_best` reads."""
     S = int(cp.cap[0]) + 1
     H = bounds.table.reshape(S, cp.n)
     empty = np.zeros((0, cp.n))

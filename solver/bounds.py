@@ -17,7 +17,7 @@ with no door, for the door count) stay on the same level; that level is then fin
 by a small Dijkstra over those zero-consumption transitions before it pushes down.
 
 With a single constrained resource the relaxation *is* the problem, and the table is
-the exact cost-to-go of every node: :mod:`solver.bounded` enumerates the k best paths
+the exact cost-to-go of every node: :mod:`citysynth.solver.bounded` enumerates the k best paths
 on it directly.
 
 Tables are stored one after another in one flat array (:class:`Bounds`) so the kernels

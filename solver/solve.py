@@ -203,7 +203,7 @@ def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
 
 def _bounded(problem: Problem, cp: Compiled, k: int, max_memory_mb: float, table: str,
              stats: dict) -> tuple[list[list[int]], float]:
-    """The cost-bounded search (:mod:`solver.bounded`); its setup is the bound tables."""
+    """The cost-bounded search (:mod:`citysynth.solver.bounded`); its setup is the bound tables."""
     budget = int(max_memory_mb * 2**20)
     bounds = bounds_for(cp, budget)
     stats["estimate"] = {"bound_tables_bytes": bounds.nbytes, "table": "hash"}
