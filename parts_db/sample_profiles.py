@@ -23,6 +23,12 @@ from dataclasses import dataclass, field, replace
 
 import shapely
 
+# No profile reaches further than this past its facade line (cornices, string courses):
+# the 3D audit of assembled layouts allows 0.3 m beyond a building's outline, and a
+# mitred cornice reaches REACH / sin(angle / 2) past a convex corner, 0.28 m at 90
+# degrees. (Balconies, on straight runs only, reach 0.28 m.)
+REACH = 0.2
+
 
 @dataclass(frozen=True)
 class Band:
@@ -183,6 +189,10 @@ def profile(name: str, m: Massing) -> Profile:
                                                           else b.side + "_back"))
     edge_mats = [x + m.tint if x in ("walls", "roof") else x for x in edge_mats]
     prof = Profile(name, m.depth, tuple(points), tuple(edge_mats), tuple(edge_bands), m)
+    reach = max(u for u, _v in points)
+    if reach > REACH + 1e-9:
+        raise ValueError(f"profile {name}: reaches {reach:g} m past its facade (at most "
+                         f"{REACH:g} m)")
     poly = prof.polygon()
     if not poly.is_valid or poly.exterior.is_ccw is False:
         raise ValueError(f"profile {name}: outline is not a simple counter-clockwise ring")

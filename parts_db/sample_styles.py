@@ -4,7 +4,7 @@ A style is a way of building (its windows, its colours); a family is one kind of
 building within it (storeys, depth, cornice, roof), as a segmented street has several.
 Each family comes in five variants that differ the way neighbouring buildings of one
 kind do: a little taller storeys and a deeper range, or a lower ground floor and a
-shallower one, a stronger cornice, a steeper roof. Parts are cut from these, so two
+shallower one, a lighter cornice, a steeper roof. Parts are cut from these, so two
 parts of one variant fit exactly, two variants of a family almost, and two families
 poorly: the transition costs have many values and the solver has real choices.
 """
@@ -21,9 +21,9 @@ from citysynth.parts_db.sample_sweep import Windows
 # steps are chosen so that no two variants' string courses or cornices meet corner to
 # corner at a seam (parts_db.sample_sweep.joint_faces refuses that).
 VARIANTS = ((0.0, 0.0, 0.0, 1.0, 0.0, 0.0),
-            (0.6, 0.15, 0.0, 1.2, 3.0, 0.2),
-            (-0.5, 0.0, -0.4, 0.85, -4.0, 0.4),
-            (0.4, -0.1, 0.2, 1.1, 6.0, -0.1),
+            (0.6, 0.15, 0.0, 0.8, 3.0, 0.2),
+            (-0.5, 0.0, -0.4, 0.7, -4.0, 0.4),
+            (0.4, -0.1, 0.2, 0.9, 6.0, -0.1),
             (-0.35, 0.05, -0.2, 0.95, -2.0, 0.1))
 
 
@@ -76,16 +76,16 @@ CLASSIC = Style(
      "roof_b": (84, 88, 98), "roof_c": (170, 92, 64), "roof_d": (128, 62, 52),
      "window": (62, 86, 110), "door": (92, 58, 38), "balcony": (96, 98, 96)},
     (Family("a", "four storeys, gable roof", Massing(
-        11.0, 4.2, 3.4, 4, ((0.25, 0.25), (0.5, 0.3), (0.7, 0.2)), "gable", pitch=35,
+        11.0, 4.2, 3.4, 4, ((0.08, 0.25), (0.14, 0.3), (0.2, 0.2)), "gable", pitch=35,
         course=(0.12, 0.22), courses=(1,))),
      Family("b", "five storeys, mansard roof", Massing(
-         12.0, 4.4, 3.5, 5, ((0.2, 0.3), (0.45, 0.25), (0.6, 0.3)), "mansard", pitch=18,
+         12.0, 4.4, 3.5, 5, ((0.06, 0.3), (0.13, 0.25), (0.2, 0.3)), "mansard", pitch=18,
          mansard=(1.3, 3.2), course=(0.1, 0.25), courses=(1, 2), tint="_b")),
      Family("c", "three storeys, steep gable", Massing(
-         10.0, 3.8, 3.2, 3, ((0.3, 0.3), (0.45, 0.15)), "gable", pitch=45,
+         10.0, 3.8, 3.2, 3, ((0.12, 0.3), (0.2, 0.15)), "gable", pitch=45,
          course=(0.1, 0.18), courses=(1,), tint="_c")),
      Family("d", "six storeys, low gable", Massing(
-         13.0, 4.6, 3.3, 6, ((0.3, 0.35), (0.6, 0.3), (0.8, 0.25)), "gable", pitch=27,
+         13.0, 4.6, 3.3, 6, ((0.08, 0.35), (0.14, 0.3), (0.2, 0.25)), "gable", pitch=27,
          course=(0.15, 0.3), courses=(1, 5), tint="_d"))),
     (2.4, 2.6, 2.8), 0.3, (90, 120, 135, 150), 11)
 
@@ -102,11 +102,11 @@ MODERN = Style(
          13.0, 4.2, 3.1, 6, ((0.0, 1.1),), "attic", parapet=0.8, attic=(2.2, 3.1),
          window=(0.6, 2.1), ground_window=(0.4, 3.0), tint="_b")),
      Family("c", "four storeys, slab roof", Massing(
-         12.0, 4.2, 3.2, 4, ((0.6, 0.35),), "flat", window=(0.5, 2.2),
+         12.0, 4.2, 3.2, 4, ((0.2, 0.35),), "flat", window=(0.5, 2.2),
          ground_window=(0.3, 3.2), tint="_c")),
      Family("d", "eight storeys, parapet", Massing(
          14.0, 4.5, 3.0, 8, ((0.0, 1.3),), "parapet", parapet=1.0, window=(0.6, 2.0),
-         ground_window=(0.4, 3.3), course=(0.25, 0.3), courses=(1,), tint="_d"))),
+         ground_window=(0.4, 3.3), course=(0.15, 0.3), courses=(1,), tint="_d"))),
     (3.0, 3.2, 3.4), 0.5, (90, 120, 135, 150), 12)
 
 STYLES = (CLASSIC, MODERN)

@@ -173,9 +173,10 @@ def recess(pm: PartMesh, solid: Solid, corners: list[np.ndarray], normal: np.nda
 
 def balcony(pm: PartMesh, base: np.ndarray, along: np.ndarray, out: np.ndarray,
             width: float) -> None:
-    """A slab on the floor line in front of a French window, with a railing set 3 cm in
-    from its edges: one closed body (the slab's top has the railing's footprint cut),
-    stored once per width and placed by its node."""
+    """A French balcony before a French window: a slab on the floor line, 0.28 m deep
+    (within the profiles' reach past the facade), with a railing set 3 cm in from its
+    edges: one closed body (the slab's top has the railing's footprint cut), stored
+    once per width and placed by its node."""
     m = np.eye(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = along, out, UP, base
     if float(np.linalg.det(m[:3, :3])) < 0:     # keep the placement a rotation
@@ -183,13 +184,17 @@ def balcony(pm: PartMesh, base: np.ndarray, along: np.ndarray, out: np.ndarray,
     pm.instance("balcony", f"balcony_{width:.3f}", m, lambda: _balcony_body(width))
 
 
+BALCONY_DEPTH = 0.28
+
+
 def _balcony_body(width: float) -> Solid:
-    slab = Polygon([(-0.35, 0.0), (width + 0.35, 0.0), (width + 0.35, 1.3), (-0.35, 1.3)])
-    outer = shapely.box(-0.32, 0.03, width + 0.32, 1.27)
-    rail = outer.difference(shapely.box(-0.27, -1.0, width + 0.27, 1.22))
+    d = BALCONY_DEPTH
+    slab = Polygon([(-0.15, 0.0), (width + 0.15, 0.0), (width + 0.15, d), (-0.15, d)])
+    outer = shapely.box(-0.12, 0.03, width + 0.12, d - 0.03)
+    rail = outer.difference(shapely.box(-0.08, -1.0, width + 0.08, d - 0.07))
     body = Solid()
     frame = (np.zeros(3), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0]), UP.copy())
-    stack(body, [(0.0, 0.18, slab), (0.18, 1.1, rail)], frame, lambda _k, _e: "balcony")
+    stack(body, [(0.0, 0.12, slab), (0.12, 1.0, rail)], frame, lambda _k, _e: "balcony")
     return body
 
 

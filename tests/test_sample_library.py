@@ -96,6 +96,38 @@ def test_massing_varies(library, style):
             assert min(table[i, index[p.id]] for p in mids) == 0, t.id
 
 
+def outline(part) -> shapely.Geometry:
+    """Where a part may stand: its facade lines with the mass side behind them (a
+    corner's two legs as one line round the key point, mitred; a T's main range and
+    wing), the street side of every facade outside."""
+    ends = [(dx * leg, dy * leg) for (dx, dy), leg in zip(part.directions, part.legs,
+                                                          strict=True)]
+    if part.cls == "corner":
+        lines = [[ends[0], (0.0, 0.0), ends[1]]]
+    else:                          # T: the main range from -X to +X, the wing along +Y
+        lines = [[ends[0], ends[1]], [(0.0, 0.0), ends[2]]]
+    return shapely.union_all([shapely.LineString(p).buffer(40.0, single_sided=True,
+                                                           cap_style="flat",
+                                                           join_style="mitre")
+                              for p in lines])
+
+
+def test_nothing_reaches_far_past_the_facade_lines(library):
+    """Cornices and balconies stay within the audit's 0.3 m of a building's outline,
+    also where a cornice turns round a convex corner."""
+    root, db = library
+    for part in db.parts:
+        if GROUPS[part.cls] != "facade":
+            continue
+        mesh, _ = scene_mesh(root / part.file)
+        pts = mesh.vertices
+        if part.cls in ("middle", "end_left", "end_right"):
+            reach = float(-pts[:, 1].min())
+        else:
+            reach = float(shapely.distance(outline(part), shapely.points(pts[:, :2])).max())
+        assert reach <= 0.3 + 1e-4, (part.id, reach)
+
+
 # --- clean solids -----------------------------------------------------------------------------
 
 def crossing_errors(tris: np.ndarray, axis: int, h: float = 0.3) -> int:
