@@ -285,7 +285,7 @@ def load_library(path: str | Path) -> PartDB:
     True
     >>> corner = db.select("corner", "classic")[0]
     >>> corner.id, corner.angle, corner.convex, corner.legs   # legs snapped to 0.2 m
-    ('classic_corner_90_convex', 90.0, True, [16.2, 16.2])
+    ('classic_corner_90_convex', 90.0, True, [16.8, 16.8])
     """
     p = Path(path)
     if (p / "manifest.toml").is_file():

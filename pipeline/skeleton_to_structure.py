@@ -43,7 +43,7 @@ from citysynth.skeletons.errors import SkeletonError
 from citysynth.solver.structures import Stage, Structure
 
 JOINT_COST = 10.0  # a mitre joint's cost (m² of section mismatch, the scale of the costs)
-JOINT_LEGS = 5     # a joint's legs are 1..JOINT_LEGS quanta on either side
+JOINT_LEGS = 8     # a joint's legs are 1..JOINT_LEGS quanta on either side
 JOINT_LEG_COST = 1.0   # per metre of leg beyond one quantum: modules keep their widths
 
 
@@ -270,10 +270,11 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
 
 def _joint_variants(q: float) -> dict[str, tuple[float, float]]:
     """Mitre joints by id: legs of 1..JOINT_LEGS quanta, the same on both sides or one
-    side at one quantum (13 variants; every pair would be 25 and solve twice as
-    slowly). The legs give short sides the slack a few module widths lack: the
-    modules beside the joint are extended over them (a wider corner pier), at a small
-    cost per metre."""
+    side at one quantum (22 variants; every pair would be 64 and solve far more
+    slowly). The legs give short sides the slack a few module widths lack (the sample
+    library's modules come in bays of about 3 m, so up to 1.6 m a side closes every
+    gap between their sums): the modules beside the joint are extended over them (a
+    wider corner pier), at a small cost per metre."""
     pairs = sorted({(a, a) for a in range(1, JOINT_LEGS + 1)}
                    | {(1, a) for a in range(2, JOINT_LEGS + 1)}
                    | {(a, 1) for a in range(2, JOINT_LEGS + 1)})
@@ -339,8 +340,9 @@ def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
 
 def _transitions(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
     """The database's costs between every pair of parts; from a T's branch leg, the
-    branch costs. A mitre joint joins anything at no cost of its own: the modules on
-    either side are cut to meet (its cost is its unary cost)."""
+    branch costs. A mitre joint joins the modules on either side at no cost of its own
+    (they are cut to meet; its cost is its unary cost), and only modules: a stage with
+    no module beside a joint would leave its corner empty."""
     ids = [p.id for p in fillers] + list(kp.parts)
     idx = db.index()
     trans, btrans = {}, {}
@@ -351,10 +353,10 @@ def _transitions(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
                 trans[(x, y)] = float(db.cost[i, j])
             if np.isfinite(db.cost_branch[i, j]):
                 btrans[(x, y)] = float(db.cost_branch[i, j])
-    if kp.joint:
+    if kp.joint:   # only modules meet a joint: they are what is cut to fill its corner
         for jid in _joint_variants(db.quantum):
-            for x in ids:
-                trans[(x, jid)] = trans[(jid, x)] = 0.0
+            for p in fillers:
+                trans[(p.id, jid)] = trans[(jid, p.id)] = 0.0
     return {"transitions": trans, "branch_transitions": btrans}
 
 
