@@ -2,9 +2,10 @@
 
 Implements Hartmann et al., "Efficient Multi-Constrained Optimization for
 Example-Based Synthesis" §2-3.1: ``Problem`` (the data), ``solve`` (the entry
-point), with the intermediate graph in :mod:`citysynth.solver.graph`, the k-best
-enumeration in :mod:`citysynth.solver.kbest` and the FGS baseline in
-:mod:`citysynth.solver.fgs`; structures (§3.2) are :mod:`citysynth.solver.structures`.
+point), with the default cost-bounded search in :mod:`citysynth.solver.bounded`, the
+intermediate graph in :mod:`citysynth.solver.graph`, the k-best enumeration in
+:mod:`citysynth.solver.kbest` and the FGS baseline in :mod:`citysynth.solver.fgs`;
+structures (§3.2) are :mod:`citysynth.solver.structures`.
 This package knows only numbers and imports no geometry library.
 
 A street front of exactly 20.4 m from two parts, the three cheapest fillings:
