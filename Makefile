@@ -27,12 +27,18 @@ typecheck: $(STAMP)
 		ln -sfn ../../../$$d build/typecheck/citysynth/$$d; done
 	cd build/typecheck && ../../$(BIN)/mypy --config-file ../../pyproject.toml -p citysynth
 
+# Khronos's glTF Validator (npm), which tests/test_gltf.py runs on every GLB it checks
+GLTF_VALIDATOR := build/node/node_modules/gltf-validator/package.json
+$(GLTF_VALIDATOR):
+	mkdir -p build/node
+	npm install --prefix build/node --no-audit --no-fund --silent gltf-validator@2.0.0-dev.3.10
+
 # Hypothesis draws a fixed set of examples per test (profile "default"); test-deep draws
 # new ones every run, eight times as many, with no deadline (tests/conftest.py).
-test: lint
+test: lint $(GLTF_VALIDATOR)
 	$(BIN)/python -m pytest
 
-test-deep: lint
+test-deep: lint $(GLTF_VALIDATOR)
 	HYPOTHESIS_PROFILE=deep $(BIN)/python -m pytest
 
 bench: $(STAMP)

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 
 from citysynth.pipeline.cli import main
+from tests.test_gltf import assert_clean
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "examples"
@@ -81,3 +82,5 @@ def test_demo(capsys, tmp_path):
     for name in ("t_building_1.usda", "t_building_3.png", "block.usda", "block.glb",
                  "city.usda", "city.png", "manifest.json", "report.json"):
         assert (tmp_path / name).is_file(), name
+    # every GLB the demo writes passes Khronos's glTF Validator (tests/test_gltf.py)
+    assert_clean(sorted(tmp_path.rglob("*.glb")))

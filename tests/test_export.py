@@ -123,7 +123,9 @@ def test_glb_loads_back_with_every_triangle(run_dir, db):
         baked = [i for i in lay.instances if sheared(i)]
         assert len(scene.geometry) == sum(len(prototype_pieces(db, i))
                                           for i in [*unsheared.values(), *baked])
-        np.testing.assert_allclose(scene.bounds, bounds(lay, db), atol=2e-3)
+        (lo, hi) = bounds(lay, db)   # glTF is Y-up: (x, y, z) -> (x, z, -y)
+        np.testing.assert_allclose(scene.bounds, [[lo[0], lo[2], -hi[1]],
+                                                  [hi[0], hi[2], -lo[1]]], atol=2e-3)
 
 
 def test_layout_json_is_deterministic_and_documented(run_dir, tmp_path):
