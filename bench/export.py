@@ -15,7 +15,7 @@ from pathlib import Path
 
 from shapely.geometry import Polygon
 
-from bench.street import timed
+from bench.timing import timed
 from citysynth.export.gltf import write_glb
 from citysynth.export.preview import render_layout
 from citysynth.export.usd import write_layout

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from bench.street import timed
+from bench.timing import timed
 from citysynth.solver.samples import block_cycle, fig1c_like
 from citysynth.solver.structures import Structure, solve_structure
 

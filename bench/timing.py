@@ -61,6 +61,14 @@ def interleaved(fns: dict[str, Callable[[], Any]], runs: int
                    outs[name]) for name in fns}
 
 
+def timed(fn: Callable[[], Any], runs: int) -> tuple[float, list[Any]]:
+    """Median time of ``fn`` alone (a warm-up first) and its results."""
+    t, outs = interleaved({"fn": fn}, runs)["fn"]
+    if t is None:
+        raise TooLargeError("refused")
+    return t, outs
+
+
 def stat_median(results, key: str) -> float:
     """Median of one timing the solver reports (setup_s / solve_s) over the runs."""
     return statistics.median(r.stats[key] for r in results)

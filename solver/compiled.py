@@ -18,7 +18,6 @@ Kernels walk the lists instead when the table is sparse (:attr:`Compiled.sparse`
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from operator import itemgetter
 
 import numpy as np
 
@@ -108,18 +107,6 @@ def _csr(n: int, rows: np.ndarray, cols: np.ndarray, w: np.ndarray):
     return ptr, cols.astype(np.int64), w.astype(np.float64)
 
 
-def _transition_arrays(p: Problem, index: dict[str, int]):
-    """(from, to, delta) of every transition as arrays, in one pass over the list."""
-    m = len(p.transitions)
-    if not m:
-        z = np.zeros(0, dtype=np.int64)
-        return z, z, np.zeros(0, dtype=np.float64)
-    tr, get = p.transitions, index.__getitem__
-    a = np.fromiter(map(get, map(itemgetter(0), tr)), dtype=np.int64, count=m)
-    b = np.fromiter(map(get, map(itemgetter(1), tr)), dtype=np.int64, count=m)
-    return a, b, np.fromiter(map(itemgetter(2), tr), dtype=np.float64, count=m)
-
-
 def compile_problem(p: Problem) -> Compiled:
     """Quantise and flatten ``p``; raises ProblemError for an unbounded element."""
     ids = [e.id for e in p.elements]
@@ -151,7 +138,7 @@ def compile_problem(p: Problem) -> Compiled:
     box = _box(r, lev, lo, hi)
 
     omega = np.array([e.cost for e in p.elements], dtype=np.float64)
-    a, b, d = _transition_arrays(p, index)
+    a, b, d = p.transition_index
     w = d + omega[b]
     succ_ptr, succ_elem, succ_w = _csr(n, a, b, w)
     pred_ptr, pred_elem, pred_w = _csr(n, b, a, w)

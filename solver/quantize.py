@@ -15,6 +15,8 @@ import math
 from dataclasses import dataclass
 from fractions import Fraction
 
+import numpy as np
+
 from citysynth.solver.errors import ProblemError
 
 TOL = 1e-9
@@ -87,12 +89,15 @@ def quantise_resource(
         q = float(q_exact)
     else:
         q = float(quantum)
-    ints = [int(round(v / q)) for v in values]
-    max_err = max((abs(v - n * q) for v, n in zip(values, ints, strict=True)), default=0.0)
-    exact = all(is_multiple(v, q) for v in values) and is_multiple(lo, q) \
-        and is_multiple(hi, q)
-    if all(is_multiple(v, q) for v in values):
-        max_err = 0.0
+    # one vector pass over the values (a street front's 74 parts, a library's
+    # hundreds): the same arithmetic as is_multiple and round, element by element
+    v = np.asarray(values, dtype=np.float64)
+    m = v / q
+    near = np.rint(m)   # round half to even, as round() does
+    ints = near.astype(np.int64).tolist()
+    values_exact = bool(np.all(np.abs(m - near) <= TOL * np.maximum(1.0, np.abs(m))))
+    max_err = 0.0 if values_exact or not len(v) else float(np.max(np.abs(v - near * q)))
+    exact = values_exact and is_multiple(lo, q) and is_multiple(hi, q)
     qlo, qhi = bounds_in_quanta(lo, hi, q)
     return Quantisation(name, q, exact, max_err, qlo, qhi, (lo, hi)), ints
 

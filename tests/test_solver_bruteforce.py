@@ -7,6 +7,8 @@ comparison is then exact equality, not approximate."""
 
 from __future__ import annotations
 
+import dataclasses
+
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -80,6 +82,10 @@ def _check(p: Problem, k: int) -> None:
             assert seqs == [t[1] for t in lex[:k]]
         if not expected:
             assert r.reason
+    # a Problem built directly (not parsed) finds its transition arrays itself
+    direct = dataclasses.replace(p)
+    assert "transition_index" not in vars(direct)
+    assert [s.cost for s in solve(direct, k=k).solutions] == [c for c, _ in expected[:k]]
 
 
 @settings(max_examples=250, deadline=None, suppress_health_check=[HealthCheck.too_slow])
