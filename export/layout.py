@@ -71,6 +71,7 @@ class Instance:
     y_axis: tuple[float, float]
     origin: tuple[float, float]
     cut: Cut | None = None     # a mitre joint or a fold: the part cut (and extended)
+    z: float = 0.0             # lifted by this much (a tower's stacked floors); else 0
 
     @property
     def proto(self) -> str:
@@ -83,6 +84,7 @@ class Instance:
         m[:2, 0] = self.x_axis
         m[:2, 1] = self.y_axis
         m[:2, 3] = self.origin
+        m[2, 3] = self.z
         return m
 
     def apply(self, xy) -> np.ndarray:
@@ -156,7 +158,8 @@ class Layout:
         inst = [Instance(i["part"], i["class"], i["structure"], i.get("stage"),
                          i.get("key"), tuple(i["x_axis"]), tuple(i["y_axis"]),
                          tuple(i["origin"]),
-                         Cut.from_dict(i["cut"]) if "cut" in i else None)
+                         Cut.from_dict(i["cut"]) if "cut" in i else None,
+                         float(i.get("z", 0.0)))
                 for i in d["instances"]]
         return cls(d["name"], d["rank"], d["library"], d["style"], d["frame"],
                    d["structures"], inst)
@@ -173,6 +176,8 @@ def _instance_dict(i: Instance) -> dict:
         d["key"] = i.key
     if i.cut is not None:
         d["cut"] = i.cut.to_dict()
+    if i.z:
+        d["z"] = round(i.z, COORD_DIGITS)
     return d
 
 

@@ -67,8 +67,12 @@ def _ground(poly: pv.PolyData, margin: float = 0.15) -> pv.PolyData:
 
 def render_meshes(mesh: trimesh.Trimesh, out_png: str | Path, *, title: str = "",
                   size: tuple[int, int] = (1400, 700), zoom: float = 1.3) -> Path:
-    """A three-quarter view (left) and a top view (right) of ``mesh`` to ``out_png``."""
+    """A three-quarter view (left) and a top view (right) of ``mesh`` to ``out_png``.
+    A tall mesh (a tower) is not zoomed past the camera's fit, which would cut its top."""
     poly = to_polydata(mesh)
+    ext = np.array(poly.bounds[1::2]) - np.array(poly.bounds[::2])
+    if ext[2] > 1.5 * max(ext[0], ext[1]):
+        zoom = min(zoom, 1.0)
     plotter = pv.Plotter(off_screen=True, shape=(1, 2), window_size=size, border=False)
     for col, top in ((0, False), (1, True)):
         plotter.subplot(0, col)

@@ -31,7 +31,7 @@ from citysynth.parts_db.sample_mesh import PartMesh
 from citysynth.parts_db.sample_profiles import Profile, profile
 from citysynth.parts_db.sample_styles import CLASSIC, MODERN, STYLES, Family, Style
 from citysynth.parts_db.sample_sweep import Slice, corner, straight, t_part
-from citysynth.parts_db.sample_towers import FOOTPRINTS, floor_part, ground_floor, roof_part
+from citysynth.parts_db.sample_towers import tower_parts
 
 OUT = Path(__file__).resolve().parent.parent / "examples" / "library"  # in the repository
 QUANTUM = 0.2
@@ -243,16 +243,8 @@ def buildings() -> Iterator[Entry]:
 
 
 def towers() -> Iterator[Entry]:
-    names = list(FOOTPRINTS)
-    for i, name in enumerate(names[:3]):
-        yield Entry(f"tower_ground_{name}", "ground_floor", "tower",
-                    ground_floor(FOOTPRINTS[name], 4.6 + 0.2 * i))
-    heights = (3.0, 3.2, 3.4, 3.6, 3.8, 4.0, 4.2, 4.4, 4.6, 4.8, 5.0)
-    for name, h in zip(names, heights, strict=True):
-        yield Entry(f"tower_floor_{name}_{h:.1f}", "floor", "tower",
-                    floor_part(FOOTPRINTS[name], h))
-    for i, name in enumerate(("square18", "octagon20", "square14")):
-        yield Entry(f"tower_roof_{name}", "roof", "tower", roof_part(FOOTPRINTS[name], i % 2))
+    for pid, cls, pm in tower_parts():
+        yield Entry(pid, cls, "tower", pm)
 
 
 def parts() -> Iterator[Entry]:

@@ -8,6 +8,7 @@ floor, a door, so no two bodies overlap and no faces are doubled.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import numpy as np
 import shapely
@@ -72,10 +73,14 @@ def floor_part(fp: Polygon, h: float) -> PartMesh:
     return pm
 
 
+PODIUM = 1.0   # metres the ground floor's podium reaches past the tower: an 18 m tower's
+#                podium fills a 20 m square lot (400 m², the lot of the paper's Fig. 4)
+
+
 def ground_floor(fp: Polygon, h: float) -> PartMesh:
-    """A floor on a podium 1.2 m wider than the tower, with an entrance door."""
+    """A floor on a podium ``PODIUM`` wider than the tower, with an entrance door."""
     pm = PartMesh(PALETTE)
-    podium = fp.buffer(1.2, join_style="mitre")
+    podium = fp.buffer(PODIUM, join_style="mitre")
     stack(pm.solid(), [(0.0, 0.25, podium), (0.25, 0.3, fp), (0.3, h, _columns(fp))],
           Z_FRAME, lambda k, _e: "trim" if k < 2 else "walls")
     _glass(pm, fp, 0.3, h)
@@ -101,3 +106,23 @@ def roof_part(fp: Polygon, kind: int) -> PartMesh:
     stack(pm.solid(), layers, Z_FRAME,
           lambda k, _e: ("roof", "trim", "walls")[k])
     return pm
+
+
+# (outline, storey height): the ground floors (the slender square14 too, so a slim tower
+# on a small lot has a base), the floors of every outline and height, and the roofs
+GROUNDS = (("square18", 4.6), ("rect22x16", 4.8), ("octagon20", 5.0), ("square14", 4.4))
+FLOORS = tuple(zip(FOOTPRINTS, (3.0, 3.2, 3.4, 3.6, 3.8, 4.0, 4.2, 4.4, 4.6, 4.8, 5.0),
+                   strict=True))
+ROOFS = (("square18", 0), ("octagon20", 1), ("square14", 0), ("slim10", 0), ("chamfer16", 1))
+
+
+def tower_parts() -> Iterator[tuple[str, str, PartMesh]]:
+    """(id, class, mesh) of every tower part, in manifest order. On a 400 m² square lot
+    they reach floor-area ratios from below 10 to above 20 at 120 m (the paper's
+    Fig. 4; ``tests/test_tower.py``)."""
+    for name, h in GROUNDS:
+        yield f"tower_ground_{name}", "ground_floor", ground_floor(FOOTPRINTS[name], h)
+    for name, h in FLOORS:
+        yield f"tower_floor_{name}_{h:.1f}", "floor", floor_part(FOOTPRINTS[name], h)
+    for name, kind in ROOFS:
+        yield f"tower_roof_{name}", "roof", roof_part(FOOTPRINTS[name], kind)

@@ -17,7 +17,7 @@ import warnings
 from importlib.metadata import PackageNotFoundError, version
 
 from citysynth.parts_db.library import CACHE_ENV
-from citysynth.pipeline.commands import build, city, demo, diff, ingest, skeleton, solve
+from citysynth.pipeline.commands import build, city, demo, diff, ingest, skeleton, solve, tower
 from citysynth.pipeline.errors import (
     EXIT_BAD_INPUT,
     EXIT_INFEASIBLE,
@@ -49,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "you may write, else the user cache folder; or "
                              "$CITYSYNTH_CACHE)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (solve, ingest, skeleton, build, city, diff, demo):
+    for module in (solve, ingest, skeleton, build, tower, city, diff, demo):
         module.register(sub)
     return parser
 

@@ -9,6 +9,8 @@ a tower of stacked floors with a floor-area interval (the paper's Fig. 4).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from citysynth.parts_db import LibraryError, Part, PartDB
@@ -48,18 +50,21 @@ def street_front_problem(db: PartDB, length: float, *, style: str | None = None,
 
 
 def tower_problem(db: PartDB, height: float, floor_area: tuple[float, float], *,
-                  style: str | None = None, area_quantum: float = 10.0, k: int = 1) -> dict:
+                  style: str | None = None, area_quantum: float = 10.0, k: int = 1,
+                  keep: Callable[[Part], bool] | None = None) -> dict:
     """A ground floor, floors and a roof stacked to exactly ``height`` metres, with the
     total floor area (ground floor and floors; roofs count none) inside ``floor_area``.
     Floor areas are not multiples of anything, so they are quantised to
-    ``area_quantum`` m² and the rounding error is reported by the solver."""
+    ``area_quantum`` m² and the rounding error is reported by the solver. ``keep``
+    leaves out parts (``citysynth tower``: those that do not fit the lot)."""
     parts = [p for p in db.parts if p.cls in ("ground_floor", "floor", "roof")
-             and (style is None or p.style == style)]
+             and (style is None or p.style == style) and (keep is None or keep(p))]
     if not any(p.cls == "ground_floor" for p in parts) or not any(
             p.cls == "roof" for p in parts):
         raise LibraryError(f"the library {db.name!r} has no tower"
-                           f"{f' of style {style}' if style else ''}: a tower needs "
-                           "ground_floor, floor and roof parts")
+                           f"{f' of style {style}' if style else ''}"
+                           f"{' that fits the lot' if keep is not None else ''}: a tower "
+                           "needs ground_floor, floor and roof parts")
 
     def area(p: Part) -> float:
         return 0.0 if p.cls == "roof" else float(np.round(p.floor_area or 0.0, 3))

@@ -1,0 +1,192 @@
+"""Towers on a lot (the paper's Fig. 4): a ground floor, floors and a roof stacked to an
+exact height, with the floor-area ratio (total floor area over lot area) inside an
+interval, placed on the lot.
+
+The stack is a sequence problem (:func:`~citysynth.pipeline.library_problems.tower_problem`);
+this module adds the lot: only the parts whose outline (both their sections, a ground
+floor's podium included) fits the lot, centred on it and turned to its longer side,
+take part, and each solution becomes a :class:`~citysynth.export.layout.Layout` whose
+instances are lifted floor by floor (``Instance.z``), so the USD, glTF and preview
+writers show it like any other layout. A library's tower parts share one vertical axis
+(their placement frame's origin); that axis lands on the lot's centre.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import shapely
+from shapely import affinity
+from shapely.geometry import Polygon
+from shapely.geometry.base import BaseGeometry
+
+from citysynth.export.layout import Instance, Layout
+from citysynth.parts_db import Part, PartDB
+from citysynth.pipeline.errors import UsageError
+from citysynth.pipeline.layouts import Built
+from citysynth.pipeline.library_problems import tower_problem
+from citysynth.solver import Problem, solve
+
+FIT_TOL = 0.01        # metres a part may reach past its lot (the lot's own rounding)
+AREA_QUANTUM = 1.0    # m² of floor area the solver counts in (its rounding error is
+#                       reported; the asked interval holds in m² all the same)
+
+
+@dataclass(frozen=True)
+class Lot:
+    """A lot in the local metric frame: its outline, the tower axis's place on it (the
+    centre) and the angle (degrees) its longer side makes with +X."""
+
+    polygon: Polygon
+    centre: tuple[float, float]
+    angle: float
+    frame: str = "local"
+
+    @property
+    def area(self) -> float:
+        return float(self.polygon.area)
+
+    @classmethod
+    def square(cls, area: float) -> Lot:
+        """A square lot of ``area`` m² centred on the origin (``--lot-area``)."""
+        if not (math.isfinite(area) and area > 0):
+            raise UsageError(f"--lot-area must be a positive number of m², got {area:g}")
+        h = math.sqrt(area) / 2
+        return cls(Polygon([(-h, -h), (h, -h), (h, h), (-h, h)]), (0.0, 0.0), 0.0)
+
+    @classmethod
+    def from_polygon(cls, poly: Polygon, frame: str) -> Lot:
+        """A lot drawn as a polygon: centred on its centroid (on its most inland point
+        when the centroid lies outside, as in an L-shaped lot), turned to the longer
+        side of its minimum rotated rectangle (of two equal sides, the one nearer +X)."""
+        c = poly.centroid
+        if not poly.contains(c):
+            c = shapely.polylabel(poly, tolerance=0.01)
+        return cls(poly, (round(c.x, 6), round(c.y, 6)), _long_side_angle(poly), frame)
+
+
+def _long_side_angle(poly: Polygon) -> float:
+    rect = poly.minimum_rotated_rectangle
+    pts = list(rect.exterior.coords)
+    best: tuple[float, float] | None = None       # (-length, |angle|) -> angle
+    angle = 0.0
+    for (x0, y0), (x1, y1) in zip(pts[:2], pts[1:3], strict=True):
+        a = math.degrees(math.atan2(y1 - y0, x1 - x0))
+        a = (a + 90.0) % 180.0 - 90.0             # a direction, not a heading: [-90, 90)
+        key = (-round(math.hypot(x1 - x0, y1 - y0), 6), abs(round(a, 6)))
+        if best is None or key < best:
+            best, angle = key, a
+    return round(angle, 6)
+
+
+def _footprint(part: Part) -> BaseGeometry:
+    """Everything of a stacked part's outline: its bottom and top sections."""
+    return shapely.union(part.sec_in, part.sec_out)
+
+
+def fits(part: Part, lot: Lot) -> bool:
+    """Does the part, on the lot's axis and turned to it, stay inside the lot?"""
+    g = affinity.rotate(_footprint(part), lot.angle, origin=(0.0, 0.0))
+    g = affinity.translate(g, *lot.centre)
+    return bool(lot.polygon.buffer(FIT_TOL, join_style="mitre").covers(g))
+
+
+def _extent(g: BaseGeometry) -> tuple[float, float]:
+    x0, y0, x1, y1 = g.bounds
+    return x1 - x0, y1 - y0
+
+
+def check_lot(db: PartDB, lot: Lot, style: str | None) -> None:
+    """One clear message when no ground floor or no roof fits the lot at all (the
+    solver would only say there is no tower)."""
+    for cls in ("ground_floor", "roof"):
+        cands = [p for p in db.parts if p.cls == cls and (style is None or p.style == style)]
+        if not cands or any(fits(p, lot) for p in cands):
+            continue
+        small = min(cands, key=lambda p: _footprint(p).envelope.area)
+        lw, ld = _extent(affinity.rotate(lot.polygon, -lot.angle, origin=lot.centre))
+        pw, pd = _extent(_footprint(small))
+        raise UsageError(f"no {cls.replace('_', ' ')} of the library {db.name!r} fits the "
+                         f"lot ({lot.area:g} m², {lw:.1f} x {ld:.1f} m): the smallest, "
+                         f"{small.id}, needs {pw:.1f} x {pd:.1f} m; give a larger lot")
+
+
+def far_interval(values: list[float], tolerance: float) -> tuple[float, float]:
+    """``--far LO HI``, or ``--far X`` within ``tolerance`` (a share of X) either side."""
+    if not values or len(values) > 2 or not all(math.isfinite(v) and v > 0 for v in values):
+        raise UsageError("--far takes one positive ratio X or two, LO HI; got "
+                         + " ".join(f"{v:g}" for v in values))
+    if len(values) == 1:
+        if not 0 <= tolerance < 1:
+            raise UsageError(f"--far-tolerance must be a share in [0, 1), got {tolerance:g}")
+        x = values[0]
+        return x * (1 - tolerance), x * (1 + tolerance)
+    lo, hi = values
+    if lo > hi:
+        raise UsageError(f"--far LO HI: LO ({lo:g}) is above HI ({hi:g})")
+    return lo, hi
+
+
+def solve_tower(name: str, db: PartDB, lot: Lot, height: float, far: tuple[float, float], *,
+                style: str | None = None, k: int = 1) -> Built:
+    """The k best towers of exactly ``height`` metres and a floor-area ratio in ``far``
+    on ``lot`` (infeasible, with the solver's reason, when there is none)."""
+    if not (math.isfinite(height) and height > 0):
+        raise UsageError(f"--height must be a positive number of metres, got {height:g}")
+    check_lot(db, lot, style)
+    t0 = time.perf_counter()
+    area = (far[0] * lot.area, far[1] * lot.area)
+    problem = Problem.from_dict(tower_problem(db, height, area, style=style, k=k,
+                                              area_quantum=AREA_QUANTUM,
+                                              keep=lambda p: fits(p, lot)))
+    result = solve(problem)
+    t1 = time.perf_counter()
+    timings = {"solve_s": t1 - t0}
+    if result.status != "ok":
+        return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
+                     f"{height:g} m on a {lot.area:g} m² lot: {result.reason}",
+                     timings=timings)
+    parts = {p.id: p for p in db.parts}
+    layouts = [tower_layout(name, rank, sol.sequence, sol.cost, parts, db, lot,
+                            {"height": [height, height], "floor_area": list(area)}, far)
+               for rank, sol in enumerate(result.solutions, start=1)]
+    timings["layout_s"] = time.perf_counter() - t1
+    return Built(name, "ok", layouts, timings=timings)
+
+
+def tower_layout(name: str, rank: int, sequence: list[str], cost: float,
+                 parts: dict[str, Part], db: PartDB, lot: Lot, asked: dict[str, list[float]],
+                 far: tuple[float, float]) -> Layout:
+    """One stacked solution on its lot: the ground floor and the roof are the tower's
+    two key points, the floors its one stage; each part sits on the one below."""
+    a = math.radians(lot.angle)
+    x_axis, y_axis = (math.cos(a), math.sin(a)), (-math.sin(a), math.cos(a))
+    instances, z = [], 0.0
+    for i, pid in enumerate(sequence):
+        p = parts[pid]
+        key = 0 if i == 0 else 1 if i == len(sequence) - 1 else None
+        instances.append(Instance(pid, p.cls, 0, None if key is not None else 0, key,
+                                  x_axis, y_axis, lot.centre, z=round(z, 6)))
+        z += p.length
+    floor_area = math.fsum(p.floor_area or 0.0 for p in (parts[s] for s in sequence)
+                           if p.cls != "roof")
+    met = {"height": round(z, 6), "floor_area": round(floor_area, 6),
+           "far": round(floor_area / lot.area, 6)}
+    cx, cy = lot.centre
+    keys = [{"part": sequence[j], "kind": parts[sequence[j]].cls, "xy": [cx, cy],
+             "z": round(zz, 6), "joint": "part"}
+            for j, zz in ((0, 0.0), (len(sequence) - 1, instances[-1].z))]
+    structure = {
+        "name": name, "closed": False, "cost": cost, "keys": keys,
+        "stages": [{"from": 0, "to": 1, "length": met["height"], "stretch": 1.0,
+                    "parts": list(sequence), "asked": asked, "met": met,
+                    "polyline": [[cx, cy, 0.0], [cx, cy, met["height"]]]}],
+        "resources": met, "asked": {**asked, "far": list(far)},
+        "lot": {"area": lot.area, "centre": [cx, cy], "angle": lot.angle,
+                "polygon": [list(c) for c in lot.polygon.exterior.coords]},
+    }
+    return Layout(name, rank, {"name": db.name, "hash": db.library_hash,
+                               "quantum": db.quantum},
+                  parts[sequence[0]].style, lot.frame, [structure], instances)

@@ -1,0 +1,126 @@
+"""``citysynth tower`` (the paper's Fig. 4): towers of exactly 120 m at floor-area ratios
+10, 15 and 20 on a 400 m² lot from the sample library, read back from the files the
+command writes; a drawn lot turns and centres the tower; bad input and infeasible asks."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+import shapely
+from shapely import affinity
+
+from citysynth.examples import SAMPLE_LIBRARY
+from citysynth.export.layout import Layout
+from citysynth.export.usd import validate
+from citysynth.parts_db import load_library
+from citysynth.pipeline.cli import main
+
+FARS = (10, 15, 20)
+
+
+@pytest.fixture(scope="module")
+def towers(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("towers")
+    for far in FARS:
+        assert main(["tower", "--height", "120", "--far", str(far), "--lot-area", "400",
+                     "-o", str(out)]) == 0
+    return out
+
+
+def _layout(path: Path) -> Layout:
+    return Layout.from_dict(json.loads(path.read_text()))
+
+
+@pytest.mark.parametrize("far", FARS)
+def test_tower_meets_height_and_far(towers, far):
+    db = load_library(SAMPLE_LIBRARY)
+    parts = {p.id: p for p in db.parts}
+    stem = towers / f"tower_120m_far{far}"
+    for suffix in (".layout.json", ".usda", ".glb", ".png"):
+        assert Path(f"{stem}{suffix}").is_file()
+    lay = _layout(Path(f"{stem}.layout.json"))
+    inst = lay.instances
+    # stacked: each part on the one below, the roof's top at exactly 120 m
+    for below, above in zip(inst, inst[1:], strict=False):
+        assert above.z == pytest.approx(below.z + parts[below.part].length, abs=1e-6)
+    top = inst[-1].z + parts[inst[-1].part].length
+    assert abs(top - 120.0) <= 0.001
+    assert [parts[i.part].cls for i in (inst[0], inst[-1])] == ["ground_floor", "roof"]
+    assert all(parts[i.part].cls == "floor" for i in inst[1:-1])
+    # floor area from the parts themselves, against the asked interval (+-2 %)
+    area = math.fsum(parts[i.part].floor_area or 0.0 for i in inst
+                     if parts[i.part].cls != "roof")
+    assert far * 0.98 <= area / 400.0 <= far * 1.02
+    assert lay.structures[0]["resources"]["far"] == pytest.approx(area / 400.0, abs=1e-5)
+    assert validate(f"{stem}.usda") == []
+
+
+def test_towers_grow_stouter_with_far(towers):
+    """The paper's observation: the same height, more floor area per floor."""
+    db = load_library(SAMPLE_LIBRARY)
+    parts = {p.id: p for p in db.parts}
+    mean = []
+    for far in FARS:
+        lay = _layout(towers / f"tower_120m_far{far}.layout.json")
+        floors = [parts[i.part] for i in lay.instances if i.cls == "floor"]
+        mean.append(sum(p.floor_area or 0.0 for p in floors) / sum(p.length for p in floors))
+    assert mean == sorted(mean) and len(set(mean)) == 3
+
+
+def test_tower_on_a_drawn_lot_is_centred_and_turned(tmp_path):
+    lot = affinity.rotate(shapely.box(0, 0, 30, 22), 30, origin=(0, 0))
+    lot = affinity.translate(lot, 690000, 5335000)   # UTM 32N: Munich
+    (tmp_path / "lot.geojson").write_text(json.dumps({
+        "type": "FeatureCollection", "crs": {"type": "name", "properties": {
+            "name": "urn:ogc:def:crs:EPSG::25832"}},
+        "features": [{"type": "Feature", "properties": {},
+                      "geometry": shapely.geometry.mapping(lot)}]}))
+    out = tmp_path / "out"
+    assert main(["tower", "--height", "60", "--far", "8", "12", "--lot",
+                 str(tmp_path / "lot.geojson"), "--k", "2", "--no-preview",
+                 "-o", str(out), "--name", "t"]) == 0
+    db = load_library(SAMPLE_LIBRARY)
+    parts = {p.id: p for p in db.parts}
+    for rank in (1, 2):
+        lay = _layout(out / f"t_{rank}.layout.json")
+        st = lay.structures[0]
+        # the local frame is a transverse Mercator: grid north turns by a few mdeg
+        assert st["lot"]["angle"] == pytest.approx(30.0, abs=0.01)
+        a = math.radians(st["lot"]["angle"])
+        poly = shapely.Polygon(st["lot"]["polygon"])
+        assert poly.area == pytest.approx(660.0, rel=2e-3)   # UTM's scale factor
+        for i in lay.instances:
+            assert i.x_axis == pytest.approx((math.cos(a), math.sin(a)), abs=1e-6)
+            assert i.origin == pytest.approx(tuple(st["lot"]["centre"]))
+            p = parts[i.part]
+            fp = affinity.rotate(shapely.union(p.sec_in, p.sec_out), st["lot"]["angle"],
+                                 origin=(0, 0))
+            assert poly.buffer(0.01).covers(affinity.translate(fp, *i.origin))
+        assert 8 <= st["resources"]["far"] <= 12
+        assert validate(out / f"t_{rank}.usda") == []
+
+
+@pytest.mark.parametrize("args, code, text", [
+    (["--far", "0"], 2, "--far takes one positive ratio"),
+    (["--far", "12", "8"], 2, "LO (12) is above HI (8)"),
+    (["--far", "60"], 1, "infeasible"),
+])
+def test_tower_bad_or_impossible_asks(tmp_path, capsys, args, code, text):
+    argv = ["tower", "--height", "120", "--lot-area", "400", "--no-preview",
+            "-o", str(tmp_path), *args]
+    assert main(argv) == code
+    err = capsys.readouterr().err
+    assert text in err and "Traceback" not in err
+    assert not list(tmp_path.glob("*.usda"))
+
+
+def test_a_lot_too_small_for_any_ground_floor_is_one_clear_error(tmp_path, capsys):
+    assert main(["tower", "--height", "60", "--far", "5", "--lot-area", "100",
+                 "-o", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "no ground floor of the library 'citysynth sample' fits the lot (100 m², 10.0 x " \
+        "10.0 m): the smallest, tower_ground_square14, needs 16.0 x 16.0 m" in err
+    assert "Traceback" not in err
