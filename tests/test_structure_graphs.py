@@ -142,7 +142,7 @@ def test_rounding_quantum_takes_the_decomposition():
          "keypoints": [{"elements": ["k"]}] * 2,
          "stages": [{"constraints": {"length": [10.0, 11.0]}}]}
     r = solve_structure(Structure.from_dict(d), 5)
-    assert r.stats["stages_by"] == "pairs (rcksp)" and r.status == "ok"
+    assert r.stats["stages_by"] == "pairs (auto)" and r.status == "ok"
     assert all(10.0 <= s.resources[0]["length"] <= 11.0 for s in r.solutions)
 
 

@@ -20,8 +20,11 @@ def register(sub) -> None:
     p.add_argument("file", help="problem JSON (see README, 'Problem files')")
     p.add_argument("--k", type=int, default=None, help="number of solutions (default: the "
                    "file's k, else 1)")
-    p.add_argument("--method", choices=METHODS, default="rcksp",
-                   help="rcksp: the intermediate graph (default); fgs: the baseline")
+    p.add_argument("--method", choices=METHODS, default="auto",
+                   help="auto (default): the fastest exact method for the problem (the "
+                   "cost-bounded search, or shared stage graphs for a structure); "
+                   "bounded: the cost-bounded search; rcksp: the intermediate graph; "
+                   "fgs: the baseline")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--max-memory", type=float, default=DEFAULT_MAX_MEMORY_MB, metavar="MB",
                    help=f"refuse problems estimated above this (default {DEFAULT_MAX_MEMORY_MB})")

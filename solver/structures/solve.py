@@ -26,9 +26,10 @@ from citysynth.solver.structures.decompose import Grid, PairProblems
 from citysynth.solver.structures.model import Structure
 from citysynth.solver.structures.stage_graphs import NotExact, StageGraphs
 
-# how stage lists are made: shared stage graphs, or one problem per stage and key pair
-# solved by the intermediate graph ("decompose", the reference) or by FGS
-StructureMethod = Literal["rcksp", "decompose", "fgs"]
+# how stage lists are made: shared stage graphs ("auto", the best structure method, and
+# "rcksp"), or one problem per stage and key pair solved by the intermediate graph
+# ("decompose", the reference), the cost-bounded search ("bounded") or FGS ("fgs")
+StructureMethod = Literal["auto", "rcksp", "decompose", "bounded", "fgs"]
 METHODS: tuple[StructureMethod, ...] = get_args(StructureMethod)
 Provider = StageGraphs | PairProblems
 
@@ -76,16 +77,20 @@ def _global_grid(st: Structure) -> Grid:
     return names, qs, los, his
 
 
-def solve_structure(st: Structure, k: int | None = None, method: StructureMethod = "rcksp",
+def solve_structure(st: Structure, k: int | None = None, method: StructureMethod = "auto",
                     *, max_memory_mb: float = DEFAULT_MAX_MEMORY_MB, table: str = "auto",
                     **solve_kw: Any) -> StructureResult:
     """The k cheapest distinct fillings of a tree or cycle structure.
 
-    ``method``: "rcksp" (default) fills stages from shared stage graphs; "decompose"
-    solves one problem per stage and key pair (the reference); "fgs" does the same
-    with the FGS baseline. A rounding quantum (values that are not multiples of it)
-    always takes the decomposition, whose one-stage solves re-check every total in
-    original units. Structure-wide intervals are exact: stage fillings are kept per
+    ``method``: "auto" (the default) and "rcksp" fill stages from shared stage graphs,
+    the fastest way on every structure measured (``bench.structures``): one graph per
+    start element serves every stage, end element and share, where one-stage solves
+    repeat that work per pair; "decompose" solves one problem per stage and key pair
+    with the intermediate graph (the reference), "bounded" and "fgs" do the same with
+    the cost-bounded search and the FGS baseline. A rounding quantum (values that are
+    not multiples of it) always takes the decomposition, whose one-stage solves
+    re-check every total in original units (with the default one-stage method for
+    "auto"). Structure-wide intervals are exact: stage fillings are kept per
     share of each structure-wide resource. Raises :class:`TooLargeError` when a stage
     graph would exceed ``max_memory_mb``. ``table`` forces the graphs' row tables
     ("dense" or "hash", as in :func:`citysynth.solver.solve`); ``solve_kw`` go to the one-stage
@@ -145,15 +150,18 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
 
 def _provider(st: Structure, k: int, method: StructureMethod, grid: Grid,
               max_memory_mb: float, table: str, solve_kw: dict[str, Any]) -> Provider:
-    """Where the stage lists come from: shared stage graphs for rcksp (unless a
-    rounding quantum needs the one-stage solves), else one problem per stage and pair."""
-    if method == "rcksp":
+    """Where the stage lists come from: shared stage graphs for auto and rcksp (unless
+    a rounding quantum needs the one-stage solves), else one problem per stage and
+    pair."""
+    if method in ("auto", "rcksp"):
         try:
             return StageGraphs(st, k, grid, max_memory_mb, table)
         except NotExact:
             pass
+    one_stage = {"auto": "auto", "rcksp": "rcksp", "decompose": "rcksp",
+                 "bounded": "bounded", "fgs": "fgs"}[method]
     return PairProblems(st, k, grid, {
-        "method": "fgs" if method == "fgs" else "rcksp",
+        "method": one_stage,
         "max_memory_mb": max_memory_mb, "table": table, **solve_kw})
 
 
