@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections import defaultdict
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -38,6 +39,7 @@ from citysynth.export.plan import (
     other_side,
 )
 from citysynth.parts_db import Part, PartDB
+from citysynth.parts_db.manifest import PartClass
 from citysynth.skeletons import Skeleton
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.solver.structures import Stage, Structure
@@ -186,7 +188,8 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                        angle_tol: float = 7.5, joint_cost: float = JOINT_COST,
                        stretch: float = 0.0, slack: float = 0.0,
                        per_side: dict | None = None,
-                       per_structure: dict | None = None) -> StructurePlan:
+                       per_structure: dict | None = None,
+                       parts: frozenset[str] | None = None) -> StructurePlan:
     """The structure for ``sk`` built from ``db``'s parts of ``style``, with the way
     back to the skeleton.
 
@@ -196,7 +199,10 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
     any angle and needs no length of its own. Each stage must meet its skeleton length
     within the largest of half a quantum, ``stretch`` (a fraction of it) and ``slack``
     (metres). ``per_side`` intervals apply to every stage (an edge's own constraints
-    win), ``per_structure`` ones to the whole structure."""
+    win), ``per_structure`` ones to the whole structure. ``parts`` limits the parts to
+    those ids (a footprint's facade family; None: every part of the style)."""
+    if parts is not None:
+        db = cast(PartDB, _only(db, parts))
     keys, chains = _chains(sk)
     root, oriented = _orient(sk, keys, chains)
     # renumber so the root is key point 0
@@ -233,6 +239,19 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
         branch=dict(kp.branch), asked=dict(structure.global_constraints),
         joints=_joint_variants(db.quantum) if kp.joint else {})
     return StructurePlan(structure, placement)
+
+
+class _only:
+    """A part database seen through a set of part ids: ``select`` keeps only those."""
+
+    def __init__(self, db: PartDB, ids: frozenset[str]) -> None:
+        self._db, self._ids = db, ids
+
+    def __getattr__(self, name: str):
+        return getattr(self._db, name)
+
+    def select(self, cls: PartClass | None = None, style: str | None = None) -> list[Part]:
+        return [p for p in self._db.select(cls, style) if p.id in self._ids]
 
 
 def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: list[_Chain],

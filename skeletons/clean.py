@@ -105,3 +105,129 @@ def absorb_short_edges(poly: Polygon, *, min_edge: float, min_stage: float,
             return None
         out = max(parts, key=lambda g: g.area)
     return shapely.geometry.polygon.orient(out, 1.0)
+
+
+# --- footprints: faithful cleaning -------------------------------------------------------
+
+TOLERANCE = 0.5       # metres: a footprint's cleaned outline stays this close to its input
+FILL_ONLY = 0.05      # m²: beyond the tolerance a change may cut off no more than this
+
+
+def _hausdorff(a: np.ndarray, ring: LinearRing) -> float:
+    """Hausdorff distance between a ring's points ``a`` and the input ``ring``, both
+    densified (a corner cut off lies between vertices)."""
+    return float(shapely.hausdorff_distance(LinearRing(a), ring, densify=0.05))
+
+
+def _without_run(pts: np.ndarray, i: int, j: int, p: np.ndarray | None) -> np.ndarray:
+    """The ring with vertices i..j (mod n) replaced by ``p`` (or simply dropped)."""
+    n = len(pts)
+    rest = [pts[(j + 1 + t) % n] for t in range(n - ((j - i) % n + 1))]
+    return np.array(([p] if p is not None else []) + rest)
+
+
+def _candidates(pts: np.ndarray, i: int, j: int) -> list[np.ndarray]:
+    """Ways to absorb the run i..j: its ends merged where the neighbouring sides' lines
+    meet, at its middle, at either end, or the run dropped (a notch becomes flat)."""
+    n = len(pts)
+    points = [_merge_point(pts, i, j), np.mean([pts[i], pts[j]], axis=0), pts[i], pts[j]]
+    rings = [_without_run(pts, i, j, p) for p in points]
+    if n - ((j - i) % n + 1) >= 3:
+        rings.append(_without_run(pts, i, j, None))
+    return [r for r in rings if len(r) >= 3 and LinearRing(r).is_simple]
+
+
+def _short_runs(pts: np.ndarray, min_side: float, straight_tol: float) -> list[tuple[int, int]]:
+    """Spikes (as one-vertex runs) and the corner-to-corner runs shorter than
+    ``min_side``, shortest first."""
+    n = len(pts)
+    turns = _turns(pts)
+    spikes = [(int(v), int(v)) for v in np.flatnonzero(np.abs(turns) > 180.0 - MIN_ANGLE)]
+    seg = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
+    cs = np.flatnonzero(np.abs(turns) >= straight_tol)
+    runs = []
+    for a, b in zip(cs, np.roll(cs, -1), strict=True):
+        length = sum(seg[k % n] for k in range(a, a + (b - a) % n or n))
+        if length < min_side and len(cs) >= 2:
+            runs.append((float(length), int(a), int(b)))
+    return spikes + [(a, b) for _len, a, b in sorted(runs)]
+
+
+def _removed_area(old: np.ndarray, new: np.ndarray) -> float:
+    """Area of the old ring's inside that the new ring leaves out (a wing cut off)."""
+    a, b = Polygon(old), Polygon(new)
+    if not (a.is_valid and b.is_valid):
+        return float("inf")
+    return float(a.difference(b).area)
+
+
+def _step(pts: np.ndarray, ring: LinearRing, min_side: float, straight_tol: float,
+          tolerance: float, relaxed: bool) -> np.ndarray | None:
+    """One absorption: the first short run (shortest first) that some candidate absorbs
+    within ``tolerance`` of the input ring; ``relaxed``: of every short run, the
+    candidate that strays least beyond it while cutting off nothing of the building
+    (a notch filled, never a wing removed)."""
+    best: tuple[float, np.ndarray] | None = None
+    for i, j in _short_runs(pts, min_side, straight_tol):
+        scored = sorted(((_hausdorff(c, ring), k, c)
+                         for k, c in enumerate(_candidates(pts, i, j))), key=lambda t: t[:2])
+        for h, _k, cand in scored:
+            if h <= tolerance and not relaxed:
+                return cand
+            if relaxed and (best is None or h < best[0]) \
+                    and _removed_area(pts, cand) <= FILL_ONLY:
+                best = (h, cand)
+    return None if best is None else best[1]
+
+
+def faithful_ring(coords: Any, *, min_side: float, straight_tol: float,
+                  tolerance: float = TOLERANCE) -> np.ndarray:
+    """A footprint ring with its survey noise, spikes and too-short sides absorbed,
+    every change kept within ``tolerance`` of the input ring where one is; a short side
+    that cannot be absorbed so goes only if that fills a notch (never cuts off a wing).
+    What is left short stays, for the caller to report."""
+    ring = LinearRing(np.asarray(coords, dtype=float)[:, :2])
+    pts = np.asarray(shapely.simplify(ring, min(NOISE, tolerance)).coords)[:-1, :2]
+    for _ in range(4 * len(pts)):
+        if len(pts) < 3:
+            break
+        nxt = _step(pts, ring, min_side, straight_tol, tolerance, False)
+        if nxt is None:   # nothing faithful left: one step beyond, then faithful again
+            nxt = _step(pts, ring, min_side, straight_tol, tolerance, True)
+        if nxt is None:
+            break
+        pts = nxt
+    return pts
+
+
+def clean_footprint(poly: Polygon, *, min_side: float, straight_tol: float,
+                    tolerance: float = TOLERANCE) -> Polygon | None:
+    """A building footprint cleaned faithfully (:func:`faithful_ring` on every ring):
+    the outline facades stand on stays within ``tolerance`` of the input wherever
+    noise and short sides allow, and wings and notches stay. None when nothing valid
+    is left."""
+    poly = shapely.geometry.polygon.orient(poly, 1.0)
+    rings = []
+    for r, ring in enumerate([poly.exterior, *poly.interiors]):
+        pts = faithful_ring(ring.coords, min_side=min_side, straight_tol=straight_tol,
+                            tolerance=tolerance)
+        if len(pts) < 3:
+            if r == 0:
+                return None
+            continue
+        rings.append(LinearRing(pts))
+    out = Polygon(rings[0], rings[1:])
+    if not out.is_valid or out.area <= 0:
+        parts = [g for g in shapely.get_parts(shapely.make_valid(out))
+                 if isinstance(g, Polygon)]
+        if not parts:
+            return None
+        out = max(parts, key=lambda g: g.area)
+    return shapely.geometry.polygon.orient(out, 1.0)
+
+
+def outline_distance(built: Any, poly: Polygon) -> float:
+    """Hausdorff distance (metres) between a built facade line (lines or a polygon's
+    boundary) and a footprint's outline, holes included."""
+    line = built.boundary if isinstance(built, Polygon) else built
+    return float(shapely.hausdorff_distance(line, poly.boundary, densify=0.05))

@@ -194,7 +194,7 @@ def test_impossible_blocks_are_reported_and_do_not_stop_the_city(tmp_path, capsy
                 str(cfg)) == 0
     report = json.loads((tmp_path / "run" / "report.json").read_text())
     assert report["counts"]["failed"] >= 1 and report["counts"]["built"] >= 1
-    assert all("stage" in f["reason"] for f in report["failed"])
+    assert all("side from" in f["reason"] for f in report["failed"])
     assert "failed b" in capsys.readouterr().out
 
 

@@ -9,6 +9,7 @@ k = 3                       # layouts solved per block
 pick = "vary"               # "best": always the best; "vary": one of the k per block,
 seed = 7                    #   chosen from the seed and the block's id (deterministic)
 stretch = 0.005             # a stage's length may be met within this fraction
+slack = 0.3                 #   or within this many metres, whichever is larger
 corner_tolerance = 25.0     # degrees a corner part may be bent to fit a corner
 mitre_cost = 10.0           # extra cost of a mitre (two end parts) at a corner
 min_edge = 4.0              # shorter block edges are absorbed into their corners
@@ -26,6 +27,14 @@ default = 6.0
 sidewalk = 2.5              # added to half a street's width (its width or lanes tag)
 lane_width = 3.25
 highway = { primary = 11.0, secondary = 9.5 }   # by highway class
+
+[footprints]                # --footprints: building outlines re-skinned
+stretch = 0.02              # a side may be met within this fraction (or slack)
+tolerance = 0.5             # cleaning moves the outline at most this far (m)
+storey_tolerance = 0        # storeys a building may differ from building:levels
+storey_height = 3.3         # m: height / this when building:levels is missing
+storeys.classic = { a = 4, b = 5, c = 3, d = 6 }   # storeys per facade family
+roofs.classic = { gabled = ["a", "c", "d"], mansard = ["b"] }   # roof:shape -> families
 
 [[zone]]                    # the first zone a block falls in wins
 name = "waterfront"
@@ -46,6 +55,7 @@ from typing import Any, Literal, get_args
 
 from shapely.geometry import Polygon
 
+from citysynth.pipeline.city.footprints import Storeys
 from citysynth.pipeline.errors import ConfigError
 from citysynth.skeletons.streets import Setbacks
 
@@ -79,6 +89,15 @@ class Zone:
 
 
 @dataclass(frozen=True)
+class FootprintSettings:
+    """``[footprints]``: how building outlines are cleaned, stretched and storeyed."""
+
+    stretch: float = 0.02
+    tolerance: float = 0.5
+    storeys: Storeys = field(default_factory=Storeys)
+
+
+@dataclass(frozen=True)
 class CityConfig:
     settings: BuildSettings = field(default_factory=BuildSettings)
     seed: int = 0
@@ -92,11 +111,16 @@ class CityConfig:
     setbacks: Setbacks = field(default_factory=Setbacks)
     zones: tuple[Zone, ...] = ()
     path: Path | None = None
+    slack: float = 0.3
+    footprints: FootprintSettings = field(default_factory=FootprintSettings)
 
 
 _SETTINGS = {"library", "style", "k", "pick", "per_side", "per_block"}
 _TOP = _SETTINGS | {"seed", "stretch", "corner_tolerance", "mitre_cost", "min_edge",
-                    "min_width", "min_area", "origin", "setback", "zone"}
+                    "min_width", "min_area", "origin", "setback", "zone", "slack",
+                    "footprints"}
+_FOOTPRINTS = {"stretch", "tolerance", "storey_tolerance", "storey_height", "storeys",
+               "roofs"}
 _SETBACK = {"default", "sidewalk", "lane_width", "highway"}
 _ZONE = _SETTINGS | {"name", "polygon", "highway"}
 
@@ -143,7 +167,64 @@ def parse_config(data: dict, path: Path | None = None) -> CityConfig:
                       _pos(data, "min_edge", 4.0, "", err, zero=True),
                       _pos(data, "min_width", 8.0, "", err, zero=True),
                       _pos(data, "min_area", 50.0, "", err, zero=True),
-                      origin, setbacks, zones, path)
+                      origin, setbacks, zones, path,
+                      _pos(data, "slack", 0.3, "", err, zero=True), _footprints(data, err))
+
+
+def _footprints(data: dict, err: _Err) -> FootprintSettings:
+    """``[footprints]``: stretch and cleaning tolerance, and the storey mapping (a
+    style's table replaces the default one for that style)."""
+    fp = data.get("footprints", {})
+    if not isinstance(fp, dict):
+        raise err("footprints", "must be a table")
+    _known(fp, _FOOTPRINTS, "footprints.", err)
+    stretch = _pos(fp, "stretch", 0.02, "footprints.", err, zero=True)
+    if stretch > 0.05:
+        raise err("footprints.stretch", f"{stretch:g} would stretch parts by more than "
+                                        "5 %; use at most 0.05")
+    tol = fp.get("storey_tolerance", 0)
+    if isinstance(tol, bool) or not isinstance(tol, int) or tol < 0:
+        raise err("footprints.storey_tolerance", f"must be a whole number >= 0, got {tol!r}")
+    default = Storeys()
+    fams = _style_tables(fp, "storeys", err, _storey_count)
+    roofs = _style_tables(fp, "roofs", err, _family_list)
+    storeys = Storeys(
+        tol, _pos(fp, "storey_height", default.storey_height, "footprints.", err),
+        _merged(default.families, fams), _merged(default.roofs, roofs))
+    return FootprintSettings(stretch, _pos(fp, "tolerance", 0.5, "footprints.", err),
+                             storeys)
+
+
+def _storey_count(v: Any, key: str, err: _Err) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+        raise err(key, f"must be a storey count (a whole number >= 1), got {v!r}")
+    return v
+
+
+def _family_list(v: Any, key: str, err: _Err) -> tuple[str, ...]:
+    if isinstance(v, str):
+        v = [v]
+    if not isinstance(v, list) or not v or not all(isinstance(x, str) for x in v):
+        raise err(key, f'must be a list of family tags like ["a", "c"], got {v!r}')
+    return tuple(v)
+
+
+def _style_tables(fp: dict, key: str, err: _Err, value: Callable[[Any, str, _Err], Any]
+                  ) -> dict[str, list[tuple[str, Any]]]:
+    """``footprints.<key>.<style> = { name = value }``, checked, by style."""
+    raw = fp.get(key, {})
+    if not isinstance(raw, dict) or not all(isinstance(t, dict) for t in raw.values()):
+        raise err(f"footprints.{key}", "must be tables by style, like "
+                  f"{key}.classic = {{ ... }}")
+    return {style: [(str(n), value(v, f"footprints.{key}.{style}.{n}", err))
+                    for n, v in table.items()] for style, table in raw.items()}
+
+
+def _merged(default: tuple, given: dict[str, list[tuple[str, Any]]]) -> tuple:
+    """The default rows but for the styles ``given`` replaces."""
+    rows = [r for r in default if r[0] not in given]
+    rows += [(style, n, v) for style, items in sorted(given.items()) for n, v in items]
+    return tuple(rows)
 
 
 def _setbacks(data: dict, err: _Err) -> Setbacks:

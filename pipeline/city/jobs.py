@@ -31,15 +31,13 @@ from citysynth.export.place import max_stretch
 from citysynth.parts_db import LibraryError, PartDB, load_library
 from citysynth.parts_db.files import write_text
 from citysynth.pipeline.city.config import Pick
+from citysynth.pipeline.city.footprints import FootprintSpec, failure, prepare
 from citysynth.pipeline.errors import USER_ERRORS
 from citysynth.pipeline.layouts import Built, solve_layouts, write_outputs
-from citysynth.pipeline.skeleton_to_structure import shortest_stage
-from citysynth.skeletons import Feature, Frame, skeletons_from_polygons
-from citysynth.skeletons.clean import absorb_short_edges
-from citysynth.skeletons.from_geometry import STRAIGHT_TOL
+from citysynth.skeletons import Frame
 
-JOB_VERSION = 2          # bump when a block's output changes for the same inputs
-CITY_SLACK = 0.3         # m: any block side may be met this closely (short sides need it)
+JOB_VERSION = 3          # bump when a block's output changes for the same inputs
+CITY_SLACK = 0.3         # m: any block side may be met this closely (city.toml slack)
 BLOCKS_DIR = "blocks"
 
 BlockKind = Literal["block", "footprint"]    # a street block, or a building footprint
@@ -69,6 +67,9 @@ class BlockRecord(TypedDict):
     cost: NotRequired[float]
     instances: NotRequired[int]
     stretch: NotRequired[float]
+    feature: NotRequired[str]              # footprints: the input feature, as named
+    storeys: NotRequired[int]              # footprints: the storeys its family has
+    note: NotRequired[str]                 # footprints: storeys asked but not matched
     cached: NotRequired[bool]              # set by the run: read from an earlier run
 
 
@@ -96,6 +97,8 @@ class BlockJob:
     corner_tolerance: float
     mitre_cost: float
     min_edge: float
+    slack: float = CITY_SLACK
+    footprint: FootprintSpec | None = None      # a footprint's feature and settings
     input_hash: str = ""
 
     def with_hash(self) -> BlockJob:
@@ -175,23 +178,23 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
     if db.library_hash != job.library_hash:
         raise LibraryError(f"{job.library}: the library changed during the run; run again "
                            "once it is as it should be")
-    poly = shapely.from_wkt(job.wkt)
-    clean = absorb_short_edges(poly, min_edge=job.min_edge,
-                               min_stage=shortest_stage(db, job.style),
-                               straight_tol=STRAIGHT_TOL)
-    if clean is None:
-        return _finish(out, rec, "skipped", t0, reason="nothing buildable is left once "
-                       "its sides too short for corners are absorbed")
-    frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
-    rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
-    built = solve_layouts(job.id, rings, db, job.style, job.k,
+    if job.footprint is not None:
+        rec["feature"] = job.footprint.where
+    prep = prepare(job, db)
+    if isinstance(prep, str):
+        return _finish(out, rec, "skipped", t0, reason=prep)
+    built = solve_layouts(job.id, prep.rings, db, job.style, job.k,
                           angle_tol=job.corner_tolerance, joint_cost=job.mitre_cost,
-                          stretch=job.stretch, slack=CITY_SLACK,
                           per_side={n: (lo, hi) for n, lo, hi in job.per_side},
-                          per_structure={n: (lo, hi) for n, lo, hi in job.per_block})
+                          per_structure={n: (lo, hi) for n, lo, hi in job.per_block},
+                          **prep.options())
     rec["timings"] = dict(built.timings)
     if built.status != "ok":
-        return _finish(out, rec, "failed", t0, reason=built.reason)
+        return _finish(out, rec, "failed", t0, reason=failure(prep, job, db, built.reason))
+    if prep.storeys is not None:
+        rec["storeys"] = prep.storeys
+    if prep.note:
+        rec["note"] = prep.note
     rank = _pick_rank(job, len(built.layouts))
     lay = built.layouts[rank - 1]
     t1 = time.perf_counter()

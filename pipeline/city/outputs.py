@@ -26,7 +26,7 @@ MANIFEST = "manifest.json"
 REPORT = "report.json"
 RUN_SCHEMA = "citysynth.run"
 _MANIFEST_KEYS = ("kind", "zone", "input_hash", "status", "reason", "error", "files", "cost",
-                  "rank", "of", "style")
+                  "rank", "of", "style", "feature", "storeys", "note")
 
 Report = dict[str, Any]   # report.json, as written
 
@@ -55,6 +55,8 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
         "counts": counts, "blocks": len(inputs.jobs),
         "built_share": counts["built"] / attempted if attempted else 1.0,
         "failed": with_status("failed", "reason"),
+        "storeys_not_matched": [{"id": i, "note": recs[i]["note"]} for i in ids
+                                if recs[i].get("note")],
         "skipped": inputs.skipped + with_status("skipped", "reason"),
         "errors": [{"id": i, "error": recs[i]["error"], "traceback": recs[i]["traceback"]}
                    for i in ids if recs[i]["status"] == "error"],

@@ -29,6 +29,7 @@ import shapely
 from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.files import sweep_temporaries
 from citysynth.pipeline.city.config import BuildSettings, CityConfig
+from citysynth.pipeline.city.footprints import FootprintSpec, footprint_spec
 from citysynth.pipeline.city.jobs import (
     BLOCKS_DIR,
     STATUSES,
@@ -52,7 +53,8 @@ CONNECT_TIMEOUT = "10s"      # to reach a Dask scheduler
 ORIGIN_DIGITS = 2            # the frame's lon/lat origin, rounded: streets edited at the
                              # edge of a network do not move every block (and its id)
 
-Outline = tuple[BlockKind, shapely.Polygon, tuple[str, ...]]   # kind, polygon, highways
+Outline = tuple[BlockKind, shapely.Polygon, tuple[str, ...], FootprintSpec | None]
+"""kind, polygon, the highways along it, and a footprint's feature and settings"""
 Progress = Callable[[int, int, BlockRecord], None]   # (done, to do, the record just done)
 
 
@@ -99,7 +101,7 @@ def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
                             f"a sliver, {width:.1f} m wide on average (min_width "
                             f"{cfg.min_width:g} m)"})
             continue
-        outlines.append(("block", b.polygon, _highways(b, feats)))
+        outlines.append(("block", b.polygon, _highways(b, feats), None))
     return frame
 
 
@@ -121,7 +123,10 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
                                 + ("invalid outline" if not p.is_valid else
                                    f"{p.area:.1f} m², below min_area {cfg.min_area:g}")})
                 continue
-            outlines.append(("footprint", p, ()))
+            fp = cfg.footprints
+            outlines.append(("footprint", p, (), footprint_spec(
+                str(footprints), f.index, f.properties, frame.source_crs, fp.stretch,
+                fp.tolerance, fp.storeys)))
     return frame
 
 
@@ -130,7 +135,7 @@ def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry
     """One job per distinct outline (the same outline twice is one block), by id."""
     libraries: dict[str, PartDB] = {}
     jobs: dict[str, BlockJob] = {}
-    for kind, poly, highways in outlines:
+    for kind, poly, highways, spec in outlines:
         wkt = outline_wkt(poly)
         zone_name, s = _zone_for(cfg, zones, poly, highways)
         db, path, style = _library_style(s, library, libraries)
@@ -139,7 +144,7 @@ def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry
                        tuple((n, lo, hi) for n, (lo, hi) in sorted(s.per_side.items())),
                        tuple((n, lo, hi) for n, (lo, hi) in sorted(s.per_block.items())),
                        cfg.stretch, cfg.corner_tolerance, cfg.mitre_cost,
-                       cfg.min_edge).with_hash()
+                       cfg.min_edge, cfg.slack, spec).with_hash()
         jobs.setdefault(job.id, job)
     return sorted(jobs.values(), key=lambda j: j.id)
 

@@ -1,0 +1,373 @@
+"""Building footprints in a city run: what a footprint job knows of its input feature,
+how it is cleaned, how many storeys it gets, and why it fails, in the user's words.
+
+A footprint is re-skinned faithfully: :func:`~citysynth.skeletons.clean.clean_footprint`
+keeps the outline facades stand on within ``tolerance`` (0.5 m) of the input wherever
+noise and short sides allow. Its ``building:levels`` (or ``height`` over the storey
+height) choose the facade family whose storey count is nearest, within
+``storey_tolerance``; ``roof:shape`` prefers the families of that roof. A family is read
+from part ids (:func:`part_families`). A footprint that cannot be built says which
+feature of the file, which side (from-to in the input's coordinates, its length) and
+what the kit makes near that length.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pyproj
+import shapely
+
+from citysynth.parts_db import Part, PartDB
+from citysynth.pipeline.skeleton_to_structure import _chains, shortest_stage
+from citysynth.skeletons import Feature, Frame, Skeleton, skeletons_from_polygons
+from citysynth.skeletons.clean import absorb_short_edges, clean_footprint
+from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.from_geometry import STRAIGHT_TOL
+from citysynth.skeletons.geojson import LONLAT_FRAME, lonlat_from_local
+
+if TYPE_CHECKING:   # the job module imports this one
+    from citysynth.pipeline.city.jobs import BlockJob
+
+_TAG = re.compile(r"([a-z])\d?")
+REF_KEYS = ("id", "osm_id", "@id", "osm_way_id")   # how exports name a feature
+
+
+@dataclass(frozen=True)
+class Storeys:
+    """city.toml ``[footprints]``: how data become storeys and roofs. ``families`` maps
+    (style, family tag) to its storey count; ``roofs`` (style, roof:shape) to family
+    tags. The defaults are the sample library's."""
+
+    tolerance: int = 0               # storeys a building may differ from its data
+    storey_height: float = 3.3       # m: `height` / this when `building:levels` is missing
+    families: tuple[tuple[str, str, int], ...] = (
+        ("classic", "a", 4), ("classic", "b", 5), ("classic", "c", 3), ("classic", "d", 6),
+        ("modern", "a", 5), ("modern", "b", 6), ("modern", "c", 4), ("modern", "d", 8))
+    roofs: tuple[tuple[str, str, tuple[str, ...]], ...] = (
+        ("classic", "gabled", ("a", "c", "d")), ("classic", "mansard", ("b",)),
+        ("modern", "flat", ("a", "b", "c", "d")))
+
+
+@dataclass(frozen=True)
+class FootprintSpec:
+    """What a footprint job carries of its input feature and of the footprint settings
+    (all of it covered by the job's input hash)."""
+
+    source: str                      # the file
+    feature: int                     # the feature's index in it
+    ref: str                         # its id / osm_id property, or ""
+    levels: float | None
+    height: float | None
+    roof: str | None
+    source_crs: str                  # the input's CRS when not lon/lat ("" otherwise)
+    stretch: float                   # a side may be met within this fraction
+    tolerance: float                 # metres the cleaned outline may stray
+    storeys: Storeys
+
+    @property
+    def label(self) -> str:
+        return f"feature {self.feature}" + (f" ({self.ref})" if self.ref else "")
+
+    @property
+    def where(self) -> str:
+        return f"{self.source}: {self.label}" if self.source else self.label
+
+
+def _number(v: Any) -> float | None:
+    """A tag's number: ``5``, ``"5"``, ``"12.5 m"``, ``"3;4"`` (the first); else None."""
+    if isinstance(v, bool) or v is None:
+        return None
+    if isinstance(v, int | float):
+        return float(v) if math.isfinite(v) and v > 0 else None
+    m = re.match(r"\s*([0-9]+(?:\.[0-9]+)?)", str(v))
+    return float(m.group(1)) if m and float(m.group(1)) > 0 else None
+
+
+def feature_ref(props: dict[str, Any]) -> str:
+    """The feature's own id, as OSM and cadastre exports name it, or ""."""
+    for k in REF_KEYS:
+        if props.get(k) not in (None, ""):
+            return str(props[k])
+    return ""
+
+
+def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: str,
+                   stretch: float, tolerance: float, storeys: Storeys) -> FootprintSpec:
+    """The spec of feature ``index`` of ``source`` from its properties."""
+    roof = props.get("roof:shape")
+    return FootprintSpec(source, index, feature_ref(props),
+                         _number(props.get("building:levels")), _number(props.get("height")),
+                         str(roof) if roof not in (None, "") else None, source_crs,
+                         stretch, tolerance, storeys)
+
+
+# --- storeys ---------------------------------------------------------------------------
+
+def part_families(part_id: str, known: Iterable[str]) -> frozenset[str]:
+    """The family tags a part belongs to: the ``_<letter>[digit]`` tokens of its id
+    after the style and class (``classic_mid_7.8_a0`` is ``a``, a step
+    ``classic_mid_10.0_a0_b3`` is ``a`` and ``b``, ``classic_corner_90_convex_b`` is
+    ``b``); an id with none belongs to the first family listed (the principal one:
+    ``classic_corner_90_convex``)."""
+    known = list(known)
+    tags = {m.group(1) for t in part_id.split("_")[2:] if (m := _TAG.fullmatch(t))}
+    tags &= set(known)
+    return frozenset(tags or known[:1])
+
+
+def wanted_storeys(spec: FootprintSpec) -> int | None:
+    """Storeys from the data: ``building:levels``, else ``height`` over the storey
+    height (rounded); None when the feature has neither."""
+    if spec.levels is not None:
+        return max(1, round(spec.levels))
+    if spec.height is not None:
+        return max(1, round(spec.height / spec.storeys.storey_height))
+    return None
+
+
+def choose_family(spec: FootprintSpec, db: PartDB, style: str
+                  ) -> tuple[frozenset[str] | None, int | None, str | None]:
+    """The part ids a footprint may use (None: every part of the style), the storeys it
+    gets, and a note when the data could not be matched."""
+    fams = {tag: n for st, tag, n in spec.storeys.families if st == style}
+    want = wanted_storeys(spec)
+    roof_fams = next((set(f) for st, shape, f in spec.storeys.roofs
+                      if st == style and shape == spec.roof), set()) & set(fams)
+    if not fams or (want is None and not roof_fams):
+        return None, None, None
+    if want is None:
+        chosen = roof_fams
+    else:
+        best = min(abs(n - want) for n in fams.values())
+        near = {t for t, n in fams.items() if abs(n - want) == best}
+        chosen = {min(near & roof_fams or near, key=lambda t: (fams[t], t))}
+    allowed = frozenset(p.id for p in db.parts if p.style == style
+                        and part_families(p.id, fams) <= chosen)
+    storeys = fams[next(iter(chosen))] if len(chosen) == 1 else None
+    note = None
+    if want is not None and storeys is not None and abs(storeys - want) > spec.storeys.tolerance:
+        have = ", ".join(str(n) for n in sorted(set(fams.values())))
+        note = (f"{spec.where}: {want} storeys asked; the {style} kit has {have}: built "
+                f"with {storeys}")
+    return allowed, storeys, note
+
+
+# --- messages --------------------------------------------------------------------------
+
+def input_xy(frame: tuple[str, float, float], source_crs: str, xy: Any) -> tuple[float, float]:
+    """A local point in the input's own coordinates (lon/lat, or the projected CRS)."""
+    if frame[0] != LONLAT_FRAME:
+        return float(xy[0]) + frame[1], float(xy[1]) + frame[2]
+    lon, lat = lonlat_from_local([xy], (frame[1], frame[2]))[0]
+    if source_crs:
+        tf = pyproj.Transformer.from_crs("EPSG:4326", source_crs, always_xy=True)
+        x, y = tf.transform(lon, lat)
+        return float(x), float(y)
+    return lon, lat
+
+
+def _fmt(p: tuple[float, float]) -> str:
+    nd = 6 if abs(p[0]) <= 180 and abs(p[1]) <= 90 else 2
+    return f"({p[0]:.{nd}f}, {p[1]:.{nd}f})"
+
+
+def makeable(fillers: list[Part], quantum: float, top: float) -> np.ndarray:
+    """Lengths (in quanta) a side between two mitre joints can take: some run of the
+    kit's modules, plus a joint leg of 1-8 quanta at each end (transitions ignored)."""
+    n = int(top / quantum) + 1
+    sums = np.zeros(n + 1, dtype=bool)
+    sums[0] = True
+    steps = sorted({round(p.length / quantum) for p in fillers if p.length > 0})
+    for i in range(1, n + 1):
+        sums[i] = any(i >= s and sums[i - s] for s in steps)
+    sums[0] = False
+    out = np.zeros(n + 1, dtype=bool)
+    for legs in range(2, 17):
+        out[legs:] |= sums[: n + 1 - legs]
+    return out
+
+
+def side_advice(length: float, lo: float, hi: float, fillers: list[Part], quantum: float,
+                style: str) -> str | None:
+    """What the kit makes near a side of ``length`` (met within [lo, hi]), or None when
+    the side on its own can be made."""
+    ok = makeable(fillers, quantum, hi + 20 * quantum)
+    idx = np.flatnonzero(ok) * quantum
+    if len(idx) and np.any((idx >= lo - 1e-9) & (idx <= hi + 1e-9)):
+        return None
+    below = idx[idx < lo]
+    above = idx[idx > hi]
+    near = [f"{x:.1f}" for x in (below[-1:].tolist() + above[:1].tolist())]
+    if not near:
+        return f"the {style} kit makes nothing this short"
+    gap = min(abs(length - float(x)) for x in near)
+    add = f" or add a {max(quantum, length - float(below[-1])):.1f} m part" if len(below) \
+        else ""
+    return (f"the {style} kit makes {' or '.join(near)} m here; allow "
+            f"{100 * gap / length:.1f} % stretch{add}")
+
+
+def stage_sides(sk: Skeleton) -> list[tuple[tuple[float, float], tuple[float, float], float]]:
+    """The sides of a ring skeleton between its corners: (from, to, length)."""
+    kinds = {k.id: k for k in sk.keypoints}
+    corners = [k.id for k in sk.keypoints if k.kind != "bend"]
+    if not corners:
+        return []
+    sides = []
+    n = len(sk.edges)
+    start = next(i for i, e in enumerate(sk.edges) if e.a == corners[0])
+    a, length = sk.edges[start].a, 0.0
+    for t in range(n):
+        e = sk.edges[(start + t) % n]
+        length += e.length
+        if kinds[e.b].kind != "bend":
+            sides.append((kinds[a].xy, kinds[e.b].xy, length))
+            a, length = e.b, 0.0
+    return sides
+
+
+def short_side(rings: list[Skeleton], min_side: float):
+    """The first side shorter than ``min_side``, or None."""
+    for sk in rings:
+        for side in stage_sides(sk):
+            if side[2] < min_side:
+                return sk, side
+    return None
+
+
+def _stage_side(rings: list[Skeleton], reason: str | None):
+    """The side a solver's reason names (``<ring>: ... stage <i> ...``): its ring's
+    chain i, as (from, to, length); None when the reason names none."""
+    m = re.search(r"stage (\d+)", reason or "")
+    if m is None:
+        return None
+    sk = next((r for r in rings if (reason or "").startswith(f"{r.name}:")), None)
+    if sk is None:
+        return None
+    keys, chains = _chains(sk)
+    xy = {k.id: k.xy for k in sk.keypoints}
+    i = int(m.group(1))
+    if i >= len(chains):
+        return None
+    c = chains[i]
+    return xy[c.a], xy[c.b], c.length
+
+
+def explain(where: str, frame: tuple[str, float, float], source_crs: str,
+            rings: list[Skeleton], db: PartDB, style: str, allowed: frozenset[str] | None,
+            tol: Any, asked: str, reason: str | None = None) -> str:
+    """A failed block or footprint in its user's words: the first side the kit cannot
+    make on its own, with what it makes near that length; else the side the solver
+    found no filling for with the asked ranges (or, naming none, all sides at once)."""
+    fillers = [p for p in db.select("middle", style) if allowed is None or p.id in allowed]
+
+    def side_text(a: Any, b: Any, length: float) -> str:
+        return (f"the {length:.2f} m side from {_fmt(input_xy(frame, source_crs, a))} to "
+                f"{_fmt(input_xy(frame, source_crs, b))}")
+
+    for sk in rings:
+        for a, b, length in stage_sides(sk):
+            t = tol(length)
+            advice = side_advice(length, length - t, length + t, fillers, db.quantum, style)
+            if advice:
+                return f"{where}: {side_text(a, b, length)}: {advice}"
+    more = f" with {asked}" if asked else ""
+    side = _stage_side(rings, reason)
+    if side is not None:
+        return (f"{where}: {side_text(*side)}: no row of the {style} kit's parts fits "
+                f"it{more} beside the corners it can take; allow more stretch, or loosen "
+                "the per-side and per-block ranges in city.toml")
+    sides = [s for sk in rings for s in stage_sides(sk)]
+    shortest = f" (the shortest is {side_text(*min(sides, key=lambda s: s[2]))})" \
+        if sides else ""
+    return (f"{where}: its sides can each be made from the {style} kit, but not all of "
+            f"them at once{more}{shortest}; allow more stretch, or loosen the per-side "
+            "and per-block ranges in city.toml")
+
+
+def too_short(where: str, frame: tuple[str, float, float], source_crs: str, side: Any,
+              min_side: float, style: str) -> str:
+    """A side left shorter than any facade between two corners."""
+    a, b, length = side
+    return (f"{where}: the {length:.2f} m side from {_fmt(input_xy(frame, source_crs, a))} "
+            f"to {_fmt(input_xy(frame, source_crs, b))} is shorter than the {min_side:.1f} m "
+            f"the {style} kit needs between two corners, and absorbing it would move the "
+            "outline by more than the cleaning tolerance (raise footprints.tolerance)")
+
+
+# --- a block job's outline, ready to solve ---------------------------------------------
+
+@dataclass
+class Prepared:
+    """A block's or footprint's cleaned rings and what solving them takes."""
+
+    rings: list[Skeleton]
+    where: str                         # how messages name it
+    stretch: float
+    slack: float
+    parts: frozenset[str] | None       # the facade family's parts (None: all)
+    storeys: int | None = None
+    note: str | None = None            # storeys asked that the kit could not match
+
+    def options(self) -> dict[str, Any]:
+        return {"stretch": self.stretch, "slack": self.slack, "parts": self.parts}
+
+    def tol(self, quantum: float):
+        """A side's allowance: the largest of half a quantum, the slack and the stretch."""
+        return lambda length: max(quantum / 2, self.slack, self.stretch * length)
+
+
+def min_side(db: PartDB, style: str, slack: float) -> float:
+    """The shortest side two mitre joints close: the shortest module and a one-quantum
+    leg at each end, less the slack."""
+    shortest = min((p.length for p in db.select("middle", style)), default=0.0)
+    return max(shortest + 2 * db.quantum - slack, db.quantum)
+
+
+def prepare(job: BlockJob, db: PartDB) -> Prepared | str:
+    """Clean the job's outline into rings (a footprint faithfully, a street block as
+    before); a string says why nothing is left (the block is skipped). A footprint
+    side left too short to build raises the user's error naming it."""
+    poly = shapely.from_wkt(job.wkt)
+    frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
+    fp = job.footprint
+    if fp is None:
+        clean = absorb_short_edges(poly, min_edge=job.min_edge,
+                                   min_stage=shortest_stage(db, job.style),
+                                   straight_tol=STRAIGHT_TOL)
+        if clean is None:
+            return ("nothing buildable is left once its sides too short for corners are "
+                    "absorbed")
+        c = poly.representative_point()
+        rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
+        return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,
+                        job.slack, None)
+    shortest = min_side(db, job.style, job.slack)
+    clean = clean_footprint(poly, min_side=shortest, straight_tol=STRAIGHT_TOL,
+                            tolerance=fp.tolerance)
+    if clean is None:
+        return "nothing buildable is left of its outline once cleaned"
+    props = {"id": fp.ref} if fp.ref else {}
+    rings = skeletons_from_polygons([Feature(fp.feature, clean, props)], frame)
+    bad = short_side(rings, shortest)
+    if bad is not None:
+        raise SkeletonError(too_short(fp.where, job.frame, fp.source_crs, bad[1], shortest,
+                                      job.style))
+    parts, storeys, note = choose_family(fp, db, job.style)
+    return Prepared(rings, fp.where, fp.stretch, job.slack, parts, storeys, note)
+
+
+def failure(prep: Prepared, job: BlockJob, db: PartDB, reason: str | None) -> str:
+    """Why a prepared block has no layout, in its user's words."""
+    asked = ", ".join(f"{kind} {n} = [{lo:g}, {hi:g}]" for kind, rows in
+                      (("per_side", job.per_side), ("per_block", job.per_block))
+                      for n, lo, hi in rows)
+    return explain(prep.where, job.frame,
+                   job.footprint.source_crs if job.footprint else "", prep.rings, db,
+                   job.style, prep.parts, prep.tol(db.quantum), asked, reason)
