@@ -194,3 +194,23 @@ def test_structure_refusals_of_the_stage_graphs():
     r = solve_structure(Structure.from_dict(bad))
     assert r.status == "infeasible"
     assert "stage 0 between k and k" in r.reason and "nearest achievable" in r.reason
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(varied())
+def test_k1_array_combination_is_the_general_one(d):
+    """k = 1 combines stage lists by arrays over the shares (combine._Best1): the same
+    solution, ties included, as the general per-pair merge, and the enumeration's cost."""
+    from citysynth.solver.structures import combine
+
+    s = Structure.from_dict(d)
+    fast = solve_structure(s, 1)
+    combine.ARRAYS_K1 = False
+    try:
+        slow = solve_structure(s, 1)
+    finally:
+        combine.ARRAYS_K1 = True
+    assert [(x.cost, x.keys, x.stages) for x in fast.solutions] == \
+        [(x.cost, x.keys, x.stages) for x in slow.solutions]
+    expected = enumerate_structure(d, 1)
+    assert [x.cost for x in fast.solutions] == pytest.approx(expected[:1])

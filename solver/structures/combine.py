@@ -24,12 +24,15 @@ from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any, TypeVar
 
+import numpy as np
+
 from citysynth.solver.structures.model import Structure
 
 X = TypeVar("X")
 Y = TypeVar("Y")
 Tag = TypeVar("Tag")
 
+ARRAYS_K1 = True   # k = 1 by arrays (tests switch it off to compare with the general way)
 Share = tuple[int, ...]
 StageList = list[tuple[float, Any]]   # cost-sorted (cost, payload of the stage's provider)
 StageLists = Callable[[int, str, str], dict[Share, StageList]]
@@ -144,6 +147,11 @@ class _Program:
             else self._fits_any if ghi else (lambda code: True))
         self.closing = (next(i for i, s in enumerate(st.stages) if s.end == 0)
                         if st.closed else -1)
+        # k = 1 with at most one structure-wide resource: a stage's options are one
+        # min-plus convolution over shares, done on arrays (_Best1) instead of a
+        # Python loop over every pair of shares
+        self.best1 = (_Best1(ghi[0] if ghi else 0)
+                      if ARRAYS_K1 and k == 1 and len(ghi) <= 1 else None)
 
     def encode(self, g: Share) -> int:
         code = 0
@@ -217,6 +225,10 @@ class _Program:
         end of stage s, k best per share."""
         st, fits, single = self.st, self.fits, self.single
         w = st.stages[s].end
+        if self.best1 is not None:
+            return self.best1.options([(f, self.lists(s, e, f), self.below(w, f, fixed_root,
+                                                                            memo), st.costs[f])
+                                       for f in st.keypoints[w]])
         pairs: dict[int, list[tuple[StageList, Completions, float, str]]] = {}
         for f in st.keypoints[w]:
             sub = self.below(w, f, fixed_root, memo)
@@ -245,3 +257,49 @@ class _Program:
                     nxt.setdefault(g, []).extend(
                         (c, {**pa, s: pb}) for c, (pa, pb) in ksum(la, lb, k))
         return _best(nxt, k)
+
+
+class _Best1:
+    """k = 1 stage options with at most one structure-wide resource (shares 0..H):
+    for every share g, the best over end elements f (in key point order) and shares
+    g1 + g2 = g of stage cost a(g1) + (completion cost b(g2) + unary cost of f), the
+    same float sum :func:`merge_sums` takes, with its ties: the first f, then the
+    smallest g1. One (H+1) x (H+1) array sum and argmin per f instead of a Python loop
+    over every pair of shares (a block with a per-block door count: about 600 share
+    pairs per stage, end element and start element)."""
+
+    def __init__(self, H: int):
+        self.H = H
+        g1 = np.arange(H + 1)
+        shift = np.arange(H + 1)[None, :] - g1[:, None]      # g2 = g - g1
+        self.valid = shift >= 0
+        self.g2 = np.where(self.valid, shift, 0)
+
+    def _row(self, items: Sequence[tuple[int, Sequence[tuple[float, Any]]]]
+             ) -> tuple[np.ndarray, list[Any]]:
+        """Costs by share (inf where there is none) and the payloads."""
+        cost = np.full(self.H + 1, np.inf)
+        pay: list[Any] = [None] * (self.H + 1)
+        for g, ls in items:
+            if g <= self.H and ls:
+                cost[g] = ls[0][0]
+                pay[g] = ls[0][1]
+        return cost, pay
+
+    def options(self, ends: list[tuple[str, list[tuple[int, StageList]], Below, float]]
+                ) -> dict[int, list[tuple[float, tuple[str, Any, Payload]]]]:
+        best = np.full(self.H + 1, np.inf)
+        out: dict[int, list[tuple[float, tuple[str, Any, Payload]]]] = {}
+        for f, lists, sub, cf in ends:
+            if not sub or not lists:
+                continue
+            a, pa = self._row(lists)
+            b, pb = self._row(sub)
+            m = np.where(self.valid, a[:, None] + (b[self.g2] + cf), np.inf)
+            i = np.argmin(m, axis=0)            # the smallest g1 among equal costs
+            c = m[i, np.arange(self.H + 1)]
+            for g in np.flatnonzero(c < best).tolist():   # strictly better: first f wins
+                g1 = int(i[g])
+                out[g] = [(float(c[g]), (f, pa[g1], pb[g - g1]))]
+            best = np.minimum(best, c)
+        return out

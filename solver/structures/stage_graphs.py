@@ -129,6 +129,7 @@ class StageGraphs:
         self.budget = int(max_memory_mb * 2**20)
         self._lists: dict[tuple[int, str, str], dict[Share, StageList]] = {}
         self._paths: list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = []
+        self._shares_of: dict[int, list[Share]] = {}
         self.counts = {"stage_graphs": 0, "stage_queries": 0, "graph_rows": 0}
         groups = self._groups()
         for grp in groups:  # every box is checked before any graph is grown
@@ -231,34 +232,52 @@ class StageGraphs:
         st = self.st
         first = st.branch_transitions if leg == 2 else st.transitions
         wide = [grp.dims.index(r) for r in self.gnames]
-        cap = grp.cap.tolist()
+        R = len(grp.dims)
         meta: list[tuple[int, str, Share]] = []
         lo_rows, hi_rows, w_rows = [], [], []
-        for i in self._stages_from(grp, a, leg):  # plain lists: a few values each
+        for i in self._stages_from(grp, a, leg):
             stage = st.stages[i]
-            lo, hi = (x.tolist() for x in self._bounds(i, grp.dims))
+            lo, hi = self._bounds(i, grp.dims)
+            shares = self._allowed_shares(i)
+            # every allowed share at once: its own interval on the structure-wide
+            # dimensions, the end key's leg taken off (a block with a per-block door
+            # count has dozens of shares per stage and end element)
+            LO = np.repeat(lo[None, :], len(shares), axis=0)
+            HI = np.repeat(hi[None, :], len(shares), axis=0)
+            if wide:
+                G = np.array(shares, dtype=np.int64).reshape(len(shares), len(wide))
+                LO[:, wide] = G
+                HI[:, wide] = G
             for b in st.keypoints[stage.end]:
                 self._lists[(i, a, b)] = {}
-                legb = self._ints(st.legs[b][0], grp.dims).tolist()
+                legb = self._ints(st.legs[b][0], grp.dims)
+                qlo = np.maximum(LO - legb, 0)
+                qhi = np.minimum(HI - legb, grp.cap)
+                ok = np.flatnonzero((qlo <= qhi).all(axis=1))
+                if not len(ok):
+                    continue
                 w = [first.get((a, b), np.inf)] + [st.transitions.get((f, b), np.inf)
                                                    for f in grp.fillers]
-                for g in self.shares:
-                    if not share_allowed(stage, g, self.gnames, self.gq):
-                        continue
-                    qlo, qhi = list(lo), list(hi)
-                    for d, x in zip(wide, g, strict=True):
-                        qlo[d] = qhi[d] = x
-                    qlo = [max(x - y, 0) for x, y in zip(qlo, legb, strict=True)]
-                    qhi = [min(x - y, c) for x, y, c in zip(qhi, legb, cap, strict=True)]
-                    if all(x <= y for x, y in zip(qlo, qhi, strict=True)):
-                        meta.append((i, b, g))
-                        lo_rows.append(qlo)
-                        hi_rows.append(qhi)
-                        w_rows.append(w)
-        R = len(grp.dims)
-        return (meta, np.array(lo_rows, dtype=np.int64).reshape(-1, R),
-                np.array(hi_rows, dtype=np.int64).reshape(-1, R),
-                np.array(w_rows, dtype=np.float64).reshape(-1, len(grp.fillers) + 1))
+                meta.extend((i, b, shares[j]) for j in ok.tolist())
+                lo_rows.append(qlo[ok])
+                hi_rows.append(qhi[ok])
+                w_rows.append(np.repeat(np.array(w, dtype=np.float64)[None, :], len(ok),
+                                        axis=0))
+        n1 = len(grp.fillers) + 1
+        return (meta,
+                np.concatenate(lo_rows) if lo_rows else np.zeros((0, R), dtype=np.int64),
+                np.concatenate(hi_rows) if hi_rows else np.zeros((0, R), dtype=np.int64),
+                np.concatenate(w_rows) if w_rows else np.zeros((0, n1)))
+
+    def _allowed_shares(self, i: int) -> list[Share]:
+        """The shares of the structure-wide resources stage i may take (its own
+        interval on such a resource, if any), once per stage."""
+        got = self._shares_of.get(i)
+        if got is None:
+            stage = self.st.stages[i]
+            got = [g for g in self.shares if share_allowed(stage, g, self.gnames, self.gq)]
+            self._shares_of[i] = got
+        return got
 
     def _graph(self, grp: _Group, a: str, leg: int, queries: Queries
                ) -> tuple[StageGraph, int]:
