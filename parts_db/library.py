@@ -10,8 +10,11 @@ and is only read back. Any bad part stops the ingest before anything is written.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
+import zipfile
+import zlib
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -19,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import shapely
+import shapely.errors
 
 from citysynth.parts_db.costs import allowed_matrix, cost_matrix
 from citysynth.parts_db.errors import LibraryError
@@ -129,6 +133,13 @@ def cache_dir(root: Path) -> Path:
     installed = any(p in ("site-packages", "dist-packages") for p in root.parts)
     if not installed and os.access(root, os.W_OK):
         return root / DEFAULT_OUT
+    return user_cache_dir(root)
+
+
+def user_cache_dir(root: Path) -> Path:
+    """The user's cache folder for the library at ``root``."""
+    root = root.resolve()
+    tag = f"{root.name}-{hashlib.sha256(str(root).encode()).hexdigest()[:12]}"
     base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
     return Path(base) / "citysynth" / "partdb" / tag
 
@@ -159,7 +170,10 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
                                for p in parts], [p.sec_in for p in parts], branch_ok)
     db = PartDB(m.name, digest, m.quantum, parts, allowed, cost, cost_branch, warnings,
                 out_dir, False, root.resolve(), m.meters_per_unit)
-    save(db, out_dir)
+    if out is None:
+        _save_cache(db, out_dir, root)
+    else:     # the folder the user named: failing to write it is an error
+        save(db, out_dir)
     return db
 
 
@@ -222,23 +236,38 @@ def _part_json(p: Part) -> dict:
 
 
 def save(db: PartDB, out_dir: Path) -> None:
-    """Write npz then JSON (the JSON carries the hash, so it is written last); each
-    through a temporary file and an atomic rename."""
+    """Write npz then JSON (the JSON carries the library hash and the npz's own hash,
+    so it is written last and vouches for both); each through a temporary file and an
+    atomic rename."""
     out_dir.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out_dir / DB_NPZ) as tmp, open(tmp, "wb") as f:
+        np.savez_compressed(f, allowed=db.allowed, cost=db.cost, cost_branch=db.cost_branch)
     meta = {"format": FORMAT_VERSION, "name": db.name, "library_hash": db.library_hash,
             "quantum": db.quantum, "warnings": db.warnings,
             "library_root": str(db.library_root) if db.library_root else None,
             "meters_per_unit": db.meters_per_unit,
+            "npz_sha256": hashlib.sha256((out_dir / DB_NPZ).read_bytes()).hexdigest(),
             "parts": [_part_json(p) for p in db.parts]}
-    with atomic_path(out_dir / DB_NPZ) as tmp, open(tmp, "wb") as f:
-        np.savez_compressed(f, allowed=db.allowed, cost=db.cost, cost_branch=db.cost_branch)
     write_text(out_dir / DB_JSON, json.dumps(meta, indent=1, sort_keys=True))
 
 
-def load_db(out_dir: str | Path) -> PartDB:
-    out_dir = Path(out_dir)
+# A damaged database (truncated, edited, another format) raises any of these on reading.
+_DAMAGED = (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError, EOFError,
+            RecursionError, zipfile.BadZipFile, zlib.error, shapely.errors.ShapelyError)
+
+
+def _read_db(out_dir: Path) -> PartDB:
+    """The database in ``out_dir``, every array read now (an npz is read lazily) and
+    checked against the hash the JSON records for it."""
     meta = json.loads((out_dir / DB_JSON).read_text(encoding="utf-8"))
-    arrays = np.load(out_dir / DB_NPZ)
+    npz = (out_dir / DB_NPZ).read_bytes()
+    if "npz_sha256" in meta and hashlib.sha256(npz).hexdigest() != meta["npz_sha256"]:
+        raise ValueError(f"{DB_NPZ} does not match the hash {DB_JSON} records for it")
+    with np.load(io.BytesIO(npz)) as z:
+        arrays = {k: z[k] for k in ("allowed", "cost", "cost_branch")}
+    n = len(meta["parts"])
+    if any(a.shape != (n, n) for a in arrays.values()):
+        raise ValueError(f"{DB_NPZ} holds tables of another size than its {n} parts")
     parts = []
     for d in meta["parts"]:
         secs = {k: None if d[k] is None else shapely.from_wkt(d[k])
@@ -254,17 +283,42 @@ def load_db(out_dir: str | Path) -> PartDB:
                   meta.get("meters_per_unit", 1.0))
 
 
+def load_db(out_dir: str | Path) -> PartDB:
+    """A database folder written by ``citysynth ingest -o``; a damaged one is the
+    user's to rebuild, said in one line."""
+    out_dir = Path(out_dir)
+    try:
+        return _read_db(out_dir)
+    except _DAMAGED as exc:
+        raise LibraryError(f"{out_dir}: a damaged part database ({type(exc).__name__}: "
+                           f"{exc}); write it again with citysynth ingest LIBRARY -o "
+                           f"{out_dir} --force") from None
+
+
 def _read_cached(out_dir: Path, digest: str) -> PartDB | None:
+    """The cached database when it is this library's and whole; None (ingest again,
+    which overwrites it: the cache heals) when it is missing, stale or damaged."""
     try:
         meta = json.loads((out_dir / DB_JSON).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        if meta.get("format") != FORMAT_VERSION or meta.get("library_hash") != digest:
+            return None
+        return _read_db(out_dir)
+    except _DAMAGED:
         return None
-    if meta.get("format") != FORMAT_VERSION or meta.get("library_hash") != digest:
-        return None
-    try:
-        return load_db(out_dir)
-    except (OSError, ValueError, KeyError):
-        return None
+
+
+def _save_cache(db: PartDB, out_dir: Path, root: Path) -> None:
+    """Cache ``db``; a cache folder that cannot be written (read-only, full) falls back
+    to the user's cache folder, and failing that the run goes on uncached."""
+    for folder in dict.fromkeys((out_dir, user_cache_dir(root))):
+        try:
+            save(db, folder)
+            db.path = folder
+            return
+        except OSError:
+            continue
+    db.warnings.append(f"could not cache the part database in {out_dir} (not writable); "
+                       "it is measured again next time")
 
 
 def load_library(path: str | Path) -> PartDB:

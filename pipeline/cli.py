@@ -17,7 +17,18 @@ import warnings
 from importlib.metadata import PackageNotFoundError, version
 
 from citysynth.parts_db.library import CACHE_ENV
-from citysynth.pipeline.commands import build, city, demo, diff, ingest, skeleton, solve, tower
+from citysynth.pipeline.city.process import EXIT_TERMINATED, Terminated
+from citysynth.pipeline.commands import (
+    build,
+    city,
+    demo,
+    diff,
+    ingest,
+    skeleton,
+    solve,
+    tower,
+)
+from citysynth.pipeline.compile_notice import announce_compile
 from citysynth.pipeline.errors import (
     EXIT_BAD_INPUT,
     EXIT_INFEASIBLE,
@@ -25,6 +36,7 @@ from citysynth.pipeline.errors import (
     EXIT_OK,
     USER_ERRORS,
 )
+from citysynth.pipeline.paths import check_numbers, check_out_dir
 from citysynth.skeletons import InputWarning
 
 __all__ = ["EXIT_BAD_INPUT", "EXIT_INFEASIBLE", "EXIT_INTERNAL", "EXIT_OK", "build_parser",
@@ -65,20 +77,75 @@ def _format_warning(message: Warning | str, category: type[Warning], filename: s
     return _plain_format(message, category, filename, lineno, line)
 
 
+# commands that run the solver's kernels
+SOLVING = {"solve", "building", "block", "city", "demo", "tower", "street", "gallery"}
+EXIT_PIPE = 141      # 128 + SIGPIPE, as a Unix tool killed by the closed pipe ends
+EXIT_INTERRUPTED = 130   # 128 + SIGINT
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one command; its exit code. A reader that closed the pipe (``| head -1``)
+    ends the command quietly, --help and usage errors included."""
+    try:
+        try:
+            code = _run(argv)
+        finally:
+            sys.stdout.flush()    # a closed pipe shows here, not at interpreter exit
+    except BrokenPipeError:
+        return _closed_pipe()
+    if argv is None and code in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+        # the program itself, stopped: leave now, not after a second of tearing down
+        # the loaded libraries (everything is written or swept; stdio is flushed)
+        sys.stderr.flush()
+        os._exit(code)
+    return code
+
+
+def _run(argv: list[str] | None) -> int:
     warnings.formatwarning = _format_warning
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    args = build_parser().parse_args(argv)
     if args.cache:   # the environment carries it into worker processes too
         os.environ[CACHE_ENV] = os.path.abspath(args.cache)
     try:
+        check_numbers(args)
+        if getattr(args, "out", None):
+            check_out_dir(args.out)
+        if args.command in SOLVING:
+            announce_compile()
         return int(args.run(args))
     except USER_ERRORS as exc:
         print(f"citysynth {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("citysynth: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        stopped = isinstance(exc, Terminated)
+        print(f"citysynth: {'terminated' if stopped else 'interrupted'}", file=sys.stderr)
+        return EXIT_TERMINATED if stopped else EXIT_INTERRUPTED
+    except OSError as exc:
+        if exc.errno is None or isinstance(exc, BrokenPipeError):
+            raise
+        print(f"citysynth {args.command}: error: {environment_message(exc)}",
+              file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+def environment_message(exc: OSError) -> str:
+    """One line for a failure of the machine (disk full, no permission): what, where,
+    and that running again once it is fixed picks up where this run stopped."""
+    where = f"{exc.filename}: " if exc.filename else ""
+    return (f"{where}{exc.strerror or exc}; free space or fix the permissions and run again "
+            "(what was written is kept, and a run folder resumes)")
+
+
+def _closed_pipe() -> int:
+    """The reader went away (``citysynth diff A B | head -1``): end quietly. Whatever
+    is still buffered for stdout goes to /dev/null, so the interpreter's own flush at
+    exit does not raise again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):   # stdout is not a real file (captured in tests)
+        pass
+    return EXIT_PIPE
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -191,7 +191,7 @@ def test_impossible_blocks_are_reported_and_do_not_stop_the_city(tmp_path, capsy
     cfg = tmp_path / "city.toml"
     cfg.write_text("k = 1\n[per_side]\ndoors = [4, 9]\n")   # short sides cannot
     assert city(tmp_path / "run", "--workers", "2", "--no-overview", "--config",
-                str(cfg)) == 0
+                str(cfg)) == 1    # the run is complete; exit 1 says some blocks failed
     report = json.loads((tmp_path / "run" / "report.json").read_text())
     assert report["counts"]["failed"] >= 1 and report["counts"]["built"] >= 1
     assert all("side from" in f["reason"] for f in report["failed"])
@@ -247,7 +247,7 @@ def test_a_dying_worker_fails_blocks_not_the_run(district, tmp_path, monkeypatch
 
     _dies_on_one_block.victim = sorted(layouts(district))[3].split(".")[0]
     monkeypatch.setattr(city_run, "run_block", _dies_on_one_block)   # forked workers see it
-    assert city(tmp_path, "--workers", "2", "--no-overview") == 0
+    assert city(tmp_path, "--workers", "2", "--no-overview") == 1
     report = json.loads((tmp_path / "report.json").read_text())
     died = [f for f in report["failed"] if "worker running it died" in f["reason"]]
     assert died and _dies_on_one_block.victim in {f["id"] for f in died}

@@ -123,17 +123,53 @@ def marker_path(out: Path, job_id: str) -> Path:
     return out / BLOCKS_DIR / f"{job_id}.done.json"
 
 
+def file_hash(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+_MARKER_TYPES = {"id": str, "kind": str, "zone": str, "input_hash": str, "style": str,
+                 "files": list, "status": str, "hashes": dict}
+
+
+def _marker_shape_ok(rec: object, job: BlockJob) -> bool:
+    """A marker of the shape :func:`_finish` writes, for this job, with a status that is
+    an answer (never "error"), and one hash for each of its files."""
+    if not isinstance(rec, dict):
+        return False
+    if any(not isinstance(rec.get(k), t) for k, t in _MARKER_TYPES.items()):
+        return False
+    files, hashes = rec["files"], rec["hashes"]
+    return (rec["id"] == job.id and rec["input_hash"] == job.input_hash
+            and rec["status"] in ("built", "failed", "skipped")
+            and all(isinstance(f, str) for f in files) and sorted(hashes) == sorted(files)
+            and all(isinstance(h, str) for h in hashes.values()))
+
+
+def _inside(out: Path, name: str) -> Path | None:
+    """``out / name`` when it stays inside the run folder (no absolute path, no ..)."""
+    p = Path(name)
+    if p.is_absolute() or ".." in p.parts:
+        return None
+    return out / p
+
+
 def cached(out: Path, job: BlockJob) -> BlockRecord | None:
     """The result recorded for ``job`` by an earlier run, if its inputs are unchanged
-    and its files are all there."""
+    and every file its marker vouches for is there with the content it recorded. A
+    marker of any other shape, or unreadable, means "build it again"."""
     try:
         rec = json.loads(marker_path(out, job.id).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return None
-    if rec.get("input_hash") != job.input_hash:
+    if not _marker_shape_ok(rec, job):
         return None
-    if not all((out / f).is_file() for f in rec.get("files", [])):
-        return None
+    for name, digest in rec["hashes"].items():
+        f = _inside(out, name)
+        try:
+            if f is None or not f.is_file() or file_hash(f) != digest:
+                return None
+        except OSError:
+            return None
     return cast(BlockRecord, rec)
 
 
@@ -154,22 +190,49 @@ def _pick_rank(job: BlockJob, count: int) -> int:
     return 1 + int.from_bytes(h[:8], "big") % count
 
 
+def environment_failure(exc: BaseException) -> OSError | None:
+    """The OS error (disk full, permission, I/O) behind ``exc``, if any: such a failure
+    is the machine's, not the block's, and is never recorded as the block's result."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, OSError) and e.errno is not None:
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None
+
+
 def run_block(job: BlockJob, out_dir: str) -> BlockRecord:
-    """Build one block and write its files; the record (also written as its marker)."""
+    """Build one block and write its files; the record (also written as its marker,
+    unless the block met a bug or the machine failed it)."""
     out = Path(out_dir)
     t0 = time.perf_counter()
     rec: BlockRecord = {"id": job.id, "kind": job.kind, "zone": job.zone,
                         "input_hash": job.input_hash, "style": job.style, "files": []}
     try:
         return _build(job, out, rec, t0)
-    except USER_ERRORS as exc:   # one bad block never stops the city: it is reported
-        return _finish(out, rec, "failed", t0, reason=str(exc) or type(exc).__name__)
-    except Exception as exc:     # a bug: never a block's reason, and never cached
-        rec["status"] = "error"
-        rec["error"] = f"{type(exc).__name__}: {exc}"
+    except Exception as exc:
+        env = environment_failure(exc)
+        if env is not None:   # failed this time; a rerun (with space, rights) retries it
+            rec["files"] = []
+            return _unrecorded(rec, "failed", t0, f"could not write its files ({env}); "
+                               "fix the disk or permissions and run again")
+        if isinstance(exc, USER_ERRORS):   # one bad block never stops the city
+            return _finish(out, rec, "failed", t0, reason=str(exc) or type(exc).__name__)
+        rec["error"] = f"{type(exc).__name__}: {exc}"     # a bug: never cached
         rec["traceback"] = traceback.format_exc()
-        rec.setdefault("timings", {})["total_s"] = time.perf_counter() - t0
-        return rec
+        return _unrecorded(rec, "error", t0)
+
+
+def _unrecorded(rec: BlockRecord, status: BlockStatus, t0: float,
+                reason: str | None = None) -> BlockRecord:
+    """A record that writes no marker (a bug, or a failure of the machine)."""
+    rec["status"] = status
+    if reason:
+        rec["reason"] = reason
+    rec.setdefault("timings", {})["total_s"] = time.perf_counter() - t0
+    return rec
 
 
 def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord:
@@ -209,9 +272,13 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
 
 def _finish(out: Path, rec: BlockRecord, status: BlockStatus, t0: float,
             reason: str | None = None) -> BlockRecord:
+    """Record the block's answer in its marker, written last and with the hash of every
+    file it vouches for; a marker that cannot be written leaves the block unrecorded."""
     rec["status"] = status
     if reason:
         rec["reason"] = reason
     rec.setdefault("timings", {})["total_s"] = time.perf_counter() - t0
-    write_text(marker_path(out, rec["id"]), json.dumps(rec, sort_keys=True, indent=1) + "\n")
+    marker = {**rec, "hashes": {f: file_hash(out / f) for f in rec["files"]}}
+    write_text(marker_path(out, rec["id"]), json.dumps(marker, sort_keys=True, indent=1)
+               + "\n")
     return rec

@@ -43,6 +43,12 @@ from citysynth.pipeline.city.jobs import (
     run_block,
 )
 from citysynth.pipeline.city.outputs import Report, write_summary
+from citysynth.pipeline.city.process import (
+    run_lock,
+    stop_pool,
+    terminate_as_interrupt,
+    worker_init,
+)
 from citysynth.pipeline.errors import ConfigError
 from citysynth.pipeline.layouts import check_style, default_style
 from citysynth.skeletons import Feature, Frame, parse_geojson, read_geojson
@@ -211,24 +217,35 @@ def _local(jobs: list[BlockJob], out: Path, workers: int) -> Iterator[BlockRecor
         for job in jobs:
             yield run_block(job, str(out))
         return
-    with ProcessPoolExecutor(workers) as pool:
+    pool = ProcessPoolExecutor(workers, initializer=worker_init, initargs=(os.getpid(),))
+    try:
         futures = {pool.submit(run_block, job, str(out)): job for job in jobs}
         for fut in as_completed(futures):
             yield _result(fut, futures[fut])
+    except BaseException:   # interrupted or terminated: stop now, not after the queue
+        stop_pool(pool)
+        raise
+    pool.shutdown(wait=True)
 
 
-def _dask(jobs: list[BlockJob], out: Path, address: str) -> Iterator[BlockRecord]:
+def connect(address: str):
+    """A Dask client for ``address``; any failure to reach or parse it is the user's."""
     try:
         from distributed import Client
-        from distributed import as_completed as dask_completed
     except ImportError:   # pragma: no cover - distributed is a dependency
         raise ConfigError("--scheduler needs the distributed package (pip install "
                           "distributed)") from None
     try:
-        client = Client(address, timeout=CONNECT_TIMEOUT)
-    except (OSError, TimeoutError) as exc:
+        return Client(address, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
         raise ConfigError(f"cannot reach the Dask scheduler at {address} ({exc}); start "
-                          "one (dask scheduler) or leave --scheduler out") from None
+                          "one (dask scheduler), give its address as tcp://HOST:PORT, or "
+                          "leave --scheduler out") from None
+
+
+def _dask(jobs: list[BlockJob], out: Path, client) -> Iterator[BlockRecord]:
+    from distributed import as_completed as dask_completed
+
     with client:
         futures = client.map(run_block, jobs, out_dir=str(out),
                              key=[f"citysynth-{j.id}-{j.input_hash[:8]}" for j in jobs])
@@ -252,29 +269,35 @@ def _result(fut: _Finished, job: BlockJob) -> BlockRecord:
 def run_city(inputs: CityInputs, out_dir: str | Path, *, workers: int = 1,
              scheduler: str | None = None,
              progress: Progress | None = None) -> Report:
-    """Run every job not already done; write the manifest and the report; the report."""
+    """Run every job not already done; write the manifest and the report; the report.
+
+    The scheduler is reached before the run folder is made (an unreachable one leaves
+    nothing behind); the folder is locked for the run (:func:`run_lock`); SIGTERM stops
+    the run as SIGINT does, the workers with it."""
     out = Path(out_dir)
-    (out / BLOCKS_DIR).mkdir(parents=True, exist_ok=True)
-    for folder in (out, out / BLOCKS_DIR, out / BLOCKS_DIR / "parts"):
-        sweep_temporaries(folder)
-    _remove_stale(out, {j.id for j in inputs.jobs})
-    t0 = time.perf_counter()
-    results: dict[str, BlockRecord] = {}
-    todo = []
-    for job in inputs.jobs:
-        rec = cached(out, job)
-        if rec is not None:
-            results[job.id] = {**rec, "cached": True}
-        else:
-            todo.append(job)
-    stream: Iterable[BlockRecord] = _dask(todo, out, scheduler) if scheduler else \
-        _local(todo, out, workers)
-    for done, rec in enumerate(stream, 1):
-        results[rec["id"]] = rec
-        if progress:
-            progress(done, len(todo), rec)
-    t_blocks = time.perf_counter() - t0
-    return write_summary(inputs, results, out, t_blocks, workers, scheduler)
+    client = connect(scheduler) if scheduler else None
+    with run_lock(out), terminate_as_interrupt():
+        for folder in (out, out / BLOCKS_DIR, out / BLOCKS_DIR / "parts"):
+            sweep_temporaries(folder)
+        _remove_stale(out, {j.id for j in inputs.jobs})
+        t0 = time.perf_counter()
+        results: dict[str, BlockRecord] = {}
+        todo = []
+        tell = progress or (lambda done, total, rec: None)
+        for job in inputs.jobs:
+            rec = cached(out, job)
+            if rec is not None:
+                results[job.id] = {**rec, "cached": True}
+                tell(len(results), len(inputs.jobs), results[job.id])
+            else:
+                todo.append(job)
+        stream: Iterable[BlockRecord] = _dask(todo, out, client) if client else \
+            _local(todo, out, workers)
+        for rec in stream:
+            results[rec["id"]] = rec
+            tell(len(results), len(inputs.jobs), rec)
+        t_blocks = time.perf_counter() - t0
+        return write_summary(inputs, results, out, t_blocks, workers, scheduler)
 
 
 def _remove_stale(out: Path, keep: set[str]) -> None:
@@ -287,19 +310,26 @@ def _remove_stale(out: Path, keep: set[str]) -> None:
                 (out / BLOCKS_DIR / f"{bid}{suffix}").unlink(missing_ok=True)
 
 
-def progress_printer(stream: TextIO = sys.stderr) -> Progress:
-    """One updating line on a terminal; a line per tenth of the work otherwise."""
+def progress_printer(stream: TextIO | None = None, pieces: int = 0) -> Progress:
+    """One updating line on a terminal; a line per tenth of the work otherwise. Its
+    counts are the summary's: ``skipped`` starts at the ``pieces`` skipped before any
+    block ran, and blocks served from an earlier run count as built (or failed, or
+    skipped) as they were, and as cached. ``stream``: stderr (as it is when called)."""
+    stream = stream or sys.stderr
     tty = stream.isatty()
     t0 = time.perf_counter()
-    state = dict.fromkeys((*STATUSES, "step"), 0)
+    state = dict.fromkeys((*STATUSES, "step", "cached", "ran"), 0)
+    state["skipped"] = pieces
 
     def show(done: int, total: int, rec: BlockRecord) -> None:
         state[rec["status"]] += 1
-        rate = done / max(time.perf_counter() - t0, 1e-9)
+        state["cached" if rec.get("cached") else "ran"] += 1
+        rate = state["ran"] / max(time.perf_counter() - t0, 1e-9)
         bugs = f", internal errors {state['error']}" if state["error"] else ""
-        line = (f"[{done:>{len(str(total))}}/{total}] built {state['built']}, failed "
-                f"{state['failed']}, skipped {state['skipped']}{bugs} "
-                f"({rate:.1f} blocks/s)")
+        cache = f" ({state['cached']} cached)" if state["cached"] else ""
+        speed = f" ({rate:.1f} blocks/s)" if state["ran"] else ""
+        line = (f"[{done:>{len(str(total))}}/{total}] built {state['built']}{cache}, "
+                f"failed {state['failed']}, skipped {state['skipped']}{bugs}{speed}")
         if tty:
             print("\r" + line, end="\n" if done == total else "", file=stream, flush=True)
         elif total and (done * 10 // total > state["step"] or done == total):

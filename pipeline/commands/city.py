@@ -1,7 +1,8 @@
 """``citysynth city``: a whole city from a street network (and/or footprints).
 
-Exit codes: 0 when the run finished (blocks that failed are listed, with reasons, in
-the summary and in report.json: one bad block never stops the city); 2 on bad input
+Exit codes: 0 when every attempted block was built; 1 when some failed (each listed,
+with its reason, in the summary and in report.json: one bad block never stops the
+city, and the run folder is complete and resumable all the same); 2 on bad input
 (streets, footprints, config, library), with one line and nothing written; 3 when a
 block met a bug in citysynth (the rest of the city is still built and written; each
 bug's traceback goes to stderr and report.json).
@@ -16,7 +17,7 @@ from pathlib import Path
 from citysynth.pipeline.city.config import load_config
 from citysynth.pipeline.city.outputs import Report, finish_city
 from citysynth.pipeline.city.run import cpu_count, prepare, progress_printer, run_city
-from citysynth.pipeline.errors import EXIT_INTERNAL, EXIT_OK, UsageError
+from citysynth.pipeline.errors import EXIT_INFEASIBLE, EXIT_INTERNAL, EXIT_OK, UsageError
 
 
 def register(sub) -> None:
@@ -56,7 +57,7 @@ def run(args) -> int:
     print(f"citysynth city: {len(inputs.jobs)} blocks to build ({len(inputs.skipped)} "
           f"pieces skipped) on {where}, into {args.out}/")
     report = run_city(inputs, args.out, workers=workers, scheduler=args.scheduler,
-                      progress=progress_printer())
+                      progress=progress_printer(pieces=len(inputs.skipped)))
     if report["counts"]["cached"]:
         print(f"{report['counts']['cached']} blocks were unchanged since the last run in "
               f"{args.out}/ and were not built again")
@@ -64,7 +65,7 @@ def run(args) -> int:
                             started=t0)
     print(summary_table(report))
     print(f"wrote {city}" + (f", {png}" if png else "") + f", {Path(args.out) / 'report.json'}")
-    return report_bugs(report, "citysynth city")
+    return exit_code(report, "citysynth city")
 
 
 def report_bugs(report: Report, who: str) -> int:
@@ -74,6 +75,14 @@ def report_bugs(report: Report, who: str) -> int:
         print(f"{who}: internal error in block {e['id']} (a bug in citysynth; please "
               f"report it with this traceback):\n{e['traceback'].rstrip()}", file=sys.stderr)
     return EXIT_INTERNAL if report["errors"] else EXIT_OK
+
+
+def exit_code(report: Report, who: str) -> int:
+    """A city's exit code: :data:`EXIT_INTERNAL` when a block met a bug (each printed
+    by :func:`report_bugs`), else :data:`EXIT_INFEASIBLE` when a block failed, else
+    :data:`EXIT_OK`."""
+    return report_bugs(report, who) or (EXIT_INFEASIBLE if report["counts"]["failed"]
+                                        else EXIT_OK)
 
 
 def summary_table(report: Report) -> str:

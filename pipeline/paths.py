@@ -1,0 +1,36 @@
+"""Checks on the command line's output folder, made before anything is read or written,
+so a bad ``-o`` is one message (exit 2) and leaves nothing behind."""
+
+from __future__ import annotations
+
+import math
+import os
+from argparse import Namespace
+from pathlib import Path
+
+from citysynth.pipeline.errors import UsageError
+
+
+def check_out_dir(out: str | Path, option: str = "-o") -> None:
+    """``out`` is a folder that exists, or can be made, and may be written."""
+    p = Path(out)
+    if p.exists() and not p.is_dir():
+        raise UsageError(f"{p}: a file, not a folder; {option} names the output folder "
+                         "(give a folder path)")
+    anc = p.absolute()
+    while not anc.exists():
+        anc = anc.parent
+    if not anc.is_dir():
+        raise UsageError(f"{anc}: a file, so {p} cannot be made under it; give another "
+                         f"{option} folder")
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise UsageError(f"{anc}: may not be written (read-only or no permission), so "
+                         f"{p} cannot be written; give another {option} folder")
+
+
+def check_numbers(args: Namespace) -> None:
+    """Every number given on the command line is finite (``--setback nan`` is not)."""
+    for name, value in sorted(vars(args).items()):
+        if isinstance(value, float) and not math.isfinite(value):
+            raise UsageError(f"--{name.replace('_', '-')}: {value} is not a finite number; "
+                             "give a number")

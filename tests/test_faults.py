@@ -1,0 +1,257 @@
+"""Faults on a real (small) city run: signals to the main process, damaged run folders,
+a full disk, two runs on one folder, a damaged part-database cache, closed pipes.
+
+The city is three blocks between generated streets (lon/lat near Helsinki), so each
+run takes seconds; one clean run is the reference every repaired run must equal byte
+for byte (layouts, block layers, manifest).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from citysynth.pipeline.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+LIB = ROOT / "examples" / "library"
+CLI = [sys.executable, "-m", "citysynth.pipeline.cli"]
+
+
+def grid_streets(path: Path, blocks: int = 3) -> Path:
+    """Streets around ``blocks`` blocks of 70 x 60 m in a row."""
+    lon0, lat0 = 24.94, 60.17
+    mx, my = 1 / (111320 * math.cos(math.radians(lat0))), 1 / 110540
+    lines = [[(i * 70.0, -10.0), (i * 70.0, 70.0)] for i in range(blocks + 1)]
+    lines += [[(-10.0, y), (blocks * 70.0 + 10, y)] for y in (0.0, 60.0)]
+    feats = [{"type": "Feature", "properties": {"highway": "residential"},
+              "geometry": {"type": "LineString",
+                           "coordinates": [[lon0 + x * mx, lat0 + y * my] for x, y in ln]}}
+             for ln in lines]
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+    return path
+
+
+def city_args(streets: Path, out: Path, *extra: str) -> list[str]:
+    return ["city", "--streets", str(streets), "--library", str(LIB), "-o", str(out),
+            "--no-overview", *extra]
+
+
+def snapshot(out: Path) -> dict[str, bytes]:
+    """What two runs of the same inputs must write identically."""
+    files = sorted((out / "blocks").glob("*.layout.json")) + \
+        sorted((out / "blocks").glob("*.usda")) + [out / "manifest.json"]
+    return {p.name: p.read_bytes() for p in files}
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory):
+    base = tmp_path_factory.mktemp("faults")
+    streets = grid_streets(base / "streets.geojson")
+    out = base / "clean"
+    assert main(city_args(streets, out, "--workers", "2")) == 0
+    snap = snapshot(out)
+    assert len([n for n in snap if n.endswith(".layout.json")]) == 3
+    return streets, out, snap
+
+
+def _state(pid: int) -> str | None:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return None
+
+
+def alive(pid: int) -> bool:
+    return _state(pid) not in (None, "Z", "X")
+
+
+def children(pid: int) -> set[int]:
+    kids: set[int] = set()
+    for task in Path(f"/proc/{pid}/task").glob("*"):
+        try:
+            kids |= {int(c) for c in (task / "children").read_text().split()}
+        except OSError:
+            continue
+    return kids
+
+
+def start_and_wait_for_workers(streets: Path, out: Path) -> tuple[subprocess.Popen, set[int]]:
+    proc = subprocess.Popen([*CLI, *city_args(streets, out, "--workers", "2")], cwd=ROOT,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 180
+    workers: set[int] = set()
+    while time.monotonic() < deadline and proc.poll() is None and len(workers) < 2:
+        workers = children(proc.pid)
+        time.sleep(0.05)
+    assert len(workers) == 2, "the run never started its two workers"
+    time.sleep(0.5)          # both are building a block now
+    return proc, workers
+
+
+@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130),
+                                       (signal.SIGKILL, -9)])
+def test_a_signal_stops_the_workers_and_the_rerun_repairs(clean, tmp_path, sig, code):
+    streets, _, snap = clean
+    out = tmp_path / "run"
+    proc, workers = start_and_wait_for_workers(streets, out)
+    os.kill(proc.pid, sig)
+    t0 = time.monotonic()
+    _, err = proc.communicate(timeout=30)
+    if sig != signal.SIGKILL:
+        assert time.monotonic() - t0 < 1.5, "the run took too long to stop"
+        assert "Traceback" not in err, err
+    assert proc.returncode == code, err
+    time.sleep(1.0)
+    assert not [w for w in workers if alive(w)], "a worker outlived its run"
+    assert main(city_args(streets, out, "--workers", "2")) == 0
+    assert snapshot(out) == snap
+    assert not [p for p in out.rglob(".*") if p.is_file()], "temporaries left behind"
+
+
+def test_damaged_blocks_and_markers_are_rebuilt(clean, tmp_path, capsys):
+    streets, ref, snap = clean
+    out = tmp_path / "run"
+    shutil.copytree(ref, out)
+    blocks = sorted((out / "blocks").glob("*.layout.json"))
+    markers = sorted((out / "blocks").glob("*.done.json"))
+    text = blocks[0].read_text()
+    blocks[0].write_text(text[: len(text) // 2])            # truncated, marker intact
+    markers[1].write_text("[1, 2, 3]")                      # valid JSON, wrong shape
+    bad = json.loads(markers[2].read_text())
+    bad["hashes"] = "none"                                  # a wrong-shaped field
+    markers[2].write_text(json.dumps(bad))
+    capsys.readouterr()
+    assert main(city_args(streets, out, "--workers", "1")) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["cached"] == 0 and report["counts"]["built"] == 3
+    assert snapshot(out) == snap
+    for marker in [{"status": "built"}, None, "text", {"id": 3}]:   # and each alone
+        markers[0].write_text(json.dumps(marker))
+        assert main(city_args(streets, out, "--workers", "1")) == 0
+        assert json.loads((out / "report.json").read_text())["counts"]["cached"] == 2
+    assert snapshot(out) == snap
+
+
+def test_progress_and_summary_agree(clean, tmp_path, capsys):
+    streets, ref, _ = clean
+    out = tmp_path / "run"
+    shutil.copytree(ref, out)
+    next(iter(sorted((out / "blocks").glob("*.done.json")))).unlink()
+    assert main(city_args(streets, out, "--workers", "1")) == 0
+    cap = capsys.readouterr()
+    last = [ln for ln in cap.err.splitlines() if ln.startswith("[")][-1]
+    table = dict(ln.rsplit(None, 1) for ln in cap.out.splitlines()
+                 if ln.split()[:1] in (["built"], ["failed"], ["skipped"], ["cached"]))
+    assert f"built {table['built']} ({table['cached']} cached)" in last
+    assert f"failed {table['failed']}, skipped {table['skipped']}" in last
+    assert last.startswith("[3/3]")
+
+
+def test_a_second_run_on_the_folder_is_refused(clean, tmp_path, capsys):
+    from citysynth.pipeline.city.process import LOCK, run_lock
+
+    streets, ref, snap = clean
+    out = tmp_path / "run"
+    shutil.copytree(ref, out)
+    with run_lock(out):
+        assert main(city_args(streets, out, "--workers", "1")) == 2
+        err = capsys.readouterr().err
+        assert "another citysynth city run" in err and f"pid {os.getpid()}" in err
+        assert len(err.strip().splitlines()) == 1
+    (out / LOCK).write_text("999999999 2026-01-01T00:00:00\n")   # a crashed run's lock
+    assert main(city_args(streets, out, "--workers", "1")) == 0
+    assert not (out / LOCK).exists() and snapshot(out) == snap
+
+
+def test_a_second_process_is_refused_while_a_run_holds_the_folder(clean, tmp_path):
+    streets, ref, _ = clean
+    out = tmp_path / "run"
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import sys, time; from pathlib import Path\n"
+        "from citysynth.pipeline.city.process import run_lock\n"
+        f"with run_lock(Path({str(out)!r})):\n"
+        "    print('held', flush=True); time.sleep(120)")],
+        cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline() == "held\n"
+        second = subprocess.run([*CLI, *city_args(streets, out, "--workers", "1")],
+                                cwd=ROOT, capture_output=True, text=True, timeout=120)
+    finally:
+        holder.kill()
+        holder.wait()
+    assert second.returncode == 2, second.stderr
+    assert f"another citysynth city run (pid {holder.pid})" in second.stderr
+    assert "Traceback" not in second.stderr and len(second.stderr.splitlines()) == 1
+
+
+def _mount_tmpfs(where: Path, size: str) -> None:
+    where.mkdir()
+    res = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(where)],
+                         capture_output=True, text=True)
+    if res.returncode != 0:
+        reason = f"cannot mount a small filesystem here ({res.stderr.strip()})"
+        print(reason)
+        pytest.skip(reason)
+
+
+def test_a_full_disk_is_never_cached_and_the_rerun_recovers(clean, tmp_path, capsys):
+    streets, _, snap = clean
+    disk = tmp_path / "disk"
+    _mount_tmpfs(disk, "200k")
+    try:
+        out = disk / "run"
+        code = main(city_args(streets, out, "--workers", "1"))
+        cap = capsys.readouterr()
+        assert code in (1, 2), cap
+        assert "Traceback" not in cap.err
+        assert "No space left on device" in cap.out + cap.err
+        for marker in (out / "blocks").glob("*.done.json"):   # any marker is a success
+            assert json.loads(marker.read_text())["status"] == "built"
+        subprocess.run(["mount", "-o", "remount,size=8m", str(disk)], check=True)
+        assert main(city_args(streets, out, "--workers", "1")) == 0
+        assert snapshot(out) == snap
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], check=False)
+
+
+def test_a_damaged_part_database_cache_heals(tmp_path, monkeypatch):
+    from citysynth.parts_db import load_library
+    from citysynth.parts_db.library import DB_JSON, DB_NPZ, cache_dir
+
+    monkeypatch.setenv("CITYSYNTH_CACHE", str(tmp_path / "cache"))
+    first = load_library(LIB)
+    folder = cache_dir(LIB)
+    damage = [(DB_NPZ, lambda b: b[: len(b) // 2]), (DB_NPZ, lambda b: b[:-9] + b"123456789"),
+              (DB_JSON, lambda b: b.replace(b'"parts"', b'"partz"'))]
+    for name, how in damage:
+        f = folder / name
+        f.write_bytes(how(f.read_bytes()))
+        db = load_library(LIB)
+        assert not db.cache_hit and db.ids == first.ids, name
+        assert load_library(LIB).cache_hit, f"{name}: the cache did not heal"
+
+
+def test_a_closed_pipe_ends_quietly(clean):
+    """The reader is gone before the first write (as ``| head -1`` is after a line)."""
+    _, ref, _ = clean
+    for args in (["diff", str(ref), str(ref), "--json"], ["--help"],
+                 ["solve", str(ROOT / "examples" / "street_front.json"), "--json"]):
+        r, w = os.pipe()
+        os.close(r)
+        try:
+            res = subprocess.run([*CLI, *args], stdout=w, stderr=subprocess.PIPE, cwd=ROOT,
+                                 text=True, timeout=300)
+        finally:
+            os.close(w)
+        assert res.stderr == "", (args, res.stderr)
+        assert res.returncode == (0 if args == ["--help"] else 141), args
