@@ -41,7 +41,12 @@ from citysynth.export.materials import (
     opacity,
     roughness,
 )
-from citysynth.export.naming import instance_labels, stage_group, structure_group
+from citysynth.export.naming import (
+    constraints_met,
+    instance_labels,
+    stage_group,
+    structure_group,
+)
 from citysynth.export.prototypes import prototype_pieces
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.files import atomic_path
@@ -209,17 +214,6 @@ def layout_facts(lay: Layout) -> dict:
             "library_hash": lay.library["hash"], "parts_used": lay.parts_used(),
             "constraints_met": constraints_met(lay), "frame": lay.frame,
             "georeference": georeference(lay.frame)}
-
-
-def constraints_met(lay: Layout) -> bool:
-    """Whether every resource each stage and structure asked for lies in its bounds
-    (the solver guarantees it; a DCC user reads it without trusting that)."""
-    eps = 1e-6
-    checks = [(st.get("asked", {}), st.get("resources", {})) for st in lay.structures]
-    checks += [(sg["asked"], sg["met"]) for st in lay.structures for sg in st["stages"]]
-    return all((lo is None or lo - eps <= met.get(r, 0.0))
-               and (hi is None or met.get(r, 0.0) <= hi + eps)
-               for asked, met in checks for r, (lo, hi) in asked.items())
 
 
 def write_glb(lay: Layout, db: PartDB, path: str | Path) -> Path:

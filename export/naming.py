@@ -3,7 +3,8 @@ structure (``structure_00``), in it one per stage (``stage_03``) and one for the
 points (``keys``), and each part instance named for its part and its place
 (``classic_mid_5.2_4s_07``: the stage's eighth part; ``classic_corner_90_k02``: the
 part at key point 2, ``_k02_1`` for the second leg of a mitre there). Deterministic:
-a function of the layout's instance order only."""
+a function of the layout's instance order only. And the one layout fact both
+writers compute rather than copy: whether every asked constraint is met."""
 
 from __future__ import annotations
 
@@ -31,3 +32,14 @@ def instance_labels(lay: Layout) -> list[str]:
         else:
             labels.append(f"{inst.part}_k{inst.key:02d}" + (f"_{n}" if n else ""))
     return labels
+
+
+def constraints_met(lay: Layout) -> bool:
+    """Whether every resource each stage and structure asked for lies in its bounds
+    (the solver guarantees it; a DCC user reads it without trusting that)."""
+    eps = 1e-6
+    checks = [(st.get("asked", {}), st.get("resources", {})) for st in lay.structures]
+    checks += [(sg["asked"], sg["met"]) for st in lay.structures for sg in st["stages"]]
+    return all((lo is None or lo - eps <= met.get(r, 0.0))
+               and (hi is None or met.get(r, 0.0) <= hi + eps)
+               for asked, met in checks for r, (lo, hi) in asked.items())

@@ -30,11 +30,27 @@ import numpy as np
 from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, UsdShade, UsdValidation, Vt
 
 from citysynth.export.layout import Instance, Layout
+from citysynth.export.materials import (
+    georeference,
+    linear_rgb,
+    material_name,
+    opacity,
+    roughness,
+)
+from citysynth.export.naming import (
+    constraints_met,
+    instance_labels,
+    stage_group,
+    structure_group,
+)
 from citysynth.export.prototypes import prototype_pieces
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.files import atomic_path
+from citysynth.parts_db.geometry import Piece
 
 PARTS_DIR = "parts"
+MATERIALS_DIR = "materials"   # in PARTS_DIR: one small layer per library material
+USER = "userProperties:citysynth:"   # attributes Blender, Maya and Houdini show
 
 
 def prim_name(text: str) -> str:
@@ -77,9 +93,17 @@ def part_file(part_id: str) -> str:
     return f"{PARTS_DIR}/{prim_name(part_id)}.usdc"
 
 
+def material_file(name: str) -> str:
+    """A library material's layer, relative to a part file."""
+    return f"{MATERIALS_DIR}/{name}.usda"
+
+
 def write_part(db: PartDB, inst: Instance, path: Path) -> None:
     """The prototype ``inst`` shows (its part, or the part cut at a joint) as a
-    component model with a mesh and a preview material per colour."""
+    component model with a mesh per piece, each bound to its library material: a
+    ``Looks/<material>`` prim referencing the shared material layer (a prototype
+    cannot see outside itself, so each holds a reference, and every one of them is the
+    same material). ``displayColor`` (linear) for viewers that skip materials."""
     part = next(p for p in db.parts if p.id == inst.part)
     stage = Usd.Stage.CreateInMemory()
     name = prim_name(inst.proto)
@@ -106,36 +130,60 @@ def write_part(db: PartDB, inst: Instance, path: Path) -> None:
         mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
         mesh.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*pts.min(axis=0).tolist()),
                                              Gf.Vec3f(*pts.max(axis=0).tolist())]))
-        material = _preview_material(stage, looks.GetPath().AppendChild(label), piece)
+        mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set(
+            Vt.Vec3fArray([Gf.Vec3f(*linear_rgb(piece))]))
+        if piece.rgba[3] < 255:
+            mesh.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.constant).Set(
+                Vt.FloatArray([opacity(piece)]))
+        material = UsdShade.Material.Define(
+            stage, looks.GetPath().AppendChild(material_name(piece)))
         UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
     stage.SetDefaultPrim(root.GetPrim())
+    # the references to the library go on a copy no stage composes: an anonymous
+    # layer cannot resolve a relative path, and a stage would complain of each one
+    layer = Sdf.Layer.CreateAnonymous(".usdc")
+    layer.TransferContent(stage.GetRootLayer())
+    for spec in layer.GetPrimAtPath(looks.GetPath()).nameChildren:
+        spec.referenceList.Prepend(Sdf.Reference(f"./{material_file(spec.name)}"))
+    _stage_metadata(layer, name)
+    _export(layer, path)
+
+
+def write_material(piece: Piece, path: Path) -> None:
+    """A library material's layer: one ``UsdPreviewSurface`` material (diffuse colour
+    in linear space, roughness, opacity), its default prim."""
+    name = material_name(piece)
+    stage = Usd.Stage.CreateInMemory()
+    material = UsdShade.Material.Define(stage, f"/{name}")
+    shader = UsdShade.Shader.Define(stage, f"/{name}/PreviewSurface")
+    shader.CreateIdAttr("UsdPreviewSurface")
+    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(
+        Gf.Vec3f(*linear_rgb(piece)))
+    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(roughness(piece))
+    shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.0)
+    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(opacity(piece))
+    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
+    material.GetPrim().SetCustomDataByKey("citysynth:material", name)
+    stage.SetDefaultPrim(material.GetPrim())
     layer = stage.GetRootLayer()
     _stage_metadata(layer, name)
     _export(layer, path)
 
 
-def _preview_material(stage, path: Sdf.Path, piece) -> UsdShade.Material:
-    material = UsdShade.Material.Define(stage, path)
-    shader = UsdShade.Shader.Define(stage, path.AppendChild("PreviewSurface"))
-    shader.CreateIdAttr("UsdPreviewSurface")
-    rgb = [c / 255.0 for c in piece.rgba[:3]]
-    glass = piece.name.startswith("window")
-    shader.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*rgb))
-    shader.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.15 if glass else 0.8)
-    shader.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(0.0)
-    shader.CreateInput("opacity", Sdf.ValueTypeNames.Float).Set(piece.rgba[3] / 255.0)
-    material.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), "surface")
-    return material
-
-
 def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path) -> list[Path]:
-    """Write the prototype files a layer references that are not there yet (a part
-    file's name carries no library hash: a run folder belongs to one library, see
-    ``write_layout``; a cut prototype's name carries its cut's)."""
+    """Write the prototype files a layer references that are not there yet, and the
+    library materials they bind (a part file's name carries no library hash: a run
+    folder belongs to one library, see ``write_layout``; a cut prototype's name carries
+    its cut's)."""
     written = []
     for proto, inst in sorted(prototypes.items()):
         path = out_dir / part_file(proto)
         if not path.is_file():
+            for piece in prototype_pieces(db, inst):
+                mat = path.parent / material_file(material_name(piece))
+                if not mat.is_file():
+                    write_material(piece, mat)
+                    written.append(mat)
             write_part(db, inst, path)
             written.append(path)
     return written
@@ -143,83 +191,160 @@ def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path) -> 
 
 # --- layouts and cities ----------------------------------------------------------------
 
+def _user(spec: Sdf.PrimSpec, name: str, value, type_name) -> None:
+    """A ``userProperties:citysynth:<name>`` attribute (custom), which DCCs list as the
+    prim's user or custom properties."""
+    attr = Sdf.AttributeSpec(spec, USER + name, type_name)
+    attr.custom = True
+    attr.default = value
+
+
+def _xform(spec: Sdf.PrimSpec, name: str, type_name, value) -> None:
+    op = Sdf.AttributeSpec(spec, name, type_name)
+    op.default = value
+    order = Sdf.AttributeSpec(spec, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
+                              Sdf.VariabilityUniform)
+    order.default = Vt.TokenArray([name])
+
+
+def _georeference(spec: Sdf.PrimSpec, frame: str) -> dict:
+    """The frame's CRS and origin (lon/lat) as attributes on ``spec``; the data."""
+    geo = georeference(frame)
+    if geo:
+        _user(spec, "crs", geo["crs"], Sdf.ValueTypeNames.String)
+        _user(spec, "origin", Gf.Vec2d(*geo["origin"]), Sdf.ValueTypeNames.Double2)
+        if "origin_lon" in geo:
+            _user(spec, "origin_lon", geo["origin_lon"], Sdf.ValueTypeNames.Double)
+            _user(spec, "origin_lat", geo["origin_lat"], Sdf.ValueTypeNames.Double)
+    return geo
+
+
+def _layout_root(layer: Sdf.Layer, lay: Layout) -> Sdf.PrimSpec:
+    root = Sdf.PrimSpec(layer, prim_name(lay.name), Sdf.SpecifierDef, "Xform")
+    root.kind = Kind.Tokens.assembly
+    met = constraints_met(lay)
+    geo = _georeference(root, lay.frame)
+    root.customData = _vt({"citysynth": {
+        "schema": "citysynth.layout", "rank": lay.rank, "cost": lay.cost,
+        "style": lay.style, "library": lay.library["name"],
+        "library_hash": lay.library["hash"], "parts_used": lay.parts_used(),
+        "frame": lay.frame, "constraints_met": met, "georeference": geo}})
+    _user(root, "rank", lay.rank, Sdf.ValueTypeNames.Int)
+    _user(root, "cost", float(lay.cost), Sdf.ValueTypeNames.Double)
+    _user(root, "constraints_met", met, Sdf.ValueTypeNames.Bool)
+    _user(root, "style", lay.style, Sdf.ValueTypeNames.String)
+    _user(root, "parts_used", Vt.StringArray(lay.parts_used()), Sdf.ValueTypeNames.StringArray)
+    return root
+
+
+def _group(parent: Sdf.PrimSpec, name: str, data: dict) -> Sdf.PrimSpec:
+    g = Sdf.PrimSpec(parent, name, Sdf.SpecifierDef, "Xform")
+    g.kind = Kind.Tokens.group
+    g.customData = _vt({"citysynth": data})
+    return g
+
+
+def _structure_groups(root: Sdf.PrimSpec, lay: Layout) -> dict[tuple, Sdf.PrimSpec]:
+    """A group per structure, in it one per stage and one for the key points."""
+    groups: dict[tuple, Sdf.PrimSpec] = {}
+    for si, st in enumerate(lay.structures):
+        data = {"name": st["name"], "cost": st["cost"], "met": st["resources"]}
+        if "asked" in st:
+            data["asked"] = {k: list(v) for k, v in st["asked"].items()}
+        sgroup = _group(root, structure_group(si), data)
+        _user(sgroup, "cost", float(st["cost"]), Sdf.ValueTypeNames.Double)
+        groups[(si, "keys")] = _group(sgroup, "keys", {"keys": st.get("keys", [])})
+        for s, stage in enumerate(st["stages"]):
+            g = _group(sgroup, f"stage_{s:02d}", {
+                "asked": {k: list(v) for k, v in stage["asked"].items()},
+                "met": stage["met"], "stretch": stage["stretch"],
+                "length": stage["length"], "parts": stage["parts"]})
+            for res, value in sorted(stage["met"].items()):
+                _user(g, f"met:{prim_name(res)}", float(value), Sdf.ValueTypeNames.Double)
+            groups[(si, f"stage_{s:02d}")] = g
+    return groups
+
+
 def write_layout(lay: Layout, db: PartDB, path: str | Path) -> Path:
-    """The layout's layer at ``path`` (and its part files beside it, in ``parts/``)."""
+    """The layout's layer at ``path`` (and its part files beside it, in ``parts/``):
+    prims ``<layout>/structure_00/stage_03/<part>_07`` (see
+    :mod:`~citysynth.export.naming`), each instanceable and referencing its part."""
     path = Path(path)
     ensure_parts(db, lay.prototypes(), path.parent)
     layer = Sdf.Layer.CreateAnonymous(".usda")
     root_name = prim_name(lay.name)
     with Sdf.ChangeBlock():
-        root = Sdf.PrimSpec(layer, root_name, Sdf.SpecifierDef, "Xform")
-        root.kind = Kind.Tokens.assembly
-        root.customData = _vt({"citysynth": {
-            "schema": "citysynth.layout", "rank": lay.rank, "cost": lay.cost,
-            "style": lay.style, "library": lay.library["name"],
-            "library_hash": lay.library["hash"], "parts_used": lay.parts_used(),
-            "frame": lay.frame}})
-        groups: dict[tuple, Sdf.PrimSpec] = {}
-        for si, st in enumerate(lay.structures):
-            sgroup = Sdf.PrimSpec(root, f"structure_{si:02d}", Sdf.SpecifierDef, "Xform")
-            sgroup.kind = Kind.Tokens.group
-            data = {"name": st["name"], "cost": st["cost"], "met": st["resources"]}
-            if "asked" in st:
-                data["asked"] = {k: list(v) for k, v in st["asked"].items()}
-            sgroup.customData = _vt({"citysynth": data})
-            keys = Sdf.PrimSpec(sgroup, "keys", Sdf.SpecifierDef, "Xform")
-            keys.kind = Kind.Tokens.group
-            groups[(si, None)] = keys
-            for s, stage in enumerate(st["stages"]):
-                g = Sdf.PrimSpec(sgroup, f"stage_{s:03d}", Sdf.SpecifierDef, "Xform")
-                g.kind = Kind.Tokens.group
-                g.customData = _vt({"citysynth": {
-                    "asked": {k: list(v) for k, v in stage["asked"].items()},
-                    "met": stage["met"], "stretch": stage["stretch"],
-                    "length": stage["length"], "parts": stage["parts"]}})
-                groups[(si, s)] = g
-        counters: dict[tuple, int] = {}
-        for inst in lay.instances:
-            # fillers count along their stage; a key point has one part, or two (a
-            # mitre: the end parts on either side of the corner)
-            gkey = (inst.structure, inst.stage, inst.key)
-            n = counters.get(gkey, 0)
-            counters[gkey] = n + 1
-            label = f"part_{n:03d}" if inst.stage is not None else \
-                f"key_{inst.key:03d}" + (f"_{n}" if n else "")
-            spec = Sdf.PrimSpec(groups[(inst.structure, inst.stage)], label,
-                                Sdf.SpecifierDef, "Xform")
+        root = _layout_root(layer, lay)
+        groups = _structure_groups(root, lay)
+        for inst, label in zip(lay.instances, instance_labels(lay), strict=True):
+            spec = Sdf.PrimSpec(groups[(inst.structure, stage_group(inst))],
+                                prim_name(label), Sdf.SpecifierDef, "Xform")
             spec.instanceable = True
             spec.referenceList.Prepend(Sdf.Reference(f"./{part_file(inst.proto)}"))
             spec.customData = _vt({"citysynth": {"part": inst.part}})
+            _user(spec, "part", inst.part, Sdf.ValueTypeNames.String)
             m = inst.matrix().T   # USD multiplies row vectors: translation in the last row
-            op = Sdf.AttributeSpec(spec, "xformOp:transform", Sdf.ValueTypeNames.Matrix4d)
-            op.default = Gf.Matrix4d(*m.ravel().tolist())
-            order = Sdf.AttributeSpec(spec, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
-                                      Sdf.VariabilityUniform)
-            order.default = Vt.TokenArray(["xformOp:transform"])
+            _xform(spec, "xformOp:transform", Sdf.ValueTypeNames.Matrix4d,
+                   Gf.Matrix4d(*m.ravel().tolist()))
         _stage_metadata(layer, root_name)
         layer.customLayerData = {"generator": "citysynth"}
     _export(layer, path)
     return path
 
 
-def write_city(path: str | Path, layers: list[tuple], name: str = "City") -> Path:
-    """A stage at ``path`` referencing layout layers: ``layers`` holds (prim name, path
+def write_variants(path: str | Path, name: str, ranks: list[tuple[int, str]],
+                   selected: int = 1) -> Path:
+    """The k best layouts of one building or block as one prim with a ``layout``
+    variantSet: variant ``rank_<r>`` references the layer of rank r (``ranks`` holds
+    (rank, path relative to ``path``'s folder)), ``rank_<selected>`` is selected. An
+    artist switches between the k best in the DCC's variant menu; each variant composes
+    to exactly that rank's layer."""
+    path = Path(path)
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    root_name = prim_name(name)
+    with Sdf.ChangeBlock():
+        root = Sdf.PrimSpec(layer, root_name, Sdf.SpecifierDef, "Xform")
+        root.kind = Kind.Tokens.assembly
+        vset = Sdf.VariantSetSpec(root, "layout")
+        for rank, rel in ranks:
+            variant = Sdf.VariantSpec(vset, f"rank_{rank}")
+            variant.primSpec.referenceList.Prepend(Sdf.Reference(f"./{rel}"))
+        root.variantSetNameList.Prepend("layout")
+        root.variantSelections["layout"] = f"rank_{selected}"
+        root.customData = _vt({"citysynth": {"variants": [f"rank_{r}" for r, _ in ranks],
+                                             "selected": f"rank_{selected}"}})
+        _stage_metadata(layer, root_name)
+        layer.customLayerData = {"generator": "citysynth"}
+    _export(layer, path)
+    return path
+
+
+def write_city(path: str | Path, layers: list[tuple], name: str = "City",
+               frame: str = "", payload: bool = True) -> Path:
+    """A stage at ``path`` over layout layers: ``layers`` holds (prim name, path
     relative to ``path``'s folder[, (dx, dy) offset]), one Xform each under an
-    ``assembly``. Layouts of one city share its frame and need no offset."""
+    ``assembly``, each bringing its layer in as a payload (the stage opens with every
+    block unloaded when asked to, and loads blocks on demand) or, without ``payload``,
+    as a reference. Layouts of one city share its frame (``frame``: its description,
+    whose CRS and origin go on the root) and need no offset."""
     path = Path(path)
     layer = Sdf.Layer.CreateAnonymous(".usda")
     with Sdf.ChangeBlock():
         root = Sdf.PrimSpec(layer, prim_name(name), Sdf.SpecifierDef, "Xform")
         root.kind = Kind.Tokens.assembly
+        geo = _georeference(root, frame)
+        if geo:
+            root.customData = _vt({"citysynth": {"frame": frame, "georeference": geo}})
         for child, rel, *offset in layers:
             spec = Sdf.PrimSpec(root, prim_name(child), Sdf.SpecifierDef, "Xform")
-            spec.referenceList.Prepend(Sdf.Reference(f"./{rel}"))
+            spec.kind = Kind.Tokens.assembly
+            if payload:
+                spec.payloadList.Prepend(Sdf.Payload(f"./{rel}"))
+            else:
+                spec.referenceList.Prepend(Sdf.Reference(f"./{rel}"))
             if offset:
-                op = Sdf.AttributeSpec(spec, "xformOp:translate", Sdf.ValueTypeNames.Double3)
-                op.default = Gf.Vec3d(float(offset[0][0]), float(offset[0][1]), 0.0)
-                order = Sdf.AttributeSpec(spec, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
-                                          Sdf.VariabilityUniform)
-                order.default = Vt.TokenArray(["xformOp:translate"])
+                _xform(spec, "xformOp:translate", Sdf.ValueTypeNames.Double3,
+                       Gf.Vec3d(float(offset[0][0]), float(offset[0][1]), 0.0))
         _stage_metadata(layer, prim_name(name))
         layer.customLayerData = {"generator": "citysynth"}
     _export(layer, path)

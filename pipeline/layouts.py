@@ -6,7 +6,8 @@ layouts (each skeleton is solved on its own; a block's courtyard ring does not
 constrain its outer ring, so the i-th layout combines every ring's i-th solution, or
 its last when it has fewer). :func:`write_outputs` writes, for each layout, the layout
 JSON, the USD layer, the GLB and the PNG preview, every file atomically, and the
-shared part prototypes once.
+shared part prototypes once; with k > 1 also ``<name>.usda``, the k layers as the
+variants of one ``layout`` variantSet.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ from pathlib import Path
 
 from citysynth.export.layout import Layout
 from citysynth.export.place import layout, max_stretch
-from citysynth.export.writers import FORMATS, Format, write
+from citysynth.export.usd import write_variants
+from citysynth.export.writers import FORMATS, SUFFIX, Format, write
 from citysynth.parts_db import PartDB
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
@@ -95,7 +97,18 @@ def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
             paths.append(write(lay, db, stem, fmt))
             key = "preview_s" if fmt == "png" else "export_s"
             built.timings[key] = built.timings.get(key, 0.0) + time.perf_counter() - t
+    if "usd" in formats and k > 1 and built.layouts:
+        paths.append(write_variant_stage(built.layouts, out, k))
     return paths
+
+
+def write_variant_stage(layouts: Sequence[Layout], out: Path, k: int, selected: int = 1
+                        ) -> Path:
+    """``<name>.usda``: the layouts' layers (``<name>_<rank>.usda``, written before,
+    ``k`` asked) as one prim with a ``layout`` variantSet, ``rank_<selected>`` selected."""
+    name = layouts[0].name
+    ranks = [(lay.rank, f"{output_stem(lay, k)}{SUFFIX['usd']}") for lay in layouts]
+    return write_variants(out / f"{name}{SUFFIX['usd']}", name, ranks, selected)
 
 
 def summary_line(lay: Layout) -> str:

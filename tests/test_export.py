@@ -69,8 +69,9 @@ def _usd_world_points(stage) -> np.ndarray:
 def test_every_output_is_written(run_dir):
     names = sorted(p.name for p in run_dir.iterdir() if p.is_file())
     stems = ["block", "t_building_1", "t_building_2", "t_building_3"]
-    assert names == sorted(f"{s}{ext}" for s in stems
-                           for ext in (".glb", ".layout.json", ".png", ".usda"))
+    assert names == sorted([f"{s}{ext}" for s in stems
+                            for ext in (".glb", ".layout.json", ".png", ".usda")]
+                           + ["t_building.usda"])   # the k = 3 layouts as variants
     assert not [p for p in run_dir.rglob(".*")], "temporary files left behind"
     for png in run_dir.glob("*.png"):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000

@@ -1,28 +1,37 @@
-"""What a city run leaves beside its blocks: the manifest, the report, the city stage
-and the overview.
+"""What a city run leaves beside its blocks: the manifest, the report, blocks.geojson,
+the city stage and the overview.
 
 ``manifest.json`` describes every block (input hash, status, files, cost) and carries
 no timings, so two runs of the same inputs write the same manifest (``citysynth diff``
 reads it). ``report.json`` adds counts, reasons, the bugs met (with tracebacks) and the
-time per stage. ``city.usda`` references every built block's layer in the city's one
-frame; ``city.png`` shows the built blocks from a perspective and from above.
+time per stage. ``blocks.geojson`` shows every block and skipped piece with its status
+and reason in the input's CRS (open it in QGIS beside the streets). ``city.usda`` holds
+every built block's layer as a payload in the city's one frame; ``city.png`` shows the
+built blocks from a perspective and from above.
 """
 
 from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
+
+import numpy as np
 
 from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.files import write_text
 from citysynth.pipeline.city.jobs import BLOCKS_DIR, STATUSES, BlockRecord, frame_tuple
+from citysynth.skeletons import Frame
+from citysynth.skeletons.geojson import LONLAT_FRAME
 
 if TYPE_CHECKING:   # the run imports this module to write its summary
+    from citysynth.export.layout import Layout
     from citysynth.pipeline.city.run import CityInputs
 
 MANIFEST = "manifest.json"
+BLOCKS_GEOJSON = "blocks.geojson"
 REPORT = "report.json"
 RUN_SCHEMA = "citysynth.run"
 _MANIFEST_KEYS = ("kind", "zone", "input_hash", "status", "reason", "error", "files", "cost",
@@ -63,7 +72,66 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
         "timings": _stage_times(inputs, recs, t_blocks), "workers": workers,
         "scheduler": scheduler, "built": [i for i in ids if recs[i]["status"] == "built"]}
     write_report(out, report)
+    write_blocks_geojson(out / BLOCKS_GEOJSON, inputs, recs)
     return report
+
+
+def to_input_crs(frame: Frame) -> Callable[[np.ndarray], np.ndarray]:
+    """Local metric coordinates of ``frame`` -> the input's CRS: lon/lat for lon/lat
+    input (through the same local transverse Mercator the reader used), the input's
+    projected CRS otherwise (reprojected back from lon/lat, or only moved back from
+    the local origin and into the CRS's unit when it was kept)."""
+    import pyproj
+
+    if frame.crs != LONLAT_FRAME:   # a projected CRS kept as it is: shifted, in metres
+        unit = pyproj.CRS.from_user_input(frame.source_crs).axis_info[0] \
+            .unit_conversion_factor
+        shift = np.asarray(frame.origin, dtype=float)
+        return lambda xy: xy / unit + shift
+    lon0, lat0 = frame.origin
+    local = pyproj.CRS.from_proj4(f"+proj=tmerc +lat_0={lat0} +lon_0={lon0} +k=1 +x_0=0 "
+                                  "+y_0=0 +ellps=WGS84 +units=m +no_defs")
+    target = frame.source_crs or "EPSG:4326"
+    tf = pyproj.Transformer.from_crs(local, target, always_xy=True)
+    return lambda xy: np.column_stack(tf.transform(xy[:, 0], xy[:, 1]))
+
+
+def write_blocks_geojson(path: Path, inputs: CityInputs,
+                         recs: dict[str, dict[str, Any]]) -> Path:
+    """``blocks.geojson``: every block (its outline, status, reason and what was built)
+    and every piece skipped before it became a block (its reason; no outline, the
+    geometry is null), in the input's CRS, for a user to inspect in QGIS. Lon/lat
+    input gives plain RFC 7946; a projected one names its CRS in a ``crs`` member, as
+    GDAL writes it."""
+    import shapely
+
+    project = to_input_crs(inputs.frame)
+    digits = 9 if inputs.frame.crs == LONLAT_FRAME and not inputs.frame.source_crs else 4
+
+    def ring(coords: Any) -> list[list[float]]:
+        xy = project(np.asarray(coords, dtype=float)[:, :2])
+        return [[round(float(x), digits), round(float(y), digits)] for x, y in xy]
+
+    features: list[dict[str, Any]] = []
+    for job in inputs.jobs:
+        poly = shapely.from_wkt(job.wkt)
+        rec = recs.get(job.id, {"status": "not run"})
+        props = {"id": job.id, "kind": job.kind, "zone": job.zone, "style": job.style,
+                 "status": rec["status"]}
+        props.update({k: rec[k] for k in ("reason", "error", "rank", "of", "cost")
+                      if rec.get(k) is not None})
+        geometry = {"type": "Polygon", "coordinates": [ring(poly.exterior.coords)] +
+                    [ring(r.coords) for r in poly.interiors]}
+        features.append({"type": "Feature", "properties": props, "geometry": geometry})
+    for piece in inputs.skipped:
+        features.append({"type": "Feature", "geometry": None, "properties": {
+            "id": None, "kind": piece.get("kind"), "status": "skipped",
+            "reason": piece.get("reason")}})
+    doc: dict[str, Any] = {"type": "FeatureCollection", "name": "blocks"}
+    if inputs.frame.source_crs:
+        doc["crs"] = {"type": "name", "properties": {"name": inputs.frame.source_crs}}
+    doc["features"] = features
+    return write_text(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
 
 
 def _stage_times(inputs: CityInputs, recs: dict[str, dict[str, Any]],
@@ -86,12 +154,17 @@ def write_report(out: Path, report: Report) -> None:
 
 
 def finish_city(inputs: CityInputs, report: Report, out: Path, *, overview: bool = True,
-                started: float | None = None) -> tuple[Path, Path | None]:
-    """After the blocks: ``city.usda`` and (with ``overview``) ``city.png``, their times
-    (and the total since ``started``) added to the report, which is written again."""
+                started: float | None = None, glb: bool = False) -> tuple[Path, Path | None]:
+    """After the blocks: ``city.usda``, (with ``overview``) ``city.png`` and (with
+    ``glb``) ``city.glb``, their times (and the total since ``started``) added to the
+    report, which is written again."""
     t = time.perf_counter()
-    city = write_city_stage(out, report)
+    city = write_city_stage(out, report, inputs.frame.describe())
     report["timings"]["city_stage_s"] = time.perf_counter() - t
+    if glb:
+        t = time.perf_counter()
+        write_city_glb(out, inputs, report)
+        report["timings"]["city_glb_s"] = time.perf_counter() - t
     png = None
     if overview:
         t = time.perf_counter()
@@ -103,12 +176,46 @@ def finish_city(inputs: CityInputs, report: Report, out: Path, *, overview: bool
     return city, png
 
 
-def write_city_stage(out: Path, report: Report) -> Path:
-    """``city.usda``: every built block's layer, in the city's one frame."""
+def write_city_stage(out: Path, report: Report, frame: str = "") -> Path:
+    """``city.usda``: every built block's layer as a payload (the city opens unloaded
+    when asked and loads blocks on demand), in the city's one frame, whose CRS and
+    origin go on the root."""
     from citysynth.export.usd import write_city
 
     return write_city(out / "city.usda", [(f"block_{b}", f"{BLOCKS_DIR}/{b}.usda")
-                                          for b in report["built"]])
+                                          for b in report["built"]], frame=frame)
+
+
+def _built_layouts(out: Path, inputs: CityInputs, report: Report
+                   ) -> list[tuple[str, Layout, PartDB]]:
+    """Every built block's layout (read back from its JSON) with its library."""
+    from citysynth.export.layout import Layout
+
+    jobs = {j.id: j for j in inputs.jobs}
+    dbs: dict[str, PartDB] = {}
+    lays = []
+    for bid in report["built"]:
+        path = jobs[bid].library
+        dbs.setdefault(path, load_library(path))
+        d = json.loads((out / BLOCKS_DIR / f"{bid}.layout.json").read_text(encoding="utf-8"))
+        lays.append((bid, Layout.from_dict(d), dbs[path]))
+    return lays
+
+
+def write_city_glb(out: Path, inputs: CityInputs, report: Report) -> Path | None:
+    """``city.glb``: every built block in one Y-up GLB (a node per block, named
+    ``block_<id>`` as in city.usda; parts shared), the frame's georeference on the
+    root's extras. None when nothing was built."""
+    from citysynth.export.gltf import write_city_glb as write_glb
+    from citysynth.export.materials import georeference
+
+    if not report["built"]:
+        return None
+    frame = inputs.frame.describe()
+    return write_glb(out / "city.glb", [(f"block_{bid}", lay, db) for bid, lay, db
+                                        in _built_layouts(out, inputs, report)],
+                     extras={"frame": frame, "georeference": georeference(frame),
+                             "blocks": len(report["built"])})
 
 
 def render_overview(out: Path, inputs: CityInputs, report: Report, *,
@@ -118,19 +225,11 @@ def render_overview(out: Path, inputs: CityInputs, report: Report, *,
     import trimesh
 
     from citysynth.export.assemble import triangle_count, world_boxes, world_mesh
-    from citysynth.export.layout import Layout
     from citysynth.export.preview import render_meshes
 
     if not report["built"]:
         return None
-    jobs = {j.id: j for j in inputs.jobs}
-    dbs: dict[str, PartDB] = {}
-    lays = []
-    for bid in report["built"]:
-        path = jobs[bid].library
-        dbs.setdefault(path, load_library(path))
-        d = json.loads((out / BLOCKS_DIR / f"{bid}.layout.json").read_text(encoding="utf-8"))
-        lays.append((Layout.from_dict(d), dbs[path]))
+    lays = [(lay, db) for _bid, lay, db in _built_layouts(out, inputs, report)]
     total = sum(triangle_count(lay, db) for lay, db in lays)
     make = world_mesh if total <= max_triangles else world_boxes
     # meshes concatenate into a mesh (trimesh types the result as any geometry)

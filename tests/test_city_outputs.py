@@ -1,0 +1,118 @@
+"""blocks.geojson, what a city run leaves for a GIS user: every block with its status
+and reason and every piece skipped before it became a block, in the input's CRS (plain
+RFC 7946 lon/lat for lon/lat input, the input's projected CRS named in a ``crs`` member
+otherwise), so it lies on the streets it came from in QGIS: read back through the same
+reader, each outline lands on its block's outline in the city frame within 1 mm."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pyproj
+import pytest
+import shapely
+from shapely.geometry import shape
+
+from citysynth.pipeline.city.config import load_config
+from citysynth.pipeline.city.jobs import run_block
+from citysynth.pipeline.city.outputs import (
+    BLOCKS_GEOJSON,
+    write_blocks_geojson,
+    write_city_glb,
+    write_summary,
+)
+from citysynth.pipeline.city.run import prepare
+from citysynth.skeletons import parse_geojson
+from tests.test_gltf import assert_clean, glb_json
+
+ROOT = Path(__file__).resolve().parent.parent
+LIB = ROOT / "examples" / "library"
+CITY = ROOT / "examples" / "city"
+DISTRICT = CITY / "district_streets.geojson"
+
+
+def _records(inputs) -> dict[str, dict]:
+    """A run's records: the first block failed, the second skipped, the others built."""
+    recs = {}
+    for n, job in enumerate(inputs.jobs):
+        if n == 0:
+            recs[job.id] = {"status": "failed", "reason": "side from 1 to 2: no layout"}
+        elif n == 1:
+            recs[job.id] = {"status": "skipped", "reason": "nothing buildable is left"}
+        else:
+            recs[job.id] = {"status": "built", "rank": 1, "of": 1, "cost": 12.5}
+    return recs
+
+
+def _check_round_trip(doc: dict, inputs) -> None:
+    blocks = [f for f in doc["features"] if f["geometry"] is not None]
+    assert [f["properties"]["id"] for f in blocks] == [j.id for j in inputs.jobs]
+    assert blocks[0]["properties"]["status"] == "failed"
+    assert blocks[0]["properties"]["reason"] == "side from 1 to 2: no layout"
+    assert blocks[1]["properties"]["status"] == "skipped"
+    assert {f["properties"]["status"] for f in blocks[2:]} == {"built"}
+    skipped = [f for f in doc["features"] if f["geometry"] is None]
+    assert len(skipped) == len(inputs.skipped) > 0
+    assert all(f["properties"]["reason"] for f in skipped)
+    feats, _frame = parse_geojson({**doc, "features": blocks}, "blocks.geojson",
+                                  origin=inputs.frame.origin)
+    for feat, job in zip(feats, inputs.jobs, strict=True):
+        want = shapely.from_wkt(job.wkt)
+        assert feat.geometry.symmetric_difference(want).area < 1e-3 * want.length
+        assert shapely.hausdorff_distance(feat.geometry, want) < 1e-3
+
+
+def test_blocks_geojson_in_lonlat(tmp_path):
+    inputs = prepare(DISTRICT, None, load_config(CITY / "city.toml"), LIB)
+    path = write_blocks_geojson(tmp_path / BLOCKS_GEOJSON, inputs, _records(inputs))
+    doc = json.loads(path.read_text())
+    assert "crs" not in doc   # RFC 7946: lon/lat, no crs member
+    lon, lat = doc["features"][0]["geometry"]["coordinates"][0][0]
+    assert 24.9 < lon < 25.0 and 60.1 < lat < 60.2
+    _check_round_trip(doc, inputs)
+
+
+def test_blocks_geojson_in_web_mercator(tmp_path):
+    """Streets in EPSG:3857 give blocks.geojson in EPSG:3857."""
+    data = json.loads(DISTRICT.read_text())
+    tf = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:3857", always_xy=True)
+    for f in data["features"]:
+        g = shape(f["geometry"])
+        f["geometry"] = shapely.geometry.mapping(shapely.transform(
+            g, lambda c: np.column_stack(tf.transform(c[:, 0], c[:, 1]))))
+    data["crs"] = {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::3857"}}
+    streets = tmp_path / "streets_3857.geojson"
+    streets.write_text(json.dumps(data))
+    inputs = prepare(streets, None, load_config(CITY / "city.toml"), LIB)
+    path = write_blocks_geojson(tmp_path / BLOCKS_GEOJSON, inputs, _records(inputs))
+    doc = json.loads(path.read_text())
+    assert pyproj.CRS(doc["crs"]["properties"]["name"]) == pyproj.CRS("EPSG:3857")
+    x, y = doc["features"][0]["geometry"]["coordinates"][0][0]
+    assert 2.7e6 < x < 2.8e6 and 8.4e6 < y < 8.5e6   # metres of Web Mercator at 60°N
+    _check_round_trip(doc, inputs)
+
+
+def test_a_small_city_run_gives_blocks_geojson_and_a_city_glb(tmp_path):
+    """Three real blocks of the district built by the city's own job runner; the summary
+    writes blocks.geojson with their real statuses, and city.glb holds every built
+    block and passes Khronos's validator."""
+    inputs = prepare(DISTRICT, None, load_config(CITY / "city.toml"), LIB)
+    inputs.jobs = inputs.jobs[:3]
+    results = {job.id: run_block(job, str(tmp_path)) for job in inputs.jobs}
+    report = write_summary(inputs, results, tmp_path, 0.0, 1, None)
+    doc = json.loads((tmp_path / BLOCKS_GEOJSON).read_text())
+    statuses = {f["properties"]["id"]: f["properties"]["status"] for f in doc["features"]
+                if f["geometry"] is not None}
+    assert statuses == {i: r["status"] for i, r in results.items()}
+    assert report["built"], "some block of the three is built"
+    city = write_city_glb(tmp_path, inputs, report)
+    assert city is not None
+    assert_clean([city])
+    gltf = glb_json(city)
+    root = gltf["nodes"][gltf["scenes"][0]["nodes"][0]]
+    assert [gltf["nodes"][c]["name"] for c in root["children"]] == \
+        [f"block_{b}" for b in report["built"]]
+    assert root["extras"]["citysynth"]["georeference"]["origin_lat"] == \
+        pytest.approx(60.17, abs=0.05)
