@@ -33,12 +33,20 @@ $(GLTF_VALIDATOR):
 	mkdir -p build/node
 	npm install --prefix build/node --no-audit --no-fund --silent gltf-validator@2.0.0-dev.3.10
 
+# Blender as a Python module (tests/test_blender.py imports our USD and GLB with it): its
+# own venv, since bpy carries its own USD and wants numpy 1.x; the wheel is 0.5 GB
+BPY_STAMP := build/bpy/.installed-stamp
+$(BPY_STAMP): $(STAMP)
+	$(BIN)/python -m venv --clear build/bpy
+	build/bpy/bin/python -m pip install --quiet "bpy==4.2.0" "numpy<2"
+	touch $(BPY_STAMP)
+
 # Hypothesis draws a fixed set of examples per test (profile "default"); test-deep draws
 # new ones every run, eight times as many, with no deadline (tests/conftest.py).
-test: lint $(GLTF_VALIDATOR)
+test: lint $(GLTF_VALIDATOR) $(BPY_STAMP)
 	$(BIN)/python -m pytest
 
-test-deep: lint $(GLTF_VALIDATOR)
+test-deep: lint $(GLTF_VALIDATOR) $(BPY_STAMP)
 	HYPOTHESIS_PROFILE=deep $(BIN)/python -m pytest
 
 bench: $(STAMP)

@@ -1,0 +1,108 @@
+"""Blender itself (the ``bpy`` package, 4.2 LTS) imports what citysynth writes, as an
+artist would: the selected variant of a k = 3 block's USD and its GLB. Every instance
+comes in, upright (the height of the scene along Blender's Z is the block's height),
+named by its part, with one material per library material and the part id among the
+object's custom properties. bpy runs in its own venv (build/bpy, which ``make`` builds
+and this module builds when it is missing): it carries its own USD, which must not
+meet usd-core's in one process, and its own numpy pin."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from citysynth.export.assemble import bounds
+from citysynth.export.layout import Layout
+from citysynth.export.materials import material_name
+from citysynth.export.prototypes import prototype_pieces
+from citysynth.export.usd import prim_name
+from citysynth.pipeline.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+LIB = ROOT / "examples" / "library"
+BLOCK = ROOT / "examples" / "blocks" / "block.geojson"
+BPY_VENV = ROOT / "build" / "bpy"
+BPY_SPEC = ["bpy==4.2.0", "numpy<2"]   # the Makefile's pin: a cp311 manylinux wheel
+SCRIPT = Path(__file__).with_name("blender_import.py")
+_SUFFIX = re.compile(r"\.\d{3}$")      # Blender's ".001" for a name taken
+
+
+def ensure_bpy() -> Path:
+    """The python of build/bpy, a venv with bpy in it (built when missing, as the
+    Makefile's rule does)."""
+    python = BPY_VENV / "bin" / "python"
+    stamp = BPY_VENV / ".installed-stamp"
+    if not stamp.is_file():
+        subprocess.run([sys.executable, "-m", "venv", "--clear", str(BPY_VENV)], check=True)
+        subprocess.run([str(python), "-m", "pip", "install", "--quiet", *BPY_SPEC],
+                       check=True, timeout=1800)
+        stamp.touch()
+    return python
+
+
+def blender(path: Path) -> dict:
+    p = subprocess.run([str(ensure_bpy()), str(SCRIPT), str(path)], capture_output=True,
+                       text=True, timeout=600)
+    assert p.returncode == 0, p.stderr[-3000:]
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture
+def db(sample_db):
+    return sample_db
+
+
+@pytest.fixture(scope="module")
+def block_k3(tmp_path_factory):
+    out = tmp_path_factory.mktemp("blender")
+    assert main(["block", str(BLOCK), "--library", str(LIB), "--style", "modern",
+                 "--k", "3", "-o", str(out), "--no-preview"]) == 0
+    return out
+
+
+def _scene_bounds(scene: dict) -> np.ndarray:
+    """Of every mesh Blender draws (collection instances resolved), in world space."""
+    boxes = np.array([d["bounds"] for d in scene["drawn"]])
+    return np.array([boxes[:, 0].min(axis=0), boxes[:, 1].max(axis=0)])
+
+
+def _check_materials(scene: dict, lay: Layout, db) -> None:
+    want = {material_name(p) for i in lay.instances for p in prototype_pieces(db, i)}
+    assert sorted(scene["materials"]) == sorted(want)   # once each, no ".001" copies
+
+
+def _check_upright(scene: dict, lay: Layout, db) -> None:
+    """Blender is Z-up: the scene stands on z = 0 and is as high as the block."""
+    np.testing.assert_allclose(_scene_bounds(scene), bounds(lay, db), atol=2e-3)
+
+
+def test_blender_imports_the_selected_variant(block_k3, db):
+    lay = Layout.from_dict(json.loads((block_k3 / "block_1.layout.json").read_text()))
+    scene = blender(block_k3 / "block.usda")
+    parts = [o for o in scene["objects"] if "citysynth:part" in o["props"]]
+    assert sorted(o["props"]["citysynth:part"] for o in parts) == \
+        sorted(i.part for i in lay.instances)
+    for o in parts:
+        assert _SUFFIX.sub("", o["name"]).startswith(prim_name(o["props"]["citysynth:part"]))
+    drawn = [d for d in scene["drawn"] if d["instance"]]   # prototypes, instanced
+    assert len(drawn) == sum(len(prototype_pieces(db, i)) for i in lay.instances)
+    _check_upright(scene, lay, db)
+    _check_materials(scene, lay, db)
+
+
+def test_blender_imports_the_glb_upright(block_k3, db):
+    lay = Layout.from_dict(json.loads((block_k3 / "block_1.layout.json").read_text()))
+    scene = blender(block_k3 / "block_1.glb")
+    parts = [o for o in scene["objects"] if "part" in o["props"].get("citysynth", {})]
+    assert [o["props"]["citysynth"]["part"] for o in parts] == [i.part for i in lay.instances]
+    assert all(o["type"] == "MESH" and o["name"].startswith(o["props"]["citysynth"]["part"])
+               for o in parts)
+    assert len(scene["drawn"]) == len(lay.instances)   # one mesh object per instance
+    _check_upright(scene, lay, db)
+    _check_materials(scene, lay, db)
