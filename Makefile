@@ -36,7 +36,7 @@ $(GLTF_VALIDATOR):
 # Blender as a Python module (tests/test_blender.py imports our USD and GLB with it): its
 # own venv, since bpy carries its own USD and wants numpy 1.x; the wheel is 0.5 GB
 BPY_STAMP := build/bpy/.installed-stamp
-$(BPY_STAMP): $(STAMP)
+$(BPY_STAMP): | $(STAMP)
 	$(BIN)/python -m venv --clear build/bpy
 	build/bpy/bin/python -m pip install --quiet "bpy==4.2.0" "numpy<2"
 	touch $(BPY_STAMP)
