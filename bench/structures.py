@@ -1,48 +1,74 @@
 """Structure benchmark: a Fig. 1(c)-like building (a cycle with nested T junctions)
-and a 40-corner block cycle, k=1 and k=10, solved by the shared stage graphs (the
-default, ``rcksp``) and by the decomposition into one problem per stage and key pair
-(``decompose``, the reference), in the same run: a warm-up, then the median of --runs
-runs of each. The two must agree on every cost, or the benchmark stops.
+and a 40-corner block cycle, without and with a per-block (structure-wide) interval
+on the door count, at k = 1, 10 and 100, solved by the default method (``auto``:
+shared stage graphs) in the same run as the decomposition into one problem per stage
+and key pair (``decompose``, the reference; k <= 10 only, it is slow beyond). A
+warm-up, then the median of --runs runs (bench/timing.py; --cpu for CPU time). The
+two must agree on every cost, or the benchmark stops.
 
-    python -m bench.structures [--runs 5]
+Targets (issue 15): a per-block interval at most 2x the cost of the same block
+without it; k = 100 at most 3x k = 1 on the 40-corner block.
+
+    python -m bench.structures [--runs 5] [--cpu]
 """
 
 from __future__ import annotations
 
 import argparse
 
-from bench.timing import timed
+from bench.timing import interleaved, use_cpu_time
 from citysynth.solver.samples import block_cycle, fig1c_like
 from citysynth.solver.structures import Structure, solve_structure
 
-TARGET_MS = 100.0
+DOORS = (20.0, 60.0)   # the per-block interval of the door count (about 40 stages x 1/3)
+
+
+def _row(name: str, st: Structure, k: int, runs: int, reference: bool) -> float:
+    fns = {"auto": lambda: solve_structure(st, k)}
+    if reference:
+        fns["decompose"] = lambda: solve_structure(st, k, "decompose")
+    m = interleaved(fns, runs)
+    t_new, outs = m["auto"]
+    a = outs[0]
+    t_old = None
+    if reference:
+        t_old, olds = m["decompose"]
+        if [s.cost for s in a.solutions] != [s.cost for s in olds[0].solutions]:
+            raise SystemExit(f"{name}, k={k}: the solvers disagree")
+    assert t_new is not None
+    print(f"{name:<34} {len(st.keypoints):>4} {k:>4} | {1e3 * t_new:>9.1f} "
+          f"{a.stats.get('stage_graphs', 0):>6} {a.stats.get('stage_queries', 0):>7} | "
+          + (f"{1e3 * t_old:>9.1f} {t_old / t_new:>7.1f}x" if t_old else f"{'—':>9} {'':>8}"))
+    return t_new
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--cpu", action="store_true", help="CPU time instead of wall time")
     args = ap.parse_args(argv)
-    cases = [("Fig. 1(c)-like building", fig1c_like()),
-             ("40-corner block cycle", block_cycle(40))]
-    print(f"citysynth bench/structures.py — median of {args.runs} runs after warm-up, ms; "
-          f"target: under {TARGET_MS:g} ms each (rcksp)")
-    head = (f"{'structure':<26} {'key pts':>7} {'stages':>6} {'k':>3} | {'rcksp':>8} "
-            f"{'graphs':>6} {'queries':>7} | {'decompose':>9} {'problems':>8} | "
-            f"{'speed-up':>8}")
+    use_cpu_time(args.cpu)
+    print(f"citysynth bench/structures.py — median of {args.runs} runs after warm-up, "
+          f"{'CPU' if args.cpu else 'wall'} ms; auto = the default (shared stage graphs)")
+    head = (f"{'structure':<34} {'keys':>4} {'k':>4} | {'auto':>9} {'graphs':>6} "
+            f"{'queries':>7} | {'decompose':>9} {'speed-up':>8}")
     print(head + "\n" + "-" * len(head))
-    for name, d in cases:
+    fig = Structure.from_dict(fig1c_like())
+    for k in (1, 10):
+        _row("Fig. 1(c)-like building", fig, k, args.runs, True)
+    t: dict[tuple[str, int], float] = {}
+    for label, d in (("40-corner block", block_cycle(40)),
+                     (f"40-corner block, doors {DOORS[0]:g}-{DOORS[1]:g}",
+                      block_cycle(40, doors=DOORS))):
         st = Structure.from_dict(d)
-        for k in (1, 10):
-            t_new, new = timed(lambda st=st, k=k: solve_structure(st, k), args.runs)
-            t_old, old = timed(lambda st=st, k=k: solve_structure(st, k, "decompose"),
-                               args.runs)
-            a, b = new[0], old[0]
-            if [s.cost for s in a.solutions] != [s.cost for s in b.solutions]:
-                raise SystemExit(f"{name}, k={k}: the solvers disagree")
-            print(f"{name:<26} {len(st.keypoints):>7} {len(st.stages):>6} {k:>3} | "
-                  f"{1e3 * t_new:>8.1f} {a.stats['stage_graphs']:>6} "
-                  f"{a.stats['stage_queries']:>7} | {1e3 * t_old:>9.1f} "
-                  f"{b.stats['stage_problems']:>8} | {t_old / t_new:>7.1f}x")
+        for k in (1, 10, 100):
+            t[(label[:15] + ("+" if "doors" in label else ""), k)] = _row(
+                label, st, k, args.runs, k == 1)
+    plain, doors = "40-corner block", "40-corner block+"
+    print(f"\nper-block interval / without it: k=1 {t[(doors, 1)] / t[(plain, 1)]:.2f}x, "
+          f"k=100 {t[(doors, 100)] / t[(plain, 100)]:.2f}x (target 2x)")
+    print(f"k=100 / k=1 on the 40-corner block: {t[(plain, 100)] / t[(plain, 1)]:.2f}x "
+          f"without the interval, {t[(doors, 100)] / t[(doors, 1)]:.2f}x with it (target 3x)")
 
 
 if __name__ == "__main__":

@@ -85,10 +85,13 @@ def fig1c_like() -> dict:
     }
 
 
-def block_cycle(corners: int = 40, *, seed: int = 1, k: int = 1) -> dict:
+def block_cycle(corners: int = 40, *, seed: int = 1, k: int = 1,
+                doors: tuple[float, float] | None = None) -> dict:
     """A closed block outline with ``corners`` corners (3 corner parts to choose from at
     each) and 20 facade parts, every transition allowed with seeded costs; side lengths
-    of 30-80 m on the 0.2 m grid, each an equality."""
+    of 30-80 m on the 0.2 m grid, each an equality. ``doors``: a per-block
+    (structure-wide) interval on the door count, about a third of the facade parts
+    having a door."""
     rng = np.random.default_rng(seed)
     fill = [{"id": f"b{i}", "resources": {"length": round(0.2 * int(rng.integers(20, 101)), 1)}}
             for i in range(20)]
@@ -97,10 +100,17 @@ def block_cycle(corners: int = 40, *, seed: int = 1, k: int = 1) -> dict:
     ids = [e["id"] for e in fill + keys]
     trans = [[a, b, float(np.round(rng.random(), 3))] for a in ids for b in ids]
     sides = [round(0.2 * int(rng.integers(150, 400)), 1) for _ in range(corners)]
-    return {"resources": ["length"], "quantum": {"length": 0.2}, "elements": fill + keys,
-            "transitions": trans, "keypoints": [{"elements": [x["id"] for x in keys]}] * corners,
-            "stages": [{"constraints": {"length": [L, L]}} for L in sides], "closed": True,
-            "k": k}
+    d = {"resources": ["length"], "quantum": {"length": 0.2}, "elements": fill + keys,
+         "transitions": trans, "keypoints": [{"elements": [x["id"] for x in keys]}] * corners,
+         "stages": [{"constraints": {"length": [L, L]}} for L in sides], "closed": True,
+         "k": k}
+    if doors is not None:
+        drng = np.random.default_rng(seed + 2)
+        d["resources"] = ["length", "doors"]
+        for e in fill:
+            e["resources"]["doors"] = float(drng.random() < 0.3)
+        d["constraints"] = {"doors": list(doors)}
+    return d
 
 
 MOTION_FPS = 30   # 5 m in 146 frames (paper, Table 3) is a walk at 30 frames a second

@@ -204,12 +204,13 @@ def test_k1_array_combination_is_the_general_one(d):
     from citysynth.solver.structures import combine
 
     s = Structure.from_dict(d)
-    fast = solve_structure(s, 1)
-    combine.ARRAYS_K1 = False
+    combine.MIN_SHARES = 0       # arrays whatever the number of shares (small draws)
     try:
+        fast = solve_structure(s, 1)
+        combine.ARRAYS_K1 = False
         slow = solve_structure(s, 1)
     finally:
-        combine.ARRAYS_K1 = True
+        combine.ARRAYS_K1, combine.MIN_SHARES = True, 4
     assert [(x.cost, x.keys, x.stages) for x in fast.solutions] == \
         [(x.cost, x.keys, x.stages) for x in slow.solutions]
     expected = enumerate_structure(d, 1)

@@ -33,6 +33,7 @@ Y = TypeVar("Y")
 Tag = TypeVar("Tag")
 
 ARRAYS_K1 = True   # k = 1 by arrays (tests switch it off to compare with the general way)
+MIN_SHARES = 4     # ... when a structure-wide resource has at least this many values
 Share = tuple[int, ...]
 StageList = list[tuple[float, Any]]   # cost-sorted (cost, payload of the stage's provider)
 StageLists = Callable[[int, str, str], dict[Share, StageList]]
@@ -136,6 +137,7 @@ class _Program:
 
     def __init__(self, st: Structure, k: int, ghi: list[int], stage_lists: StageLists):
         self.st, self.k, self.ghi, self.stage_lists = st, k, ghi, stage_lists
+        self._lists: dict[tuple[int, str, str], list[tuple[int, StageList]]] = {}
         self.out: list[list[int]] = [[] for _ in st.keypoints]
         for i, s in enumerate(st.stages):
             self.out[s.start].append(i)
@@ -150,8 +152,10 @@ class _Program:
         # k = 1 with at most one structure-wide resource: a stage's options are one
         # min-plus convolution over shares, done on arrays (_Best1) instead of a
         # Python loop over every pair of shares
-        self.best1 = (_Best1(ghi[0] if ghi else 0)
-                      if ARRAYS_K1 and k == 1 and len(ghi) <= 1 else None)
+        # (worth it from a few shares on: with one share the Python loop is cheaper
+        # than an array call per end element)
+        arrays = ARRAYS_K1 and k == 1 and len(ghi) <= 1 and max(ghi, default=0) >= MIN_SHARES
+        self.best1 = _Best1(ghi[0] if ghi else 0) if arrays else None
 
     def encode(self, g: Share) -> int:
         code = 0
@@ -170,8 +174,15 @@ class _Program:
         return all(x <= h for x, h in zip(self.decode(code), self.ghi, strict=True))
 
     def lists(self, s: int, e: str, f: str) -> list[tuple[int, StageList]]:
-        """stage_lists with shares encoded, in increasing order of share."""
-        return sorted((self.encode(g), ls) for g, ls in self.stage_lists(s, e, f).items())
+        """stage_lists with shares encoded, in increasing order of share; once per
+        (stage, e, f): a cycle's program runs again for every element at its root
+        (27 key elements a corner on a city block: 27 times)."""
+        key = (s, e, f)
+        got = self._lists.get(key)
+        if got is None:
+            got = self._lists[key] = sorted(
+                (self.encode(g), ls) for g, ls in self.stage_lists(s, e, f).items())
+        return got
 
     def run(self, glo: list[int]) -> list[tuple[float, str, Payload]]:
         """The k best over every element at the root whose totals reach ``glo``."""

@@ -230,44 +230,59 @@ class StageGraphs:
         boxes of admissible states before the end key's leg, and the weights of the
         edges into the end key (from the start itself, then from each filler)."""
         st = self.st
-        first = st.branch_transitions if leg == 2 else st.transitions
         wide = [grp.dims.index(r) for r in self.gnames]
         R = len(grp.dims)
         meta: list[tuple[int, str, Share]] = []
         lo_rows, hi_rows, w_rows = [], [], []
+        ends: dict[int, tuple[list[str], np.ndarray, np.ndarray]] = {}
         for i in self._stages_from(grp, a, leg):
             stage = st.stages[i]
             lo, hi = self._bounds(i, grp.dims)
             shares = self._allowed_shares(i)
-            # every allowed share at once: its own interval on the structure-wide
-            # dimensions, the end key's leg taken off (a block with a per-block door
-            # count has dozens of shares per stage and end element)
+            if stage.end not in ends:
+                ends[stage.end] = self._ends(grp, a, leg, stage.end)
+            bs, legs, w = ends[stage.end]
+            for b in bs:
+                self._lists[(i, a, b)] = {}
+            # every end element and allowed share at once: the stage's own interval
+            # with the share on the structure-wide dimensions, the end key's leg taken
+            # off (a block with a per-block door count has dozens of shares per stage
+            # and end element, a city corner 20-30 end elements)
             LO = np.repeat(lo[None, :], len(shares), axis=0)
             HI = np.repeat(hi[None, :], len(shares), axis=0)
             if wide:
                 G = np.array(shares, dtype=np.int64).reshape(len(shares), len(wide))
                 LO[:, wide] = G
                 HI[:, wide] = G
-            for b in st.keypoints[stage.end]:
-                self._lists[(i, a, b)] = {}
-                legb = self._ints(st.legs[b][0], grp.dims)
-                qlo = np.maximum(LO - legb, 0)
-                qhi = np.minimum(HI - legb, grp.cap)
-                ok = np.flatnonzero((qlo <= qhi).all(axis=1))
-                if not len(ok):
-                    continue
-                w = [first.get((a, b), np.inf)] + [st.transitions.get((f, b), np.inf)
-                                                   for f in grp.fillers]
-                meta.extend((i, b, shares[j]) for j in ok.tolist())
-                lo_rows.append(qlo[ok])
-                hi_rows.append(qhi[ok])
-                w_rows.append(np.repeat(np.array(w, dtype=np.float64)[None, :], len(ok),
-                                        axis=0))
+            qlo = np.maximum(LO[None, :, :] - legs[:, None, :], 0)
+            qhi = np.minimum(HI[None, :, :] - legs[:, None, :], grp.cap)
+            bi, j = np.nonzero((qlo <= qhi).all(axis=2))   # by end element, then share
+            if not len(bi):
+                continue
+            meta.extend((i, bs[x], shares[y]) for x, y in zip(bi.tolist(), j.tolist(),
+                                                               strict=True))
+            lo_rows.append(qlo[bi, j])
+            hi_rows.append(qhi[bi, j])
+            w_rows.append(w[bi])
         n1 = len(grp.fillers) + 1
         return (meta,
                 np.concatenate(lo_rows) if lo_rows else np.zeros((0, R), dtype=np.int64),
                 np.concatenate(hi_rows) if hi_rows else np.zeros((0, R), dtype=np.int64),
                 np.concatenate(w_rows) if w_rows else np.zeros((0, n1)))
+
+    def _ends(self, grp: _Group, a: str, leg: int, v: int
+              ) -> tuple[list[str], np.ndarray, np.ndarray]:
+        """The end elements of key point v, their legs in quanta, and the weights of
+        the edges into each (from start element a itself, then from each filler)."""
+        st = self.st
+        first = st.branch_transitions if leg == 2 else st.transitions
+        bs = list(st.keypoints[v])
+        legs = np.array([self._ints(st.legs[b][0], grp.dims) for b in bs],
+                        dtype=np.int64).reshape(len(bs), len(grp.dims))
+        w = np.array([[first.get((a, b), np.inf)]
+                      + [st.transitions.get((f, b), np.inf) for f in grp.fillers]
+                      for b in bs], dtype=np.float64).reshape(len(bs), len(grp.fillers) + 1)
+        return bs, legs, w
 
     def _allowed_shares(self, i: int) -> list[Share]:
         """The shares of the structure-wide resources stage i may take (its own
