@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from citysynth.parts_db.sample_buildings import building_parts
 from citysynth.parts_db.sample_mesh import PartMesh
 from citysynth.parts_db.sample_profiles import Profile, profile
 from citysynth.parts_db.sample_styles import CLASSIC, MODERN, STYLES, Family, Style
@@ -222,24 +223,9 @@ def facade_chunk(style: Style, x0: float, x1: float, storeys: int, *, door: int 
 
 
 def buildings() -> Iterator[Entry]:
-    """72 buildings for street fronts, 6-24 m wide, 2-7 storeys, each with one door."""
-    rng = np.random.default_rng(2024)
-    widths = np.sort(rng.choice(np.arange(30, 121), size=72, replace=False)) * QUANTUM
-    for i, w in enumerate(widths):
-        style = STYLES[i % 2]
-        f = style.families[int(rng.integers(0, len(style.families)))]
-        st = int(rng.integers(2, 8))
-        prof = f.profile(int(rng.integers(0, 3)), storeys=st)
-        w = round(float(w), 6)
-        bays = max(1, round(w / style.windows.bay))
-        upper = [s for s in range(1, st) if rng.random() < 0.3]
-        bay = int(rng.integers(0, bays))
-        sl = Slice(0.0, w, prof, frozenset({int(rng.integers(0, bays))}),
-                   frozenset((s, bay) for s in upper))
-        pm = PartMesh(style.palette)
-        straight(pm, [sl], style.windows)
-        yield Entry(f"bldg_{i:02d}_{w:.1f}m_{style.name}_{st}s", "building", style.name, pm,
-                    {"length": round(w, 1)})
+    """72 buildings for street fronts (:mod:`parts_db.sample_buildings`)."""
+    for pid, style, pm, w in building_parts():
+        yield Entry(pid, "building", style, pm, {"length": round(w, 1)})
 
 
 def towers() -> Iterator[Entry]:

@@ -26,6 +26,7 @@ from citysynth.pipeline.commands import (
     ingest,
     skeleton,
     solve,
+    street,
     tower,
 )
 from citysynth.pipeline.compile_notice import announce_compile
@@ -61,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "you may write, else the user cache folder; or "
                              "$CITYSYNTH_CACHE)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (solve, ingest, skeleton, build, tower, city, diff, demo):
+    for module in (solve, ingest, skeleton, build, tower, street, city, diff, demo):
         module.register(sub)
     return parser
 

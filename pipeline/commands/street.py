@@ -1,0 +1,115 @@
+"""``citysynth street``: a street of complete buildings along a line (the paper's Fig. 7),
+its k best rows written as layout JSON, USD, GLB and a PNG preview each.
+
+Exits 0 with the rows written, 1 when a run of the street has no filling that meets
+its length and intervals (the reason on stderr), 2 on bad input.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+from citysynth.examples import SAMPLE_LIBRARY
+from citysynth.export.writers import FORMATS
+from citysynth.parts_db import load_library
+from citysynth.pipeline.commands.build import safe_name
+from citysynth.pipeline.errors import UsageError
+from citysynth.pipeline.layouts import Built, summary_line, write_outputs
+from citysynth.pipeline.streets import SIDES, StreetAsk, solve_street
+from citysynth.skeletons import read_geojson
+from citysynth.skeletons.errors import SkeletonError
+
+ATTRIBUTES = ("doors", "balconies", "windows")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("street", help="fill a street line with complete buildings",
+                       description="Fill one or both sides of a street line (a GeoJSON "
+                                   "LineString) with a library's complete buildings, each "
+                                   "straight run within the stretch tolerance and the asked "
+                                   "intervals, and write layout JSON, USD, GLB and a PNG "
+                                   "preview for each of the k best rows.")
+    p.add_argument("--line", required=True, metavar="FILE",
+                   help="GeoJSON with the street's one LineString")
+    p.add_argument("--side", choices=(*SIDES, "both"), default="both",
+                   help="which side of the line to build (default both)")
+    p.add_argument("--offset", type=float, default=None, metavar="M",
+                   help="facade lines this far from the line (default 0 for one side, "
+                        "6 for both: the line is then the street's centre)")
+    for a in ATTRIBUTES:
+        p.add_argument(f"--{a}", type=float, nargs=2, metavar=("LO", "HI"),
+                       help=f"number of {a} of each straight run")
+    p.add_argument("--stretch", type=float, default=0.005, metavar="SHARE",
+                   help="a run's length may be met within this share (default 0.005)")
+    p.add_argument("--slack", type=float, default=0.3, metavar="M",
+                   help="... or within this many metres, whichever is larger (default 0.3)")
+    p.add_argument("--library", default=str(SAMPLE_LIBRARY), metavar="DIR",
+                   help="part library folder (default: the sample library)")
+    p.add_argument("--style", default=None, help="style of the buildings (default: any)")
+    p.add_argument("--k", type=int, default=1, help="number of rows to write (default 1)")
+    p.add_argument("--crs", default=None, help="CRS of a projected line, e.g. EPSG:25832")
+    p.add_argument("-o", "--out", default="out", metavar="DIR",
+                   help="output folder (default: out/)")
+    p.add_argument("--no-preview", action="store_true", help="skip the PNG previews")
+    p.set_defaults(run=run)
+
+
+def _ask(args) -> StreetAsk:
+    if args.k < 1:
+        raise UsageError(f"--k must be a positive integer, got {args.k}")
+    sides = SIDES if args.side == "both" else (args.side,)
+    offset = args.offset if args.offset is not None else (6.0 if args.side == "both" else 0.0)
+    if not math.isfinite(offset) or offset < 0 or (args.side == "both" and offset == 0):
+        raise UsageError(f"--offset must be a positive number of metres (both sides need "
+                         f"room between their facades), got {offset:g}")
+    if not (0 <= args.stretch <= 0.05 and args.slack >= 0):
+        raise UsageError("--stretch is a share in [0, 0.05] and --slack a number of metres "
+                         f">= 0; got {args.stretch:g} and {args.slack:g}")
+    cons = []
+    for a in ATTRIBUTES:
+        iv = getattr(args, a)
+        if iv is None:
+            continue
+        if not (0 <= iv[0] <= iv[1]):
+            raise UsageError(f"--{a} LO HI needs 0 <= LO <= HI, got {iv[0]:g} {iv[1]:g}")
+        cons.append((a, float(iv[0]), float(iv[1])))
+    return StreetAsk(sides, offset, args.stretch, args.slack, tuple(cons), args.style, args.k)
+
+
+def read_line(path: str, crs: str | None):
+    """The one LineString of a GeoJSON file, in its local metric frame."""
+    feats, frame = read_geojson(path, crs=crs, accept="lines")
+    if len(feats) != 1 or feats[0].geometry.geom_type != "LineString":
+        raise SkeletonError(f"{path}: a street line is one LineString feature; the file has "
+                            f"{len(feats)} feature(s) ({feats[0].geometry.geom_type} first)")
+    return feats[0].geometry, frame
+
+
+def run(args) -> int:
+    ask = _ask(args)
+    line, frame = read_line(args.line, args.crs)
+    db = load_library(args.library)
+    built = solve_street(safe_name(Path(args.line).stem), line, db, ask, frame.describe())
+    if built.status != "ok":
+        print(f"citysynth street: {built.name}: infeasible: {built.reason}", file=sys.stderr)
+        return 1
+    return _write(args, db, built)
+
+
+def _write(args, db, built: Built) -> int:
+    formats = [f for f in FORMATS if f != "png" or not args.no_preview]
+    paths = write_outputs(built, db, args.out, formats=formats, k=args.k)
+    print(f"{built.name}: {len(built.layouts)} row(s)")
+    for lay in built.layouts:
+        print("  " + summary_line(lay))
+        for st in lay.structures:
+            met = st["resources"]
+            print(f"    {st['name']}: {len(st['stages'][0]['parts'])} buildings "
+                  f"({len(set(st['stages'][0]['parts']))} distinct), "
+                  f"{met['length']:.1f} m for {st['stages'][0]['length']:.1f} m, "
+                  + ", ".join(f"{met.get(a, 0):g} {a}" for a in ATTRIBUTES if a in met))
+    print(f"  wrote {len(paths)} files to {Path(args.out)}/ "
+          f"(solve {1e3 * built.timings['solve_s']:.0f} ms)")
+    return 0

@@ -1,0 +1,185 @@
+"""A street of complete buildings along a line (the paper's Fig. 7).
+
+The street line (its centre line, or the facade line with ``offset`` 0) gives one
+facade line per side, ``offset`` metres to its left or right. A facade line is cut
+into runs where it turns by more than :data:`BEND` degrees; each run is a street front
+solved on its own (:func:`~citysynth.pipeline.library_problems.street_front_problem`):
+buildings filling its length within the stretch tolerance (the city's: a fraction of
+the length or ``slack`` metres, whichever is larger, and at least half a quantum),
+with the asked intervals on doors, balconies or windows. The buildings stand on the
+side away from the street, their facades to it; each is stretched by its run's one
+factor and set on the chord of the line between its two ends, so a run bent by a few
+degrees is followed. Where a run turns toward its buildings, both runs stop short of
+the bend by what their depth needs, so the rows meet like two street fronts at a
+corner instead of overlapping.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString
+from shapely.ops import substring
+
+from citysynth.export.layout import Instance, Layout
+from citysynth.parts_db import Part, PartDB
+from citysynth.pipeline.errors import UsageError
+from citysynth.pipeline.layouts import Built
+from citysynth.pipeline.library_problems import street_front_problem
+from citysynth.solver import Problem, solve
+
+BEND = 5.0           # degrees: a facade line turning more than this starts a new run
+MIN_RUN = 6.0        # metres: shorter runs (between close bends) stay empty
+SIDES = ("left", "right")
+
+
+@dataclass(frozen=True)
+class Run:
+    """A straight (or gently bent) facade line, travelled with the buildings on its
+    left (the canonical frame: facade toward -Y, to the right of +X)."""
+
+    side: str
+    index: int
+    line: LineString
+
+    @property
+    def name(self) -> str:
+        return f"{self.side}_{self.index}"
+
+
+def _turns(coords: np.ndarray) -> np.ndarray:
+    """Signed turn (degrees, + = left) at each inner vertex."""
+    d = np.diff(coords, axis=0)
+    a = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+    return (np.diff(a) + 180.0) % 360.0 - 180.0
+
+
+def facade_line(street: LineString, side: str, offset: float) -> LineString:
+    """The facade line of one side, travelled with the buildings on its left."""
+    line = street if offset == 0 else street.offset_curve(
+        offset if side == "left" else -offset, join_style="mitre", mitre_limit=10.0)
+    if not isinstance(line, LineString) or line.is_empty:
+        raise UsageError(f"the street line offset by {offset:g} m to the {side} is not one "
+                         "line (a tight bend folds it); use a smaller --offset")
+    return line if side == "left" else line.reverse()
+
+
+def runs(street: LineString, side: str, offset: float, depth: float) -> list[Run]:
+    """The facade line of ``side`` cut at its bends, trimmed at bends toward the
+    buildings (left turns) by ``depth`` times the half-turn's tangent on each side."""
+    coords = np.asarray(facade_line(street, side, offset).coords)
+    turns = _turns(coords)
+    cuts = [0] + [i + 1 for i, t in enumerate(turns) if abs(t) > BEND] + [len(coords) - 1]
+    out: list[Run] = []
+    for a, b in zip(cuts, cuts[1:], strict=False):
+        line = LineString(coords[a:b + 1])
+        trim0 = depth * math.tan(math.radians(turns[a - 1]) / 2) if a > 0 else 0.0
+        trim1 = depth * math.tan(math.radians(turns[b - 1]) / 2) if b < len(coords) - 1 else 0.0
+        lo, hi = max(trim0, 0.0), line.length - max(trim1, 0.0)
+        if hi - lo < MIN_RUN:
+            continue
+        out.append(Run(side, len(out), substring(line, lo, hi)))
+    return out
+
+
+def building_depth(parts: list[Part]) -> float:
+    """How far the deepest building reaches back from its facade."""
+    return max(-min(shapely.bounds(p.sec_in)[0], shapely.bounds(p.sec_out)[0]) for p in parts)
+
+
+def tolerance(length: float, quantum: float, stretch: float, slack: float) -> float:
+    """How closely a run's length must be met (the city's rule)."""
+    return max(quantum / 2, slack, stretch * length)
+
+
+@dataclass(frozen=True)
+class StreetAsk:
+    """What a street asks: sides, offset, stretch tolerance, intervals, style, k."""
+
+    sides: tuple[str, ...]
+    offset: float = 0.0
+    stretch: float = 0.005
+    slack: float = 0.3
+    constraints: tuple[tuple[str, float, float], ...] = ()
+    style: str | None = None
+    k: int = 1
+
+
+def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
+                 frame: str = "local") -> Built:
+    """The k best rows of buildings along ``street`` (each run's i-th best, or its last
+    when it has fewer), or infeasible with the first run that has none."""
+    parts = db.select("building", ask.style)
+    if not parts:
+        raise UsageError(f"the library {db.name!r} has no complete buildings"
+                         f"{f' of style {ask.style}' if ask.style else ''}")
+    depth = building_depth(parts)
+    all_runs = [r for side in ask.sides for r in runs(street, side, ask.offset, depth)]
+    if not all_runs:
+        raise UsageError(f"{name}: the street line has no straight run of at least "
+                         f"{MIN_RUN:g} m to build on")
+    t0 = time.perf_counter()
+    solved = []
+    for run in all_runs:
+        tol = tolerance(run.line.length, db.quantum, ask.stretch, ask.slack)
+        cons = {"length": [run.line.length - tol, run.line.length + tol],
+                **{a: [lo, hi] for a, lo, hi in ask.constraints}}
+        problem = street_front_problem(db, run.line.length, style=ask.style, k=ask.k)
+        problem["constraints"] = cons
+        r = solve(Problem.from_dict(problem))
+        if r.status != "ok":
+            return Built(name, "infeasible", reason=f"{run.name} ({run.line.length:.1f} m): "
+                         f"{r.reason}", timings={"solve_s": time.perf_counter() - t0})
+        solved.append(r.solutions)
+    t1 = time.perf_counter()
+    index = {p.id: p for p in db.parts}
+    count = max(len(s) for s in solved)
+    layouts = [street_layout(name, i + 1, all_runs, [s[min(i, len(s) - 1)] for s in solved],
+                             index, db, ask, frame)
+               for i in range(count)]
+    return Built(name, "ok", layouts, timings={"solve_s": t1 - t0,
+                                               "layout_s": time.perf_counter() - t1})
+
+
+def _place(run: Run, si: int, sequence: list[str], parts: dict[str, Part]
+           ) -> tuple[list[Instance], float]:
+    """Each building on the chord of the run between its (stretched) ends."""
+    solved = math.fsum(parts[x].length for x in sequence)
+    stretch = run.line.length / solved
+    out, at = [], 0.0
+    for pid in sequence:
+        p = parts[pid]
+        p0 = run.line.interpolate(at * stretch)
+        at += p.length
+        p1 = run.line.interpolate(at * stretch)
+        c = np.array([p1.x - p0.x, p1.y - p0.y])
+        n = np.array([-c[1], c[0]]) / float(np.linalg.norm(c))
+        x_axis = c / p.length
+        out.append(Instance(pid, p.cls, si, 0, None, (float(x_axis[0]), float(x_axis[1])),
+                            (float(n[0]), float(n[1])), (p0.x, p0.y)))
+    return out, stretch
+
+
+def street_layout(name: str, rank: int, all_runs: list[Run], solutions: list,
+                  parts: dict[str, Part], db: PartDB, ask: StreetAsk, frame: str) -> Layout:
+    structures, instances = [], []
+    for si, (run, sol) in enumerate(zip(all_runs, solutions, strict=True)):
+        placed, stretch = _place(run, si, sol.sequence, parts)
+        instances += placed
+        asked = {a: [lo, hi] for a, lo, hi in ask.constraints}
+        structures.append({
+            "name": run.name, "closed": False, "cost": sol.cost, "keys": [],
+            "resources": dict(sol.resources), "asked": asked,
+            "stages": [{"length": run.line.length, "stretch": stretch,
+                        "parts": list(sol.sequence), "asked": asked,
+                        "met": dict(sol.resources),
+                        "polyline": [list(c) for c in run.line.coords]}]})
+    styles = sorted({parts[i.part].style for i in instances})
+    return Layout(name, rank, {"name": db.name, "hash": db.library_hash,
+                               "quantum": db.quantum},
+                  styles[0] if len(styles) == 1 else "+".join(styles), frame,
+                  structures, instances)

@@ -1,0 +1,129 @@
+"""``citysynth street`` (the paper's Fig. 7): a 200 m street line filled with the sample
+library's complete buildings, read back from the written layout and USD; the sample
+buildings make neighbours matter; bad input and infeasible asks."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+
+from citysynth.examples import SAMPLE_LIBRARY
+from citysynth.export.layout import Layout
+from citysynth.export.usd import validate
+from citysynth.parts_db import load_library
+from citysynth.pipeline.cli import main
+from citysynth.pipeline.streets import facade_line, runs
+
+# 200 m in UTM 32N, bent by 3 degrees halfway (one run: gentle bends are followed)
+BEND = math.radians(3)
+COORDS = [[690000.0, 5335000.0], [690100.0, 5335000.0],
+          [690100.0 + 100 * math.cos(BEND), 5335000.0 + 100 * math.sin(BEND)]]
+
+
+def _line_file(path: Path, coords=COORDS, kind="LineString") -> Path:
+    path.write_text(json.dumps({
+        "type": "FeatureCollection",
+        "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::25832"}},
+        "features": [{"type": "Feature", "properties": {"name": "main"},
+                      "geometry": {"type": kind, "coordinates": coords}}]}))
+    return path
+
+
+@pytest.fixture(scope="module")
+def street(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("street")
+    assert main(["street", "--line", str(_line_file(d / "main.geojson")), "--side", "right",
+                 "--doors", "10", "14", "--k", "2", "-o", str(d / "out")]) == 0
+    return d / "out"
+
+
+@pytest.mark.parametrize("rank", [1, 2])
+def test_street_fills_its_line_with_varied_buildings(street, rank):
+    db = load_library(SAMPLE_LIBRARY)
+    parts = {p.id: p for p in db.parts}
+    stem = street / f"main_{rank}"
+    for suffix in (".layout.json", ".usda", ".glb", ".png"):
+        assert Path(f"{stem}{suffix}").is_file()
+    assert validate(f"{stem}.usda") == []
+    lay = Layout.from_dict(json.loads(Path(f"{stem}.layout.json").read_text()))
+    assert len(lay.structures) == 1                 # one side, one run
+    stage = lay.structures[0]["stages"][0]
+    length = stage["length"]
+    assert length == pytest.approx(200.0, abs=0.05)
+    seq = [i.part for i in lay.instances]
+    assert seq == stage["parts"]
+    # filled within the stretch tolerance (0.5 % of 200 m = 1 m), one stretch for all
+    solved = math.fsum(parts[x].length for x in seq)
+    assert abs(solved - length) <= 1.0 + 1e-9
+    assert stage["stretch"] == pytest.approx(length / solved, abs=1e-6)
+    # each building starts where the one before ends, the last one at the line's end
+    line = shapely.LineString(stage["polyline"])
+    for a, b in zip(lay.instances, lay.instances[1:], strict=False):
+        end = np.asarray(a.origin) + np.asarray(a.x_axis) * parts[a.part].length
+        assert np.allclose(end, b.origin, atol=1e-3)
+        assert line.distance(shapely.Point(b.origin)) < 1e-3
+    last = lay.instances[-1]
+    end = np.asarray(last.origin) + np.asarray(last.x_axis) * parts[last.part].length
+    assert np.allclose(end, line.coords[-1], atol=1e-3)
+    assert np.allclose(lay.instances[0].origin, line.coords[0], atol=1e-3)
+    # a varied row: many buildings, never one beside its own copy; the asked doors
+    assert len(set(seq)) >= 6
+    assert all(a != b for a, b in zip(seq, seq[1:], strict=False))
+    doors = sum(parts[x].attributes.get("doors", 0) for x in seq)
+    assert 10 <= doors <= 14
+
+
+def test_right_side_buildings_stand_right_of_the_line(street):
+    lay = Layout.from_dict(json.loads((street / "main_1.layout.json").read_text()))
+    for i in lay.instances:
+        # the street runs +X (roughly); right of it is -Y: the buildings' depth (+Y of
+        # their placement frame) points there, their facades to the street
+        assert i.y_axis[1] < -0.99
+
+
+def test_sample_buildings_make_neighbours_matter(sample_db):
+    """A building beside its own copy shows a step; a row can still fit exactly."""
+    idx = sample_db.index()
+    for p in sample_db.select("building"):
+        i = idx[p.id]
+        assert sample_db.cost[i, i] > 1.0
+        assert (sample_db.cost[i] == 0).any() and (sample_db.cost[:, i] == 0).any()
+
+
+def test_runs_split_at_bends_and_stop_short_of_inner_corners():
+    street = shapely.LineString([(0, 0), (100, 0), (100, 80)])   # a left turn of 90 deg
+    left = runs(street, "left", 6.0, 12.0)
+    right = runs(street, "right", 6.0, 12.0)
+    assert [r.name for r in left] == ["left_0", "left_1"]
+    # left of the line is the inside of the turn: each run stops 12 m (tan 45) short
+    assert left[0].line.length == pytest.approx(100 - 6 - 12)
+    assert left[1].line.length == pytest.approx(80 - 6 - 12)
+    # right of it the outside: the runs reach the corner of the offset line
+    assert sum(r.line.length for r in right) == pytest.approx(facade_line(
+        street, "right", 6.0).length)
+
+
+@pytest.mark.parametrize("args, code, text", [
+    (["--side", "both", "--offset", "0"], 2, "--offset must be a positive number"),
+    (["--doors", "5", "2"], 2, "--doors LO HI needs 0 <= LO <= HI"),
+    (["--doors", "60", "70"], 1, "infeasible"),
+])
+def test_street_bad_or_impossible_asks(tmp_path, capsys, args, code, text):
+    argv = ["street", "--line", str(_line_file(tmp_path / "s.geojson")), "--no-preview",
+            "-o", str(tmp_path / "out"), *args]
+    assert main(argv) == code
+    err = capsys.readouterr().err
+    assert text in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists() or not list((tmp_path / "out").glob("*.usda"))
+
+
+def test_street_line_must_be_one_linestring(tmp_path, capsys):
+    ring = [COORDS[0], COORDS[1], [690100.0, 5335100.0], COORDS[0]]
+    f = _line_file(tmp_path / "p.geojson", [ring], "Polygon")
+    assert main(["street", "--line", str(f), "-o", str(tmp_path)]) == 2
+    assert "Traceback" not in capsys.readouterr().err
