@@ -138,11 +138,9 @@ def _candidates(pts: np.ndarray, i: int, j: int) -> list[np.ndarray]:
 
 
 def _short_runs(pts: np.ndarray, min_side: float, straight_tol: float) -> list[tuple[int, int]]:
-    """Spikes (as one-vertex runs) and the corner-to-corner runs shorter than
-    ``min_side``, shortest first."""
+    """The corner-to-corner runs shorter than ``min_side``, shortest first."""
     n = len(pts)
     turns = _turns(pts)
-    spikes = [(int(v), int(v)) for v in np.flatnonzero(np.abs(turns) > 180.0 - MIN_ANGLE)]
     seg = np.linalg.norm(np.roll(pts, -1, axis=0) - pts, axis=1)
     cs = np.flatnonzero(np.abs(turns) >= straight_tol)
     runs = []
@@ -150,7 +148,7 @@ def _short_runs(pts: np.ndarray, min_side: float, straight_tol: float) -> list[t
         length = sum(seg[k % n] for k in range(a, a + (b - a) % n or n))
         if length < min_side and len(cs) >= 2:
             runs.append((float(length), int(a), int(b)))
-    return spikes + [(a, b) for _len, a, b in sorted(runs)]
+    return [(a, b) for _len, a, b in sorted(runs)]
 
 
 def _removed_area(old: np.ndarray, new: np.ndarray) -> float:
@@ -161,12 +159,26 @@ def _removed_area(old: np.ndarray, new: np.ndarray) -> float:
     return float(a.difference(b).area)
 
 
+def _changed_area(old: np.ndarray, new: np.ndarray) -> float:
+    """Area between two rings (what one adds and the other leaves out)."""
+    a, b = Polygon(old).buffer(0), Polygon(new).buffer(0)
+    return float(a.symmetric_difference(b).area)
+
+
 def _step(pts: np.ndarray, ring: LinearRing, min_side: float, straight_tol: float,
           tolerance: float, relaxed: bool) -> np.ndarray | None:
-    """One absorption: the first short run (shortest first) that some candidate absorbs
-    within ``tolerance`` of the input ring; ``relaxed``: of every short run, the
-    candidate that strays least beyond it while cutting off nothing of the building
-    (a notch filled, never a wing removed)."""
+    """One absorption: the tip of a spike that is a mere sliver (whatever the
+    tolerance: no facade follows one), else the first short run (shortest first) that
+    some candidate absorbs within ``tolerance`` of the input ring; ``relaxed``: of
+    every short run, the candidate that strays least beyond it while cutting off
+    nothing of the building (a notch filled, never a wing removed)."""
+    turns = np.abs(_turns(pts))
+    for v in np.flatnonzero(turns > 180.0 - MIN_ANGLE):   # a sliver of a spike: its tip
+        cand = np.delete(pts, int(v), axis=0)
+        legs = max(np.linalg.norm(pts[v] - pts[v - 1]),
+                   np.linalg.norm(pts[(v + 1) % len(pts)] - pts[v]))
+        if len(cand) >= 3 and 2 * _changed_area(pts, cand) <= tolerance * legs:
+            return cand
     best: tuple[float, np.ndarray] | None = None
     for i, j in _short_runs(pts, min_side, straight_tol):
         scored = sorted(((_hausdorff(c, ring), k, c)

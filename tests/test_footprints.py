@@ -113,35 +113,52 @@ def test_every_generated_shape_keeps_its_wings(district):
 # --- Helsinki --------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def helsinki(tmp_path_factory):
-    d = tmp_path_factory.mktemp("helsinki")
-    assert run_city(d / "run", HELSINKI) in (0, 1)
-    return d / "run", figures(d / "run", HELSINKI)
+def helsinki():
+    """Every Helsinki footprint cleaned as its job cleans it (no solving: the shape the
+    facades stand on is decided here; tests/test_city.py builds them): its distance to
+    the input, or the message naming the side that stays too short."""
+    from citysynth.pipeline.city.footprints import prepare as prepare_job
+    from citysynth.pipeline.city.jobs import _library
+    from citysynth.skeletons.errors import SkeletonError
+
+    inputs = prepare(None, HELSINKI, load_config(None), LIB)
+    db = _library(inputs.jobs[0].library)
+    rows = []
+    for job in inputs.jobs:
+        poly = shapely.from_wkt(job.wkt)
+        try:
+            prep = prepare_job(job, db)
+        except SkeletonError as exc:
+            rows.append({"poly": poly, "reason": str(exc)})
+            continue
+        assert not isinstance(prep, str)
+        lines = shapely.union_all([LineString([*(k.xy for k in sk.keypoints),
+                                               sk.keypoints[0].xy]) for sk in prep.rings])
+        rows.append({"poly": poly, "distance": outline_distance(lines, poly)})
+    return rows
 
 
-def test_helsinki_buildings(helsinki):
-    out, rows = helsinki
-    n, built, close = shares(rows, lambda r: r["poly"].area >= 50
-                             and min(sides_of(r["poly"])) >= 2 * SHORTEST_END)
-    a, built_all, close_all = shares(rows, lambda r: True)
-    print(f"\nHelsinki: {a} footprints, {100 * built_all:.1f} % built, "
-          f"{100 * close_all:.1f} % within {TOLERANCE} m; {n} eligible: "
-          f"{100 * built:.1f} % built, {100 * close:.1f} % within")
-    assert built_all >= 0.97
-    assert close_all >= 0.5       # was 44 %, worst 21 m: short jogs now stay
-    assert max(r["distance"] for r in rows.values() if "distance" in r) < 3.0
-    if n:
-        assert built >= 0.98 and close >= 0.95
+def test_helsinki_outlines_stay_close(helsinki):
+    ok = [r for r in helsinki if "distance" in r]
+    eligible = [r for r in helsinki if r["poly"].area >= 50
+                and min(sides_of(r["poly"])) >= 2 * SHORTEST_END]
+    close = sum(r["distance"] <= TOLERANCE for r in ok) / len(ok)
+    print(f"\nHelsinki: {len(helsinki)} footprints, {len(ok)} buildable outlines, "
+          f"{100 * close:.1f} % within {TOLERANCE} m, worst "
+          f"{max(r['distance'] for r in ok):.1f} m; {len(eligible)} eligible")
+    assert len(ok) / len(helsinki) >= 0.98
+    assert close >= 0.55          # was 44 %: short sides the kit cannot make remain
+    assert max(r["distance"] for r in ok) < 6.0     # was 21.4 m (a dropped wing)
+    assert all(r["distance"] <= TOLERANCE for r in eligible if "distance" in r)
 
 
 def test_helsinki_failures_speak_the_users_language(helsinki):
-    out, rows = helsinki
-    report = json.loads((out / "report.json").read_text())
-    for f in report["failed"]:
-        reason = f["reason"]
-        assert re.search(r"district_buildings\.geojson: feature \d+", reason), reason
-        assert re.search(r"the \d+\.\d\d m side from \(", reason), reason
-        assert not any(w in reason for w in SOLVER_WORDS), reason
+    for r in helsinki:
+        if "reason" in r:
+            reason = r["reason"]
+            assert re.search(r"district_buildings\.geojson: feature \d+", reason), reason
+            assert re.search(r"the \d+\.\d\d m side from \(", reason), reason
+            assert not any(w in reason for w in SOLVER_WORDS), reason
 
 
 # --- cleaning --------------------------------------------------------------------------
