@@ -26,6 +26,14 @@ from citysynth.pipeline.layouts import (
 from citysynth.skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
 from citysynth.skeletons.errors import SkeletonError
 
+MAX_STRETCH = 0.05   # as city.toml: more would stretch parts visibly
+MAX_SLACK = 2.0      # metres
+
+
+def _options(args) -> dict[str, float]:
+    """What --stretch and --slack mean to the structure (the city's stretch and slack)."""
+    return {"stretch": args.stretch, "slack": args.slack}
+
 
 def _common(p) -> None:
     p.add_argument("--library", required=True, metavar="DIR",
@@ -37,6 +45,11 @@ def _common(p) -> None:
     p.add_argument("-o", "--out", default="out", metavar="DIR",
                    help="output folder (default: out/)")
     p.add_argument("--no-preview", action="store_true", help="skip the PNG previews")
+    p.add_argument("--stretch", type=float, default=0.0, metavar="SHARE",
+                   help="a side may be met within this share of its length, as in a city "
+                        "(default 0: within half a quantum)")
+    p.add_argument("--slack", type=float, default=0.0, metavar="M",
+                   help="... or within this many metres, whichever is larger (default 0)")
 
 
 def register(sub) -> None:
@@ -64,6 +77,10 @@ def safe_name(text: str) -> str:
 def _prepare(args):
     if args.k < 1:
         raise UsageError(f"--k must be a positive integer, got {args.k}")
+    if not (0 <= args.stretch <= MAX_STRETCH) or not (0 <= args.slack <= MAX_SLACK):
+        raise UsageError(f"--stretch is a share in [0, {MAX_STRETCH:g}] and --slack a number "
+                         f"of metres in [0, {MAX_SLACK:g}]; got {args.stretch:g} and "
+                         f"{args.slack:g}")
     db = load_library(args.library)
     style = args.style or default_style(db)
     feats, frame = read_geojson(args.file, crs=args.crs)
@@ -98,7 +115,7 @@ def run_building(args) -> int:
     db, style, feats, frame = _prepare(args)
     name = safe_name(Path(args.file).stem)
     sk = skeleton_from_lines(feats, frame, name=name, min_edge=_smallest(db, style))
-    return _finish(args, db, [solve_layouts(name, [sk], db, style, args.k)])
+    return _finish(args, db, [solve_layouts(name, [sk], db, style, args.k, **_options(args))])
 
 
 def run_block(args) -> int:
@@ -110,7 +127,7 @@ def run_block(args) -> int:
         name = safe_name(str(fid)) if fid is not None else \
             (stem if len(feats) == 1 else f"{stem}_{f.index}")
         rings = skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
-        built.append(solve_layouts(name, rings, db, style, args.k))
+        built.append(solve_layouts(name, rings, db, style, args.k, **_options(args)))
     if len({b.name for b in built}) != len(built):
         raise SkeletonError(f"{args.file}: two blocks share a name (their \"id\"); give each "
                             "feature a distinct id")
