@@ -15,14 +15,19 @@ import os
 import sys
 
 import bpy
-from mathutils import Vector
+import numpy as np
 
 
 def _box(obj, matrix) -> list[list[float]] | None:
+    """The world-space bounds of the mesh's vertices (not of its transformed bounding
+    box, which a rotation or a shear would widen)."""
     if obj.type != "MESH" or not obj.data.vertices:
         return None
-    pts = [matrix @ Vector(c) for c in obj.bound_box]
-    return [[min(p[i] for p in pts) for i in range(3)], [max(p[i] for p in pts) for i in range(3)]]
+    co = np.empty(len(obj.data.vertices) * 3)
+    obj.data.vertices.foreach_get("co", co)
+    m = np.array(matrix)
+    pts = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
+    return [pts.min(axis=0).tolist(), pts.max(axis=0).tolist()]
 
 
 def _instances() -> list[dict]:

@@ -1,5 +1,6 @@
 """Blender itself (the ``bpy`` package, 4.2 LTS) imports what citysynth writes, as an
-artist would: the selected variant of a k = 3 block's USD and its GLB. Every instance
+artist would: the selected variant of a k = 3 block's USD and its GLB, and a city's
+USD stage and GLB. Every instance
 comes in, upright (the height of the scene along Blender's Z is the block's height),
 named by its part, with one material per library material and the part id among the
 object's custom properties. bpy runs in its own venv (build/bpy, which ``make`` builds
@@ -22,11 +23,17 @@ from citysynth.export.layout import Layout
 from citysynth.export.materials import material_name
 from citysynth.export.prototypes import prototype_pieces
 from citysynth.export.usd import prim_name
+from citysynth.pipeline.city.config import load_config
+from citysynth.pipeline.city.jobs import run_block
+from citysynth.pipeline.city.outputs import write_city_glb, write_city_stage, write_summary
+from citysynth.pipeline.city.run import prepare
 from citysynth.pipeline.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 LIB = ROOT / "examples" / "library"
 BLOCK = ROOT / "examples" / "blocks" / "block.geojson"
+CITY = ROOT / "examples" / "city"
+DISTRICT = CITY / "district_streets.geojson"
 BPY_VENV = ROOT / "build" / "bpy"
 BPY_SPEC = ["bpy==4.2.0", "numpy<2"]   # the Makefile's pin: a cp311 manylinux wheel
 SCRIPT = Path(__file__).with_name("blender_import.py")
@@ -106,3 +113,32 @@ def test_blender_imports_the_glb_upright(block_k3, db):
     assert len(scene["drawn"]) == len(lay.instances)   # one mesh object per instance
     _check_upright(scene, lay, db)
     _check_materials(scene, lay, db)
+
+
+def test_blender_imports_a_whole_city(tmp_path, db):
+    """Three district blocks built by the city's own job runner: city.usda (blocks as
+    payloads, which Blender loads) and city.glb come in with every instance, upright,
+    one material per library material."""
+    inputs = prepare(DISTRICT, None, load_config(CITY / "city.toml"), LIB)
+    inputs.jobs = inputs.jobs[:3]
+    results = {job.id: run_block(job, str(tmp_path)) for job in inputs.jobs}
+    report = write_summary(inputs, results, tmp_path, 0.0, 1, None)
+    lays = [Layout.from_dict(json.loads((tmp_path / "blocks" / f"{b}.layout.json")
+                                        .read_text())) for b in report["built"]]
+    assert lays, {i: (r["status"], r.get("reason"), r.get("error")) for i, r in results.items()}
+    instances = [i for lay in lays for i in lay.instances]
+    lo = np.min([bounds(lay, db)[0] for lay in lays], axis=0)
+    hi = np.max([bounds(lay, db)[1] for lay in lays], axis=0)
+    want = {material_name(p) for i in instances for p in prototype_pieces(db, i)}
+    usd = blender(write_city_stage(tmp_path, report, inputs.frame.describe()))
+    parts = [o["props"]["citysynth:part"] for o in usd["objects"]
+             if "citysynth:part" in o["props"]]
+    assert sorted(parts) == sorted(i.part for i in instances)
+    glb_path = write_city_glb(tmp_path, inputs, report)
+    assert glb_path is not None
+    glb = blender(glb_path)
+    assert sum(1 for o in glb["objects"] if "part" in o["props"].get("citysynth", {})) == \
+        len(instances)
+    for scene in (usd, glb):
+        np.testing.assert_allclose(_scene_bounds(scene), [lo, hi], atol=2e-3)
+        assert sorted(scene["materials"]) == sorted(want)
