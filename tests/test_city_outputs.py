@@ -24,6 +24,7 @@ from citysynth.pipeline.city.outputs import (
     write_summary,
 )
 from citysynth.pipeline.city.run import prepare
+from citysynth.pipeline.cli import main
 from citysynth.skeletons import parse_geojson
 from tests.test_gltf import assert_clean, glb_json
 
@@ -116,3 +117,22 @@ def test_a_small_city_run_gives_blocks_geojson_and_a_city_glb(tmp_path):
         [f"block_{b}" for b in report["built"]]
     assert root["extras"]["citysynth"]["georeference"]["origin_lat"] == \
         pytest.approx(60.17, abs=0.05)
+
+
+def test_city_glb_on_request_from_the_command_line(tmp_path, capsys):
+    from tests.test_faults import grid_streets
+
+    out = tmp_path / "run"
+    streets = grid_streets(tmp_path / "streets.geojson", 2)
+    assert main(["city", "--streets", str(streets), "--library", str(LIB), "-o", str(out),
+                 "--no-overview", "--workers", "1", "--glb"]) == 0
+    assert f"{out / 'city.glb'}" in capsys.readouterr().out
+    assert_clean([out / "city.glb"])
+    manifest = json.loads((out / "manifest.json").read_text())
+    doc = json.loads((out / BLOCKS_GEOJSON).read_text())
+    assert {f["properties"]["id"]: f["properties"]["status"] for f in doc["features"]
+            if f["geometry"]} == {i: b["status"] for i, b in manifest["blocks"].items()}
+    gltf = glb_json(out / "city.glb")
+    built = [i for i, b in manifest["blocks"].items() if b["status"] == "built"]
+    root = gltf["nodes"][gltf["scenes"][0]["nodes"][0]]
+    assert len(root["children"]) == len(built) == 2

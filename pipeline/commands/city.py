@@ -43,6 +43,8 @@ def register(sub) -> None:
                         "workers must see the library and the run folder)")
     p.add_argument("--crs", default=None, help="CRS of projected input, e.g. EPSG:25832")
     p.add_argument("--no-overview", action="store_true", help="skip city.png")
+    p.add_argument("--glb", action="store_true",
+                   help="also write city.glb: every built block in one Y-up GLB")
     p.set_defaults(run=run)
 
 
@@ -62,9 +64,11 @@ def run(args) -> int:
         print(f"{report['counts']['cached']} blocks were unchanged since the last run in "
               f"{args.out}/ and were not built again")
     city, png = finish_city(inputs, report, Path(args.out), overview=not args.no_overview,
-                            started=t0)
+                            started=t0, glb=args.glb)
+    glb = Path(args.out) / "city.glb"
     print(summary_table(report))
-    print(f"wrote {city}" + (f", {png}" if png else "") + f", {Path(args.out) / 'report.json'}")
+    print(f"wrote {city}" + (f", {png}" if png else "") + (f", {glb}" if args.glb and
+          glb.is_file() else "") + f", {Path(args.out) / 'report.json'}")
     return exit_code(report, "citysynth city")
 
 
