@@ -41,6 +41,21 @@ def t_building() -> dict:
                _line([(31.8, 0), (31.8, 40), (63.6, 40)], id="wing"))
 
 
+def ring_with_wings() -> dict:
+    """The paper's Fig. 1(c): a 72 x 60 m courtyard ring (drawn clockwise, so its main
+    facades face the courtyard; the sample parts have windows on both faces) with a
+    wing out of the middle of every side, one of them with a T of its own: a 75 m wing
+    south whose T at 45 m sends a 30 m branch east. The T parts reach about 19 m along
+    each leg, so T junctions stand at least two legs apart and every side of the ring
+    runs from a corner to a T. Facades face the right of each line."""
+    return _fc(_line([(0, 0), (0, 60), (72, 60), (72, 0), (0, 0)], id="ring"),
+               _line([(36, 0), (36, -45), (36, -75)], id="south_wing"),
+               _line([(36, -45), (66, -45)], id="branch"),
+               _line([(36, 60), (36, 90)], id="north_wing"),
+               _line([(0, 30), (-30, 30)], id="west_wing"),
+               _line([(72, 30), (102, 30)], id="east_wing"))
+
+
 def footprint_courtyard() -> dict:
     """A 60 x 50 m house with a 20 x 14 m courtyard (two cycles)."""
     return _fc(_polygon([(0, 0), (60, 0), (60, 50), (0, 50)],
@@ -62,6 +77,7 @@ GENERATED = {
     "street_front_3res.json": lambda: street_front(60.0, resources=3, k=5),
     "skeletons/t_building.geojson": t_building,
     "skeletons/footprint_courtyard.geojson": footprint_courtyard,
+    "skeletons/ring_with_wings.geojson": ring_with_wings,
     "blocks/block.geojson": block,
 }
 
