@@ -93,22 +93,22 @@ def block_cycle(corners: int = 40, *, seed: int = 1, k: int = 1,
     (structure-wide) interval on the door count, about a third of the facade parts
     having a door."""
     rng = np.random.default_rng(seed)
-    fill = [{"id": f"b{i}", "resources": {"length": round(0.2 * int(rng.integers(20, 101)), 1)}}
-            for i in range(20)]
+    lengths = [{"length": round(0.2 * int(rng.integers(20, 101)), 1)} for i in range(20)]
+    fill = [{"id": f"b{i}", "resources": r} for i, r in enumerate(lengths)]
     keys = [{"id": f"c{i}", "legs": [{"length": 3.0 + 0.2 * i}, {"length": 3.0 + 0.2 * i}]}
             for i in range(3)]
-    ids = [e["id"] for e in fill + keys]
+    ids = [str(e["id"]) for e in fill + keys]
     trans = [[a, b, float(np.round(rng.random(), 3))] for a in ids for b in ids]
     sides = [round(0.2 * int(rng.integers(150, 400)), 1) for _ in range(corners)]
-    d = {"resources": ["length"], "quantum": {"length": 0.2}, "elements": fill + keys,
+    d: dict = {"resources": ["length"], "quantum": {"length": 0.2}, "elements": fill + keys,
          "transitions": trans, "keypoints": [{"elements": [x["id"] for x in keys]}] * corners,
          "stages": [{"constraints": {"length": [L, L]}} for L in sides], "closed": True,
          "k": k}
     if doors is not None:
         drng = np.random.default_rng(seed + 2)
         d["resources"] = ["length", "doors"]
-        for e in fill:
-            e["resources"]["doors"] = float(drng.random() < 0.3)
+        for r in lengths:
+            r["doors"] = float(drng.random() < 0.3)
         d["constraints"] = {"doors": list(doors)}
     return d
 
