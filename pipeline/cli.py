@@ -23,6 +23,7 @@ from citysynth.pipeline.commands import (
     city,
     demo,
     diff,
+    gallery,
     ingest,
     skeleton,
     solve,
@@ -62,7 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "you may write, else the user cache folder; or "
                              "$CITYSYNTH_CACHE)")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (solve, ingest, skeleton, build, tower, street, city, diff, demo):
+    for module in (solve, ingest, skeleton, build, tower, street, city, diff, demo, gallery):
         module.register(sub)
     return parser
 
