@@ -285,32 +285,58 @@ class _Best1:
         shift = np.arange(H + 1)[None, :] - g1[:, None]      # g2 = g - g1
         self.valid = shift >= 0
         self.g2 = np.where(self.valid, shift, 0)
+        self.cols = np.arange(H + 1)
+        # rows already made, by list: a stage list serves every element at a cycle's
+        # root, a completion list every stage into its key point (the list is kept
+        # with its row, so its id cannot be reused while the entry lives)
+        self._rows: dict[int, tuple[object, np.ndarray, list[Any]]] = {}
 
     def _row(self, items: Sequence[tuple[int, Sequence[tuple[float, Any]]]]
              ) -> tuple[np.ndarray, list[Any]]:
         """Costs by share (inf where there is none) and the payloads."""
+        got = self._rows.get(id(items))
+        if got is not None and got[0] is items:
+            return got[1], got[2]
         cost = np.full(self.H + 1, np.inf)
         pay: list[Any] = [None] * (self.H + 1)
         for g, ls in items:
             if g <= self.H and ls:
                 cost[g] = ls[0][0]
                 pay[g] = ls[0][1]
+        self._rows[id(items)] = (items, cost, pay)
         return cost, pay
 
     def options(self, ends: list[tuple[str, list[tuple[int, StageList]], Below, float]]
                 ) -> dict[int, list[tuple[float, tuple[str, Any, Payload]]]]:
-        best = np.full(self.H + 1, np.inf)
-        out: dict[int, list[tuple[float, tuple[str, Any, Payload]]]] = {}
+        costs, firsts, used = [], [], []
+        order: list[int] = []     # shares in the order the per-pair loop first meets them
+        seen = np.zeros(self.H + 1, dtype=bool)
         for f, lists, sub, cf in ends:
             if not sub or not lists:
                 continue
             a, pa = self._row(lists)
             b, pb = self._row(sub)
-            m = np.where(self.valid, a[:, None] + (b[self.g2] + cf), np.inf)
+            bg = b[self.g2]
+            reach = self.valid & (a < np.inf)[:, None] & (bg < np.inf)
+            m = np.where(reach, a[:, None] + (bg + cf), np.inf)
             i = np.argmin(m, axis=0)            # the smallest g1 among equal costs
-            c = m[i, np.arange(self.H + 1)]
-            for g in np.flatnonzero(c < best).tolist():   # strictly better: first f wins
-                g1 = int(i[g])
-                out[g] = [(float(c[g]), (f, pa[g1], pb[g - g1]))]
-            best = np.minimum(best, c)
+            costs.append(m[i, self.cols])
+            firsts.append(i)
+            used.append((f, pa, pb))
+            new = np.flatnonzero(reach.any(axis=0) & ~seen)
+            g1min = np.argmax(reach[:, new], axis=0)   # loops: g1 ascending, then g2
+            order.extend(new[np.lexsort((new, g1min))].tolist())
+            seen[new] = True
+        if not costs:
+            return {}
+        C = np.array(costs)
+        t = np.argmin(C, axis=0)                # the first end element among equal costs
+        c = C[t, self.cols].tolist()
+        g1s = np.array(firsts)[t, self.cols].tolist()
+        tl = t.tolist()
+        out: dict[int, list[tuple[float, tuple[str, Any, Payload]]]] = {}
+        for g in order:
+            f, pa, pb = used[tl[g]]
+            g1 = g1s[g]
+            out[g] = [(c[g], (f, pa[g1], pb[g - g1]))]
         return out
