@@ -8,12 +8,12 @@ the file. The format is documented in the README ("Part libraries").
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal, cast, get_args
 
 from citysynth.parts_db.errors import LibraryError
+from citysynth.solver.safe_read import read_toml
 
 PartClass = Literal["end_left", "end_right", "middle", "corner", "t_junction", "floor",
                     "ground_floor", "roof", "building"]
@@ -53,13 +53,10 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     if not root.is_dir():
         raise LibraryError(f"{root}: not a folder; a library is a folder with manifest.toml "
                            "and mesh files")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
+    if not path.exists():
         raise LibraryError(f"{path}: missing; a library needs a manifest.toml "
-                           "(see README, 'Part libraries')") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise LibraryError(f"{path}: not valid TOML: {exc}") from None
+                           "(see README, 'Part libraries')")
+    data = read_toml(path, "manifest", LibraryError)   # encoding, size: safe_read
 
     lib = data.get("library", {})
     unknown = sorted(set(lib) - _LIB_KEYS)
@@ -81,8 +78,12 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     seen: set[str] = set()
     for i, p in enumerate(parts_in):
         parts.append(_part(p, i, path, seen))
+    rescale = lib.get("rescale", True)
+    if not isinstance(rescale, bool):
+        raise LibraryError(f"{path}: [library] rescale must be true or false, got "
+                           f"{rescale!r}")
     return Manifest(path, str(lib.get("name", root.name)), quantum, UNITS[units],
-                    bool(lib.get("rescale", True)), tuple(parts))
+                    rescale, tuple(parts))
 
 
 def _positive(v: object, where: str) -> float:

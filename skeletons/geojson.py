@@ -35,6 +35,7 @@ from shapely.geometry import shape
 from shapely.geometry.base import BaseGeometry
 
 from citysynth.skeletons.errors import SkeletonError
+from citysynth.solver.safe_read import read_json
 
 TRUE_SCALE = 1e-3      # a projected CRS whose scale strays more from 1 is reprojected
 LONLAT_FRAME = "WGS 84 lon/lat, local transverse Mercator"
@@ -111,15 +112,7 @@ def read_geojson(path: str | Path, crs: str | None = None,
                  *, accept: Accept = "any") -> tuple[Features, Frame]:
     """A GeoJSON file's features in a local metric frame; see :func:`parse_geojson`."""
     p = Path(path)
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise SkeletonError(f"{p}: cannot read ({exc.strerror})") from None
-    except UnicodeDecodeError:
-        raise SkeletonError(f"{p}: not UTF-8 text; GeoJSON is UTF-8") from None
-    except json.JSONDecodeError as exc:
-        raise SkeletonError(f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
-                            f"{exc.msg}") from None
+    data = read_json(p, "GeoJSON", SkeletonError)   # encoding, depth, size: safe_read
     return parse_geojson(data, str(p), crs, origin, origin_digits, accept=accept)
 
 
@@ -189,6 +182,7 @@ def _geometry(g: Any, where: str) -> BaseGeometry | None:
         return None
     if not isinstance(g, dict):
         raise SkeletonError(f"{where}: malformed geometry (not an object)")
+    _check_coordinates(g, where)
     try:
         geom = shape(g)
     except Exception as exc:  # shapely raises several kinds for malformed geometry
@@ -197,6 +191,34 @@ def _geometry(g: Any, where: str) -> BaseGeometry | None:
     if not np.isfinite(coords).all():
         raise SkeletonError(f"{where}: non-finite coordinates")
     return geom
+
+
+MAX_VERTICES = 50_000    # per feature: a street, block or building outline has far fewer
+
+
+def _check_coordinates(g: dict, where: str) -> None:
+    """Every coordinate is a number (shapely would read "7.1" or true as one), and the
+    feature has at most :data:`MAX_VERTICES` points (counted before shapely builds it)."""
+    stack: list[Any] = [g.get("coordinates", [])]
+    stack += [c.get("coordinates", []) for c in g.get("geometries", []) or []
+              if isinstance(c, dict)]
+    n = 0
+    while stack:
+        v = stack.pop()
+        if isinstance(v, list):
+            if v and not isinstance(v[0], list):
+                n += 1
+                if not all(isinstance(x, int | float) and not isinstance(x, bool) for x in v):
+                    raise SkeletonError(f"{where}: coordinates must be numbers, got "
+                                        f"{v!r}"[:200])
+            else:
+                stack.extend(v)
+        elif not isinstance(v, int | float) or isinstance(v, bool):
+            raise SkeletonError(f"{where}: coordinates must be numbers, got {v!r}"[:200])
+    if n > MAX_VERTICES:
+        raise SkeletonError(f"{where}: {n:,} vertices, more than the {MAX_VERTICES:,} an "
+                            "outline may have (cleaning it would take minutes and "
+                            "gigabytes); simplify it first, e.g. ogr2ogr -simplify 0.1")
 
 
 def _unusable(g: BaseGeometry | None, accept: Accept) -> str | None:

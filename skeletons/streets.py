@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import shapely
 from shapely.geometry import LineString, MultiLineString, Polygon
 
@@ -110,6 +111,32 @@ def street_setback(props: dict[str, Any], s: Setbacks) -> float:
     return max((table.get(c, s.default) for c in highway_classes(props)), default=s.default)
 
 
+MAX_CROSSINGS = 100_000   # street crossings: each makes up to a block, a job of its own
+CROSSING_SAMPLE = 50_000  # pairs of lines tested to estimate how many cross
+
+
+def _check_crossings(lines: list, feats: list[Feature]) -> None:
+    """Refuse, before noding, a network whose lines cross each other so often that
+    noding and polygonising it would take minutes and gigabytes (a few thousand random
+    segments cross a million times; a whole real city crosses far less)."""
+    arr = np.asarray(lines, dtype=object)
+    pairs = shapely.STRtree(arr).query(arr)        # boxes that meet: fast, an upper bound
+    if pairs.shape[1] <= 2 * MAX_CROSSINGS:
+        return
+    step = max(1, pairs.shape[1] // CROSSING_SAMPLE)   # the share that cross, from a sample
+    idx = np.arange(0, pairs.shape[1], step)
+    share = float(shapely.crosses(arr[pairs[0, idx]], arr[pairs[1, idx]]).mean())
+    crossings = int(share * pairs.shape[1] / 2)
+    if crossings > MAX_CROSSINGS:
+        src = feats[0].source + ": " if feats and feats[0].source else ""
+        raise SkeletonError(
+            f"{src}{len(lines):,} street lines cross each other about {crossings:,} times, "
+            f"making about as many blocks (noding them would take about "
+            f"{crossings * 4e-6:,.1f} GB and minutes); more than the {MAX_CROSSINGS:,} a "
+            "street network has: check that these are street centre lines, or split "
+            "the area")
+
+
 def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict], float] = 6.0,
                   *, min_area: float = 50.0) -> tuple[list[Block], list[str]]:
     """The blocks between street centre lines, each cut back by the setbacks of the
@@ -134,6 +161,7 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
     cuts = [g.buffer(width(f.properties), cap_style="square", join_style="mitre",
                      mitre_limit=3.0) for g, f in zip(lines, owners, strict=True)]
     tree = shapely.STRtree(cuts)
+    _check_crossings(lines, feats)
     noded = shapely.union_all(lines)
     faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
     blocks = []

@@ -107,6 +107,9 @@ def _csr(n: int, rows: np.ndarray, cols: np.ndarray, w: np.ndarray):
     return ptr, cols.astype(np.int64), w.astype(np.float64)
 
 
+HI_CAP = 2**53           # quanta: beyond this a bound cannot matter (nor fit int64 sums)
+
+
 def compile_problem(p: Problem) -> Compiled:
     """Quantise and flatten ``p``; raises ProblemError for an unbounded element."""
     ids = [e.id for e in p.elements]
@@ -123,8 +126,10 @@ def compile_problem(p: Problem) -> Compiled:
         cols.append(ints)
     R = len(bounded)
     r = np.array(cols, dtype=np.int64).T.reshape(n, R)
-    lo = np.array([q.lo for q in quant], dtype=np.int64)
-    hi = np.array([q.hi for q in quant], dtype=np.int64)
+    lo = np.array([min(q.lo, HI_CAP) for q in quant], dtype=np.int64)
+    # a bound past any countable total (1e300) is no bound: capped, the size estimates
+    # then refuse or solve it like any wide interval
+    hi = np.array([min(q.hi, HI_CAP) for q in quant], dtype=np.int64)
 
     lev = r.sum(axis=1)
     for i in np.flatnonzero(lev == 0):

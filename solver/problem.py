@@ -11,7 +11,6 @@ stage downstream can trust it, and every error names the offending place
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Collection
 from dataclasses import dataclass, field
@@ -22,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from citysynth.solver.errors import ProblemError
+from citysynth.solver.safe_read import read_json
 
 _TOP_KEYS = {
     "resources", "quantum", "elements", "transitions", "front", "back", "constraints", "k",
@@ -123,17 +123,7 @@ class Problem:
 
 def load_json(path: str | Path) -> Any:
     """The JSON in ``path``; unreadable files and syntax errors become one message."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ProblemError(f"{p}: cannot read the problem file ({exc.strerror})") from None
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ProblemError(
-            f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
-        ) from None
+    return read_json(path, "problem", ProblemError)   # encoding, depth, size: safe_read
 
 
 def _number(value: Any, where: str, *, minimum: float | None = 0.0) -> float:
@@ -191,7 +181,10 @@ def _parse(d: Any, source: str) -> Problem:
     quantum = _parse_quantum(d.get("quantum", {}) or {}, resources, source)
     elements = _parse_elements(d.get("elements"), resources, source)
     index = {e.id: i for i, e in enumerate(elements)}
-    transitions, arrays = _parse_transitions(d.get("transitions", []), index, source)
+    if "transitions" not in d:     # else every sequence of two would be "infeasible"
+        raise ProblemError(f'{source}: "transitions" is missing; list the allowed pairs '
+                           "as [from, to, cost]")
+    transitions, arrays = _parse_transitions(d["transitions"], index, source)
     front = _parse_ends(d, "front", elements, source)
     back = _parse_ends(d, "back", elements, source)
     constraints = parse_intervals(d.get("constraints", {}), resources, "constraints", source)

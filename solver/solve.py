@@ -132,6 +132,22 @@ def choose_method(cp: Compiled, k: int, max_memory_mb: float) -> Method:
     return "rcksp"
 
 
+SOLUTION_BYTES = 256     # the least a kept solution takes (its sequence, cost, totals)
+
+
+def check_k(k: int, max_memory_mb: float) -> None:
+    """``k`` is positive, and k solutions fit the memory budget (checked before any
+    array of k is allocated)."""
+    if k < 1:
+        raise ProblemError(f"k must be a positive integer, got {k}")
+    need = k * SOLUTION_BYTES
+    if need > max_memory_mb * 2**20:
+        raise TooLargeError(f"k = {k:,}: keeping that many solutions takes at least "
+                            f"{need / 2**30:,.1f} GB, over the memory budget of "
+                            f"{max_memory_mb:,.0f} MB; ask for fewer (k), or raise the "
+                            "budget (--max-memory MB)")
+
+
 def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
           max_memory_mb: float = DEFAULT_MAX_MEMORY_MB, table: str = "auto",
           explain: bool = True) -> Result:
@@ -171,8 +187,7 @@ def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
     if table not in ("auto", "dense", "hash"):
         raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
     k = problem.k if k is None else int(k)
-    if k < 1:
-        raise ProblemError(f"k must be a positive integer, got {k}")
+    check_k(k, max_memory_mb)
     t0 = time.perf_counter()
     cp = compile_problem(problem)
     if method == "auto":

@@ -47,7 +47,6 @@ style = "modern"            # and optionally library, k, pick, per_side, per_blo
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -58,6 +57,7 @@ from shapely.geometry import Polygon
 from citysynth.pipeline.city.footprints import Storeys
 from citysynth.pipeline.errors import ConfigError
 from citysynth.skeletons.streets import Setbacks
+from citysynth.solver.safe_read import read_toml
 
 Pick = Literal["best", "vary"]   # which of a block's k layouts it keeps
 PICKS: tuple[Pick, ...] = get_args(Pick)
@@ -130,13 +130,7 @@ def load_config(path: str | Path | None) -> CityConfig:
     if path is None:
         return CityConfig()
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigError(f"{p}: cannot read ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML: {exc}") from None
-    return parse_config(data, p)
+    return parse_config(read_toml(p, "city.toml", ConfigError), p)   # safe_read
 
 
 def parse_config(data: dict, path: Path | None = None) -> CityConfig:
@@ -248,6 +242,8 @@ def _origin(data: dict, err: _Err) -> tuple[float, float] | None:
         return None
     if not isinstance(origin, list) or len(origin) != 2 or not all(_isnum(c) for c in origin):
         raise err("origin", "must be [lon, lat]")
+    if not (-180 <= origin[0] <= 180 and -90 <= origin[1] <= 90):
+        raise err("origin", f"must be [lon, lat] in degrees, got {origin}")
     return float(origin[0]), float(origin[1])
 
 

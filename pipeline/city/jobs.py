@@ -99,6 +99,7 @@ class BlockJob:
     min_edge: float
     slack: float = CITY_SLACK
     footprint: FootprintSpec | None = None      # a footprint's feature and settings
+    cut: bool = False                           # a street block cut back by footprints
     input_hash: str = ""
 
     def with_hash(self) -> BlockJob:
@@ -170,6 +171,7 @@ def cached(out: Path, job: BlockJob) -> BlockRecord | None:
                 return None
         except OSError:
             return None
+    del rec["hashes"]           # the record, as run_block answered it
     return cast(BlockRecord, rec)
 
 

@@ -145,6 +145,7 @@ def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry
         wkt = outline_wkt(poly)
         zone_name, s = _zone_for(cfg, zones, poly, highways)
         db, path, style = _library_style(s, library, libraries)
+        _check_resources(cfg, s, zone_name, db, path)
         job = BlockJob(block_id(kind, wkt), kind, wkt, frame_tuple(frame), zone_name, path,
                        db.library_hash, style, s.k, s.pick, cfg.seed,
                        tuple((n, lo, hi) for n, (lo, hi) in sorted(s.per_side.items())),
@@ -153,6 +154,21 @@ def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry
                        cfg.min_edge, cfg.slack, spec).with_hash()
         jobs.setdefault(job.id, job)
     return sorted(jobs.values(), key=lambda j: j.id)
+
+
+def _check_resources(cfg: CityConfig, s: BuildSettings, zone: str, db: PartDB,
+                     path: str) -> None:
+    """Every constrained name is the length or an attribute some part of the library
+    has: a typo would otherwise fail every block, one by one."""
+    known = {"length"} | {a for p in db.parts for a in p.attributes}
+    for table, names in (("per_side", s.per_side), ("per_block", s.per_block)):
+        for name in sorted(names):
+            if name not in known:
+                where = f"{cfg.path}: " if cfg.path else ""
+                zone_of = f"zone {zone!r}: " if zone else ""
+                raise ConfigError(f"{where}{zone_of}{table}.{name}: no part of the library "
+                                  f"{path} has this attribute; it has "
+                                  f"{', '.join(sorted(known))}")
 
 
 def _library_style(s: BuildSettings, library: str | Path | None,

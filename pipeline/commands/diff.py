@@ -16,6 +16,7 @@ from typing import Any
 
 from citysynth.pipeline.city.outputs import MANIFEST, RUN_SCHEMA
 from citysynth.pipeline.errors import UsageError
+from citysynth.solver.safe_read import decode, parse_json, read_bytes, read_json
 
 
 def register(sub) -> None:
@@ -31,24 +32,52 @@ def register(sub) -> None:
 
 
 def _manifest(run: Path) -> dict:
-    try:
-        m = json.loads((run / MANIFEST).read_text(encoding="utf-8"))
-    except OSError:
+    """The run's manifest, checked for the shape :mod:`..city.outputs` writes."""
+    if not run.is_dir():
+        raise UsageError(f"{run}: not a folder; give the -o folder of citysynth city")
+    if not (run / MANIFEST).exists():
         raise UsageError(f"{run}: not a citysynth run folder (no {MANIFEST}); give the "
-                            "-o folder of citysynth city") from None
-    except ValueError as exc:
-        raise UsageError(f"{run / MANIFEST}: unreadable ({exc})") from None
-    if m.get("schema") != RUN_SCHEMA:
-        raise UsageError(f"{run / MANIFEST}: not a {RUN_SCHEMA} manifest")
+                         "-o folder of citysynth city")
+    where = run / MANIFEST
+    m = read_json(where, "run manifest", UsageError)
+    if not isinstance(m, dict) or m.get("schema") != RUN_SCHEMA:
+        raise UsageError(f"{where}: not a {RUN_SCHEMA} manifest; rerun citysynth city "
+                         f"into {run}")
+    blocks = m.get("blocks")
+    if not isinstance(blocks, dict) or not all(isinstance(r, dict) and isinstance(
+            r.get("files", []), list) for r in blocks.values()):
+        raise UsageError(f"{where}: \"blocks\" is not an object of block records; rerun "
+                         f"citysynth city into {run}")
     return m
 
 
-def _layout(run: Path, rec: dict) -> tuple[bytes, dict] | None:
-    f = next((f for f in rec.get("files", []) if f.endswith(".layout.json")), None)
+def _layout(run: Path, bid: str, rec: dict) -> tuple[bytes, dict] | None:
+    """A block's layout (bytes and parsed), read only from inside ``run``."""
+    f = next((f for f in rec.get("files", []) if isinstance(f, str)
+              and f.endswith(".layout.json")), None)
     if f is None:
         return None
-    data = (run / f).read_bytes()
-    return data, json.loads(data)
+    path = (run / f).resolve()
+    if not path.is_relative_to(run.resolve()) or Path(f).is_absolute():
+        raise UsageError(f"{run / MANIFEST}: block {bid} names {f!r}, outside the run "
+                         "folder; the manifest is not citysynth's")
+    data = read_bytes(path, "layout", UsageError)
+    lay = parse_json(decode(data, path, "layout", UsageError), path, "layout", UsageError)
+    if not isinstance(lay, dict) or not _layout_shape(lay):
+        raise UsageError(f"{path}: not a citysynth layout (damaged?); rerun citysynth city "
+                         f"into {run}")
+    return data, lay
+
+
+def _layout_shape(lay: dict) -> bool:
+    """The fields the diff reads, of the types it reads them as."""
+    try:
+        ok = all(isinstance(lay[k], int | float) for k in ("cost", "rank"))
+        ok = ok and all(isinstance(i["part"], str) for i in lay["instances"])
+        return ok and all(isinstance(t["met"], dict) for s in lay["structures"]
+                          for t in s["stages"])
+    except (KeyError, TypeError):
+        return False
 
 
 def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
@@ -67,7 +96,7 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
                            "reason": rb.get("reason") or ra.get("reason")
                            or rb.get("error") or ra.get("error")})
             continue
-        la, lb = _layout(a, ra), _layout(b, rb)
+        la, lb = _layout(a, bid, ra), _layout(b, bid, rb)
         if la is None or lb is None or la[0] == lb[0]:
             same += 1
             continue

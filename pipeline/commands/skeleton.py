@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+from citysynth.pipeline.errors import UsageError
 from citysynth.skeletons import (
     Feature,
     blocks_from_streets,
@@ -34,6 +35,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    if not 0 <= args.setback < 1000:
+        raise UsageError(f"--setback must be a distance in metres from 0 to 1000, got "
+                         f"{args.setback:g}")
     feats, frame = read_geojson(args.file, crs=args.crs)
     kind = args.kind
     if kind == "auto":

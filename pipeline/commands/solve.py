@@ -8,6 +8,7 @@ import sys
 from citysynth.pipeline.commands.results_text import format_result
 from citysynth.pipeline.errors import UsageError
 from citysynth.solver import METHODS, Problem, solve
+from citysynth.solver.errors import ProblemError
 from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.problem import load_json
 from citysynth.solver.structures import Structure, solve_structure
@@ -32,6 +33,16 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    """Solve the file's problem or structure; every error names the file."""
+    try:
+        return _run(args)
+    except ProblemError as exc:    # TooLargeError too
+        if str(args.file) in str(exc):
+            raise
+        raise type(exc)(f"{args.file}: {exc}") from None
+
+
+def _run(args) -> int:
     if args.k is not None and args.k < 1:
         raise UsageError(f"--k must be a positive integer, got {args.k}")
     data = load_json(args.file)

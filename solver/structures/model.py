@@ -291,6 +291,9 @@ def _parse_keypoints(kps: Any, source: str
     return keypoints, branch
 
 
+_STAGE_KEYS = {"constraints", "elements", "from", "to"}
+
+
 def _parse_stages(d: dict, n_keypoints: int, resources: tuple[str, ...], source: str
                   ) -> list[Stage]:
     """The stages, each with explicit key points: given as ``from``/``to``, or a chain
@@ -299,7 +302,9 @@ def _parse_stages(d: dict, n_keypoints: int, resources: tuple[str, ...], source:
     if not isinstance(st_in, list) or not st_in:
         raise ProblemError(f'{source}: "stages" must be a non-empty list of '
                            '{"constraints": {...}}')
-    closed = bool(d.get("closed", False))
+    closed = d.get("closed", False)
+    if not isinstance(closed, bool):
+        raise ProblemError(f'{source}: "closed" must be true or false, got {closed!r}')
     explicit = any(isinstance(s, dict) and ("from" in s or "to" in s) for s in st_in)
     if not explicit:
         need = len(st_in) if closed else len(st_in) + 1
@@ -310,6 +315,10 @@ def _parse_stages(d: dict, n_keypoints: int, resources: tuple[str, ...], source:
     for i, s in enumerate(st_in):
         if not isinstance(s, dict):
             raise ProblemError(f"{source}: stages[{i}]: must be an object")
+        unknown = sorted(set(s) - _STAGE_KEYS)
+        if unknown:
+            raise ProblemError(f"{source}: stages[{i}]: unknown key {unknown[0]!r}; a stage "
+                               f"has {', '.join(sorted(_STAGE_KEYS))}")
         cons = parse_intervals(s.get("constraints"), resources, f"stages[{i}].constraints",
                                source)
         els = s.get("elements")
@@ -516,6 +525,10 @@ def _check_junctions(keypoints: Sequence[Sequence[str]], indeg: list[int],
                      legs: Mapping[str, Legs], err: _Err) -> None:
     """At most three stages meet at a key point; where two leave it (a T junction), it
     names the one that branches off and each of its elements has a branch leg."""
+    for v, b in branch.items():
+        if v < len(out) and b not in out[v]:
+            raise err(f"keypoints[{v}].branch: {b!r} is not a stage leaving this key point "
+                      f"(those are {out[v] or 'none'}); name one of them, or leave it out")
     for v in range(len(keypoints)):
         deg = len(out[v]) + indeg[v]
         if deg > 3:

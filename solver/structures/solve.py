@@ -17,10 +17,10 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Literal, get_args
 
-from citysynth.solver.errors import ProblemError
+from citysynth.solver.errors import ProblemError, TooLargeError
 from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.quantize import exact_divisor, is_multiple
-from citysynth.solver.solve import Status
+from citysynth.solver.solve import Status, check_k
 from citysynth.solver.structures.combine import Payload, best_structures, paused_gc, root_of
 from citysynth.solver.structures.decompose import Grid, PairProblems
 from citysynth.solver.structures.model import Structure
@@ -74,7 +74,23 @@ def _global_grid(st: Structure) -> Grid:
         qs.append(q)
         los.append(int(math.ceil(lo / q - 1e-9)))
         his.append(int(math.floor(hi / q + 1e-9)))
+    _check_shares(names, his)
     return names, qs, los, his
+
+
+MAX_SHARES = 1_000_000   # ways to split the structure-wide totals, per stage
+
+
+def _check_shares(names: list[str], his: list[int]) -> None:
+    """Refuse, before anything is allocated, a structure-wide interval whose every
+    share a stage may take would be enumerated past :data:`MAX_SHARES`."""
+    shares = math.prod(h + 1 for h in his)
+    if shares > MAX_SHARES:
+        raise TooLargeError(
+            f"structure-wide constraints on {', '.join(names)}: {shares:,} ways to share "
+            f"the totals between stages (each stage's solutions are kept per share; about "
+            f"{shares * 64 / 2**30:,.0f} GB before any is solved), more than {MAX_SHARES:,}; "
+            "narrow the interval to what the structure can reach")
 
 
 def solve_structure(st: Structure, k: int | None = None, method: StructureMethod = "auto",
@@ -127,8 +143,7 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
         raise ProblemError(f"unknown structure method {method!r}; choose one of "
                            f"{', '.join(METHODS)}")
     k = st.k if k is None else int(k)
-    if k < 1:
-        raise ProblemError(f"k must be a positive integer, got {k}")
+    check_k(k, max_memory_mb)
     t0 = time.perf_counter()
     grid = _global_grid(st)
     gnames, _gq, glo, ghi = grid

@@ -1,0 +1,157 @@
+"""Reading the user's files (JSON, GeoJSON, TOML) without ever ending in a traceback.
+
+Every loader of citysynth (problem and structure files, GeoJSON, library manifests,
+city.toml, part databases, run manifests and layouts for ``diff``) reads through here,
+so each of these becomes one message that names the file and says how to fix it, raised
+as the caller's own error class (the CLI prints it and exits 2):
+
+- a path that is missing, a folder, unreadable, or larger than :data:`MAX_MB` megabytes
+  (``$CITYSYNTH_MAX_INPUT_MB`` raises the limit; parsed JSON takes about ten times its
+  file size in memory, so the size is checked before anything is read);
+- text that is not UTF-8 (Latin-1, a Windows code page, UTF-16): the offending byte and
+  line are named; a UTF-8 byte-order mark is accepted;
+- JSON that is not valid, is empty, uses ``NaN``/``Infinity`` (not JSON; a bound or
+  coordinate that is not a number), or is nested deeper than :data:`MAX_DEPTH` levels
+  (the parser's recursion is caught, and the parsed value is walked without recursion,
+  so no later stage can overflow the stack on it);
+- TOML that is not valid.
+
+This module lives in the solver package only because that is the package every other
+one imports; it depends on nothing but the standard library.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+import tomllib
+from pathlib import Path
+from typing import Any
+
+MAX_MB = 512                 # default size limit of one input file
+MAX_DEPTH = 100              # deepest nesting of JSON accepted (GeoJSON needs about 8)
+SIZE_ENV = "CITYSYNTH_MAX_INPUT_MB"
+UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
+UTF8_BOM = b"\xef\xbb\xbf"
+
+
+def _limit_mb() -> float:
+    try:
+        v = float(os.environ.get(SIZE_ENV, MAX_MB))
+    except ValueError:
+        return MAX_MB
+    return v if v > 0 and v == v else MAX_MB
+
+
+def read_bytes(path: str | Path, what: str, error: type[Exception]) -> bytes:
+    """The bytes of the ``what`` file at ``path`` (e.g. "GeoJSON", "problem")."""
+    p = Path(path)
+    try:
+        if p.is_dir():
+            raise error(f"{p}: a folder, not a {what} file; give the file's path")
+        st = p.stat()
+        if not stat.S_ISREG(st.st_mode):   # a FIFO or a device would block or never end
+            raise error(f"{p}: not a regular file; give the path of a {what} file")
+        size = st.st_size
+        limit = _limit_mb()
+        if size > limit * 1e6:
+            raise error(f"{p}: {size / 1e6:.0f} MB, larger than the {limit:g} MB a {what} "
+                        f"file may have (reading it would take about {size * 10 / 1e9:.1f}"
+                        f" GB of memory); split it, or raise ${SIZE_ENV}")
+        return p.read_bytes()
+    except FileNotFoundError:
+        raise error(f"{p}: cannot read the {what} file: no such file; check the "
+                    "path") from None
+    except OSError as exc:
+        raise error(f"{p}: cannot read the {what} file ({exc.strerror or exc}); check that "
+                    "it exists and that you may read it") from None
+
+
+def decode(data: bytes, p: Path | str, what: str, error: type[Exception]) -> str:
+    """``data`` as UTF-8 text (a UTF-8 byte-order mark dropped)."""
+    if data.startswith(UTF16_BOMS):
+        raise error(f"{p}: UTF-16 text; {what} files are UTF-8: save it as UTF-8")
+    if data.startswith(UTF8_BOM):
+        data = data[len(UTF8_BOM):]
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data.count(b"\n", 0, exc.start) + 1
+        hint = "UTF-16 text" if b"\x00" in data[:64] else "another encoding, such as Latin-1"
+        raise error(f"{p}: not UTF-8 text (byte 0x{data[exc.start]:02x} on line {line}; "
+                    f"perhaps {hint}); {what} files are UTF-8: save it as UTF-8") from None
+
+
+def read_text(path: str | Path, what: str, error: type[Exception]) -> str:
+    return decode(read_bytes(path, what, error), path, what, error)
+
+
+def depth_error(data: Any, max_depth: int = MAX_DEPTH) -> bool:
+    """Whether ``data`` nests lists and objects more than ``max_depth`` deep (walked
+    without recursion)."""
+    stack: list[tuple[Any, int]] = [(data, 1)]
+    while stack:
+        value, d = stack.pop()
+        if d > max_depth:
+            return True
+        if isinstance(value, dict):
+            stack.extend((v, d + 1) for v in value.values() if isinstance(v, dict | list))
+        elif isinstance(value, list):
+            stack.extend((v, d + 1) for v in value if isinstance(v, dict | list))
+    return False
+
+
+def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
+               max_depth: int = MAX_DEPTH) -> Any:
+    """The JSON value of ``text`` (the ``what`` file ``p``); see the module."""
+    def constant(name: str) -> Any:
+        raise error(f"{p}: {name} is not a JSON number; write a number (or leave the "
+                    "value out)")
+
+    if not text.strip():
+        raise error(f"{p}: empty; a {what} file holds JSON")
+    try:
+        data = json.loads(text, parse_constant=constant)
+    except json.JSONDecodeError as exc:
+        raise error(f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
+                    f"{exc.msg}") from None
+    except RecursionError:
+        data = None
+        deep = True
+    else:
+        deep = depth_error(data, max_depth)
+    if deep:
+        raise error(f"{p}: JSON nested more than {max_depth} levels deep; a {what} file "
+                    "never is: check that it is the right file")
+    return data
+
+
+def read_json(path: str | Path, what: str, error: type[Exception], *,
+              max_depth: int = MAX_DEPTH) -> Any:
+    """The JSON in the ``what`` file at ``path``; every failure is one ``error``."""
+    return parse_json(read_text(path, what, error), path, what, error, max_depth=max_depth)
+
+
+def read_toml(path: str | Path, what: str, error: type[Exception]) -> dict[str, Any]:
+    """The TOML in the ``what`` file at ``path``; every failure is one ``error``."""
+    text = read_text(path, what, error)
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise error(f"{path}: TOML nested too deeply; check that it is the right "
+                    "file") from None
+
+
+def expect(value: Any, kind: type | tuple[type, ...], where: str, what: str,
+           error: type[Exception]) -> Any:
+    """``value`` when it is of ``kind`` (a bool is not a number); else one ``error``
+    saying what was expected at ``where``."""
+    bad_bool = isinstance(value, bool) and bool not in (kind if isinstance(kind, tuple)
+                                                         else (kind,))
+    if bad_bool or not isinstance(value, kind):
+        got = type(value).__name__ if value is not None else "null"
+        raise error(f"{where}: expected {what}, got {got} {value!r}"[:300])
+    return value
