@@ -255,3 +255,43 @@ def test_a_closed_pipe_ends_quietly(clean):
             os.close(w)
         assert res.stderr == "", (args, res.stderr)
         assert res.returncode == (0 if args == ["--help"] else 141), args
+
+
+def _mount_readonly(where: Path) -> None:
+    _mount_tmpfs(where, "1m")
+    subprocess.run(["mount", "-o", "remount,ro", str(where)], check=True)
+
+
+@pytest.mark.parametrize("cmd", ["building", "city", "ingest", "demo"])
+def test_a_read_only_output_folder_is_one_message(tmp_path, capsys, cmd):
+    ro = tmp_path / "ro"
+    _mount_readonly(ro)
+    try:
+        out = str(ro / "out")
+        lines = ROOT / "examples" / "skeletons" / "t_building.geojson"
+        argv = {"building": ["building", str(lines), "--library", str(LIB), "-o", out],
+                "city": city_args(grid_streets(tmp_path / "s.geojson", 1), Path(out)),
+                "ingest": ["ingest", str(LIB), "-o", out], "demo": ["demo", "-o", out]}[cmd]
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "may not be written" in err and str(ro) in err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+        assert not list(ro.iterdir())
+    finally:
+        subprocess.run(["umount", "-l", str(ro)], check=False)
+
+
+def test_a_read_only_cache_folder_falls_back(tmp_path, monkeypatch, capsys):
+    """$CITYSYNTH_CACHE on a read-only file system: the database is cached in the user
+    cache folder instead, and the command works."""
+    from citysynth.parts_db import load_library
+    ro = tmp_path / "ro"
+    _mount_readonly(ro)
+    try:
+        monkeypatch.setenv("CITYSYNTH_CACHE", str(ro))
+        monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "user-cache"))
+        db = load_library(LIB)
+        assert db.path is not None and str(db.path).startswith(str(tmp_path / "user-cache"))
+        assert not list(ro.iterdir())
+    finally:
+        subprocess.run(["umount", "-l", str(ro)], check=False)
