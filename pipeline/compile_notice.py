@@ -48,9 +48,10 @@ def kernels_cold() -> bool:
     return bool(kernels) and cold > COLD_SHARE * len(kernels)
 
 
-def announce_compile(stream: TextIO = sys.stderr) -> bool:
-    """Print :data:`NOTICE` when the kernels are about to be compiled; whether it did."""
+def announce_compile(stream: TextIO | None = None) -> bool:
+    """Print :data:`NOTICE` (on stderr) when the kernels are about to be compiled;
+    whether it did."""
     if kernels_cold():
-        print(NOTICE, file=stream, flush=True)
+        print(NOTICE, file=stream or sys.stderr, flush=True)
         return True
     return False

@@ -295,3 +295,29 @@ def test_a_read_only_cache_folder_falls_back(tmp_path, monkeypatch, capsys):
         assert not list(ro.iterdir())
     finally:
         subprocess.run(["umount", "-l", str(ro)], check=False)
+
+
+def test_a_city_with_failed_blocks_exits_1_and_is_complete(clean, tmp_path, capsys):
+    streets, _, _ = clean
+    cfg = tmp_path / "city.toml"
+    cfg.write_text("k = 1\n[per_side]\ndoors = [40, 50]\n")     # no side has room
+    out = tmp_path / "run"
+    assert main(city_args(streets, out, "--workers", "1", "--config", str(cfg))) == 1
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["failed"] == 3 and (out / "manifest.json").is_file()
+    assert "failed b" in capsys.readouterr().out
+    assert main(city_args(streets, out, "--workers", "1", "--config", str(cfg))) == 1
+    assert json.loads((out / "report.json").read_text())["counts"]["cached"] == 3
+
+
+def test_a_cold_kernel_cache_is_announced(tmp_path, monkeypatch, capsys):
+    from citysynth.pipeline import cli, compile_notice
+
+    code = ("from citysynth.pipeline.compile_notice import kernels_cold; "
+            "print(kernels_cold())")
+    cold = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty")})
+    assert cold.stdout.strip() == "True", cold.stderr
+    monkeypatch.setattr(compile_notice, "kernels_cold", lambda: True)
+    assert cli.main(["solve", str(ROOT / "examples" / "facade_small.json")]) == 0
+    assert compile_notice.NOTICE in capsys.readouterr().err
