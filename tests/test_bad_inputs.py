@@ -635,8 +635,9 @@ def _limited() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (6 << 30, 6 << 30))
 
 
-E2E = ["pathological-crossing-streets", "problem-deep-100000", "problem-latin1", "problem-k-huge", "structure-interval-0-1e9",
-       "skeleton-utf16", "city-streets-folder", "option-max-memory-nan",
+E2E = ["pathological-crossing-streets", "problem-deep-100000", "problem-latin1",
+       "problem-k-huge", "structure-interval-0-1e9", "skeleton-utf16", "city-streets-folder",
+       "option-max-memory-nan",
        "diff-manifest-list-a", "out-city-is-a-file", "manifest.toml-deep-100000"]
 
 
