@@ -218,8 +218,9 @@ def run_block(job: BlockJob, out_dir: str) -> BlockRecord:
         env = environment_failure(exc)
         if env is not None:   # failed this time; a rerun (with space, rights) retries it
             rec["files"] = []
-            return _unrecorded(rec, "failed", t0, f"could not write its files ({env}); "
-                               "fix the disk or permissions and run again")
+            what = str(exc) if isinstance(exc, USER_ERRORS) else f"could not write ({env})"
+            return _unrecorded(rec, "failed", t0, f"{what}; a failure of the machine, not "
+                               "recorded: fix the disk or permissions and run again")
         if isinstance(exc, USER_ERRORS):   # one bad block never stops the city
             return _finish(out, rec, "failed", t0, reason=str(exc) or type(exc).__name__)
         rec["error"] = f"{type(exc).__name__}: {exc}"     # a bug: never cached
