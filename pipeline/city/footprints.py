@@ -337,6 +337,15 @@ def prepare(job: BlockJob, db: PartDB) -> Prepared | str:
     poly = shapely.from_wkt(job.wkt)
     frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
     fp = job.footprint
+    if job.cut:   # what footprints leave of a block: cleaned faithfully, no bulging
+        clean = clean_footprint(poly, min_side=min_side(db, job.style, job.slack),
+                                straight_tol=STRAIGHT_TOL, tolerance=GAP / 6)
+        if clean is None:
+            return "nothing buildable is left of it once cleaned"
+        c = poly.representative_point()
+        rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
+        return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,
+                        job.slack, None)
     if fp is None:
         clean = absorb_short_edges(poly, min_edge=job.min_edge,
                                    min_stage=shortest_stage(db, job.style),
@@ -371,3 +380,58 @@ def failure(prep: Prepared, job: BlockJob, db: PartDB, reason: str | None) -> st
     return explain(prep.where, job.frame,
                    job.footprint.source_crs if job.footprint else "", prep.rings, db,
                    job.style, prep.parts, prep.tol(db.quantum), asked, reason)
+
+
+# --- streets and footprints together ---------------------------------------------------
+
+BLOCK_DEPTH = 15.0    # m: the deepest massing of the sample library (14 m and a 0.6 m variant)
+CUT = "cut"           # marks an outline that is a street block cut back (cleaned faithfully)
+GAP = 3.0             # m: a lane between footprint buildings and what is left of a block
+
+
+def cut_back(blocks: list[shapely.Polygon], buildings: list[shapely.Polygon], *,
+             min_area: float, min_width: float, depth: float = BLOCK_DEPTH
+             ) -> tuple[list[shapely.Polygon], list[str]]:
+    """Street blocks with the ground of footprint buildings taken out (and ``GAP``
+    around them), so that no two facades share ground: what is left of a block is kept
+    where it is at least ``depth`` wide (a facade's mass, ``depth`` deep, stays on its
+    own piece), in pieces of ``min_area`` and ``min_width``; the reasons for the rest."""
+    if not buildings:
+        return blocks, []
+    taken = shapely.union_all([b.buffer(GAP, join_style="mitre") for b in buildings])
+    out, why = [], []
+    for block in blocks:
+        if not block.intersects(taken):
+            out.append(block)
+            continue
+        left = block.difference(taken).buffer(-depth / 2, join_style="mitre") \
+            .buffer(depth / 2, join_style="mitre").intersection(block.difference(taken))
+        c = block.representative_point()
+        kept = 0
+        for piece in shapely.get_parts(left):
+            if not isinstance(piece, shapely.Polygon) or piece.is_empty:
+                continue
+            if piece.area >= min_area and 2 * piece.area / piece.length >= min_width:
+                out.append(shapely.geometry.polygon.orient(piece, 1.0))
+                kept += 1
+        if not kept:
+            why.append(f"block at ({c.x:.1f}, {c.y:.1f}): its ground is taken by footprint "
+                       "buildings (what is left is too small or too thin for a facade)")
+    return out, why
+
+
+def cut_back_outlines(outlines: list, *, min_area: float, min_width: float
+                      ) -> tuple[list, list[str]]:
+    """:func:`cut_back` on a run's outlines ``(kind, polygon, highways, spec)``: street
+    blocks lose the ground of the footprints among them; each piece left keeps its
+    block's streets."""
+    buildings = [o[1] for o in outlines if o[0] == "footprint"]
+    out, why = [], []
+    for o in outlines:
+        if o[0] != "block":
+            out.append(o)
+            continue
+        pieces, reasons = cut_back([o[1]], buildings, min_area=min_area, min_width=min_width)
+        out += [(o[0], p, o[2], CUT if p is not o[1] else o[3]) for p in pieces]
+        why += reasons
+    return out, why

@@ -29,7 +29,12 @@ import shapely
 from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.files import sweep_temporaries
 from citysynth.pipeline.city.config import BuildSettings, CityConfig
-from citysynth.pipeline.city.footprints import FootprintSpec, footprint_spec
+from citysynth.pipeline.city.footprints import (
+    CUT,
+    FootprintSpec,
+    cut_back_outlines,
+    footprint_spec,
+)
 from citysynth.pipeline.city.jobs import (
     BLOCKS_DIR,
     STATUSES,
@@ -59,8 +64,9 @@ CONNECT_TIMEOUT = "10s"      # to reach a Dask scheduler
 ORIGIN_DIGITS = 2            # the frame's lon/lat origin, rounded: streets edited at the
                              # edge of a network do not move every block (and its id)
 
-Outline = tuple[BlockKind, shapely.Polygon, tuple[str, ...], FootprintSpec | None]
-"""kind, polygon, the highways along it, and a footprint's feature and settings"""
+Outline = tuple[BlockKind, shapely.Polygon, tuple[str, ...], FootprintSpec | str | None]
+"""kind, polygon, the highways along it, and a footprint's feature and settings (or CUT:
+a street block cut back where footprints stand)"""
 Progress = Callable[[int, int, BlockRecord], None]   # (done, to do, the record just done)
 
 
@@ -85,6 +91,10 @@ def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: City
         fframe = _footprint_outlines(footprints, cfg, crs,
                                      frame.origin if frame else cfg.origin, outlines, skipped)
         frame = frame or fframe
+    if streets is not None and footprints is not None:   # no two facades share ground
+        outlines, reasons = cut_back_outlines(outlines, min_area=cfg.min_area,
+                                              min_width=cfg.min_width)
+        skipped += [{"kind": "block", "reason": r} for r in reasons]
     if frame is None:
         raise ConfigError("nothing to build: give --streets, --footprints or both")
     jobs = _jobs(outlines, cfg, _zone_polygons(cfg, frame, crs), frame, library)
@@ -151,7 +161,9 @@ def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry
                        tuple((n, lo, hi) for n, (lo, hi) in sorted(s.per_side.items())),
                        tuple((n, lo, hi) for n, (lo, hi) in sorted(s.per_block.items())),
                        cfg.stretch, cfg.corner_tolerance, cfg.mitre_cost,
-                       cfg.min_edge, cfg.slack, spec).with_hash()
+                       cfg.min_edge, cfg.slack,
+                       spec if isinstance(spec, FootprintSpec) else None,
+                       cut=spec == CUT).with_hash()
         jobs.setdefault(job.id, job)
     return sorted(jobs.values(), key=lambda j: j.id)
 
