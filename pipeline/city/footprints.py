@@ -330,10 +330,15 @@ def min_side(db: PartDB, style: str, slack: float) -> float:
     return max(shortest + 2 * db.quantum - slack, db.quantum)
 
 
-def prepare(job: BlockJob, db: PartDB) -> Prepared | str:
+RETRY_SIDE = 1.0      # m: a footprint no layout fits is cleaned again with sides this much longer
+
+
+def prepare(job: BlockJob, db: PartDB, longer: float = 0.0) -> Prepared | str:
     """Clean the job's outline into rings (a footprint faithfully, a street block as
     before); a string says why nothing is left (the block is skipped). A footprint
-    side left too short to build raises the user's error naming it."""
+    side left too short to build raises the user's error naming it. ``longer`` raises
+    the shortest side kept (a retry when no layout fits the faithful outline: short
+    sides between joints fit only some lengths)."""
     poly = shapely.from_wkt(job.wkt)
     frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
     fp = job.footprint
@@ -357,7 +362,7 @@ def prepare(job: BlockJob, db: PartDB) -> Prepared | str:
         rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
         return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,
                         job.slack, None)
-    shortest = min_side(db, job.style, job.slack)
+    shortest = min_side(db, job.style, job.slack) + longer
     clean = clean_footprint(poly, min_side=shortest, straight_tol=STRAIGHT_TOL,
                             tolerance=fp.tolerance)
     if clean is None:
@@ -435,3 +440,13 @@ def cut_back_outlines(outlines: list, *, min_area: float, min_width: float
         out += [(o[0], p, o[2], CUT if p is not o[1] else o[3]) for p in pieces]
         why += reasons
     return out, why
+
+
+def prepare_again(job: BlockJob, db: PartDB) -> Prepared | None:
+    """A footprint no layout fits, cleaned again with sides ``RETRY_SIDE`` longer (less
+    faithful, more buildable); None when that leaves nothing to try."""
+    try:
+        again = prepare(job, db, longer=RETRY_SIDE)
+    except SkeletonError:
+        return None
+    return None if isinstance(again, str) else again

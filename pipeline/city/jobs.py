@@ -31,12 +31,18 @@ from citysynth.export.place import max_stretch
 from citysynth.parts_db import LibraryError, PartDB, load_library
 from citysynth.parts_db.files import write_text
 from citysynth.pipeline.city.config import Pick
-from citysynth.pipeline.city.footprints import FootprintSpec, failure, prepare
+from citysynth.pipeline.city.footprints import (
+    FootprintSpec,
+    Prepared,
+    failure,
+    prepare,
+    prepare_again,
+)
 from citysynth.pipeline.errors import USER_ERRORS
 from citysynth.pipeline.layouts import Built, solve_layouts, write_outputs
 from citysynth.skeletons import Frame
 
-JOB_VERSION = 3          # bump when a block's output changes for the same inputs
+JOB_VERSION = 4          # bump when a block's output changes for the same inputs
 CITY_SLACK = 0.3         # m: any block side may be met this closely (city.toml slack)
 BLOCKS_DIR = "blocks"
 
@@ -249,11 +255,13 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
     prep = prepare(job, db)
     if isinstance(prep, str):
         return _finish(out, rec, "skipped", t0, reason=prep)
-    built = solve_layouts(job.id, prep.rings, db, job.style, job.k,
-                          angle_tol=job.corner_tolerance, joint_cost=job.mitre_cost,
-                          per_side={n: (lo, hi) for n, lo, hi in job.per_side},
-                          per_structure={n: (lo, hi) for n, lo, hi in job.per_block},
-                          **prep.options())
+    built = _solve(job, db, prep)
+    if built.status != "ok" and job.footprint is not None:   # short sides absorbed: again
+        again = prepare_again(job, db)
+        if again is not None:
+            retry = _solve(job, db, again)
+            if retry.status == "ok":
+                prep, built = again, retry
     rec["timings"] = dict(built.timings)
     if built.status != "ok":
         return _finish(out, rec, "failed", t0, reason=failure(prep, job, db, built.reason))
@@ -271,6 +279,14 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
     rec["rank"], rec["of"], rec["cost"] = rank, len(built.layouts), lay.cost
     rec["instances"], rec["stretch"] = len(lay.instances), max_stretch(lay)
     return _finish(out, rec, "built", t0)
+
+
+def _solve(job: BlockJob, db: PartDB, prep: Prepared) -> Built:
+    return solve_layouts(job.id, prep.rings, db, job.style, job.k,
+                         angle_tol=job.corner_tolerance, joint_cost=job.mitre_cost,
+                         per_side={n: (lo, hi) for n, lo, hi in job.per_side},
+                         per_structure={n: (lo, hi) for n, lo, hi in job.per_block},
+                         **prep.options())
 
 
 def _finish(out: Path, rec: BlockRecord, status: BlockStatus, t0: float,
