@@ -7,7 +7,10 @@ shipped sample library, one PNG each (three-quarter view beside a top view):
 * ``fig5.png``: the ring in both styles side by side (one structure, two databases);
 * ``fig6.png``: the ring's three best layouts in the classic style;
 * ``fig7.png``: an 80 m street of complete buildings;
-* ``fig8.png``: the T building under three door intervals per side.
+* ``fig8.png``: the T building under three door intervals per side;
+* ``joints.png``: close-ups of every kind of joint in both styles (an acute, a right and
+  an obtuse convex corner, a concave corner, a bend, a T junction; see
+  :mod:`.gallery_joints`).
 
 Each figure is solved, placed and checked the way its command does it (``building``,
 ``tower``, ``street``); figures of several layouts set them side by side, 20 m apart.
@@ -27,6 +30,7 @@ from citysynth import examples
 from citysynth.export.assemble import world_mesh
 from citysynth.export.layout import Layout
 from citysynth.parts_db import PartDB, load_library
+from citysynth.pipeline.commands.gallery_joints import JOINTS, STYLES, joint_panels, render_sheet
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import solve_layouts
 from citysynth.pipeline.streets import StreetAsk, solve_street
@@ -42,11 +46,12 @@ DOORS = ((0.0, 0.0), (1.0, 2.0), (3.0, 4.0))      # Fig. 8: doors per side
 def register(sub) -> None:
     p = sub.add_parser("gallery", help="make the paper's application figures again",
                        description="Solve and render the paper's Figs. 1(c)/(d), 4, 5, 6, 7 "
-                                   "and 8 from the sample library into PNGs.")
+                                   "and 8 from the sample library into PNGs, and a "
+                                   "close-up sheet of joints (joints.png).")
     p.add_argument("-o", "--out", default="gallery", metavar="DIR",
                    help="output folder (default: gallery/)")
     p.add_argument("--only", nargs="+", metavar="FIG", default=None,
-                   help="make only these figures (e.g. fig4 fig7)")
+                   help="make only these figures (e.g. fig4 fig7 joints)")
     p.set_defaults(run=run)
 
 
@@ -112,14 +117,20 @@ def _fig8(db):
 FIGURES: dict[str, Callable[[PartDB], tuple[list[Layout], str]]] = {
     "fig1c": _fig1c, "fig1d": _fig1d, "fig4": _fig4, "fig5": _fig5, "fig6": _fig6,
     "fig7": _fig7, "fig8": _fig8}
+SHEETS = ("joints",)    # figures of their own layout (a grid of close-ups)
+
+
+def _joints(db: PartDB, out: Path) -> str:
+    path = render_sheet(joint_panels(db), out / "joints.png")
+    return f"{path}  ({len(STYLES) * len(JOINTS)} layout(s)"
 
 
 def run(args) -> int:
-    names = args.only or list(FIGURES)
-    unknown = [n for n in names if n not in FIGURES]
+    names = args.only or [*FIGURES, *SHEETS]
+    unknown = [n for n in names if n not in FIGURES and n not in SHEETS]
     if unknown:
         raise UsageError(f"--only: no figure {', '.join(unknown)}; the figures are "
-                         f"{', '.join(FIGURES)}")
+                         f"{', '.join([*FIGURES, *SHEETS])}")
     from citysynth.export.preview import render_meshes  # pyvista: only when rendering
 
     db = load_library(examples.SAMPLE_LIBRARY)
@@ -127,6 +138,9 @@ def run(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     for name in names:
         t = time.perf_counter()
+        if name in SHEETS:
+            print(f"{_joints(db, out)}, {time.perf_counter() - t:.1f} s)")
+            continue
         lays, title = FIGURES[name](db)
         path = render_meshes(side_by_side(lays, db), out / f"{name}.png", title=title)
         print(f"{path}  ({len(lays)} layout(s), {time.perf_counter() - t:.1f} s)")
