@@ -57,16 +57,17 @@ class Joint:
     props: dict[str, Any] = field(default_factory=dict)
 
 
-def _corner(kind: str, angle: float, convex: bool, dist: float = 30.0) -> Joint:
-    """Two ``LEG`` m legs meeting at the origin at ``angle`` degrees (inside the mass
+def _corner(kind: str, angle: float, convex: bool, dist: float = 30.0,
+            leg: float = LEG) -> Joint:
+    """Two ``leg`` m legs meeting at the origin at ``angle`` degrees (inside the mass
     for a convex corner): the first runs along +X, the second turns left (convex) or
     right (concave) by 180 - angle. The camera stands on the bisector of the two facade
     normals, i.e. outside the joint on the street side."""
     turn = math.radians((180.0 - angle) * (1 if convex else -1))
-    second = (LEG * math.cos(turn), LEG * math.sin(turn))
+    second = (leg * math.cos(turn), leg * math.sin(turn))
     # facade normals point right of each leg: (0, -1) and (sin t, -cos t)
     bis = (math.sin(turn), -1.0 - math.cos(turn))
-    return Joint(kind, (((-LEG, 0.0), (0.0, 0.0), second),), (0.0, 0.0),
+    return Joint(kind, (((-leg, 0.0), (0.0, 0.0), second),), (0.0, 0.0),
                  math.degrees(math.atan2(bis[1], bis[0])), dist=dist)
 
 
@@ -90,7 +91,9 @@ def _t_junction() -> Joint:
 
 
 JOINTS = (
-    _corner("acute convex 30°", 30.0, True, dist=25.0),
+    # at 30° the two legs' masses overlap for about 3.7 building depths from the nose
+    # (about 50 m): longer legs, so their far ends do not meet each other
+    _corner("acute convex 30°", 30.0, True, dist=25.0, leg=75.0),
     _corner("right convex 90°", 90.0, True),
     _corner("obtuse convex 140°", 140.0, True),
     _corner("concave 95°", 95.0, False),
