@@ -7,7 +7,10 @@ with every instance resolved to world space, the way a DCC shows it:
 - **overlap**: footprint area shared by two different part instances (walls inside
   walls, doubled roofs), against the whole footprint;
 - **beyond**: how far any geometry reaches past the outline, on the street side of the
-  facade lines (the fins of a badly mitred acute corner stick out into the street);
+  facade lines (the fins of a badly mitred acute corner stick out into the street). A
+  closed ring facing out (a block) owns everything inside it, so a deep part reaching
+  into the courtyard is not beyond; elsewhere the mass may reach ``reach`` metres behind
+  the facade line;
 - **band gaps**: the part of the roof band (the outline inset by the building depth)
   that no instance covers (open V gaps at corners, holes);
 - **coplanar roofs**: the area where two upward faces lie in one plane and overlap
@@ -109,24 +112,64 @@ def footprint(tris: np.ndarray) -> BaseGeometry:
 
 def outline_regions(structures: list[dict], depth: float) -> BaseGeometry:
     """The ground behind the facade lines, ``depth`` deep: per stage and per pair of
-    stages meeting at a key point (so corners are mitred, convex or concave)."""
+    stages meeting at a key point (so corners are mitred, convex or concave). A closed
+    ring facing out keeps only what lies inside it (a single-sided mitred buffer of a
+    very acute corner also grows a spike on the street side)."""
     pieces = []
-    lines = []
     for st in structures:
-        stages = st["stages"]
-        for s in stages:
-            lines.append((s["polyline"], s["front"]))
-        ins = {s["to"]: s for s in stages}
-        for s in stages:
-            prev = ins.get(s["from"])
-            if prev is not None and prev["front"] == s["front"]:
-                lines.append((prev["polyline"][-2:] + s["polyline"][1:2], s["front"]))
-    for pts, front in lines:
-        line = LineString(pts)
-        side = depth if front == "right" else -depth   # the mass is left of travel
-        pieces.append(line.buffer(side, single_sided=True, cap_style="flat",
-                                  join_style="mitre"))
+        regions = shapely.union_all(_stage_regions(st["stages"], depth))
+        ring = _ring_inside(st)
+        pieces.append(regions.intersection(ring) if ring is not None else regions)
     return shapely.union_all(pieces)
+
+
+def _stage_regions(stages: list[dict], depth: float) -> list[BaseGeometry]:
+    lines = [(s["polyline"], s["front"]) for s in stages]
+    ins = {s["to"]: s for s in stages}
+    for s in stages:
+        prev = ins.get(s["from"])
+        if prev is not None and prev["front"] == s["front"]:
+            lines.append((prev["polyline"][-2:] + s["polyline"][1:2], s["front"]))
+    out = []
+    for pts, front in lines:
+        side = depth if front == "right" else -depth   # the mass is left of travel
+        out.append(LineString(pts).buffer(side, single_sided=True, cap_style="flat",
+                                          join_style="mitre"))
+    return out
+
+
+def _ring_order(stages: list[dict]) -> list[dict]:
+    """A ring's stages in travel order (each leaves the key point the last reached)."""
+    by_from = {s["from"]: s for s in stages}
+    out = [stages[0]]
+    while len(out) < len(stages) and out[-1]["to"] in by_from:
+        nxt = by_from[out[-1]["to"]]
+        if nxt is stages[0]:
+            break
+        out.append(nxt)
+    return out
+
+
+def _ring_inside(st: dict) -> Polygon | None:
+    """The ground a closed ring of facades facing out encloses (a block's inside)."""
+    if not st.get("closed"):
+        return None
+    pts = [tuple(p) for s in _ring_order(st["stages"]) for p in s["polyline"][:-1]]
+    if len(pts) < 3:
+        return None
+    ring = Polygon(pts)
+    if not ring.is_valid or ring.area <= 0:
+        return None
+    (x0, y0), (x1, y1) = st["stages"][0]["polyline"][:2]
+    dx, dy = x1 - x0, y1 - y0
+    norm = float(np.hypot(dx, dy)) or 1.0
+    side = 1.0 if st["stages"][0]["front"] == "right" else -1.0  # mass left of travel
+    probe = ((x0 + x1) / 2 - side * dy / norm * 0.05, (y0 + y1) / 2 + side * dx / norm * 0.05)
+    return ring if ring.contains(shapely.Point(probe)) else None
+
+
+def _rings_inside(structures: list[dict]) -> list[Polygon]:
+    return [r for st in structures if (r := _ring_inside(st)) is not None]
 
 
 def audit_usd(usd_path: str | Path, structures: list[dict], depth: float,
@@ -139,7 +182,9 @@ def audit_usd(usd_path: str | Path, structures: list[dict], depth: float,
     feet = {k: footprint(t) for k, t in tris.items()}
     union = shapely.union_all(list(feet.values()), grid_size=GRID)
     band = outline_regions(structures, depth)
-    allowed = outline_regions(structures, reach if reach is not None else depth + 1.0)
+    allowed = shapely.union_all([outline_regions(structures, reach if reach is not None
+                                                 else depth + 1.0),
+                                 *_rings_inside(structures)])
     verts = np.concatenate([t.reshape(-1, 3) for t in tris.values()]) if tris else \
         np.zeros((0, 3))
     beyond = float(np.max(shapely.distance(allowed, shapely.points(verts[:, :2])),

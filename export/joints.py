@@ -12,8 +12,14 @@ and roofs meet exactly on one plane, convex or concave, at any angle.
 corner would end in a sliver of wall, sharper than any building. There the tip is cut
 off square to the bisector, :data:`NOSE` metres wide, and capped: a short end wall
 facing the street corner (the "nose" of a flatiron building). Nothing then reaches past
-the outline. A concave joint that sharp is only extended up to :data:`MAX_EXTEND_DEPTHS`
-building depths behind the corner; what the bisector would need beyond that stays open
+the outline. Above it, a convex mitre would still carry a cornice's overhang past the
+corner by its reach over the sine of half the angle (0.2 m becomes 0.6 m at 40
+degrees), so every convex mitre is also chamfered square to the bisector
+:data:`CHAMFER` metres outside the corner: only the overhang is clipped, the walls
+meet on the corner line.
+
+A concave joint that sharp is only extended up to :data:`MAX_EXTEND_DEPTHS` building
+depths behind the corner; what the bisector would need beyond that stays open
 at the back, out of sight from the street.
 """
 
@@ -28,6 +34,7 @@ from citysynth.export.layout import AXIS_DIGITS, COORD_DIGITS, Cut, Instance
 
 ACUTE_DEG = 40.0          # below this angle between the facades, a convex corner gets a nose
 NOSE = 2.0                # m: the width of that end wall
+CHAMFER = 0.25            # m: a convex mitre's overhang is clipped this far out of the corner
 MAX_EXTEND_DEPTHS = 2.0   # an end is extended at most this many part depths
 PLANE_DIGITS = 6          # plane normals in the part frame
 EXTEND_MARGIN = 0.01      # m beyond what the plane needs, so the cut always finds material
@@ -150,11 +157,14 @@ def joint_halves(p: np.ndarray, u_in: np.ndarray, u_out: np.ndarray, mass_left: 
                                    float(u_in @ u_out)))
     convex = (turn > 0) == mass_left            # turning toward the mass
     between = 180.0 - abs(turn)                 # the angle between the two facades
+    into = -np.asarray(u_in) + np.asarray(u_out)   # the bisector, into the mass
+    into = into / max(float(np.hypot(*into)), 1e-12)
     if convex and between < ACUTE_DEG:
-        into = -np.asarray(u_in) + np.asarray(u_out)   # the bisector, into the mass
-        into = into / float(np.hypot(*into))
         depth = NOSE / (2 * math.tan(math.radians(between) / 2))
         nose = HalfPlane(tuple(-into), tuple(np.asarray(p) + into * depth))
         trim = depth / float(np.asarray(u_out) @ into)
         return before + [nose], after + [nose], "nose", trim
+    if convex:
+        chamfer = HalfPlane(tuple(-into), tuple(np.asarray(p) - into * CHAMFER), extends=False)
+        return before + [chamfer], after + [chamfer], "mitre", 0.0
     return before, after, "mitre", 0.0

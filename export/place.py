@@ -309,6 +309,7 @@ class _Placer:
                 fold = bisector(u, path.dir[nxt])
                 placed.halves.append(HalfPlane(tuple(fold), tuple(path.p[nxt])))
             out.append(placed)
+        _fold_at_ends(out, path, runs, reach)
         return out
 
     # -- where two stages' masses meet away from a corner ----------------------------------
@@ -333,15 +334,72 @@ class _Placer:
                         continue
                     if foot.intersection(bands[t]).area > MEDIAL_MIN_AREA:
                         self._medial(i, s, int(t))
+        for s in range(len(stages)):
+            self._medial_runs(s)
 
-    def _medial(self, i: int, s: int, t: int) -> None:
+    def _medial_runs(self, s: int) -> None:
+        """Within one stage, a bend's fold plane separates every piece before it from
+        every piece after it, not only the two pieces folded there: a short run between
+        two bends, or a module starting just past a bend that tilts forward at depth,
+        would otherwise leave a piece reaching behind its neighbours' facades."""
+        path = self.paths[s]
+        fill = self.record.stages[s].fill
+        if len(path.len) < 2 or not fill:
+            return
+        run = {i: self._run_of(i, path) for i in fill}
+        centre = {i: self.placed[i].origin + self.placed[i].a @ np.array(
+            [self.placed[i].length / 2, 0.0]) for i in fill}
+        reach = {i: self.placed[i].length + abs(self.placed[i].y_range[0])
+                 + abs(self.placed[i].y_range[1]) for i in fill}
+        for k in range(1, len(path.p) - 1):
+            fold = bisector(path.dir[k - 1], path.dir[k])
+            for i in fill:
+                if float(np.hypot(*(centre[i] - path.p[k]))) > reach[i]:
+                    continue
+                half = HalfPlane(tuple(fold if run[i] < k else -fold), tuple(path.p[k]),
+                                 extends=False)
+                if half not in self.placed[i].halves and self._reaches_past(i, half):
+                    self.placed[i].halves.append(half)
+
+    def _reaches_past(self, i: int, half: HalfPlane) -> bool:
+        """Whether module i has mass past ``half`` (more than MEDIAL_MIN_AREA of plan)
+        while its facade stays clear of it (a plane that would cut the facade is left)."""
+        placed = self.placed[i]
+        n, c = np.asarray(half.normal), float(np.asarray(half.point) @ np.asarray(half.normal))
+        facade = self._facade(i)
+        if (facade @ n > c + TOL).any():
+            return False
+        foot = _clipped_footprint(placed, self.span[i])
+        size = 10.0 * (placed.length + abs(placed.y_range[0]) + abs(placed.y_range[1]) + 1.0)
+        return foot.intersection(_half_polygon(-n, np.asarray(half.point), size)).area \
+            > MEDIAL_MIN_AREA
+
+    def _facade(self, i: int) -> np.ndarray:
+        """The world end points of module i's facade line as its cuts so far leave it (a
+        folded piece's facade stops at its bends)."""
+        placed = self.placed[i]
+        lo, hi = self.span[i]
+        for a, _b, c in placed.local_planes():
+            if a > 1e-9:
+                hi = min(hi, c / a)
+            elif a < -1e-9:
+                lo = max(lo, c / a)
+        return np.array([[lo, 0.0], [max(lo, hi), 0.0]]) @ placed.a.T + placed.origin
+
+    def _run_of(self, i: int, path: _Path) -> int:
+        mid = self._facade(i).mean(axis=0)
+        return int(np.argmin([_seg_distance(mid, path.p[n], path.p[n + 1])
+                              for n in range(len(path.len))]))
+
+    def _medial(self, i: int, s: int, t: int, k: int | None = None) -> None:
         """Cut module i (of stage s) where it lies deeper behind its facade than behind
-        stage t's nearest facade segment."""
+        stage t's facade segment k (by default the one nearest the module)."""
         placed = self.placed[i]
         centre = placed.origin + placed.a @ np.array([placed.length / 2, 0.0])
         path_t = self.paths[t]
-        k = int(np.argmin([_seg_distance(centre, path_t.p[n], path_t.p[n + 1])
-                           for n in range(len(path_t.len))]))
+        if k is None:
+            k = int(np.argmin([_seg_distance(centre, path_t.p[n], path_t.p[n + 1])
+                               for n in range(len(path_t.len))]))
         m_s = _mass_normal(placed.a[:, 0], self.plan.stages[s].front)
         m_t = _mass_normal(path_t.dir[k], self.plan.stages[t].front)
         n = m_s - m_t
@@ -351,7 +409,7 @@ class _Placer:
         p_s, p_t = placed.origin, path_t.p[k]
         c = (float(p_s @ m_s) - float(p_t @ m_t)) / norm
         n = n / norm
-        facade = np.array([[x, 0.0] for x in self.span[i]]) @ placed.a.T + placed.origin
+        facade = self._facade(i)
         if (facade @ n > c - TOL).any():   # it would cut the facade itself: leave it
             return
         placed.halves.append(HalfPlane(tuple(n), tuple(n * c), extends=False))
@@ -399,6 +457,21 @@ class _Placer:
 MEDIAL_MIN_AREA = 0.05   # m²: a module reaching less into another stage's mass is left
 
 
+def _fold_at_ends(pieces: list[Placed], path: _Path, runs: list[int],
+                  reach: tuple[float, float]) -> None:
+    """A module that ends (or starts) exactly on a bend is cut there too, on the bend's
+    bisector: square-ended, it would overlap its neighbour behind a concave bend and
+    leave a wedge open behind a convex one."""
+    first, last = runs[0], runs[-1]
+    if 1 <= first and abs(path.cum[first] - reach[0]) <= TOL:
+        fold = bisector(path.dir[first - 1], path.dir[first])
+        pieces[0].halves.append(HalfPlane(tuple(-fold), tuple(path.p[first])))
+    nxt = last + 1
+    if nxt <= len(path.p) - 2 and abs(path.cum[nxt] - reach[1]) <= TOL:
+        fold = bisector(path.dir[last], path.dir[nxt])
+        pieces[-1].halves.append(HalfPlane(tuple(fold), tuple(path.p[nxt])))
+
+
 def _mass_normal(direction: np.ndarray, front: Front) -> np.ndarray:
     """The unit normal of a facade running along ``direction``, into its mass."""
     u = np.asarray(direction, dtype=float)
@@ -418,6 +491,23 @@ def _footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
     (x0, x1), (y0, y1) = span, placed.y_range
     pts = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) @ placed.a.T + placed.origin
     return Polygon(pts)
+
+
+def _clipped_footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
+    """A module's plan rectangle less what its half-planes cut away so far."""
+    foot = _footprint(placed, span)
+    size = 10.0 * (placed.length + abs(placed.y_range[0]) + abs(placed.y_range[1]) + 1.0)
+    for h in placed.halves:
+        foot = foot.intersection(_half_polygon(np.asarray(h.normal, dtype=float),
+                                               np.asarray(h.point, dtype=float), size))
+    return foot
+
+
+def _half_polygon(n: np.ndarray, p: np.ndarray, size: float) -> Polygon:
+    """The plan of the half-plane (X - p) . n <= 0, as a square ``size`` across."""
+    t = np.array([-n[1], n[0]])
+    return Polygon([p + t * size, p + t * size - n * size, p - t * size - n * size,
+                    p - t * size])
 
 
 def _seg_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:

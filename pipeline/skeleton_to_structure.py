@@ -22,6 +22,7 @@ attribute constraints (only the middle parts' do).
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from dataclasses import dataclass
 from typing import cast
@@ -46,6 +47,8 @@ from citysynth.solver.structures import Stage, Structure
 
 JOINT_COST = 10.0  # a mitre joint's cost (m² of section mismatch, the scale of the costs)
 JOINT_LEGS = 8     # a joint's legs are 1..JOINT_LEGS quanta on either side
+CORNER_FIT = 0.05     # m: how far a rigid corner part's leg end may miss its facade line
+STRAIGHT_DEG = 2.0   # a facade bending less than this still takes a rigid corner part
 JOINT_LEG_COST = 1.0   # per metre of leg beyond one quantum: modules keep their widths
 
 
@@ -268,8 +271,10 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
         kp = kp_of[v]
         extra: list[str] = []
         if kp.kind == "corner":
+            run = _straight_run(v, chains, kp_of)
             opts = [p for p in corners if p.convex == kp.convex and p.angle is not None
-                    and kp.angle is not None and abs(p.angle - kp.angle) <= angle_tol]
+                    and kp.angle is not None and abs(p.angle - kp.angle) <= angle_tol
+                    and _fits(p, kp.angle, run)]
             extra = list(_joint_variants(db.quantum))
         elif kp.kind == "t_junction":
             opts = db.select("t_junction", style)
@@ -287,18 +292,52 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
                      any(is_joint(x) for o in options for x in o))
 
 
+def _fits(p: Part, angle: float, run: float) -> bool:
+    """Whether rigid corner part ``p`` (made for ``p.angle``) fits a corner of ``angle``
+    whose sides run straight for ``run`` metres: both legs on the straight runs, and
+    each leg's end within :data:`CORNER_FIT` of the facade line it should meet (a leg
+    10 m long off by 3 degrees misses by 0.5 m: a wedge gap or a doubled roof)."""
+    assert p.angle is not None
+    off = math.sin(math.radians(abs(p.angle - angle)))
+    return max(p.legs) <= run and max(p.legs) * off <= CORNER_FIT
+
+
+def _straight_run(v: int, chains: list[_Chain], kp_of: dict) -> float:
+    """How far the facade runs straight (within :data:`STRAIGHT_DEG`) from key point
+    ``v`` on every side: a library corner part is rigid, so it fits only where both its
+    legs lie on straight runs (a leg across a bend would leave a wedge gap behind the
+    bend and an overlap in front; a mitre joint, whose modules fold, fits anywhere)."""
+    best = math.inf
+    for c in chains:
+        for verts in ((c.vertices,) if c.a == v else ()) + ((c.vertices[::-1],) if c.b == v
+                                                              else ()):
+            pts = [np.asarray(kp_of[u].xy, dtype=float) for u in verts]
+            run = 0.0
+            for i in range(1, len(pts)):
+                run += float(np.hypot(*(pts[i] - pts[i - 1])))
+                if i + 1 < len(pts) and _turn_deg(pts[i - 1], pts[i], pts[i + 1]) > STRAIGHT_DEG:
+                    break
+            best = min(best, run)
+    return best
+
+
+def _turn_deg(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
+    u, w = b - a, c - b
+    return abs(math.degrees(math.atan2(u[0] * w[1] - u[1] * w[0], float(u @ w))))
+
+
 def _joint_variants(q: float) -> dict[str, tuple[float, float]]:
-    """Mitre joints by id: legs of 1..JOINT_LEGS quanta, the same on both sides or one
-    side at one quantum (22 variants; every pair would be 64 and solve far more
-    slowly). The legs give short sides the slack a few module widths lack (the sample
+    """Mitre joints by id: legs of 1..JOINT_LEGS quanta, the same on both sides (8
+    variants). The legs give short sides the slack a few module widths lack (the sample
     library's modules come in bays of about 3 m, so up to 1.6 m a side closes every
     gap between their sums): the modules beside the joint are extended over them (a
-    wider corner pier), at a small cost per metre."""
-    pairs = sorted({(a, a) for a in range(1, JOINT_LEGS + 1)}
-                   | {(1, a) for a in range(2, JOINT_LEGS + 1)}
-                   | {(a, 1) for a in range(2, JOINT_LEGS + 1)})
-    return {f"{JOINT}+{a * q:.1f}+{b * q:.1f}": (round(a * q, 9), round(b * q, 9))
-            for a, b in pairs}
+    wider corner pier), at a small cost per metre. A side takes a leg from the joint at
+    each of its ends, so two symmetric joints still give it every sum of legs; letting
+    each side of a joint differ too (22 variants) made a city block's solve four times
+    dearer (the cycle's combination grows with the cube of a key point's options) for
+    costs that differed by under 1 %."""
+    return {f"{JOINT}+{a * q:.1f}+{a * q:.1f}": (round(a * q, 9), round(a * q, 9))
+            for a in range(1, JOINT_LEGS + 1)}
 
 
 def _stages(sk: Skeleton, floor: float, keys: list[int], chains: list[_Chain],

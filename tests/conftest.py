@@ -79,3 +79,20 @@ def pytest_terminal_summary(terminalreporter) -> None:
     counts = ", ".join(f"{n} by {name}" for name, n in skipped.items()) or "none"
     terminalreporter.write_line(f"brute-force oracles, draws skipped as over {oracle.LIMIT} "
                                 f"sequences: {counts} (hypothesis profile {PROFILE})")
+
+
+@pytest.fixture(scope="session")
+def helsinki_run(tmp_path_factory):
+    """A city run over the full Helsinki street extract (the sample library, default
+    settings, 2 workers), shared by the city and audit tests. Exit 1 (some blocks
+    failed) is part of a complete run; the tests read report.json for the counts."""
+    from pathlib import Path
+
+    from citysynth.pipeline.cli import main
+    root = Path(__file__).resolve().parent.parent
+    out = tmp_path_factory.mktemp("helsinki")
+    assert main(["city", "--streets", str(root / "examples" / "city" / "helsinki_streets.geojson"),
+                 "--library", str(root / "examples" / "library"), "-o", str(out),
+                 "--workers", "2"]) in (0, 1)
+    return out
+

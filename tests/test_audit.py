@@ -1,12 +1,12 @@
 """The 3D audit of assembled layouts (issue 11): what an artist sees, measured from the
 written USD composed by usd-core with every instance resolved to world space.
 
-What holds today, kept from regressing: the demo's T building and block have no part
-overlapping another and no coplanar overlapping roofs; over the demo district, part
-overlap stays under 0.5 % of the footprint (3.06 % with the old two-end-part mitres)
-and coplanar roofs under 0.5 % of it. The issue's full bar (per block, nothing past
-the outline by more than 0.3 m, roof-band gaps under 1 %) is not met on every block yet:
-narrow block ends and sharp concave corners still leave gaps and reach past the line.
+The bar, for every layout (the demo's T building and its k = 3 results, the demo block,
+every block of the demo district and of the full Helsinki extract): part footprints
+overlap on under 0.5 % of the footprint, nothing reaches more than 0.3 m past the
+outline, gaps in the roof band stay under 1 % of it, and coplanar overlapping roofs
+are below :data:`MAX_COPLANAR_M2` (triangulation noise; a doubled roof is square
+metres). Every failing layout is listed at once, with its figures.
 """
 
 from __future__ import annotations
@@ -24,20 +24,40 @@ LIB = ROOT / "examples" / "library"
 CITY = ROOT / "examples" / "city"
 
 MAX_OVERLAP = 0.005      # of the footprint
-MAX_COPLANAR = 0.005     # of the footprint
+MAX_BEYOND = 0.3         # m past the outline
+MAX_GAP = 0.01           # of the roof band
+MAX_COPLANAR_M2 = 0.5    # per layout
 
 
-def _depth(layout: dict, db) -> float:
-    """The shallowest facade module's depth: the roof band every block must fill."""
+def _depths(layout: dict, db) -> tuple[float, float]:
+    """The shallowest and the deepest facade module's depth: the roof band every layout
+    must fill, and how deep its mass may reach behind the facade line."""
     parts = {p.id: p for p in db.parts}
-    return min(-parts[i["part"]].sec_in.bounds[0] for i in layout["instances"]
-               if i["class"] == "middle")
+    depths = [-parts[i["part"]].sec_in.bounds[0] for i in layout["instances"]
+              if i["class"] == "middle"]
+    return min(depths), max(depths)
+
+
+def _failures(name: str, a) -> list[str]:
+    """The bars ``a`` misses, as one line naming the layout (empty when it meets all)."""
+    missed = [what for what, bad in (
+        ("overlap", a.overlap_share >= MAX_OVERLAP), ("beyond", a.beyond_max > MAX_BEYOND),
+        ("band gaps", a.gap_share >= MAX_GAP),
+        ("coplanar roofs", a.coplanar_roof >= MAX_COPLANAR_M2)) if bad]
+    return [f"{name} ({', '.join(missed)}): {a.line()}"] if missed else []
+
+
+def _audit_run(run: Path, db) -> list[str]:
+    paths = sorted((run / "blocks").glob("*.layout.json"))
+    assert paths, f"no blocks in {run}"
+    return [f for p in paths for f in _failures(*_audit(p, db))]
 
 
 def _audit(layout_path: Path, db):
     lay = json.loads(layout_path.read_text())
     usd = layout_path.with_name(layout_path.name.replace(".layout.json", ".usda"))
-    return lay["name"], audit_usd(usd, lay["structures"], _depth(lay, db))
+    shallow, deep = _depths(lay, db)
+    return lay["name"], audit_usd(usd, lay["structures"], shallow, reach=deep + MAX_BEYOND)
 
 
 @pytest.fixture(scope="module")
@@ -52,28 +72,38 @@ def demo_buildings(tmp_path_factory, sample_db):
     return out
 
 
-def test_demo_building_and_block_have_no_overlaps(demo_buildings, sample_db):
+def test_demo_building_and_block_meet_the_bar(demo_buildings, sample_db):
     paths = sorted(demo_buildings.glob("*.layout.json"))
     assert len(paths) == 4
+    failures = []
     for p in paths:
         name, a = _audit(p, sample_db)
         assert a.footprint > 500 and a.band > 500, f"{name}: {a.line()}"
-        assert a.overlap_share < MAX_OVERLAP, f"{name}: {a.line()}"
-        assert a.coplanar_roof < MAX_COPLANAR * a.footprint, f"{name}: {a.line()}"
+        failures += _failures(name, a)
+    assert not failures, "\n".join(failures)
 
 
-def test_district_blocks_meet_without_overlapping(tmp_path, sample_db):
+def test_every_district_block_meets_the_bar(tmp_path, sample_db):
     assert main(["city", "--streets", str(CITY / "district_streets.geojson"), "--config",
                  str(CITY / "city.toml"), "-o", str(tmp_path), "--no-overview"]) in (0, 1)
-    paths = sorted((tmp_path / "blocks").glob("*.layout.json"))
-    assert len(paths) >= 20
-    audits = [_audit(p, sample_db)[1] for p in paths]
-    footprint = sum(a.footprint for a in audits)
-    assert sum(a.overlap for a in audits) < MAX_OVERLAP * footprint
-    assert sum(a.coplanar_roof for a in audits) < MAX_COPLANAR * footprint
+    assert len(list((tmp_path / "blocks").glob("*.layout.json"))) >= 20
+    failures = _audit_run(tmp_path, sample_db)
+    assert not failures, "\n".join(failures)
     # every joint is a clean mitre or a nose: no end part stands at a corner any more
-    for p in paths:
+    for p in sorted((tmp_path / "blocks").glob("*.layout.json")):
         for st in json.loads(p.read_text())["structures"]:
             for k in st["keys"]:
                 assert k["joint"] in ("part", "mitre", "nose")
                 assert k["kind"] != "corner" or "end_" not in k["part"]
+
+
+# Two Helsinki blocks still miss the bar (open in issue 11): a tight ring where a module
+# past a bend still overlaps the folded piece before it (0.72 % overlap), and an acute
+# corner split by an 8 m side into two joints, whose modules are cut on different
+# planes and leave a wedge of the roof band open (1.27 % gaps).
+KNOWN = {"b169c3dda5a", "b19329a1232"}
+
+
+def test_every_helsinki_block_meets_the_bar(helsinki_run, sample_db):
+    failures = [f for f in _audit_run(helsinki_run, sample_db) if f.split()[0] not in KNOWN]
+    assert not failures, "\n".join(failures)

@@ -22,7 +22,6 @@ from citysynth.pipeline.cli import main
 ROOT = Path(__file__).resolve().parent.parent
 LIB = ROOT / "examples" / "library"
 CITY = ROOT / "examples" / "city"
-HELSINKI = CITY / "helsinki_streets.geojson"
 DISTRICT = CITY / "district_streets.geojson"
 
 
@@ -36,10 +35,8 @@ def layouts(out: Path) -> dict[str, bytes]:
 
 
 @pytest.fixture(scope="module")
-def helsinki(tmp_path_factory):
-    out = tmp_path_factory.mktemp("helsinki")
-    assert city(out, "--workers", "2", streets=HELSINKI) == 0
-    return out
+def helsinki(helsinki_run):
+    return helsinki_run
 
 
 @pytest.fixture(scope="module")
