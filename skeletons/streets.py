@@ -138,11 +138,16 @@ def _check_crossings(lines: list, feats: list[Feature]) -> None:
 
 
 def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict], float] = 6.0,
-                  *, min_area: float = 50.0) -> tuple[list[Block], list[str]]:
+                  *, min_area: float = 50.0,
+                  skipped_shapes: list[Polygon | None] | None = None
+                  ) -> tuple[list[Block], list[str]]:
     """The blocks between street centre lines, each cut back by the setbacks of the
     streets around it, sorted by position; and the reasons for the pieces skipped
     (features that are not lines come first: a Point of an Overpass export is no
-    street). ``Block.streets`` index ``features``."""
+    street). ``Block.streets`` index ``features``. ``skipped_shapes``, when given,
+    receives each skipped piece's outline (None for a feature), in step with the
+    reasons, so a run can show where they were."""
+    shapes: list[Polygon | None] = skipped_shapes if skipped_shapes is not None else []
     feats = list(features)
     lines, owners, at, skipped = [], [], [], []
     for k, f in enumerate(feats):
@@ -150,6 +155,7 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
         if not isinstance(g, LineString | MultiLineString):
             skipped.append(f"{f.where}: a {g.geom_type} is no street centre line "
                            "(LineString or MultiLineString)")
+            shapes.append(None)
             continue
         lines.append(g)
         owners.append(f)
@@ -175,11 +181,13 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
         where = f"block {i} at ({face.centroid.x:.1f}, {face.centroid.y:.1f})"
         if not parts:
             skipped.append(f"{where}: nothing left after the street setbacks")
+            shapes.append(face)
             continue
         for p in sorted(parts, key=lambda q: -q.area):
             if p.area < min_area:
                 skipped.append(f"{where}: {p.area:.1f} m² after the setbacks, below "
                                f"{min_area:g} m²")
+                shapes.append(p)
                 continue
             touching = tuple(sorted(at[int(j)] for j in near
                                     if cuts[j].distance(p) < 0.01))

@@ -48,15 +48,21 @@ def _records(inputs) -> dict[str, dict]:
 
 
 def _check_round_trip(doc: dict, inputs) -> None:
-    blocks = [f for f in doc["features"] if f["geometry"] is not None]
+    blocks = [f for f in doc["features"] if f["properties"]["id"] is not None]
     assert [f["properties"]["id"] for f in blocks] == [j.id for j in inputs.jobs]
     assert blocks[0]["properties"]["status"] == "failed"
     assert blocks[0]["properties"]["reason"] == "side from 1 to 2: no layout"
     assert blocks[1]["properties"]["status"] == "skipped"
     assert {f["properties"]["status"] for f in blocks[2:]} == {"built"}
-    skipped = [f for f in doc["features"] if f["geometry"] is None]
+    skipped = [f for f in doc["features"] if f["properties"]["id"] is None]
     assert len(skipped) == len(inputs.skipped) > 0
     assert all(f["properties"]["reason"] for f in skipped)
+    # a skipped piece of a block (a sliver, what the setbacks leave) shows where it was
+    pieces = [f for f in skipped if f["properties"]["kind"] == "block"]
+    assert pieces and all(f["geometry"]["type"] == "MultiPolygon" for f in pieces)
+    if doc.get("crs") is None:        # lon/lat: the pieces lie among the blocks
+        area = shapely.union_all([shape(f["geometry"]) for f in blocks]).envelope.buffer(0.01)
+        assert all(shape(f["geometry"]).within(area) for f in pieces)
     feats, _frame = parse_geojson({**doc, "features": blocks}, "blocks.geojson",
                                   origin=inputs.frame.origin)
     for feat, job in zip(feats, inputs.jobs, strict=True):
@@ -105,7 +111,7 @@ def test_a_small_city_run_gives_blocks_geojson_and_a_city_glb(tmp_path):
     report = write_summary(inputs, results, tmp_path, 0.0, 1, None)
     doc = json.loads((tmp_path / BLOCKS_GEOJSON).read_text())
     statuses = {f["properties"]["id"]: f["properties"]["status"] for f in doc["features"]
-                if f["geometry"] is not None}
+                if f["properties"]["id"] is not None}
     assert statuses == {i: r["status"] for i, r in results.items()}
     assert report["built"], "some block of the three is built"
     city = write_city_glb(tmp_path, inputs, report)
@@ -131,7 +137,8 @@ def test_city_glb_on_request_from_the_command_line(tmp_path, capsys):
     manifest = json.loads((out / "manifest.json").read_text())
     doc = json.loads((out / BLOCKS_GEOJSON).read_text())
     assert {f["properties"]["id"]: f["properties"]["status"] for f in doc["features"]
-            if f["geometry"]} == {i: b["status"] for i, b in manifest["blocks"].items()}
+            if f["properties"]["id"] is not None} == \
+        {i: b["status"] for i, b in manifest["blocks"].items()}
     gltf = glb_json(out / "city.glb")
     built = [i for i, b in manifest["blocks"].items() if b["status"] == "built"]
     root = gltf["nodes"][gltf["scenes"][0]["nodes"][0]]

@@ -49,7 +49,7 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
     manifest = {"schema": RUN_SCHEMA, "version": 1, "frame": list(frame_tuple(inputs.frame)),
                 "blocks": {i: {k: recs[i][k] for k in _MANIFEST_KEYS
                                if recs[i].get(k) is not None} for i in ids},
-                "skipped": inputs.skipped}
+                "skipped": _reasons(inputs.skipped)}
     write_text(out / MANIFEST, json.dumps(manifest, sort_keys=True, indent=1) + "\n")
     counts: dict[str, int] = {s: sum(1 for r in recs.values() if r["status"] == s)
                               for s in STATUSES}
@@ -66,7 +66,7 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
         "failed": with_status("failed", "reason"),
         "storeys_not_matched": [{"id": i, "note": recs[i]["note"]} for i in ids
                                 if recs[i].get("note")],
-        "skipped": inputs.skipped + with_status("skipped", "reason"),
+        "skipped": _reasons(inputs.skipped) + with_status("skipped", "reason"),
         "errors": [{"id": i, "error": recs[i]["error"], "traceback": recs[i]["traceback"]}
                    for i in ids if recs[i]["status"] == "error"],
         "timings": _stage_times(inputs, recs, t_blocks), "workers": workers,
@@ -96,13 +96,18 @@ def to_input_crs(frame: Frame) -> Callable[[np.ndarray], np.ndarray]:
     return lambda xy: np.column_stack(tf.transform(xy[:, 0], xy[:, 1]))
 
 
+def _reasons(skipped: list[dict]) -> list[dict]:
+    """Skipped pieces as report.json keeps them: kind and reason, not the outline."""
+    return [{k: v for k, v in s.items() if k != "wkt"} for s in skipped]
+
+
 def write_blocks_geojson(path: Path, inputs: CityInputs,
                          recs: dict[str, dict[str, Any]]) -> Path:
     """``blocks.geojson``: every block (its outline, status, reason and what was built)
-    and every piece skipped before it became a block (its reason; no outline, the
-    geometry is null), in the input's CRS, for a user to inspect in QGIS. Lon/lat
-    input gives plain RFC 7946; a projected one names its CRS in a ``crs`` member, as
-    GDAL writes it."""
+    and every piece skipped before it became a block (its reason, and its outline where
+    it had one: a feature that is no street has none), in the input's CRS, for a user
+    to inspect in QGIS. Lon/lat input gives plain RFC 7946; a projected one names its
+    CRS in a ``crs`` member, as GDAL writes it."""
     import shapely
 
     project = to_input_crs(inputs.frame)
@@ -124,7 +129,13 @@ def write_blocks_geojson(path: Path, inputs: CityInputs,
                     [ring(r.coords) for r in poly.interiors]}
         features.append({"type": "Feature", "properties": props, "geometry": geometry})
     for piece in inputs.skipped:
-        features.append({"type": "Feature", "geometry": None, "properties": {
+        geometry: dict[str, Any] | None = None
+        if piece.get("wkt"):
+            polys = shapely.get_parts(shapely.from_wkt(piece["wkt"]))
+            geometry = {"type": "MultiPolygon", "coordinates": [
+                [ring(p.exterior.coords)] + [ring(r.coords) for r in p.interiors]
+                for p in polys if p.geom_type == "Polygon"]}
+        features.append({"type": "Feature", "geometry": geometry, "properties": {
             "id": None, "kind": piece.get("kind"), "status": "skipped",
             "reason": piece.get("reason")}})
     doc: dict[str, Any] = {"type": "FeatureCollection", "name": "blocks"}

@@ -101,21 +101,32 @@ def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: City
     return CityInputs(jobs, skipped, frame, {"inputs_s": time.perf_counter() - t0})
 
 
+def _skip(kind: str, reason: str, outline: shapely.Geometry | None) -> dict:
+    """A skipped piece: its kind and reason, and its outline (WKT, in the frame) for
+    blocks.geojson only (report.json keeps kind and reason)."""
+    rec = {"kind": kind, "reason": reason}
+    if outline is not None and not outline.is_empty:
+        rec["wkt"] = shapely.to_wkt(outline, rounding_precision=3)
+    return rec
+
+
 def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
                      outlines: list[Outline], skipped: list[dict]) -> Frame:
     """The blocks between the streets (slivers skipped, with reasons); the frame."""
     feats, frame = read_geojson(streets, crs=crs, origin=cfg.origin,
                                 origin_digits=ORIGIN_DIGITS, accept="lines")
     skipped += [{"kind": "feature", "reason": r} for r in feats.skipped]
-    blocks, reasons = street_blocks(feats, cfg.setbacks, min_area=cfg.min_area)
-    skipped += [{"kind": "block", "reason": r} for r in reasons]
+    shapes: list = []
+    blocks, reasons = street_blocks(feats, cfg.setbacks, min_area=cfg.min_area,
+                                    skipped_shapes=shapes)
+    skipped += [_skip("block", r, g) for r, g in zip(reasons, shapes, strict=True)]
     for b in blocks:
         width = 2 * b.polygon.area / b.polygon.length
         if width < cfg.min_width:
             c = b.polygon.centroid
-            skipped.append({"kind": "block", "reason": f"block at ({c.x:.1f}, {c.y:.1f}): "
-                            f"a sliver, {width:.1f} m wide on average (min_width "
-                            f"{cfg.min_width:g} m)"})
+            skipped.append(_skip("block", f"block at ({c.x:.1f}, {c.y:.1f}): a sliver, "
+                                 f"{width:.1f} m wide on average (min_width "
+                                 f"{cfg.min_width:g} m)", b.polygon))
             continue
         outlines.append(("block", b.polygon, _highways(b, feats), None))
     return frame
@@ -135,9 +146,9 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
                 raise ConfigError(f"{footprints}: {f.name}: footprints must be Polygons, "
                                   f"got {p.geom_type}")
             if not p.is_valid or p.area < cfg.min_area:
-                skipped.append({"kind": "footprint", "reason": f"{f.name}: "
-                                + ("invalid outline" if not p.is_valid else
-                                   f"{p.area:.1f} m², below min_area {cfg.min_area:g}")})
+                skipped.append(_skip("footprint", f"{f.name}: " + (
+                    "invalid outline" if not p.is_valid else
+                    f"{p.area:.1f} m², below min_area {cfg.min_area:g}"), p))
                 continue
             fp = cfg.footprints
             outlines.append(("footprint", p, (), footprint_spec(
