@@ -129,13 +129,13 @@ def write_blocks_geojson(path: Path, inputs: CityInputs,
                     [ring(r.coords) for r in poly.interiors]}
         features.append({"type": "Feature", "properties": props, "geometry": geometry})
     for piece in inputs.skipped:
-        geometry: dict[str, Any] | None = None
+        where: dict[str, Any] | None = None
         if piece.get("wkt"):
             polys = shapely.get_parts(shapely.from_wkt(piece["wkt"]))
-            geometry = {"type": "MultiPolygon", "coordinates": [
+            where = {"type": "MultiPolygon", "coordinates": [
                 [ring(p.exterior.coords)] + [ring(r.coords) for r in p.interiors]
                 for p in polys if p.geom_type == "Polygon"]}
-        features.append({"type": "Feature", "geometry": geometry, "properties": {
+        features.append({"type": "Feature", "geometry": where, "properties": {
             "id": None, "kind": piece.get("kind"), "status": "skipped",
             "reason": piece.get("reason")}})
     doc: dict[str, Any] = {"type": "FeatureCollection", "name": "blocks"}
