@@ -172,7 +172,8 @@ def test_too_large_structure_file_exits_2_with_the_message(tmp_path, capsys):
     f.write_text(json.dumps(_long_block(0.0001)))
     assert main(["solve", str(f), "--max-memory", "64"]) == 2
     err = capsys.readouterr().err
-    assert "error: structure too large" in err and "coarser quantum" in err
+    assert f"error: {f}: structure too large" in err and "coarser quantum" in err
+    assert len(err.strip().splitlines()) == 1
 
 
 def test_structure_refusals_of_the_stage_graphs():
