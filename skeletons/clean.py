@@ -89,9 +89,16 @@ def absorb_short_edges(poly: Polygon, *, min_edge: float, min_stage: float,
     valid is left (the caller reports the block as skipped)."""
     poly = shapely.geometry.polygon.orient(
         shapely.simplify(poly, NOISE, preserve_topology=True), 1.0)
+    return _rebuilt(poly, lambda coords: _ring(coords, min_edge, min_stage, straight_tol))
+
+
+def _rebuilt(poly: Polygon, clean) -> Polygon | None:
+    """``poly`` with every ring passed through ``clean`` (coordinates -> points): a
+    courtyard too small to keep is dropped, an outline that is not is None, and an
+    invalid result keeps its largest valid piece."""
     rings = []
     for r, ring in enumerate([poly.exterior, *poly.interiors]):
-        pts = _ring(ring.coords, min_edge, min_stage, straight_tol)
+        pts = clean(ring.coords)
         if len(pts) < 3:
             if r == 0:
                 return None
@@ -219,23 +226,8 @@ def clean_footprint(poly: Polygon, *, min_side: float, straight_tol: float,
     noise and short sides allow, and wings and notches stay. None when nothing valid
     is left."""
     poly = shapely.geometry.polygon.orient(poly, 1.0)
-    rings = []
-    for r, ring in enumerate([poly.exterior, *poly.interiors]):
-        pts = faithful_ring(ring.coords, min_side=min_side, straight_tol=straight_tol,
-                            tolerance=tolerance)
-        if len(pts) < 3:
-            if r == 0:
-                return None
-            continue
-        rings.append(LinearRing(pts))
-    out = Polygon(rings[0], rings[1:])
-    if not out.is_valid or out.area <= 0:
-        parts = [g for g in shapely.get_parts(shapely.make_valid(out))
-                 if isinstance(g, Polygon)]
-        if not parts:
-            return None
-        out = max(parts, key=lambda g: g.area)
-    return shapely.geometry.polygon.orient(out, 1.0)
+    return _rebuilt(poly, lambda coords: faithful_ring(
+        coords, min_side=min_side, straight_tol=straight_tol, tolerance=tolerance))
 
 
 def outline_distance(built: Any, poly: Polygon) -> float:
