@@ -216,3 +216,74 @@ def test_k1_array_combination_is_the_general_one(d):
         [(x.cost, x.keys, x.stages) for x in slow.solutions]
     expected = enumerate_structure(d, 1)
     assert [x.cost for x in fast.solutions] == pytest.approx(expected[:1])
+
+
+@st.composite
+def chains(draw):
+    """A chain or cycle (the lazy program's structures), sometimes
+    with transition costs like 0.1 and 0.7 whose sums round differently by order (the
+    stage lists' two ways of summing must not reorder them)."""
+    d = draw(structures())
+    if draw(st.booleans()):
+        for t in d["transitions"]:
+            t[2] = draw(st.sampled_from([0.1, 0.2, 0.3, 0.7, 1.1]))
+    wide = draw(st.sampled_from(["none", "doors", "length"]))
+    if wide == "doors":
+        lo = draw(st.integers(0, 3))
+        d["constraints"] = {"doors": [lo, lo + draw(st.integers(0, 2))]}
+    elif wide == "length":
+        lo = sum(s["constraints"]["length"][0] for s in d["stages"])
+        d["constraints"] = {"length": [lo, lo + draw(st.integers(0, 2))]}
+    return d
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(chains(), st.integers(1, 9), st.sampled_from([1, 2, 4]))
+def test_lazy_chain_program_is_the_general_one(d, k, first):
+    """Chains and cycles take the lazy program (combine.LAZY_CHAINS; chain_kbest), its
+    stage lists starting with ``first`` paths and growing on demand: the same
+    solutions in the same order, ties included, as the general program with full
+    lists; every one feasible, distinct and costing what it says, the costs the k
+    smallest of the exhaustive enumeration."""
+    from citysynth.solver.structures import combine
+
+    s = Structure.from_dict(d)
+    old = combine.FIRST_PATHS
+    combine.FIRST_PATHS = first
+    try:
+        lazy = solve_structure(s, k)
+        combine.LAZY_CHAINS = False
+        general = solve_structure(s, k)
+    finally:
+        combine.LAZY_CHAINS, combine.FIRST_PATHS = True, old
+    assert lazy.stats["program"] == "lazy chain"
+    assert general.stats["program"] == "general"
+    assert [(x.cost, x.keys, x.stages, x.resources) for x in lazy.solutions] == \
+        [(x.cost, x.keys, x.stages, x.resources) for x in general.solutions]
+    expected = enumerate_structure(d, k)
+    check(d, lazy, k, expected)
+    for sol in lazy.solutions:
+        for res, stage in zip(sol.resources, d["stages"], strict=True):
+            for name, (lo, hi) in stage["constraints"].items():
+                assert lo - 1e-9 <= res[name] <= hi + 1e-9
+        for name, (lo, hi) in d.get("constraints", {}).items():
+            assert lo - 1e-9 <= sum(res[name] for res in sol.resources) <= hi + 1e-9
+
+
+@pytest.mark.parametrize("doors", [None, (20.0, 60.0), (10.0, 14.0)])
+def test_lazy_chain_program_on_a_block_outline(doors):
+    """A 12-corner block like the benchmark's, k = 30: the lazy program (stage lists
+    growing from one path) gives the general program's 30 solutions, in its order."""
+    from citysynth.solver.structures import combine
+
+    s = Structure.from_dict(block_cycle(12, doors=doors))
+    combine.FIRST_PATHS = 1
+    try:
+        lazy = solve_structure(s, 30)
+        combine.LAZY_CHAINS = False
+        general = solve_structure(s, 30)
+    finally:
+        combine.LAZY_CHAINS, combine.FIRST_PATHS = True, 4
+    assert len(lazy.solutions) == 30
+    assert [(x.cost, x.keys, x.stages) for x in lazy.solutions] == \
+        [(x.cost, x.keys, x.stages) for x in general.solutions]

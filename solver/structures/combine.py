@@ -26,6 +26,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from citysynth.solver.structures.chain_kbest import ChainProgram, chain_of
 from citysynth.solver.structures.model import Structure
 
 X = TypeVar("X")
@@ -33,6 +34,8 @@ Y = TypeVar("Y")
 Tag = TypeVar("Tag")
 
 ARRAYS_K1 = True   # k = 1 by arrays (tests switch it off to compare with the general way)
+LAZY_CHAINS = True  # chains and cycles by the lazy program (tests compare the two)
+FIRST_PATHS = 4     # ... whose stage lists start with this many paths and grow on demand
 MIN_SHARES = 4     # ... when a structure-wide resource has at least this many values
 Share = tuple[int, ...]
 StageList = list[tuple[float, Any]]   # cost-sorted (cost, payload of the stage's provider)
@@ -118,11 +121,30 @@ def root_of(st: Structure) -> int:
     return next(v for v in range(len(st.keypoints)) if all(s.end != v for s in st.stages))
 
 
+def lazy_chain(st: Structure, ghi: list[int]) -> bool:
+    """Whether the lazy program of :mod:`.chain_kbest` combines this structure."""
+    return LAZY_CHAINS and chain_of(st, ghi) is not None
+
+
+def first_paths(st: Structure, k: int, ghi: list[int]) -> int:
+    """How many paths every stage list needs up front: k for the general program, a
+    few for the lazy one (chains and cycles), which asks for more where it needs them."""
+    return min(k, FIRST_PATHS) if lazy_chain(st, ghi) else k
+
+
 def best_structures(st: Structure, k: int, ghi: list[int], glo: list[int],
-                    stage_lists: StageLists) -> list[tuple[float, str, Payload]]:
+                    stage_lists: StageLists,
+                    trusted: Callable[[int, str, str, Share], int] | None = None,
+                    more: Callable[[int, str, str, Share], int] | None = None
+                    ) -> list[tuple[float, str, Payload]]:
     """The k best (cost, element at the root, payload) of structure ``st``. A payload
     maps each stage to (element at its end, the stage list's payload, payload below
-    that end). ``ghi``/``glo``: bounds of the structure-wide resources in quanta."""
+    that end). ``ghi``/``glo``: bounds of the structure-wide resources in quanta.
+    Chains and cycles go to the lazy program of :mod:`.chain_kbest` (same sums, same
+    order), whose lists may start short: ``trusted`` and ``more`` as there."""
+    chain = chain_of(st, ghi) if LAZY_CHAINS else None
+    if chain is not None:  # (chain_of is cheap: a walk over the stages)
+        return ChainProgram(st, k, ghi, glo, chain, stage_lists, trusted, more).run()
     return _Program(st, k, ghi, stage_lists).run(glo)
 
 

@@ -21,7 +21,14 @@ from citysynth.solver.errors import ProblemError, TooLargeError
 from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.quantize import exact_divisor, is_multiple
 from citysynth.solver.solve import Status, check_k
-from citysynth.solver.structures.combine import Payload, best_structures, paused_gc, root_of
+from citysynth.solver.structures.combine import (
+    Payload,
+    best_structures,
+    first_paths,
+    lazy_chain,
+    paused_gc,
+    root_of,
+)
 from citysynth.solver.structures.decompose import Grid, PairProblems
 from citysynth.solver.structures.model import Structure
 from citysynth.solver.structures.stage_graphs import NotExact, StageGraphs
@@ -149,9 +156,13 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
     gnames, _gq, glo, ghi = grid
     with paused_gc():
         provider = _provider(st, k, method, grid, max_memory_mb, table, solve_kw)
-        results = best_structures(st, k, ghi, glo, provider.lists)
+        results = best_structures(st, k, ghi, glo, provider.lists,
+                                  getattr(provider, "trusted", None),
+                                  getattr(provider, "more", None))
     sols = [_solution(st, provider, cost, e, payload) for cost, e, payload in results]
-    stats = {"method": method, **provider.stats(), "solve_s": time.perf_counter() - t0}
+    stats = {"method": method, **provider.stats(),
+             "program": "lazy chain" if lazy_chain(st, ghi) else "general",
+             "solve_s": time.perf_counter() - t0}
     if not sols:
         why = provider.reason()
         detail = f"; e.g. {why}" if why else ""
@@ -170,7 +181,8 @@ def _provider(st: Structure, k: int, method: StructureMethod, grid: Grid,
     pair."""
     if method in ("auto", "rcksp"):
         try:
-            return StageGraphs(st, k, grid, max_memory_mb, table)
+            return StageGraphs(st, k, grid, max_memory_mb, table,
+                               first=first_paths(st, k, grid[3]))
         except NotExact:
             pass
     one_stage = {"auto": "auto", "rcksp": "rcksp", "decompose": "rcksp",

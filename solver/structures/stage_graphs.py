@@ -44,7 +44,12 @@ from citysynth.solver.structures.decompose import (
     start_leg,
 )
 from citysynth.solver.structures.model import Structure
-from citysynth.solver.structures.stage_kbest import StageGraph, _stage_kbest
+from citysynth.solver.structures.stage_kbest import (
+    StageGraph,
+    _stage_kbest,
+    _stage_kbest_of,
+    sorted_paths,
+)
 
 # (stage, end element, share) of each query, and their boxes and weights as arrays
 Queries = tuple[list[tuple[int, str, Share]], np.ndarray, np.ndarray, np.ndarray]
@@ -114,13 +119,18 @@ def _box(hi: np.ndarray, r: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, 
 
 class StageGraphs:
     """Every stage list of a structure, computed up front from shared graphs; a list's
-    payload is (graph index, path index)."""
+    payload is (paths index, path index). ``first``: how many paths each query gets
+    up front (k unless given); :meth:`more` finds more of one query on demand."""
 
     def __init__(self, st: Structure, k: int, grid: Grid, max_memory_mb: float,
-                 table: str = "auto"):
+                 table: str = "auto", first: int | None = None):
         if table not in ("auto", "dense", "hash"):
             raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
         self.st, self.k, self.table = st, k, table
+        self.first = k if first is None else max(1, min(first, k))
+        # (stage, a, b, share) -> (trusted length, graph, query, paths asked)
+        self._more: dict[tuple[int, str, str, Share], tuple[int, int, int, int]] = {}
+        self._graph_of: list[tuple[StageGraph, int, tuple[str, ...]]] = []
         gnames, gq, _glo, ghi = grid
         self.gnames, self.gq, self.ghi = gnames, gq, ghi
         self.shares = list(itertools.product(*[range(h + 1) for h in ghi]))
@@ -336,15 +346,18 @@ class StageGraphs:
         if not meta or (self._ints(self.st.legs[a][leg], grp.dims) > grp.cap).any():
             return
         G, rows = self._graph(grp, a, leg, queries)
-        costs, offs, fill, first = _stage_kbest(G, self.k, grp.max_len + 3)
+        K = self.first
+        costs, offs, fill, first = _stage_kbest(G, K, grp.max_len + 3)
         gid = len(self._paths)
         self._paths.append((offs, fill, grp.fillers))
+        self._graph_of.append((G, grp.max_len + 3, grp.fillers))
         costs, first = costs.tolist(), first.tolist()
         for q, (i, b, share) in enumerate(meta):
             if first[q] < first[q + 1]:
-                ls = [(costs[p], (gid, p)) for p in range(first[q], first[q + 1])]
-                ls.sort(key=lambda t: t[0])  # by the front-to-back sums (stable)
-                self._lists[(i, a, b)][share] = ls
+                ls, n = sorted_paths(costs, first[q], first[q + 1], K, self.k)
+                self._lists[(i, a, b)][share] = [(c, (gid, p)) for c, p in ls]
+                if len(ls) == K < self.k:  # more may follow
+                    self._more[(i, a, b, share)] = (n, len(self._graph_of) - 1, q, K)
         self.counts["stage_graphs"] += 1
         self.counts["stage_queries"] += len(meta)
         self.counts["graph_rows"] += rows
@@ -352,6 +365,28 @@ class StageGraphs:
     # ---- the provider interface (see citysynth.solver.structures.combine) --------
     def lists(self, i: int, a: str, b: str) -> dict[Share, StageList]:
         return self._lists.get((i, a, b), {})
+
+    def trusted(self, i: int, a: str, b: str, share: Share) -> int:
+        """How many leading entries of a list are final: k once it is complete."""
+        got = self._more.get((i, a, b, share))
+        return self.k if got is None else got[0]
+
+    def more(self, i: int, a: str, b: str, share: Share) -> int:
+        """Find twice as many paths of one list (at most k); returns its new trusted
+        length (k once complete). The list is replaced by a longer one with the same
+        leading entries."""
+        n, gi, q, K = self._more.pop((i, a, b, share))
+        G, depth, fillers = self._graph_of[gi]
+        K = min(self.k, 2 * K)
+        costs, offs, fill, first = _stage_kbest_of(G, np.array([q]), K, depth)
+        gid = len(self._paths)
+        self._paths.append((offs, fill, fillers))
+        ls, n = sorted_paths(costs.tolist(), 0, int(first[1]), K, self.k)
+        self._lists[(i, a, b)][share] = [(c, (gid, p)) for c, p in ls]
+        if len(ls) == K < self.k:  # more may follow
+            self._more[(i, a, b, share)] = (n, gi, q, K)
+            return n
+        return self.k
 
     def filling(self, i: int, a: str, b: str, payload: tuple[int, int]
                 ) -> tuple[list[str], dict[str, float]]:

@@ -143,20 +143,29 @@ def _query_states(qlo, qhi):
 
 @njit(cache=True)
 def _stage_kbest(G, K, depth):
-    """The K best fillings of every query of G. Returns (costs, offs, fill, first):
-    path p of query q (first[q] <= p < first[q + 1]) has the fillers
+    """The K best fillings of every query of G (see :func:`_stage_kbest_of`)."""
+    return _stage_kbest_of(G, np.arange(G.qlo.shape[0]), K, depth)
+
+
+@njit(cache=True)
+def _stage_kbest_of(G, qs, K, depth):
+    """The K best fillings of the queries ``qs`` of G. Returns (costs, offs, fill,
+    first): path p of the i-th query (first[i] <= p < first[i + 1]) has the fillers
     fill[offs[p]:offs[p + 1]] front to back and the cost costs[p], summed front to
     back (start -> first filler -> ... -> end key) the way one-stage solutions are,
-    so a stage costs the same bits whichever solver found it."""
-    Q = G.qlo.shape[0]
-    starts = np.arange(Q) + G.qbase
+    so a stage costs the same bits whichever solver found it. The paths of a query
+    come in the enumeration's order (ascending by its own sums, ties by element):
+    a later call with a larger K extends the same sequence."""
+    Q = len(qs)
+    starts = qs + G.qbase
     _, offs, seq, first, _touched = kbest_from(
         G, starts, K, G.n, len(G.cap), depth, _query_states(G.qlo, G.qhi) * G.n)
     npath = len(offs) - 1
     costs = np.empty(npath)
     fill = np.empty(len(seq), dtype=np.int64)
-    for q in range(Q):
-        for p in range(first[q], first[q + 1]):
+    for i in range(Q):
+        q = qs[i]
+        for p in range(first[i], first[i + 1]):
             a, b = offs[p], offs[p + 1]  # seq[a:b] = last filler ... first filler, start
             prev = 0
             cost = 0.0
@@ -170,3 +179,29 @@ def _stage_kbest(G, K, depth):
     for p in range(npath + 1):
         offs[p] -= p
     return costs, offs, fill[:len(seq) - npath], first
+
+
+TRUST_EPS = 1e-9   # relative: far above the rounding between the two ways of summing
+
+
+def sorted_paths(costs: list[float], lo: int, hi: int, K: int, k: int
+                 ) -> tuple[list[tuple[float, int]], int]:
+    """Paths lo..hi-1 of one query (found with a limit of K paths, at most k wanted)
+    sorted by their front-to-back sums (stable, as the lists always were), and how
+    many of them lead the sorted list of all its k first paths whatever comes after.
+
+    The enumeration ranks paths by sums taken the other way round, which may differ
+    in the last bits; a path not yet found ranks after the K-th found one, so its
+    front-to-back sum is at least the K-th one's less rounding. Every found path
+    cheaper than that by a margin keeps its place when more are found; the others
+    need a larger K (all of them when the query is exhausted or K reached k)."""
+    ls = [(costs[p], p) for p in range(lo, hi)]
+    ls.sort(key=lambda t: t[0])
+    if hi - lo < K or K >= k:
+        return ls, len(ls)
+    last = costs[hi - 1]
+    bound = last - TRUST_EPS * max(1.0, abs(last))
+    n = 0
+    while n < len(ls) and ls[n][0] <= bound:
+        n += 1
+    return ls, n

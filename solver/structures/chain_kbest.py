@@ -1,0 +1,344 @@
+"""The k best structures of a chain or a cycle, lazily: the combining program of
+:mod:`citysynth.solver.structures.combine` for structures whose key points each have
+at most one stage out (block outlines, streets), with at most one structure-wide
+resource.
+
+Why: the general program builds, for every key point, element and share of the
+structure-wide resource, the k best completions in full, and wants k paths of every
+stage list up front; on a 40-corner block with a per-block door count that is
+hundreds of thousands of sums and 6,480 lists of k paths, nearly all of which no
+structure among the k best ever uses. Here the completions form a DAG over
+(key point, element, share) whose k best paths are enumerated the lazy way of
+:mod:`citysynth.solver.kbest` (Jiménez & Marzal; Huang & Chiang's Algorithm 3):
+
+* the best completion of every node is one min-plus pass over the shares, on arrays
+  (:func:`_first_items`), from the first entry of every stage list;
+* a node's next completions come from a heap of candidates "stage list entry i, then
+  completion j of the node after it", created only when a node is asked for its
+  second completion; popping (i, j) offers (i + 1, j) and (i, j + 1), each asked for
+  only then (a stage list finds more paths on demand, ``more``);
+* the results are a merge of the root's streams.
+
+Exactly the same sums, in the same order, as the general program: a candidate costs
+stage + (completion + unary cost of the element between), ties go to the end element
+in key point order, then the smaller stage share, then the entry positions; the
+root's streams merge by (cost, element at the root, share, position), as its stable
+sort did. A test compares the two on generated structures.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from citysynth.solver.structures.model import Structure
+
+Share = tuple[int, ...]
+StageList = list[tuple[float, Any]]
+Payload = dict[int, tuple[str, Any, "Payload"]]
+Item = tuple[float, int, int, int]      # (cost, pair t = end element * S + share, i, j)
+
+
+def chain_of(st: Structure, ghi: list[int]) -> tuple[list[int], list[int]] | None:
+    """The key points from the root and the stage out of each, when every key point
+    has at most one stage out, its elements are distinct and there is at most one
+    structure-wide resource; else None (the general program)."""
+    if len(ghi) > 1 or any(len(set(kp)) != len(kp) for kp in st.keypoints):
+        return None
+    out: dict[int, int] = {}
+    for i, s in enumerate(st.stages):
+        if s.start in out:
+            return None
+        out[s.start] = i
+    if st.closed:
+        root = 0
+    else:
+        ends = {s.end for s in st.stages}
+        roots = [v for v in range(len(st.keypoints)) if v not in ends]
+        if len(roots) != 1:
+            return None
+        root = roots[0]
+    keys: list[int] = [root]
+    stages: list[int] = []
+    while keys[-1] in out and len(stages) < len(st.stages):
+        si = out[keys[-1]]
+        stages.append(si)
+        nxt = st.stages[si].end
+        if nxt == root:
+            break
+        keys.append(nxt)
+    if len(stages) != len(st.stages) or (st.closed and st.stages[stages[-1]].end != root):
+        return None
+    return keys, stages
+
+
+@njit(cache=True)
+def _first_items(A, cf, ne, closed, r):
+    """Best completion of every (chain position, element, share) and its pair.
+
+    A[l, e, f, g]: cost of the first entry of stage l's list from element e to f
+    with share g (inf: none); cf[l, f] the unary cost of element f at position l;
+    ne[l] the number of elements there. A cycle (``closed``) returns to element r
+    of position 0: its last stage's list is the completion itself. Returns B
+    [positions, E, S] and arg (t = f * S + g1, -1 for none), the first minimum in
+    (f, g1) order, summed as stage + (completion + unary)."""
+    L, E, _, S = A.shape
+    P = L if closed else L + 1
+    B = np.full((P, E, S), np.inf)
+    arg = np.full((P, E, S), -1, dtype=np.int64)
+    if closed:
+        last = L - 1
+        for e in range(ne[last]):
+            for g in range(S):
+                if A[last, e, r, g] < np.inf:
+                    B[last, e, g] = A[last, e, r, g]
+                    arg[last, e, g] = r * S + g
+        top = L - 2
+    else:
+        for e in range(ne[L]):   # the leaf: one empty completion
+            B[L, e, 0] = 0.0
+            arg[L, e, 0] = 0
+        top = L - 1
+    for l in range(top, -1, -1):
+        for e in range(ne[l]):
+            for g in range(S):
+                best = np.inf
+                bt = -1
+                for f in range(ne[l + 1]):
+                    for g1 in range(g + 1):
+                        a = A[l, e, f, g1]
+                        b = B[l + 1, f, g - g1]
+                        if a < np.inf and b < np.inf:
+                            c = a + (b + cf[l + 1, f])
+                            if c < best:
+                                best = c
+                                bt = f * S + g1
+                B[l, e, g] = best
+                arg[l, e, g] = bt
+    return B, arg
+
+
+class _Node:
+    """The completions of one (position, element, share) found so far."""
+
+    __slots__ = ("items", "heap", "seen", "pending", "done")
+
+    def __init__(self, first: Item | None):
+        self.items: list[Item] = [] if first is None else [first]
+        self.heap: list[Item] | None = None
+        self.seen: set[tuple[int, int, int]] = set()
+        self.pending: Item | None = None   # popped, its successors not offered yet
+        self.done = first is None
+
+
+class ChainProgram:
+    """The k best structures of a chain or cycle (see the module docstring).
+
+    ``stage_lists(s, a, b)``: share -> cost-sorted list, as for the general program;
+    ``trusted(s, a, b, share)`` how many leading entries are final (k once the list
+    is complete) and ``more(...)`` finds more and returns the new trusted length
+    (both optional: lists are then complete)."""
+
+    def __init__(self, st: Structure, k: int, ghi: list[int], glo: list[int],
+                 chain: tuple[list[int], list[int]],
+                 stage_lists: Callable[[int, str, str], dict[Share, StageList]],
+                 trusted: Callable[[int, str, str, Share], int] | None = None,
+                 more: Callable[[int, str, str, Share], int] | None = None):
+        self.st, self.k, self.glo = st, k, glo
+        self.keys, self.stages = chain
+        self.stage_lists, self._trusted, self._more = stage_lists, trusted, more
+        self.one = len(ghi) == 1
+        self.S = ghi[0] + 1 if self.one else 1
+        self.elems = [list(st.keypoints[v]) for v in self.keys]
+        if not st.closed:   # the leaf after the last stage
+            self.elems.append(list(st.keypoints[st.stages[self.stages[-1]].end]))
+        self.L = len(self.stages)
+        self.E = max(len(x) for x in self.elems)
+        self.cf = np.zeros((len(self.elems), self.E))
+        for p, es in enumerate(self.elems):
+            self.cf[p, :len(es)] = [st.costs[e] for e in es]
+        self.ne = np.array([len(es) for es in self.elems], dtype=np.int64)
+        self.lists: list[list[list[dict[Share, StageList]]]] = []
+        self.A = np.full((self.L, self.E, self.E, self.S), np.inf)
+        for p, s in enumerate(self.stages):
+            ends = self.elems[(p + 1) % len(self.elems)]
+            rows = []
+            for ei, e in enumerate(self.elems[p]):
+                row = []
+                for fi, f in enumerate(ends):
+                    ls = stage_lists(s, e, f)
+                    row.append(ls)
+                    for share in ls:
+                        lst = self._entry(p, ei, fi, share, 0)
+                        if lst is not None:
+                            self.A[p, ei, fi, share[0] if self.one else 0] = lst[0]
+                rows.append(row)
+            self.lists.append(rows)
+
+    def share(self, g: int) -> Share:
+        return (g,) if self.one else ()
+
+    def _entry(self, p: int, ei: int, fi: int, share: Share, i: int
+               ) -> tuple[float, Any] | None:
+        """Entry i of the list of stage position p from element ei to fi, or None;
+        finds more paths first when entry i is not final yet."""
+        s = self.stages[p]
+        e = self.elems[p][ei]
+        f = self.elems[(p + 1) % len(self.elems)][fi]
+        ls = self.stage_lists(s, e, f).get(share)
+        if ls is None or i >= self.k:
+            return None
+        if self._trusted is not None and self._more is not None:
+            n = self._trusted(s, e, f, share)
+            while i >= n:
+                n = self._more(s, e, f, share)
+            ls = self.stage_lists(s, e, f)[share]
+        return ls[i] if i < len(ls) else None
+
+    # ---- lazy enumeration ---------------------------------------------------------
+    def run(self) -> list[tuple[float, str, Payload]]:
+        st, S = self.st, self.S
+        heap: list[tuple[float, int, int]] = []
+        streams: list[tuple[dict[tuple[int, int, int], _Node], int, int, np.ndarray,
+                            np.ndarray]] = []
+        roots = self.elems[0]
+        lo = self.glo[0] if self.one else 0
+        shared: tuple[np.ndarray, np.ndarray] | None = None
+        for ri, e in enumerate(roots):
+            if st.closed:
+                B, arg = _first_items(self.A, self.cf, self.ne, True, ri)
+            else:
+                if shared is None:
+                    shared = _first_items(self.A, self.cf, self.ne, False, 0)
+                B, arg = shared
+            nodes: dict[tuple[int, int, int], _Node] = {}
+            for g in range(lo, S):
+                c = float(B[0, ri, g])
+                if c < np.inf:
+                    heap.append((c + st.costs[e], len(streams), 0))
+                    streams.append((nodes, ri, g, B, arg))
+        heapq.heapify(heap)
+        results: list[tuple[float, str, Payload]] = []
+        while heap and len(results) < self.k:
+            c, t, j = heapq.heappop(heap)
+            nodes, ri, g, B, arg = streams[t]
+            results.append((c, roots[ri], self._payload(nodes, B, arg, 0, ri, g, j)))
+            nxt = self._item(nodes, B, arg, 0, ri, g, j + 1)
+            if nxt is not None:
+                heapq.heappush(heap, (nxt[0] + st.costs[roots[ri]], t, j + 1))
+        return results
+
+    def _node(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
+              arg: np.ndarray, p: int, ei: int, g: int) -> _Node:
+        key = (p, ei, g)
+        node = nodes.get(key)
+        if node is None:
+            t = int(arg[p, ei, g])
+            node = _Node(None if t < 0 else (float(B[p, ei, g]), t, 0, 0))
+            nodes[key] = node
+        return node
+
+    def _item(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
+              arg: np.ndarray, p: int, ei: int, g: int, j: int) -> Item | None:
+        """Completion j of (position p, element ei, share g), or None."""
+        if j >= self.k:
+            return None
+        node = self._node(nodes, B, arg, p, ei, g)
+        while len(node.items) <= j and not node.done:
+            self._advance(nodes, B, arg, p, ei, g, node)
+        return node.items[j] if j < len(node.items) else None
+
+    def _is_last(self, p: int) -> bool:
+        """Position p's stage closes the cycle: its completions are its list."""
+        return self.st.closed and p == self.L - 1
+
+    def _advance(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
+                 arg: np.ndarray, p: int, ei: int, g: int, node: _Node) -> None:
+        """Find the node's next completion (or mark it done)."""
+        if len(node.items) >= self.k:
+            node.done = True
+            return
+        S = self.S
+        if self._is_last(p):
+            r = node.items[0][1] // S
+            ent = self._entry(p, ei, r, self.share(g), len(node.items))
+            if ent is None:
+                node.done = True
+            else:
+                node.items.append((ent[0], node.items[0][1], len(node.items), 0))
+            return
+        if p == self.L:        # the leaf of an open chain: one empty completion
+            node.done = True
+            return
+        cf = self.cf[p + 1]
+        if node.heap is None:
+            self._start_heap(B, p, ei, g, node)
+        heap = node.heap
+        assert heap is not None
+        if node.pending is not None:
+            _c, t, i, j = node.pending
+            node.pending = None
+            fi, g1 = divmod(t, S)
+            for i2, j2 in ((i + 1, j), (i, j + 1)):
+                if (t, i2, j2) in node.seen:
+                    continue
+                a_ = self._entry(p, ei, fi, self.share(g1), i2)
+                if a_ is None:
+                    continue
+                b_ = self._item(nodes, B, arg, p + 1, fi, g - g1, j2)
+                if b_ is None:
+                    continue
+                node.seen.add((t, i2, j2))
+                heapq.heappush(heap, (a_[0] + (b_[0] + float(cf[fi])), t, i2, j2))
+        if not heap:
+            node.done = True
+            return
+        item = heapq.heappop(heap)
+        node.items.append(item)
+        node.pending = item
+
+    def _start_heap(self, B: np.ndarray, p: int, ei: int, g: int, node: _Node) -> None:
+        """Every first candidate, as the general program's heap holds them; the first
+        one popped is the completion the array pass found, its successors pending."""
+        S, cf = self.S, self.cf[p + 1]
+        Ap = self.A[p, ei]
+        Bn = B[p + 1]
+        cand: list[Item] = []
+        for fi in range(int(self.ne[p + 1])):
+            cfi = float(cf[fi])
+            for g1 in range(g + 1):
+                a = Ap[fi, g1]
+                b = Bn[fi, g - g1]
+                if a < np.inf and b < np.inf:
+                    cand.append((float(a) + (float(b) + cfi), fi * S + g1, 0, 0))
+        heapq.heapify(cand)
+        node.seen = {(t, 0, 0) for _c, t, _i, _j in cand}
+        first = heapq.heappop(cand)
+        if first[:2] != node.items[0][:2]:
+            raise AssertionError("first completion differs from the array pass")
+        node.heap, node.pending = cand, first
+
+    def _payload(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
+                 arg: np.ndarray, p: int, ei: int, g: int, j: int) -> Payload:
+        """Completion j of (p, ei, g) as the general program's nested payload."""
+        out: Payload = {}
+        cur = out
+        while p < self.L:
+            item = self._item(nodes, B, arg, p, ei, g, j)
+            assert item is not None
+            _c, t, i, j = item
+            fi, g1 = divmod(t, self.S)
+            ent = self._entry(p, ei, fi, self.share(g1), i)
+            assert ent is not None
+            f = self.elems[(p + 1) % len(self.elems)][fi]
+            sub: Payload = {}
+            cur[self.stages[p]] = (f, ent[1], sub)
+            cur = sub
+            if self._is_last(p):
+                break
+            p, ei, g = p + 1, fi, g - g1
+        return out
