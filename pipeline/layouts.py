@@ -7,7 +7,8 @@ constrain its outer ring, so the i-th layout combines every ring's i-th solution
 its last when it has fewer). :func:`write_outputs` writes, for each layout, the layout
 JSON, the USD layer, the GLB and the PNG preview, every file atomically, and the
 shared part prototypes once; with k > 1 also ``<name>.usda``, the k layers as the
-variants of one ``layout`` variantSet.
+variants of one ``layout`` variantSet (a city block carries it too: see
+:mod:`~citysynth.pipeline.city.jobs`).
 """
 
 from __future__ import annotations
@@ -84,9 +85,11 @@ def output_stem(lay: Layout, k: int) -> str:
 
 
 def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
-                  formats: Sequence[Format] = FORMATS, k: int | None = None) -> list[Path]:
+                  formats: Sequence[Format] = FORMATS, k: int | None = None,
+                  selected: int = 1) -> list[Path]:
     """Write each layout of ``built`` in ``formats`` to ``out_dir``; the file paths.
-    Export and preview times add up in ``built.timings``."""
+    Export and preview times add up in ``built.timings``. With several layouts the
+    variant stage selects rank ``selected`` (a city block: the one its run picked)."""
     out = Path(out_dir)
     k = len(built.layouts) if k is None else k
     paths = []
@@ -98,7 +101,7 @@ def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
             key = "preview_s" if fmt == "png" else "export_s"
             built.timings[key] = built.timings.get(key, 0.0) + time.perf_counter() - t
     if "usd" in formats and k > 1 and built.layouts:
-        paths.append(write_variant_stage(built.layouts, out, k))
+        paths.append(write_variant_stage(built.layouts, out, k, selected))
     return paths
 
 

@@ -5,8 +5,11 @@ A :class:`BlockJob` carries everything that decides the block's output: its outl
 (in the city's frame, to the millimetre), the library (path and content hash), style,
 k, which of the k to keep, constraints and tolerances. ``input_hash`` is the sha256 of
 all that (and of the output format versions), so a rerun can skip a block whose hash
-is unchanged. :func:`run_block` writes ``<id>.layout.json`` and ``<id>.usda`` (each
-atomically), then, last, the marker ``<id>.done.json``, which records the hash: a run
+is unchanged. :func:`run_block` writes ``<id>.layout.json`` (the layout it keeps) and
+``<id>.usda`` (each atomically; with k > 1, ``<id>.usda`` is a ``layout`` variantSet
+over every rank's layer ``<id>_<rank>.usda``, the kept one selected, so an artist
+switches between a block's k best inside the city), then, last, the marker
+``<id>.done.json``, which records the hash: a run
 killed at any moment leaves either a complete block or one that is redone. A bad or
 infeasible block is an answer (status "failed" with its reason), never an exception.
 Only the user's errors (:data:`~citysynth.pipeline.errors.USER_ERRORS`) are such
@@ -43,6 +46,7 @@ from citysynth.pipeline.layouts import Built, solve_layouts, write_outputs
 from citysynth.skeletons import Frame
 
 JOB_VERSION = 4          # bump when a block's output changes for the same inputs
+VARIANTS_VERSION = 1     # the same, for what only k > 1 writes (the layout variantSet)
 CITY_SLACK = 0.3         # m: any block side may be met this closely (city.toml slack)
 BLOCKS_DIR = "blocks"
 
@@ -111,6 +115,8 @@ class BlockJob:
     def with_hash(self) -> BlockJob:
         d = asdict(replace(self, input_hash=""))
         d["versions"] = [JOB_VERSION, SCHEMA, VERSION]
+        if self.k > 1:   # only k > 1 writes variants: k = 1 hashes and caches stay valid
+            d["versions"].append(VARIANTS_VERSION)
         del d["library"]          # where the library lives does not change the output
         text = json.dumps(d, sort_keys=True, separators=(",", ":"))
         return replace(self, input_hash=hashlib.sha256(text.encode()).hexdigest())
@@ -252,16 +258,10 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
                            "once it is as it should be")
     if job.footprint is not None:
         rec["feature"] = job.footprint.where
-    prep = prepare(job, db)
-    if isinstance(prep, str):
-        return _finish(out, rec, "skipped", t0, reason=prep)
-    built = _solve(job, db, prep)
-    if built.status != "ok" and job.footprint is not None:   # short sides absorbed: again
-        again = prepare_again(job, db)
-        if again is not None:
-            retry = _solve(job, db, again)
-            if retry.status == "ok":
-                prep, built = again, retry
+    solved = solve_block(job, db)
+    if isinstance(solved, str):
+        return _finish(out, rec, "skipped", t0, reason=solved)
+    prep, built = solved
     rec["timings"] = dict(built.timings)
     if built.status != "ok":
         return _finish(out, rec, "failed", t0, reason=failure(prep, job, db, built.reason))
@@ -272,13 +272,52 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
     rank = _pick_rank(job, len(built.layouts))
     lay = built.layouts[rank - 1]
     t1 = time.perf_counter()
-    chosen = Built(job.id, "ok", [lay], timings={})
-    paths = write_outputs(chosen, db, out / BLOCKS_DIR, formats=("json", "usd"), k=1)
+    paths = write_block(built, rank, db, out / BLOCKS_DIR)
     rec["timings"]["write_s"] = time.perf_counter() - t1
     rec["files"] = [str(p.relative_to(out)) for p in paths]
     rec["rank"], rec["of"], rec["cost"] = rank, len(built.layouts), lay.cost
     rec["instances"], rec["stretch"] = len(lay.instances), max_stretch(lay)
     return _finish(out, rec, "built", t0)
+
+
+def solve_block(job: BlockJob, db: PartDB) -> str | tuple[Prepared, Built]:
+    """The block's outline cleaned and its k best layouts (a footprint that fails is
+    tried once more with its short sides absorbed), or why nothing buildable is left
+    of it. The layouts may be infeasible: ``Built.status`` says."""
+    prep = prepare(job, db)
+    if isinstance(prep, str):
+        return prep
+    built = _solve(job, db, prep)
+    if built.status != "ok" and job.footprint is not None:   # short sides absorbed: again
+        again = prepare_again(job, db)
+        if again is not None:
+            retry = _solve(job, db, again)
+            if retry.status == "ok":
+                return again, retry
+    return prep, built
+
+
+def rank_layers(blocks: Path, job_id: str) -> list[Path]:
+    """The per-rank layers (``<id>_<rank>.usda``) of a block in ``blocks``."""
+    return sorted(blocks.glob(f"{job_id}_*.usda"))
+
+
+def write_block(built: Built, rank: int, db: PartDB, blocks: Path) -> list[Path]:
+    """A built block's files in ``blocks``: the kept layout's JSON, ``<id>.layout.json``
+    (what the city's GLB and overview and ``citysynth diff`` read), then its USD. With
+    one layout, ``<id>.usda`` is that layout's layer (as it always was); with several,
+    each rank's layer ``<id>_<rank>.usda`` and ``<id>.usda`` the ``layout`` variantSet
+    over them with ``rank_<rank>`` selected (the same files ``building``/``block`` write,
+    by the same code). Rank layers an earlier run left beyond these go."""
+    kept = Built(built.name, "ok", [built.layouts[rank - 1]])
+    if len(built.layouts) == 1:
+        paths = write_outputs(kept, db, blocks, formats=("json", "usd"), k=1)
+    else:
+        paths = write_outputs(kept, db, blocks, formats=("json",), k=1) + write_outputs(
+            built, db, blocks, formats=("usd",), selected=rank)
+    for stale in set(rank_layers(blocks, built.name)) - set(paths):
+        stale.unlink(missing_ok=True)
+    return paths
 
 
 def _solve(job: BlockJob, db: PartDB, prep: Prepared) -> Built:

@@ -11,6 +11,7 @@ The run folder::
                              so two runs of the same inputs write the same manifest)
     OUT/report.json          counts, reasons, bugs met (with tracebacks), time per stage
     OUT/blocks/<id>.layout.json, <id>.usda, <id>.done.json, parts/<part>.usdc
+                             (k > 1: <id>.usda switches between <id>_<rank>.usda)
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ from citysynth.pipeline.city.jobs import (
     cached,
     frame_tuple,
     outline_wkt,
+    rank_layers,
     run_block,
 )
 from citysynth.pipeline.city.outputs import Report, write_summary
@@ -347,6 +349,8 @@ def _remove_stale(out: Path, keep: set[str]) -> None:
         if bid not in keep:
             for suffix in (".layout.json", ".usda", ".done.json"):
                 (out / BLOCKS_DIR / f"{bid}{suffix}").unlink(missing_ok=True)
+            for layer in rank_layers(out / BLOCKS_DIR, bid):   # k > 1: each rank's
+                layer.unlink(missing_ok=True)
 
 
 def progress_printer(stream: TextIO | None = None, pieces: int = 0) -> Progress:
