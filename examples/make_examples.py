@@ -56,6 +56,26 @@ def ring_with_wings() -> dict:
                _line([(72, 30), (102, 30)], id="east_wing"))
 
 
+def ring_outward_wings() -> dict:
+    """A 72 x 60 m courtyard ring whose facades face out to the street (drawn
+    anticlockwise) with a wing on either side of it: a 36 m wing out of the south side
+    into the street (its T part stands turned over, see ``export/t_poses.py``) and a 30 m
+    wing from the north side into the courtyard, behind the facade. Facades face the
+    right of each line."""
+    return _fc(_line([(0, 0), (72, 0), (72, 60), (0, 60), (0, 0)], id="ring"),
+               _line([(36, 0), (36, -36)], id="street_wing"),
+               _line([(36, 60), (36, 30)], id="courtyard_wing"))
+
+
+def h_building() -> dict:
+    """An H: two 90 m ranges facing out, east and west, joined in their middles by a
+    48 m bar that is the wing of both T junctions (its facade faces south: at the east
+    T the part stands turned end for end). Facades face the right of each line."""
+    return _fc(_line([(0, 90), (0, 0)], id="west_range"),
+               _line([(48, 0), (48, 90)], id="east_range"),
+               _line([(0, 45), (48, 45)], id="bar"))
+
+
 def footprint_courtyard() -> dict:
     """A 60 x 50 m house with a 20 x 14 m courtyard (two cycles)."""
     return _fc(_polygon([(0, 0), (60, 0), (60, 50), (0, 50)],
@@ -78,6 +98,8 @@ GENERATED = {
     "skeletons/t_building.geojson": t_building,
     "skeletons/footprint_courtyard.geojson": footprint_courtyard,
     "skeletons/ring_with_wings.geojson": ring_with_wings,
+    "skeletons/ring_outward_wings.geojson": ring_outward_wings,
+    "skeletons/h_building.geojson": h_building,
     "blocks/block.geojson": block,
 }
 

@@ -39,7 +39,8 @@ from shapely.geometry.base import BaseGeometry
 from citysynth.export.errors import ExportError
 from citysynth.export.joints import HalfPlane, Placed, bisector, facade_span, joint_halves
 from citysynth.export.layout import Instance, Layout
-from citysynth.export.plan import Front, PlacementPlan, PlanStage, is_joint, other_side
+from citysynth.export.plan import Front, PlacementPlan, PlanStage, is_joint
+from citysynth.export.t_poses import SEP, main_depth, part_leg, t_pose
 from citysynth.parts_db import Part, PartDB
 
 TOL = 0.001          # metres: the largest gap, overlap or offset the checks accept
@@ -96,6 +97,14 @@ def _leg(p: Part, leg: int) -> float:
     return float(p.legs_measured[leg])
 
 
+def _depth(p: Part, element: str) -> float:
+    """How far behind the key point a T part's own key point lies: its main range's
+    depth when it is turned over (the ``street`` pose), else 0."""
+    if p.cls != "t_junction" or not t_pose(element).street:
+        return 0.0
+    return main_depth(p.sec_in)
+
+
 def _y_range(p: Part) -> tuple[float, float]:
     """A part's extent across its facade line (placement-frame Y): overhang to depth."""
     sec = p.sec_in
@@ -116,7 +125,7 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
     for si, (plan, sol) in enumerate(zip(plans, solutions, strict=True)):
         placer = _Placer(si, plan, sol, parts)
         instances, record = placer.place()
-        _check(plan, record, parts, instances)
+        _check(plan, record, parts, instances, sol.keys)
         out.instances.extend(instances)
         out.structures.append(_summary(plan, sol, record))
     return out
@@ -136,6 +145,7 @@ class _StageRecord:
     fill: list[int]                # instance indices of the stage's fillers (and folds)
     stretch: float
     start_leg: int
+    end_leg: int
     path: _Path
     solved: float                  # what its parts measure, unstretched
 
@@ -191,7 +201,7 @@ class _Placer:
     def leg_part(self, j: int) -> Part | None:
         """The key part at key j (None for a mitre joint, which has no part)."""
         key = self.sol.keys[j]
-        return None if is_joint(key) else self.parts[key]
+        return None if is_joint(key) else self.parts[t_pose(key).part]
 
     def leg_len(self, j: int, leg: int) -> float:
         """How far key j reaches along a leg (a mitre joint: what it counts for; the
@@ -199,7 +209,8 @@ class _Placer:
         p = self.leg_part(j)
         if p is None:
             return self.plan.joints[self.sol.keys[j]][0 if leg == 0 else 1]
-        return _leg(p, leg)
+        return _leg(p, part_leg(self.sol.keys[j], leg)) - (
+            _depth(p, self.sol.keys[j]) if leg == 2 else 0.0)
 
     def _stretches(self) -> None:
         """One stretch per stage: every part on it stretches, except T parts (rigid:
@@ -256,10 +267,18 @@ class _Placer:
             a = _fit(np.asarray(p.directions[0]) * p.legs_measured[0],
                      np.asarray(p.directions[1]) * p.legs_measured[1], legs[0], legs[1])
         else:  # a T: fitted to its in-leg and its branch; its out-leg follows the in-leg
-            _check_t_sides(self.plan, j, self.kxy[j], -legs[0], legs[2], front,
-                           self.plan.stages[self.plan.branch[j]].front)
-            a = _fit(np.asarray(p.directions[0]) * p.legs_measured[0],
-                     np.asarray(p.directions[2]) * p.legs_measured[2], legs[0], legs[2])
+            key = self.sol.keys[j]
+            m = part_leg(key, 0)
+            depth = _depth(p, key)
+            a = _fit(np.asarray(p.directions[m]) * p.legs_measured[m],
+                     np.asarray(p.directions[2]) * (p.legs_measured[2] - depth),
+                     legs[0], legs[2])
+            # turned over, the part's key point lies on its back face, ``depth`` behind
+            i = self._add(_instance(p, self.si, None, j, a,
+                                    self.kxy[j] - a @ np.array([0.0, depth])))
+            for leg in (0, 1, 2):
+                self.record.keys[(j, leg)] = i
+            return
         i = self._add(_instance(p, self.si, None, j, a, self.kxy[j]))
         for leg in (0, 1, 2):
             self.record.keys[(j, leg)] = i
@@ -287,7 +306,8 @@ class _Placer:
                 idx.append(self._add(placed))
                 self.span[idx[-1]] = ((lo - pos) / scale, (hi - pos) / scale)
             pos += w
-        self.record.stages[s] = _StageRecord(idx, stretch, st.start_leg, path, self.solved[s])
+        self.record.stages[s] = _StageRecord(idx, stretch, st.start_leg, st.end_leg, path,
+                                             self.solved[s])
 
     def _filler(self, p: Part, s: int, path: _Path, pos: float, w: float,
                 reach: tuple[float, float], front: Front) -> list[Placed]:
@@ -538,54 +558,42 @@ def _fit(d0, d1, w0, w1) -> np.ndarray:
     src = np.column_stack([d0, d1]).astype(float)
     dst = np.column_stack([w0, w1]).astype(float)
     return dst @ np.linalg.inv(src)
-def _check_t_sides(plan: PlacementPlan, j: int, xy, u_in, u_br, front: Front,
-                   branch_front: Front) -> None:
-    """The library's T parts have their wing behind the main facade, its own facade to
-    the right of the wing's travel when the main facade is to the right of its own."""
-    where = f"{plan.name}: the T junction at ({xy[0]:.1f}, {xy[1]:.1f})"
-    side = u_in[0] * u_br[1] - u_in[1] * u_br[0]   # > 0: the wing leaves to the left
-    if (side > 0) != (front == "right"):
-        raise ExportError(f"{where}: its wing leaves on the street side of the main line; "
-                          "T parts put the wing behind the main facade, so flip the main "
-                          "line's front (or draw the wing on the other side)")
-    if branch_front != front:
-        raise ExportError(f"{where}: the wing's facade faces the other way from the T "
-                          "parts' wing; set the wing line's front to "
-                          f'"{other_side(branch_front)}"')
-
-
-
 _Segment = tuple[np.ndarray, np.ndarray, int | None, int | None]   # a, b, instance, leg
 
 
 def _check(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
-           inst: list[Instance]) -> None:
-    """The layout's geometry against its skeleton; any failure is an ExportError."""
+           inst: list[Instance], keys: Sequence[str]) -> None:
+    """The layout's geometry against its skeleton (``keys``: the solution's element at
+    each key point); any failure is an ExportError."""
     for s, r in record.stages.items():
         st = plan.stages[s]
         where = f"{plan.name}: stage {s}"
         _check_length(where, st, r)
         # facade segments in travel order: start key's leg, fillers, end key's leg
-        segs = [_key_segment(plan, record, parts, inst, st.start, r.start_leg, outgoing=True)]
+        segs = [_key_segment(plan, record, parts, inst, keys, st.start, r.start_leg,
+                             outgoing=True)]
         for i in r.fill:
             lo, hi = facade_span(inst[i].cut, _geom_length(parts[inst[i].part]))
             if hi > lo:      # else the nose of an acute corner took its whole facade
                 segs.append((inst[i].apply([lo, 0.0]), inst[i].apply([hi, 0.0]), i, None))
-        segs.append(_key_segment(plan, record, parts, inst, st.end, 0, outgoing=False))
+        segs.append(_key_segment(plan, record, parts, inst, keys, st.end, r.end_leg,
+                                 outgoing=False))
         _check_joined(where, [(a, b) for a, b, _i, _leg in segs], bool(r.fill))
-        for a, b, idx, leg in segs:
+        for n, (a, b, idx, leg) in enumerate(segs):
             if idx is None:     # a mitre joint: a point, and no part of its own
                 continue
             i = idx
             p = parts[inst[i].part]
             _check_on_path(where, r.path, (a, b), inst[i].part,
                            "leg of the key part" if leg is not None else "part")
-            _check_facing(where, (a, b), _facade_normal(inst[i], p, leg), st.front,
+            element = keys[st.start] if n == 0 else keys[st.end]
+            _check_facing(where, (a, b), _facade_normal(inst[i], p, element, leg), st.front,
                           inst[i].part)
 
 
 def _key_segment(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
-                 inst: list[Instance], j: int, leg: int, *, outgoing: bool) -> _Segment:
+                 inst: list[Instance], plan_keys: Sequence[str], j: int, leg: int, *,
+                 outgoing: bool) -> _Segment:
     """The facade segment of key j's leg on a stage, in travel order (at a mitre joint:
     the corner, or across the nose of an acute one)."""
     i = record.keys.get((j, leg))
@@ -596,8 +604,12 @@ def _key_segment(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
     p = parts[inst[i].part]
     if p.cls in ("end_left", "end_right"):
         return inst[i].apply([0.0, 0.0]), inst[i].apply([_geom_length(p), 0.0]), i, None
-    key = inst[i].apply([0.0, 0.0])
-    end = inst[i].apply(np.asarray(p.directions[leg]) * p.legs_measured[leg])
+    element = plan_keys[j]
+    m = part_leg(element, leg)
+    o = np.array([0.0, _depth(p, element)])   # the key point, in the part's frame
+    key = inst[i].apply(o)
+    end = inst[i].apply(o + np.asarray(p.directions[m]) * (p.legs_measured[m] - (
+        o[1] if m == 2 else 0.0)))
     return (key, end, i, leg) if outgoing else (end, key, i, leg)
 
 
@@ -642,13 +654,17 @@ def _check_facing(where: str, seg: tuple[np.ndarray, np.ndarray], facing: np.nda
                           f"face the street side ({front} of travel)")
 
 
-def _facade_normal(inst: Instance, p: Part, leg: int | None) -> np.ndarray:
+def _facade_normal(inst: Instance, p: Part, element: str, leg: int | None) -> np.ndarray:
     """Where the facade of this instance (on this stage) faces, in the layout frame:
-    the image of the canonical facade normal, the right of the leg's travel."""
+    the image of the canonical facade normal, the right of the leg's travel (a T turned
+    over shows its main range's back face)."""
     if p.cls in ("corner", "t_junction") and leg is not None:
-        d = np.asarray(p.directions[leg], dtype=float)
-        travel = d if leg != 0 else -d
+        m = part_leg(element, leg)
+        d = np.asarray(p.directions[m], dtype=float)
+        travel = d if m != 0 else -d
         n = np.array([travel[1], -travel[0]])
+        if m != 2 and t_pose(element).street:
+            n = -n
     else:
         n = np.array([0.0, -1.0])
     a = np.array([inst.x_axis, inst.y_axis]).T
@@ -662,15 +678,16 @@ def _summary(plan: PlacementPlan, sol: StructureSolution, record: _Record) -> di
         stages.append({
             "from": st.start, "to": st.end, "front": st.front,
             "length": r.path.length, "stretch": r.stretch,
-            "parts": [sol.keys[st.start], *sol.stages[s], sol.keys[st.end]],
+            "parts": [t_pose(sol.keys[st.start]).part, *sol.stages[s],
+                      t_pose(sol.keys[st.end]).part],
             "asked": {k: list(v) for k, v in st.asked.items()},
             "met": dict(sol.resources[s]),
             "skeleton_edges": list(st.edges),
             "polyline": [list(p) for p in st.points],
         })
-    keys = [{"part": sol.keys[j], "kind": k.kind, "xy": list(k.xy),
-             "skeleton_key": k.skeleton_key,
-             "joint": record.joints.get(j, "part")}
+    keys = [{"part": t_pose(sol.keys[j]).part, "kind": k.kind, "xy": list(k.xy),
+             "skeleton_key": k.skeleton_key, "joint": record.joints.get(j, "part"),
+             **_pose_field(sol.keys[j])}
             for j, k in enumerate(plan.keys)]
     total: dict[str, float] = {}
     for res in sol.resources:
@@ -681,6 +698,12 @@ def _summary(plan: PlacementPlan, sol: StructureSolution, record: _Record) -> di
     if plan.asked:
         out["asked"] = {k: list(v) for k, v in plan.asked.items()}
     return out
+
+
+def _pose_field(element: str) -> dict[str, str]:
+    """A T part's pose in the summary ("swap", "street", "swap+street"), when it has one."""
+    _part, _, flags = element.partition(SEP)
+    return {"pose": flags} if flags and not is_joint(element) else {}
 
 
 def max_stretch(lay: Layout) -> float:

@@ -61,6 +61,7 @@ class PlanStage:
     front: Front
     edges: tuple[int, ...]         # skeleton edge indices, in travel order
     asked: dict[str, tuple[float, float]]   # its intervals (length first)
+    end_leg: int = 0               # the leg of the end key part it reaches (0, or 2)
 
     @property
     def length_interval(self) -> tuple[float, float]:

@@ -28,6 +28,8 @@ from dataclasses import dataclass
 from typing import cast
 
 import numpy as np
+import shapely
+import shapely.affinity
 
 from citysynth.export.plan import (
     JOINT,
@@ -39,8 +41,16 @@ from citysynth.export.plan import (
     is_joint,
     other_side,
 )
+from citysynth.export.t_poses import (
+    main_depth,
+    part_leg,
+    pose_from_ground,
+    t_element,
+    t_pose,
+)
 from citysynth.parts_db import Part, PartDB
 from citysynth.parts_db.manifest import PartClass
+from citysynth.parts_db.sections import disagreement
 from citysynth.skeletons import Skeleton
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.solver.structures import Stage, Structure
@@ -221,9 +231,9 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
         if name not in attrs:
             raise SkeletonError(f"{sk.name}: constraint on {name!r}, which no {style} "
                                 f"middle part has (they have {attrs})")
-    kp = _key_parts(sk, db, style, keys, chains, oriented, angle_tol)
     stages, placed = _stages(sk, max(db.quantum / 2, slack), keys, chains, oriented,
                              stretch, per_side or {}, attrs, style)
+    kp = _key_parts(sk, db, style, keys, chains, oriented, angle_tol, placed)
     resources = ("length", *attrs)
     structure = Structure.build(
         resources=resources, quantum={"length": db.quantum},
@@ -258,15 +268,17 @@ class _only:
 
 
 def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: list[_Chain],
-               oriented: dict[int, tuple[int, int]], angle_tol: float) -> _KeyParts:
+               oriented: dict[int, tuple[int, int]], angle_tol: float,
+               placed: list[tuple[tuple[Point, ...], Front, tuple[int, ...]]]) -> _KeyParts:
     """The key elements each key point admits: corner parts by angle and convexity, and
-    a mitre joint; T parts with their branch stage; end parts by the way the stage
-    runs."""
+    a mitre joint; T parts in the pose the junction asks for (:mod:`citysynth.export.t_poses`)
+    with their branch stage; end parts by the way the stage runs."""
     kp_of = {kp.id: kp for kp in sk.keypoints}
     corners = db.select("corner", style)
     options: list[tuple[str, ...]] = []
     branch: dict[int, int] = {}
     parts: dict[str, Part] = {}
+    poses: dict[str, Part] = {}     # T key element -> its part
     for j, v in enumerate(keys):
         kp = kp_of[v]
         extra: list[str] = []
@@ -277,8 +289,14 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
                     and _fits(p, kp.angle, run)]
             extra = list(_joint_variants(db.quantum))
         elif kp.kind == "t_junction":
-            opts = db.select("t_junction", style)
             branch[j] = next(s for s, c in enumerate(chains) if kp.branch in c.edges)
+            swap, street = _t_pose(sk, j, branch[j], oriented, placed)
+            ts = db.select("t_junction", style)
+            if street:   # the wing must still reach past the key point
+                ts = [p for p in ts if p.legs[2] > main_depth(p.sec_in, db.quantum) + 1e-9]
+            extra = [t_element(p.id, swap, street) for p in ts]
+            poses.update((t_element(p.id, swap, street), p) for p in ts)
+            opts = []
         else:
             starts = any(a == j for a, _b in oriented.values())
             opts = db.select("end_left" if starts else "end_right", style)
@@ -288,8 +306,31 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
                                 f"{kp.xy[1]:.1f})")
         options.append(tuple([p.id for p in opts] + extra))
         parts.update((p.id, p) for p in opts)
-    return _KeyParts(tuple(options), branch, parts,
+    return _KeyParts(tuple(options), branch, {**parts, **poses},
                      any(is_joint(x) for o in options for x in o))
+
+
+def _t_pose(sk: Skeleton, j: int, b: int, oriented: dict[int, tuple[int, int]],
+            placed: list[tuple[tuple[Point, ...], Front, tuple[int, ...]]]
+            ) -> tuple[bool, bool]:
+    """(swap, street) of the T parts at structure key point j, whose branch stage is b:
+    from the main line's travel and front through it and the wing's direction and
+    front (seen leaving the junction)."""
+    s_in = next(s for s, (_a, e) in oriented.items() if e == j and s != b)
+    s_out = next(s for s, (a, _e) in oriented.items() if a == j and s != b)
+    pts_in, front_in, _ = placed[s_in]
+    if placed[s_out][1] != front_in:
+        xy = pts_in[-1]
+        raise SkeletonError(f"{sk.name}: the main line through the T junction at "
+                            f"({xy[0]:.1f}, {xy[1]:.1f}) changes its front there; give "
+                            "both its edges the same front")
+    pts_b, front_b, _ = placed[b]
+    leaves = oriented[b][0] == j
+    u = np.subtract(pts_in[-1], pts_in[-2])
+    w = np.subtract(pts_b[1], pts_b[0]) if leaves else np.subtract(pts_b[-2], pts_b[-1])
+    wing_right = (front_b == "right") == leaves
+    return pose_from_ground(u / np.hypot(*u), front_in == "right", w / np.hypot(*w),
+                            wing_right)
 
 
 def _fits(p: Part, angle: float, run: float) -> bool:
@@ -368,10 +409,14 @@ def _stages(sk: Skeleton, floor: float, keys: list[int], chains: list[_Chain],
     return stages, placed
 
 
-def _legs(p: Part) -> tuple[float, ...]:
+def _legs(p: Part, element: str, quantum: float) -> tuple[float, ...]:
+    """A key element's legs (in, out, branch): a T part's as its pose puts them."""
     if p.cls in ("end_left", "end_right"):
         return (p.length, p.length)
-    return tuple(p.legs)
+    legs = [p.legs[part_leg(element, i)] for i in range(len(p.legs))]
+    if p.cls == "t_junction" and t_pose(element).street:
+        legs[2] = round(legs[2] - main_depth(p.sec_in, quantum), 9)
+    return tuple(legs)
 
 
 def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
@@ -389,7 +434,7 @@ def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
         costs[p.id] = 0.0
     for pid, p in kp.parts.items():
         elements[pid], costs[pid] = dict(zero), 0.0
-        legs[pid] = tuple({**zero, "length": x} for x in _legs(p))
+        legs[pid] = tuple({**zero, "length": x} for x in _legs(p, pid, quantum))
     if kp.joint:
         for jid, (a, b) in _joint_variants(quantum).items():
             elements[jid] = dict(zero)
@@ -400,24 +445,61 @@ def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
 
 def _transitions(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
     """The database's costs between every pair of parts; from a T's branch leg, the
-    branch costs. A mitre joint joins the modules on either side at no cost of its own
-    (they are cut to meet; its cost is its unary cost), and only modules: a stage with
-    no module beside a joint would leave its corner empty."""
+    branch costs. A T part in another pose than its own (:mod:`citysynth.export.t_poses`)
+    meets its neighbours with the sections that pose puts at its ends, compared as the
+    database compares sections. A mitre joint joins the modules on either side at no
+    cost of its own (they are cut to meet; its cost is its unary cost), and only modules:
+    a stage with no module beside a joint would leave its corner empty."""
     ids = [p.id for p in fillers] + list(kp.parts)
     idx = db.index()
+    base = {x: t_pose(x).part for x in ids}
+    posed = {x for x in ids if base[x] != x}
     trans, btrans = {}, {}
     for x in ids:
         for y in ids:
-            i, j = idx[x], idx[y]
-            if db.allowed[i, j] and np.isfinite(db.cost[i, j]):
+            i, j = idx[base[x]], idx[base[y]]
+            if db.allowed[i, j] and np.isfinite(db.cost[i, j]) and not {x, y} & posed:
                 trans[(x, y)] = float(db.cost[i, j])
             if np.isfinite(db.cost_branch[i, j]):
                 btrans[(x, y)] = float(db.cost_branch[i, j])
+    trans.update(_posed_costs(db, ids, base, posed))
     if kp.joint:   # only modules meet a joint: they are what is cut to fill its corner
         for jid in _joint_variants(db.quantum):
             for p in fillers:
                 trans[(p.id, jid)] = trans[(jid, p.id)] = 0.0
     return {"transitions": trans, "branch_transitions": btrans}
+
+
+def _posed_costs(db: PartDB, ids: list[str], base: dict[str, str], posed: set[str]
+                 ) -> dict[tuple[str, str], float]:
+    """Transitions into and out of T parts in a pose of their own: the database's
+    section disagreement between what the pose puts at each end (a turned T's out-leg
+    is its part's in-leg; a T turned over shows its main sections mirrored about the
+    middle of their depth)."""
+    if not posed:
+        return {}
+    parts = {p.id: p for p in db.parts}
+    idx = db.index()
+
+    def ends(x: str) -> tuple[object, object]:
+        p = parts[base[x]]
+        if x not in posed:
+            return p.sec_in, p.sec_out
+        pose = t_pose(x)
+        a, b = (p.sec_out, p.sec_in) if pose.swap else (p.sec_in, p.sec_out)
+        if pose.street:
+            mid = -main_depth(p.sec_in, db.quantum) / 2
+            a, b = (shapely.affinity.scale(g, -1.0, 1.0, origin=(mid, 0.0)) for g in (a, b))
+        return a, b
+
+    sec = {x: ends(x) for x in ids}
+    pairs = [(x, y) for x in ids for y in ids if (x in posed or y in posed)
+             and db.allowed[idx[base[x]], idx[base[y]]]]
+    if not pairs:
+        return {}
+    areas = np.round(disagreement(np.array([sec[x][1] for x, _y in pairs], dtype=object),
+                                  np.array([sec[y][0] for _x, y in pairs], dtype=object)), 4)
+    return {pair: float(a) for pair, a in zip(pairs, areas.tolist(), strict=True)}
 
 
 def shortest_stage(db: PartDB, style: str) -> float:
