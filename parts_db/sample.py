@@ -7,8 +7,10 @@
   in five variants. Middle parts are cut from them like segments of real streets: a
   stretch of one variant, or a seam between two variants of a family, or a step from
   one family to another (a lower neighbour, a fire wall). End parts for every family,
-  corners of 90, 120, 135 and 150 degrees, convex and concave, and a T part per family
-  (the first family's also in a second variant);
+  corners of 90, 120, 135 and 150 degrees, convex and concave, and per family a T part,
+  its twin with an entrance, and a T in the family's first variant, all with the same
+  legs; every part deviates a little from its profile (:data:`JITTER`), as segmented
+  parts of one kind do, so look-alike parts meet at a small cost and layouts rarely tie;
 * tower parts (ground floors, floors of varied outlines, areas and heights, roofs);
 * complete buildings 6-24 m wide for street fronts.
 
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import math
 import sys
+import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -29,7 +32,7 @@ import numpy as np
 
 from citysynth.parts_db.sample_buildings import building_parts
 from citysynth.parts_db.sample_mesh import PartMesh
-from citysynth.parts_db.sample_profiles import Profile, profile
+from citysynth.parts_db.sample_profiles import Profile, lifted, profile
 from citysynth.parts_db.sample_styles import CLASSIC, MODERN, STYLES, Family, Style
 from citysynth.parts_db.sample_sweep import Slice, corner, straight, t_part
 from citysynth.parts_db.sample_towers import tower_parts
@@ -58,6 +61,22 @@ def _label(w: float) -> str:
     return f"{w:.1f}"
 
 
+# A part's own deviation from its profile: its ground storey (and so everything above it)
+# sits up to this much higher or lower, as two segmented buildings of one kind never
+# measure the same. Two different parts of one profile then meet at a small cost (about
+# 0.01 m2 per mm), a part next to itself at none, so layouts that differ only in which of
+# several look-alike parts they use no longer tie; variants of a family differ by
+# tens of m2, families by more, so the jitter never outweighs them.
+JITTER = 0.02
+
+
+def lift(part_id: str) -> float:
+    """The part's ground storey deviation in metres, -JITTER..JITTER in 1 mm steps,
+    fixed by its id (deterministic, independent of generation order)."""
+    steps = round(JITTER * 1000)
+    return (zlib.crc32(part_id.encode()) % (2 * steps + 1) - steps) / 1000
+
+
 # --- middle parts ----------------------------------------------------------------------------
 
 # Steps from one family to another: (family, variant) on each side. They land on a
@@ -69,6 +88,11 @@ STEPS = ((("a", 0), ("b", 3)), (("b", 2), ("a", 0)), (("a", 0), ("c", 3)),
 # variants 1 and 3, and from 2 and 4 back to it (never there and back, so that an
 # excursion away from the family's own profile is never free).
 SEAMS = ((0, 1), (2, 0), (0, 3), (4, 0))
+# ... except from variant 1 back to the family's own profile: variant 1 is the T parts'
+# other profile, and with a way there and a way back a variant T costs about what the
+# family's own does (the small per-part deviations, see JITTER), so the k best layouts
+# of a building vary the part at the T as the paper's Fig. 6 does.
+BACK = (1, 0)
 
 
 @dataclass(frozen=True)
@@ -133,13 +157,18 @@ def middle_specs(style: Style) -> list[MidSpec]:
     for (fa, ka), (fb, kb) in STEPS:
         widths = [cut.width(2), cut.width(2)]
         specs.append(cut.spec(widths, [fam[fa].profile(ka), fam[fb].profile(kb)]))
+    for f in style.families:      # cut last: the parts above keep their random draws
+        widths = [cut.width(int(cut.rng.integers(1, 3))) for _ in range(2)]
+        specs.append(cut.spec(widths, [f.profile(BACK[0]), f.profile(BACK[1])]))
     return specs
 
 
 def middle_parts(style: Style) -> Iterator[Entry]:
     for spec in middle_specs(style):
         pm = PartMesh(style.palette)
-        straight(pm, spec.slices, style.windows)
+        dz = lift(spec.id)
+        straight(pm, [replace(s, profile=lifted(s.profile, dz)) for s in spec.slices],
+                 style.windows)
         yield Entry(spec.id, "middle", style.name, pm, {"length": round(spec.length, 1)})
 
 
@@ -180,24 +209,39 @@ def key_variants(style: Style) -> Iterator[tuple[Family, int, tuple[int, ...]]]:
 def key_parts(style: Style) -> Iterator[Entry]:
     win = style.windows
     for f, k, angles in key_variants(style):
-        prof = f.profile(k)
+        base = f.profile(k)
         sx = _suffix(f, k)
         if k == 0:
             for cls, gables in (("end_left", (True, False)), ("end_right", (False, True))):
                 pm = PartMesh(style.palette)
-                straight(pm, [Slice(0.0, _up(2 * win.bay), prof)], win, gables=gables)
-                yield Entry(f"{style.name}_{cls}{sx}", cls, style.name, pm)
+                pid = f"{style.name}_{cls}{sx}"
+                straight(pm, [Slice(0.0, _up(2 * win.bay), lifted(base, lift(pid)))], win,
+                         gables=gables)
+                yield Entry(pid, cls, style.name, pm)
         for angle in angles:
             for convex in (True, False):
                 pm = PartMesh(style.palette)
-                corner(pm, prof, angle, convex, corner_leg(prof, angle, convex, win.bay), win)
                 kind = "convex" if convex else "concave"
-                yield Entry(f"{style.name}_corner_{angle}_{kind}{sx}", "corner", style.name,
-                            pm, {"angle": angle, "convex": convex})
-        pm = PartMesh(style.palette)
-        reach = _up(prof.depth + _reach(prof) + 2 * win.bay + 0.4)
-        t_part(pm, prof, reach, reach, win)
-        yield Entry(f"{style.name}_t{sx}", "t_junction", style.name, pm)
+                pid = f"{style.name}_corner_{angle}_{kind}{sx}"
+                corner(pm, lifted(base, lift(pid)), angle, convex,
+                       corner_leg(base, angle, convex, win.bay), win)
+                yield Entry(pid, "corner", style.name, pm, {"angle": angle, "convex": convex})
+        # every T of a family has the legs of the family's own, so that a building's
+        # stages fit either and the cost alone picks the T (variant 1 is up to 0.6 m
+        # deeper: a little less of its legs shows beyond the wing); the family's own
+        # T also comes with an entrance on the street front, opposite the wing: the same
+        # building with a door cut in, so the same section (and deviation) as the plain one
+        own = f.profile(0)
+        reach = _up(own.depth + _reach(own) + 2 * win.bay + 0.4)
+        bays = round(2 * reach / win.bay)
+        pid = f"{style.name}_t{sx}"
+        prof = lifted(base, lift(pid))
+        for tag, doors in (("", frozenset()), ("_door", frozenset({bays // 2}))):
+            if tag and k:
+                continue
+            pm = PartMesh(style.palette)
+            t_part(pm, prof, reach, reach, win, doors)
+            yield Entry(pid + tag, "t_junction", style.name, pm)
 
 
 # --- complete buildings and towers ---------------------------------------------------------

@@ -197,3 +197,12 @@ def profile(name: str, m: Massing) -> Profile:
     if not poly.is_valid or poly.exterior.is_ccw is False:
         raise ValueError(f"profile {name}: outline is not a simple counter-clockwise ring")
     return prof
+
+
+def lifted(prof: Profile, dz: float) -> Profile:
+    """``prof`` with its ground storey ``dz`` higher (everything above it moves up): one
+    part's own small deviation from its kind (:func:`parts_db.sample.lift`)."""
+    if not dz or prof.massing is None:
+        return prof
+    m = prof.massing
+    return profile(prof.name, replace(m, ground=round(m.ground + dz, 6)))

@@ -83,6 +83,19 @@ def test_demo_building_and_block_meet_the_bar(demo_buildings, sample_db):
     assert not failures, "\n".join(failures)
 
 
+def test_the_demo_building_k_best_differ_in_cost_and_at_the_t(demo_buildings):
+    """The paper's Fig. 6: the T building's three best are not one cost repeated, and
+    the part at the T is not the same in all three."""
+    lays = [json.loads((demo_buildings / f"t_building_{r}.layout.json").read_text())
+            for r in (1, 2, 3)]
+    costs = [lay["cost"] for lay in lays]
+    assert costs == sorted(costs) and len(set(costs)) > 1, costs
+    at_t = [{i["part"] for i in lay["instances"] if i["part"].startswith("classic_t")}
+            for lay in lays]
+    assert all(len(t) == 1 for t in at_t), at_t
+    assert len(set.union(*at_t)) > 1, at_t
+
+
 def test_every_district_block_meets_the_bar(tmp_path, sample_db):
     assert main(["city", "--streets", str(CITY / "district_streets.geojson"), "--config",
                  str(CITY / "city.toml"), "-o", str(tmp_path), "--no-overview"]) in (0, 1)

@@ -21,6 +21,9 @@ from citysynth.parts_db.sample import generate, key_parts, middle_parts
 from citysynth.parts_db.sample_styles import CLASSIC, MODERN
 
 STYLES = ("classic", "modern")
+# What two parts of one profile cost side by side: their own small deviations
+# (sample.JITTER, about 0.01 m2 per mm); a step between variants of a family is tens of m2
+FITS = 1.0
 
 
 @pytest.fixture(scope="module")
@@ -74,26 +77,33 @@ def test_massing_varies(library, style):
     mids = [p for p in parts if p.cls == "middle"]
     assert len({round(p.height) for p in mids}) >= 3          # visible heights
     ts = [p for p in parts if p.cls == "t_junction"]
-    assert len(ts) >= 2
-    sections = [t.sec_in for t in ts]
+    plain = [t for t in ts if not t.id.endswith("_door")]
+    assert len(plain) >= 2
+    index = db.index()
+    for t in ts:             # a T with an entrance: its plain twin's section, a door more
+        if t.id.endswith("_door"):
+            twin = db.parts[index[t.id.removesuffix("_door")]]
+            assert shapely.symmetric_difference(t.sec_in, twin.sec_in).area < 1e-6
+            assert t.attributes.get("doors", 0) == twin.attributes.get("doors", 0) + 1
+    sections = [t.sec_in for t in plain]
     assert all(shapely.symmetric_difference(a, b).area > 5.0
                for k, a in enumerate(sections) for b in sections[k + 1:])
     corners = {(p.angle, p.convex) for p in parts if p.cls == "corner"}
     angles = {a for a, _ in corners}
     assert len(angles) >= 3 and all((a, c) in corners for a in angles for c in (True, False))
     # every family (an end part's profile) has its end parts, T part and corners, and
-    # every T is continued by some middle part on each of its legs
-    index = db.index()
+    # every T is continued by some middle part on each of its legs: at no more than the
+    # parts' own small deviations cost (sample.JITTER), far below a variant step
     ends = [index[p.id] for p in parts if p.cls == "end_left"]
     assert len(ends) >= 3
     for e in ends:
         for cls in ("end_right", "t_junction", "corner"):
-            assert min(db.cost[e, index[p.id]] for p in parts if p.cls == cls) == 0, \
+            assert min(db.cost[e, index[p.id]] for p in parts if p.cls == cls) < FITS, \
                 (db.parts[e].id, cls)
     for t in ts:
         i = index[t.id]
         for table in (db.cost, db.cost_branch):
-            assert min(table[i, index[p.id]] for p in mids) == 0, t.id
+            assert min(table[i, index[p.id]] for p in mids) < FITS, t.id
 
 
 def outline(part) -> shapely.Geometry:
