@@ -166,18 +166,17 @@ class ChainProgram:
         self.A = np.full((self.L, self.E, self.E, self.S), np.inf)
         for p, s in enumerate(self.stages):
             ends = self.elems[(p + 1) % len(self.elems)]
-            rows = []
+            self.lists.append([[stage_lists(s, e, f) for f in ends] for e in self.elems[p]])
             for ei, e in enumerate(self.elems[p]):
-                row = []
                 for fi, f in enumerate(ends):
-                    ls = stage_lists(s, e, f)
-                    row.append(ls)
-                    for share in ls:
-                        lst = self._entry(p, ei, fi, share, 0)
-                        if lst is not None:
-                            self.A[p, ei, fi, share[0] if self.one else 0] = lst[0]
-                rows.append(row)
-            self.lists.append(rows)
+                    for share, ls in self.lists[p][ei][fi].items():
+                        if trusted is not None and more is not None:
+                            n = trusted(s, e, f, share)
+                            while n < 1:       # entry 0 final before the array pass
+                                n = more(s, e, f, share)
+                            ls = self.lists[p][ei][fi][share]
+                        if ls:
+                            self.A[p, ei, fi, share[0] if self.one else 0] = ls[0][0]
 
     def share(self, g: int) -> Share:
         return (g,) if self.one else ()
@@ -185,18 +184,20 @@ class ChainProgram:
     def _entry(self, p: int, ei: int, fi: int, share: Share, i: int
                ) -> tuple[float, Any] | None:
         """Entry i of the list of stage position p from element ei to fi, or None;
-        finds more paths first when entry i is not final yet."""
-        s = self.stages[p]
-        e = self.elems[p][ei]
-        f = self.elems[(p + 1) % len(self.elems)][fi]
-        ls = self.stage_lists(s, e, f).get(share)
+        finds more paths first when entry i is not final yet (entry 0 always is,
+        from the constructor on)."""
+        lists = self.lists[p][ei][fi]   # the provider's dict: lists grow in place
+        ls = lists.get(share)
         if ls is None or i >= self.k:
             return None
-        if self._trusted is not None and self._more is not None:
+        if i and self._trusted is not None and self._more is not None:
+            s = self.stages[p]
+            e = self.elems[p][ei]
+            f = self.elems[(p + 1) % len(self.elems)][fi]
             n = self._trusted(s, e, f, share)
             while i >= n:
                 n = self._more(s, e, f, share)
-            ls = self.stage_lists(s, e, f)[share]
+            ls = lists[share]
         return ls[i] if i < len(ls) else None
 
     # ---- lazy enumeration ---------------------------------------------------------

@@ -35,7 +35,7 @@ Tag = TypeVar("Tag")
 
 ARRAYS_K1 = True   # k = 1 by arrays (tests switch it off to compare with the general way)
 LAZY_CHAINS = True  # chains and cycles by the lazy program (tests compare the two)
-FIRST_PATHS = 4     # ... whose stage lists start with this many paths and grow on demand
+FIRST_PATHS = 1     # ... whose stage lists start with this many paths and grow on demand
 MIN_SHARES = 4     # ... when a structure-wide resource has at least this many values
 Share = tuple[int, ...]
 StageList = list[tuple[float, Any]]   # cost-sorted (cost, payload of the stage's provider)

@@ -159,7 +159,8 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
         results = best_structures(st, k, ghi, glo, provider.lists,
                                   getattr(provider, "trusted", None),
                                   getattr(provider, "more", None))
-    sols = [_solution(st, provider, cost, e, payload) for cost, e, payload in results]
+    seen: dict[tuple[int, str, str, int], tuple[Any, list[str], dict[str, float]]] = {}
+    sols = [_solution(st, provider, cost, e, payload, seen) for cost, e, payload in results]
     stats = {"method": method, **provider.stats(),
              "program": "lazy chain" if lazy_chain(st, ghi) else "general",
              "solve_s": time.perf_counter() - t0}
@@ -193,8 +194,14 @@ def _provider(st: Structure, k: int, method: StructureMethod, grid: Grid,
 
 
 def _solution(st: Structure, provider: Provider, cost: float, root_element: str,
-              payload: Payload) -> StructureSolution:
-    """A combined payload read back into key elements, fillers and stage totals."""
+              payload: Payload, seen: dict[tuple[int, str, str, int],
+                                           tuple[Any, list[str], dict[str, float]]]
+              ) -> StructureSolution:
+    """A combined payload read back into key elements, fillers and stage totals.
+    ``seen``: stage entries already read back in this solve (the k best structures
+    share most of their stages: 4,000 stages of 100 solutions of a 40-corner block
+    are about 150 distinct ones), by the entry's identity (the entry is kept with
+    them, so its id stays its own)."""
     keys = {root_of(st): root_element}
     fills: list[list[str]] = [[] for _ in st.stages]
     totals: list[dict[str, float]] = [{} for _ in st.stages]
@@ -203,8 +210,14 @@ def _solution(st: Structure, provider: Provider, cost: float, root_element: str,
         p = todo.pop()
         for s, (f, h, sub) in p.items():
             stage = st.stages[s]
+            if stage.start not in keys:   # a stage that runs up the tree ends at its parent
+                keys[stage.start], f = f, keys[stage.end]
             keys[stage.end] = f
-            fills[s], totals[s] = provider.filling(s, keys[stage.start], f, h)
+            key = (s, keys[stage.start], f, id(h))
+            got = seen.get(key)
+            if got is None or got[0] is not h:
+                got = seen[key] = (h, *provider.filling(s, keys[stage.start], f, h))
+            fills[s], totals[s] = list(got[1]), dict(got[2])
             todo.append(sub)
     return StructureSolution([keys[v] for v in range(len(st.keypoints))], fills, cost,
                              totals)

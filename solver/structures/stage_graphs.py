@@ -347,14 +347,14 @@ class StageGraphs:
             return
         G, rows = self._graph(grp, a, leg, queries)
         K = self.first
-        costs, offs, fill, first = _stage_kbest(G, K, grp.max_len + 3)
+        costs, offs, fill, first, same = _stage_kbest(G, K, grp.max_len + 3)
         gid = len(self._paths)
         self._paths.append((offs, fill, grp.fillers))
         self._graph_of.append((G, grp.max_len + 3, grp.fillers))
         costs, first = costs.tolist(), first.tolist()
         for q, (i, b, share) in enumerate(meta):
             if first[q] < first[q + 1]:
-                ls, n = sorted_paths(costs, first[q], first[q + 1], K, self.k)
+                ls, n = sorted_paths(costs, first[q], first[q + 1], K, self.k, same)
                 self._lists[(i, a, b)][share] = [(c, (gid, p)) for c, p in ls]
                 if len(ls) == K < self.k:  # more may follow
                     self._more[(i, a, b, share)] = (n, len(self._graph_of) - 1, q, K)
@@ -378,10 +378,10 @@ class StageGraphs:
         n, gi, q, K = self._more.pop((i, a, b, share))
         G, depth, fillers = self._graph_of[gi]
         K = min(self.k, 2 * K)
-        costs, offs, fill, first = _stage_kbest_of(G, np.array([q]), K, depth)
+        costs, offs, fill, first, same = _stage_kbest_of(G, np.array([q]), K, depth)
         gid = len(self._paths)
         self._paths.append((offs, fill, fillers))
-        ls, n = sorted_paths(costs.tolist(), 0, int(first[1]), K, self.k)
+        ls, n = sorted_paths(costs.tolist(), 0, int(first[1]), K, self.k, same)
         self._lists[(i, a, b)][share] = [(c, (gid, p)) for c, p in ls]
         if len(ls) == K < self.k:  # more may follow
             self._more[(i, a, b, share)] = (n, gi, q, K)
