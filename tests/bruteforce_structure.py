@@ -40,8 +40,9 @@ def _most_fillers(cons: dict, fillers: list[str], vals: dict) -> int:
 
 def _read(d: dict):
     """The structure dict as the oracle uses it: resources, elements by id, their
-    resource values, unary costs and legs, the two transition tables, the key points,
-    and each stage as (from, to, spec) (a chain or cycle when from/to are left out)."""
+    resource values, unary costs and legs, the transition tables (ordinary, out of a
+    T's branch leg, into a T's branch leg), the key points, and each stage as (from,
+    to, spec) (a chain or cycle when from/to are left out)."""
     res = d["resources"]
     el = {e["id"]: e for e in d["elements"]}
     vals = {i: {r: float(e.get("resources", {}).get(r, 0.0)) for r in res}
@@ -51,26 +52,32 @@ def _read(d: dict):
             for i, e in el.items() if "legs" in e}
     delta = {(a, b): float(c) for a, b, c in d["transitions"]}
     bdelta = {(a, b): float(c) for a, b, c in d.get("branch_transitions", d["transitions"])}
+    idelta = {(a, b): float(c)
+              for a, b, c in d.get("branch_in_transitions", d["transitions"])}
     kps = d["keypoints"]
     n = len(kps)
     stages = [((s["from"], s["to"]) if "from" in s else (i, (i + 1) % n)) + (s,)
               for i, s in enumerate(d["stages"])]
-    return res, el, vals, omega, legs, delta, bdelta, kps, stages
+    return res, el, vals, omega, legs, (delta, bdelta, idelta), kps, stages
 
 
 def _stage_specs(d: dict, read) -> list[tuple]:
     """Per stage: start and end key point, whether it leaves its start on the branch
-    leg, its first transition table, its intervals, its fillers and the most fillers
-    it can hold."""
-    res, el, vals, omega, legs, delta, bdelta, kps, stages = read
+    leg, its first transition table, its intervals, its fillers, the most fillers it
+    can hold, the leg of its end element (2 when it ends on a T's branch leg, else 0)
+    and the table of its last transition (from a filler into the end element; with no
+    filler the first table decides)."""
+    res, el, vals, omega, legs, (delta, bdelta, idelta), kps, stages = read
     fillers_all = [i for i in el if i not in legs]
     out = []
     for s_index, (start, end, spec) in enumerate(stages):
         branch_leg = kps[start].get("branch") == s_index
+        end_leg = 2 if kps[end].get("branch") == s_index else 0
         cons = spec["constraints"]
         fillers = [x for x in spec.get("elements", fillers_all) if x not in legs]
         out.append((start, end, branch_leg, bdelta if branch_leg else delta, cons, fillers,
-                    _most_fillers(cons, fillers, vals)))
+                    _most_fillers(cons, fillers, vals), end_leg,
+                    idelta if end_leg == 2 else delta))
     return out
 
 
@@ -83,8 +90,8 @@ def _stage_work(read, spec: tuple, a: str, b: str, wide: dict, k: int | None) ->
     """Without enumerating: how many filler sequences :func:`_fillings` visits for one
     stage between key elements ``a`` and ``b``, and how many fillings it keeps (a
     count per (last element, totals), layer by layer)."""
-    res, _el, vals, _omega, legs, delta, _bdelta, _kps, _stages = read
-    _start, _end, branch_leg, first, cons, fillers, max_fill = spec
+    res, _el, vals, _omega, legs, (delta, _bd, _id), _kps, _stages = read
+    _start, _end, branch_leg, first, cons, fillers, max_fill, end_leg, into = spec
     layer = {(a, tuple(legs[a][2 if branch_leg else 1][r] for r in res)): 1}
     trans, visited, groups = first, 0, Counter()
     for depth in range(max_fill + 1):
@@ -92,8 +99,8 @@ def _stage_work(read, spec: tuple, a: str, b: str, wide: dict, k: int | None) ->
         for (last, tot), n in layer.items():
             visited += n
             t = dict(zip(res, tot, strict=True))
-            if (last, b) in trans:
-                t2 = {r: t[r] + legs[b][0][r] for r in res}
+            if (last, b) in (first if depth == 0 else into):
+                t2 = {r: t[r] + legs[b][end_leg][r] for r in res}
                 if _ok(cons, t2, True):
                     groups[tuple(round(t2[r], 9) for r in wide)] += n
             if depth == max_fill:
@@ -113,18 +120,19 @@ def _fillings(read, spec: tuple, a: str, b: str, wide: dict,
     """Every filling of one stage between key elements ``a`` and ``b`` as (cost,
     totals), asked for the k smallest only k per structure-wide totals (see the
     module docstring); and the number of filler sequences visited."""
-    res, _el, vals, omega, legs, delta, _bdelta, _kps, _stages = read
-    _start, _end, branch_leg, first, cons, fillers, max_fill = spec
+    res, _el, vals, omega, legs, (delta, _bd, _id), _kps, _stages = read
+    _start, _end, branch_leg, first, cons, fillers, max_fill, end_leg, into = spec
     out = []
     visited = 0
 
     def rec(last, trans, seq, cost, tot):
         nonlocal visited
         visited += 1
-        if (last, b) in trans:
-            t2 = {r: tot[r] + legs[b][0][r] for r in res}
+        last_table = into if seq else first
+        if (last, b) in last_table:
+            t2 = {r: tot[r] + legs[b][end_leg][r] for r in res}
             if _ok(cons, t2, True):
-                out.append((cost + trans[(last, b)], t2))
+                out.append((cost + last_table[(last, b)], t2))
         if len(seq) >= max_fill:
             return
         for f in fillers:
@@ -152,7 +160,7 @@ def structure_work(d: dict, k: int | None = None) -> int:
     wide = d.get("constraints", {})
     work: dict[tuple, tuple[int, int]] = {}
     total = 0
-    for keys in itertools.product(*[kp["elements"] for kp in read[7]]):
+    for keys in itertools.product(*[kp["elements"] for kp in read[6]]):
         kept = 1
         for i, spec in enumerate(specs):
             ab = (i, keys[spec[0]], keys[spec[1]])
@@ -174,7 +182,7 @@ def _enumerate_structure(d: dict, k: int | None) -> tuple[list[float], int]:
     """The totals, and the number of stage sequences and combinations visited. Each
     stage's fillings are enumerated once per pair of key elements at its ends."""
     read = _read(d)
-    omega, kps = read[3], read[7]
+    omega, kps = read[3], read[6]
     specs = _stage_specs(d, read)
     wide = d.get("constraints", {})
     memo: dict[tuple, list] = {}
@@ -202,7 +210,7 @@ def solution_cost(d: dict, keys: list[str], fills: list[list[str]]) -> float:
     per stage), checked against every rule the enumeration above follows: allowed
     elements and transitions, each stage's interval and the structure-wide ones.
     Raises AssertionError for a filling that breaks one."""
-    res, el, vals, omega, legs, delta, bdelta, kps, stages = _read(d)
+    res, el, vals, omega, legs, (delta, bdelta, idelta), kps, stages = _read(d)
     cost = 0.0
     for key, kp in zip(keys, kps, strict=True):
         assert key in kp["elements"]
@@ -210,16 +218,18 @@ def solution_cost(d: dict, keys: list[str], fills: list[list[str]]) -> float:
     totals = {r: 0.0 for r in res}
     for i, ((a, b, s), fill) in enumerate(zip(stages, fills, strict=True)):
         branch = kps[a].get("branch") == i
+        end_leg = 2 if kps[b].get("branch") == i else 0
         allowed = [x for x in s.get("elements", el) if x not in legs]
         assert all(x in allowed for x in fill)
         seq = [keys[a], *fill, keys[b]]
         for j, (x, y) in enumerate(zip(seq, seq[1:], strict=False)):
-            table = bdelta if j == 0 and branch else delta
+            table = bdelta if j == 0 and branch else idelta if j == len(fill) and \
+                end_leg == 2 and j > 0 else delta
             assert (x, y) in table, (x, y)
             cost += table[(x, y)]
             if j < len(fill):  # y is a filler: its unary cost
                 cost += omega[y]
-        tot = {r: legs[keys[a]][2 if branch else 1][r] + legs[keys[b]][0][r]
+        tot = {r: legs[keys[a]][2 if branch else 1][r] + legs[keys[b]][end_leg][r]
                + sum(vals[x][r] for x in fill) for r in res}
         for r, (lo, hi) in s["constraints"].items():
             assert lo - EPS <= tot[r] <= hi + EPS, (i, r, tot[r])

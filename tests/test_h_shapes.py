@@ -11,10 +11,15 @@ import sys
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from citysynth import examples
 from citysynth.export.usd import validate
 from citysynth.pipeline.cli import main
+from citysynth.solver import ProblemError
+from citysynth.solver.structures import Structure, solve_structure
+from tests.bruteforce_structure import enumerate_structure, solution_cost
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_audit import _audit, _failures  # noqa: E402
@@ -33,8 +38,8 @@ def _build(tmp_path: Path, name: str, style: str, k: int = 1) -> list[dict]:
 def _check_layout(tmp_path: Path, lay: dict, sample_db, name: str) -> None:
     """Every stage's parts meet its length interval, the USD validates, the audit's bar
     holds."""
-    for st in lay["structures"]:
-        for stage in st["stages"]:
+    for struct in lay["structures"]:
+        for stage in struct["stages"]:
             lo, hi = stage["asked"]["length"]
             assert lo - 1e-9 <= stage["met"]["length"] <= hi + 1e-9
             assert abs(stage["stretch"] - 1.0) <= (hi - lo) / 2 / stage["length"] + 1e-6
@@ -52,3 +57,152 @@ def test_outward_ring_with_a_wing_into_the_street(tmp_path, style, sample_db):
     poses = sorted(k.get("pose", "") for k in st["keys"] if k["kind"] == "t_junction")
     assert poses == ["", "swap+street"]
     _check_layout(tmp_path, lay, sample_db, "ring_outward_wings")
+
+
+# ---- the solver on structures whose branches end at a T, against enumeration ----------
+
+COSTS = st.sampled_from([0.0, 0.25, 0.5, 1.0, 2.0])
+
+
+def _lines(n: int, edges: list[tuple[int, int]], branch: dict[int, int]
+           ) -> list[list[tuple[int, int, int]]]:
+    """The edges as main lines, each as (edge, from, to) in walking order: edges that
+    meet at a key point where neither is its branch run on as one line (a path, or
+    once round a cycle)."""
+    inc: dict[int, list[int]] = {v: [] for v in range(n)}
+    for i, (a, b) in enumerate(edges):
+        inc[a].append(i)
+        inc[b].append(i)
+
+    def other(i: int, v: int) -> int:
+        a, b = edges[i]
+        return b if a == v else a
+
+    def nxt(v: int, i: int) -> int | None:
+        if branch.get(v) == i:
+            return None
+        return next((j for j in inc[v] if j != i and j != branch.get(v)), None)
+    seen: set[int] = set()
+    lines = []
+    for i0 in range(len(edges)):
+        if i0 in seen:
+            continue
+        v, i = edges[i0][0], i0          # walk to an end of the line (or once round)
+        while (j := nxt(v, i)) is not None and j != i0:
+            v, i = other(j, v), j
+        line: list[tuple[int, int, int]] = []
+        cur: int | None = i
+        while cur is not None and cur not in seen:
+            w = other(cur, v)
+            line.append((cur, v, w))
+            seen.add(cur)
+            cur, v = nxt(w, cur), w
+        lines.append(line)
+    return lines
+
+
+@st.composite
+def h_structures(draw):
+    """Trees (and cycles with trees off key point 1 or 2) of up to 7 key points with T
+    junctions, every main line run either way: branches leave their T or end at it
+    (an H when two T junctions share their branch)."""
+    n_fill = draw(st.integers(1, 3))
+    fill = [{"id": f"f{i}", "resources": {"length": draw(st.integers(1, 3)),
+                                          "doors": draw(st.integers(0, 1))},
+             "cost": draw(COSTS)} for i in range(n_fill)]
+    keys = [{"id": f"k{i}", "cost": draw(COSTS),
+             "legs": [{"length": draw(st.integers(1, 2))} for _ in range(3)]}
+            for i in range(draw(st.integers(1, 3)))]
+    ids = [e["id"] for e in fill + keys]
+
+    def table(p: int) -> list:
+        return [[a, b, draw(COSTS)] for a in ids for b in ids if draw(st.integers(0, p)) > 0]
+    closed = draw(st.booleans())
+    n = draw(st.integers(3 if closed else 4, 7))
+    edges = [(0, 1), (1, 2), (2, 0)] if closed else [(0, 1)]
+    for v in range(3 if closed else 2, n):
+        deg = {u: sum(u in e for e in edges) for u in range(v)}
+        edges.append((draw(st.sampled_from([u for u in range(v) if deg[u] < 3
+                                            and not (closed and u == 0)])), v))
+    branch = {}
+    for v in range(n):
+        inc = [i for i, e in enumerate(edges) if v in e]
+        if len(inc) == 3:
+            on_cycle = [i for i in inc if closed and i < 3]
+            # on a cycle the branch leaves the cycle (key point 0 is entered once)
+            branch[v] = draw(st.sampled_from([i for i in inc if i not in on_cycle]))
+    oriented = list(edges)
+    for line in _lines(n, edges, branch):
+        back = draw(st.booleans())    # the line runs one way or the other
+        for i, a, b in line:
+            oriented[i] = (b, a) if back else (a, b)
+    kps = [{"elements": draw(st.lists(st.sampled_from([k["id"] for k in keys]), min_size=1,
+                                      unique=True))} for _ in range(n)]
+    for v, b in branch.items():
+        kps[v]["branch"] = b
+    stages = [{"from": a, "to": b,
+               "constraints": {"length": (lambda lo: [lo, lo + draw(st.sampled_from(
+                   [1, 2, 3]))])(draw(st.integers(2, 6)))}} for a, b in oriented]
+    return {"resources": ["length", "doors"], "elements": fill + keys,
+            "transitions": table(6), "branch_transitions": table(4),
+            "branch_in_transitions": table(4), "keypoints": kps, "stages": stages}
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(h_structures(), st.integers(1, 5))
+def test_branches_ending_at_a_t_match_enumeration(d, k):
+    """Stage graphs and the decomposition against exhaustive enumeration, and every
+    solution's cost recomputed from its parts by the oracle's own rules."""
+    expected = enumerate_structure(d, k)
+    for method in ("auto", "decompose"):
+        r = solve_structure(Structure.from_dict(d), k, method=method)
+        assert [s.cost for s in r.solutions] == pytest.approx(expected[:k])
+        for s in r.solutions:
+            assert solution_cost(d, s.keys, s.stages) == pytest.approx(s.cost)
+
+
+def test_small_h_against_enumeration():
+    """An H: two T junctions whose branch is the same stage (it leaves one and ends at
+    the other), four ends; every k best cost proven by enumeration."""
+    ids = ["a", "b", "e", "t"]
+    d = {"resources": ["length"],
+         "elements": [{"id": "a", "resources": {"length": 2}},
+                      {"id": "b", "resources": {"length": 3}, "cost": 0.5},
+                      {"id": "e", "legs": [{"length": 1}, {"length": 1}, {"length": 1}]},
+                      {"id": "t", "legs": [{"length": 1}, {"length": 1}, {"length": 2}],
+                       "cost": 0.25}],
+         "transitions": [[x, y, 0.0 if x != y else 1.0] for x in ids for y in ids],
+         "branch_transitions": [[x, y, 0.5] for x in ids for y in ids],
+         "branch_in_transitions": [[x, y, 0.75 if x == "a" else 0.0] for x in ids
+                                   for y in ids],
+         # ends 0, 2, 4, 5; T junctions 1 and 3, the bar (stage 2) from 1 to 3
+         "keypoints": [{"elements": ["e"]}, {"elements": ["t"], "branch": 2},
+                       {"elements": ["e"]}, {"elements": ["t"], "branch": 2},
+                       {"elements": ["e"]}, {"elements": ["e"]}],
+         "stages": [{"from": 0, "to": 1, "constraints": {"length": [8, 9]}},
+                    {"from": 1, "to": 2, "constraints": {"length": [7, 7]}},
+                    {"from": 1, "to": 3, "constraints": {"length": [10, 11]}},
+                    {"from": 4, "to": 3, "constraints": {"length": [6, 8]}},
+                    {"from": 3, "to": 5, "constraints": {"length": [9, 9]}}]}
+    st_ = Structure.from_dict(d)
+    assert (st_.start_leg(2), st_.end_leg(2), st_.end_leg(3)) == (2, 2, 0)
+    expected = enumerate_structure(d, 6)
+    for method in ("auto", "decompose"):
+        r = solve_structure(st_, 6, method=method)
+        assert [s.cost for s in r.solutions] == pytest.approx(expected)
+        for s in r.solutions:
+            assert solution_cost(d, s.keys, s.stages) == pytest.approx(s.cost)
+            assert s.resources[2]["length"] in (10, 11)
+
+
+def test_main_line_must_pass_a_key_point():
+    """Two stages entering a key point where neither is its branch: refused by name."""
+    d = {"resources": ["length"],
+         "elements": [{"id": "a", "resources": {"length": 1}},
+                      {"id": "e", "legs": [{"length": 1}, {"length": 1}]}],
+         "transitions": [["a", "a", 0], ["e", "a", 0], ["a", "e", 0]],
+         "keypoints": [{"elements": ["e"]}] * 3,
+         "stages": [{"from": 0, "to": 1, "constraints": {"length": [4, 4]}},
+                    {"from": 2, "to": 1, "constraints": {"length": [4, 4]}}]}
+    with pytest.raises(ProblemError, match=r"keypoints\[1\]: two stages enter it"):
+        Structure.from_dict(d)

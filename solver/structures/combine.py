@@ -160,9 +160,7 @@ class _Program:
     def __init__(self, st: Structure, k: int, ghi: list[int], stage_lists: StageLists):
         self.st, self.k, self.ghi, self.stage_lists = st, k, ghi, stage_lists
         self._lists: dict[tuple[int, str, str], list[tuple[int, StageList]]] = {}
-        self.out: list[list[int]] = [[] for _ in st.keypoints]
-        for i, s in enumerate(st.stages):
-            self.out[s.start].append(i)
+        self.out, self.child = _children(st)
         self.radix = [2 * (h + 1) for h in ghi]
         self.single = len(ghi) == 1
         H = ghi[0] if self.single else 0
@@ -257,18 +255,20 @@ class _Program:
         """(the stage to f, the k best below f holding f) for every element f at the
         end of stage s, k best per share."""
         st, fits, single = self.st, self.fits, self.single
-        w = st.stages[s].end
+        w = self.child[s]
+
+        def lists(f: str) -> list[tuple[int, StageList]]:   # a stage may run up the tree
+            return self.lists(s, e, f) if w == st.stages[s].end else self.lists(s, f, e)
         if self.best1 is not None:
-            return self.best1.options([(f, self.lists(s, e, f), self.below(w, f, fixed_root,
-                                                                            memo), st.costs[f])
-                                       for f in st.keypoints[w]])
+            return self.best1.options([(f, lists(f), self.below(w, f, fixed_root, memo),
+                                         st.costs[f]) for f in st.keypoints[w]])
         pairs: dict[int, list[tuple[StageList, Completions, float, str]]] = {}
         for f in st.keypoints[w]:
             sub = self.below(w, f, fixed_root, memo)
             if not sub:
                 continue
             cf = st.costs[f]
-            for g1, ls in self.lists(s, e, f):
+            for g1, ls in lists(f):
                 for g2, lw in sub:
                     g = g1 + g2
                     if fits(g):
@@ -290,6 +290,35 @@ class _Program:
                     nxt.setdefault(g, []).extend(
                         (c, {**pa, s: pb}) for c, (pa, pb) in ksum(la, lb, k))
         return _best(nxt, k)
+
+
+def _children(st: Structure) -> tuple[list[list[int]], list[int]]:
+    """The stages below each key point (in stage order) as the program walks the tree
+    from its root, and the key point each stage leads to. A stage may point either way
+    (the bar of an H ends at one of its T junctions); a cycle's closing stage hangs below
+    the key point it leaves."""
+    closing = next((i for i, s in enumerate(st.stages) if s.end == 0), -1) \
+        if st.closed else -1
+    inc: list[list[int]] = [[] for _ in st.keypoints]
+    for i, s in enumerate(st.stages):
+        inc[s.start].append(i)
+        if i != closing:
+            inc[s.end].append(i)
+    out: list[list[int]] = [[] for _ in st.keypoints]
+    child = [-1] * len(st.stages)
+    todo, up = [root_of(st)], {root_of(st): -1}
+    while todo:
+        v = todo.pop()
+        for i in inc[v]:
+            if i != up[v]:
+                s = st.stages[i]
+                w = s.end if s.start == v else s.start
+                out[v].append(i)
+                child[i] = w
+                if i != closing:
+                    up[w] = i
+                    todo.append(w)
+    return out, child
 
 
 class _Best1:

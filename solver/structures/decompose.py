@@ -81,14 +81,13 @@ class StageBuilder:
         els, inner = self.inner(fillers)
         A, B = "^" + a, "$" + b
         leg_a = start_leg(st, i)
-        from_a = st.branch_transitions if leg_a == 2 else st.transitions
-        trans = [(A, B if y == b else y, c) for (x, y), c in from_a.items()
+        trans = [(A, B if y == b else y, c) for (x, y), c in st.first_table(i).items()
                  if x == a and (y in fs or y == b)]
-        trans += [(x, B, c) for (x, y), c in st.transitions.items() if y == b and x in fs]
+        trans += [(x, B, c) for (x, y), c in st.last_table(i).items() if y == b and x in fs]
         return Problem(
             resources=st.resources,
-            elements=(Element(A, st.legs[a][leg_a], 0.0), Element(B, st.legs[b][0], 0.0))
-            + els,
+            elements=(Element(A, st.legs[a][leg_a], 0.0),
+                      Element(B, st.legs[b][st.end_leg(i)], 0.0)) + els,
             transitions=tuple(trans) + inner, front=(A,), back=(B,),
             constraints={**stage.constraints, **(extra or {})}, quantum=dict(st.quantum),
             k=self.k)

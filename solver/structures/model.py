@@ -5,11 +5,15 @@ A structure is a graph of key points joined by substructures (stages). A key poi
 admits a set of key elements (a corner class, an end class, a T class ...). A key
 element has one leg per incident stage: leg 0 counts toward the stage that ends at
 the key point, leg 1 toward the stage that starts there, and leg 2 toward the branch
-stage of a T junction. Each stage has its own resource intervals (local, reset at
-every key point). A structure is a tree (one stage fewer than key points, stages
-pointing away from the root) or one cycle through key point 0 with trees hanging off
-it; the cycle is cut at key point 0, whose element is the same at both ends of the
-unrolled sequence, and its closing transition is paid for.
+stage of a T junction, which may leave the T or end there (an H: the bar between two
+T junctions is the branch of both, so it ends at one of them). Each stage has its own
+resource intervals (local, reset at every key point). A structure is a tree (one
+stage fewer than key points) or one cycle through key point 0 with trees hanging off
+it; the cycle is cut at key point 0 (which exactly one stage enters, on the cycle),
+whose element is the same at both ends of the unrolled sequence, and its closing
+transition is paid for. Stages run either way along the tree; only the main line
+through a key point (everything but a T's branch) passes it, one stage in and one
+out.
 
 There is one way to make a valid :class:`Structure`: :meth:`Structure.build` from
 typed values (what the pipeline does), which runs every structural check;
@@ -31,7 +35,7 @@ from citysynth.solver.errors import ProblemError
 from citysynth.solver.problem import Problem, _number, check_object, parse_intervals, parse_k
 
 _KEYS = {"resources", "quantum", "elements", "transitions", "branch_transitions",
-         "keypoints", "stages", "closed", "k", "constraints"}
+         "branch_in_transitions", "keypoints", "stages", "closed", "k", "constraints"}
 
 Interval = tuple[float, float]
 Legs = tuple[dict[str, float], ...]   # a key element's legs: in, out (and branch)
@@ -66,11 +70,31 @@ class Structure:
     closed: bool
     k: int = 1
     global_constraints: dict[str, Interval] = field(default_factory=dict)
+    # into a T's branch leg (a branch stage that ends at its T)
+    branch_in_transitions: dict[tuple[str, str], float] = field(default_factory=dict)
 
     def start_leg(self, s: int) -> int:
         """The leg of the element at stage s's start that counts toward s: the branch
-        leg (2) for a T's branch stage, else the out-leg (1). The end always uses leg 0."""
+        leg (2) for a T's branch stage, else the out-leg (1)."""
         return 2 if self.branch.get(self.stages[s].start) == s else 1
+
+    def end_leg(self, s: int) -> int:
+        """The leg of the element at stage s's end that counts toward s: the branch leg
+        (2) for a branch stage that ends at its T, else the in-leg (0)."""
+        return 2 if self.branch.get(self.stages[s].end) == s else 0
+
+    def first_table(self, s: int) -> dict[tuple[str, str], float]:
+        """The transitions stage s takes out of its start element: the branch costs
+        when it leaves a T's branch leg (also when it has no fillers and ends on a
+        branch leg), else the ordinary ones."""
+        if self.start_leg(s) == 2:
+            return self.branch_transitions
+        return self.transitions
+
+    def last_table(self, s: int) -> dict[tuple[str, str], float]:
+        """The transitions stage s takes from a filler into its end element: into a T's
+        branch leg, the branch-in costs, else the ordinary ones."""
+        return self.branch_in_transitions if self.end_leg(s) == 2 else self.transitions
 
     @classmethod
     def build(cls, *, resources: Sequence[str], quantum: Mapping[str, float],
@@ -81,12 +105,14 @@ class Structure:
               keypoints: Sequence[Sequence[str]], branch: Mapping[int, int],
               stages: Sequence[Stage], k: int = 1,
               global_constraints: Mapping[str, Interval] | None = None,
+              branch_in_transitions: Mapping[tuple[str, str], float] | None = None,
               source: str = "structure") -> Structure:
         """A structure from typed values, checked: values known and non-negative, legs
         of known elements, key points holding key elements, stage elements and key
         point indices known, T junctions naming their branch stage, and the shape (a
         tree, or one cycle through key point 0; this decides ``closed``). Resources an
-        element or leg leaves out are 0, costs left out are 0. Raises
+        element or leg leaves out are 0, costs left out are 0; transitions into a T's
+        branch leg are ``transitions`` unless given. Raises
         :class:`ProblemError` naming ``source`` and the place.
 
         >>> from citysynth.solver.structures import Stage, Structure
@@ -133,14 +159,17 @@ class Structure:
                                                     "branch_transitions", err),
             keypoints=kps, branch=br, stages=sts, closed=closed, k=k,
             global_constraints=_checked_intervals(global_constraints or {}, res,
-                                                  "constraints", err))
+                                                  "constraints", err),
+            branch_in_transitions=_checked_transitions(
+                transitions if branch_in_transitions is None else branch_in_transitions,
+                els, "branch_in_transitions", err))
 
     @classmethod
     def from_dict(cls, d: Any, source: str = "structure") -> Structure:
         """Read a structure file's JSON (the README's shape) and :meth:`build` it.
         Stages without ``from``/``to`` form a chain (or, with ``"closed": true``, a
-        cycle) through the key points in order; ``branch_transitions`` default to
-        ``transitions``.
+        cycle) through the key points in order; ``branch_transitions`` and
+        ``branch_in_transitions`` default to ``transitions``.
 
         >>> st = Structure.from_dict({
         ...     "resources": ["length"],
@@ -166,6 +195,7 @@ class Structure:
         stages = _parse_stages(d, len(keypoints), base.resources, source)
         k = parse_k(d.get("k", 1), source)
         bt = _parse_branch_transitions(d, base, source)
+        bit = _parse_branch_transitions(d, base, source, "branch_in_transitions")
         glob = parse_intervals(d.get("constraints"), base.resources, "constraints", source)
         return cls.build(
             resources=base.resources, quantum=base.quantum,
@@ -173,7 +203,7 @@ class Structure:
             costs={e.id: e.cost for e in base.elements}, legs=legs,
             transitions=transitions, branch_transitions=transitions if bt is None else bt,
             keypoints=keypoints, branch=branch, stages=stages, k=k,
-            global_constraints=glob, source=source)
+            global_constraints=glob, branch_in_transitions=bit, source=source)
 
     def to_dict(self) -> dict[str, Any]:
         """The structure as :meth:`from_dict` reads it (JSON-ready), e.g. to write a
@@ -206,9 +236,10 @@ class Structure:
             "resources": list(self.resources), "quantum": dict(self.quantum),
             "elements": elements,
             "transitions": [[a, b, c] for (a, b), c in self.transitions.items()]}
-        if self.branch_transitions != self.transitions:
-            d["branch_transitions"] = [[a, b, c]
-                                       for (a, b), c in self.branch_transitions.items()]
+        for name, table in (("branch_transitions", self.branch_transitions),
+                            ("branch_in_transitions", self.branch_in_transitions)):
+            if table != self.transitions:
+                d[name] = [[a, b, c] for (a, b), c in table.items()]
         d["keypoints"] = [{"elements": list(kp),
                            **({"branch": self.branch[j]} if j in self.branch else {})}
                           for j, kp in enumerate(self.keypoints)]
@@ -339,15 +370,17 @@ def _parse_stages(d: dict, n_keypoints: int, resources: tuple[str, ...], source:
     return stages
 
 
-def _parse_branch_transitions(d: dict, base: Problem, source: str
+def _parse_branch_transitions(d: dict, base: Problem, source: str,
+                              key: str = "branch_transitions"
                               ) -> dict[tuple[str, str], float] | None:
-    """The transitions from a T's branch leg, if given (validated like transitions)."""
-    if "branch_transitions" not in d:
+    """The transitions from (or, for ``branch_in_transitions``, into) a T's branch leg,
+    if given (validated like transitions)."""
+    if key not in d:
         return None
     return {(a, b): c for a, b, c in Problem.from_dict({
         "resources": list(base.resources),
         "elements": [{"id": e.id} for e in base.elements],
-        "transitions": d["branch_transitions"],
+        "transitions": d[key],
         "constraints": {base.resources[0]: [0, 0]}}, source).transitions}
 
 
@@ -473,71 +506,88 @@ def _checked_stage(i: int, s: Stage, resources: tuple[str, ...],
 
 def _check_shape(stages: Sequence[Stage], keypoints: Sequence[Sequence[str]],
                  branch: Mapping[int, int], legs: Mapping[str, Legs], err: _Err) -> bool:
-    """A tree with stages pointing away from its root, or one cycle through key point 0
-    (every key point entered exactly once); returns True for the cycle."""
+    """A tree, or one cycle through key point 0 that exactly one stage enters (the
+    stage that closes it); at every key point the main line enters once and leaves once
+    (see :func:`_check_junctions`). Returns True for the cycle."""
     n = len(keypoints)
-    indeg = [0] * n
-    out: list[list[int]] = [[] for _ in range(n)]
+    inc: list[list[int]] = [[] for _ in range(n)]
     for i, s in enumerate(stages):
-        indeg[s.end] += 1
-        out[s.start].append(i)
-    closed = _tree_or_cycle(len(stages), indeg, err)
-    _check_connected(stages, out, 0 if closed else indeg.index(0), err)
-    _check_junctions(keypoints, indeg, out, branch, legs, err)
+        inc[s.start].append(i)
+        inc[s.end].append(i)
+    if len(stages) not in (n - 1, n):
+        raise err(f"{len(stages)} stages and {n} key points form neither a tree "
+                  f"({n - 1} stages) nor one cycle ({n} stages)")
+    _check_connected(stages, inc, err)
+    closed = len(stages) == n
+    if closed:
+        ring = _cycle(stages, inc)
+        into0 = sorted({i for i in inc[0] if stages[i].end == 0})  # a 1-stage cycle: once
+        if len(into0) != 1 or into0[0] not in ring:
+            raise err("a cyclic structure needs its cycle through key point 0, and exactly "
+                      "one stage entering key point 0, on the cycle (the stage that closes "
+                      "it)")
+    _check_junctions(stages, keypoints, inc, branch, legs, err)
     return closed
 
 
-def _tree_or_cycle(n_stages: int, indeg: list[int], err: _Err) -> bool:
-    """True for one cycle (as many stages as key points), False for a tree (one fewer),
-    each with the right number of stages entering every key point."""
-    n = len(indeg)
-    if n_stages == n - 1:
-        roots = [v for v in range(n) if indeg[v] == 0]
-        if len(roots) != 1 or any(x > 1 for x in indeg):
-            raise err("a tree structure needs its stages to point away from one root key "
-                      "point (each other key point entered by exactly one stage)")
-        return False
-    if n_stages == n:
-        if any(x != 1 for x in indeg):
-            raise err("a cyclic structure needs every key point entered by exactly one "
-                      "stage (the cycle through key point 0, branches pointing away)")
-        return True
-    raise err(f"{n_stages} stages and {n} key points form neither a tree "
-              f"({n - 1} stages) nor one cycle ({n} stages)")
-
-
-def _check_connected(stages: Sequence[Stage], out: list[list[int]], root: int,
-                     err: _Err) -> None:
-    """Every key point is reached from the root along the stages."""
-    seen, todo = {root}, [root]
+def _check_connected(stages: Sequence[Stage], inc: list[list[int]], err: _Err) -> None:
+    """Every key point is reached from key point 0 along the stages (either way)."""
+    seen, todo = {0}, [0]
     while todo:
         v = todo.pop()
-        for i in out[v]:
-            if stages[i].end not in seen:
-                seen.add(stages[i].end)
-                todo.append(stages[i].end)
-    if len(seen) != len(out):
+        for i in inc[v]:
+            for w in (stages[i].start, stages[i].end):
+                if w not in seen:
+                    seen.add(w)
+                    todo.append(w)
+    if len(seen) != len(inc):
         raise err("the structure is disconnected (or its cycle does not pass key point 0)")
 
 
-def _check_junctions(keypoints: Sequence[Sequence[str]], indeg: list[int],
-                     out: list[list[int]], branch: Mapping[int, int],
+def _cycle(stages: Sequence[Stage], inc: list[list[int]]) -> set[int]:
+    """The stages of the one cycle of a connected graph with as many stages as key
+    points: what is left once key points with one stage are pruned, again and again."""
+    deg = [len(x) for x in inc]
+    alive = set(range(len(stages)))
+    leaves = [v for v, d in enumerate(deg) if d == 1]
+    while leaves:
+        v = leaves.pop()
+        for i in inc[v]:
+            if i in alive:
+                alive.discard(i)
+                for w in (stages[i].start, stages[i].end):
+                    deg[w] -= 1
+                    if deg[w] == 1:
+                        leaves.append(w)
+    return alive
+
+
+def _check_junctions(stages: Sequence[Stage], keypoints: Sequence[Sequence[str]],
+                     inc: list[list[int]], branch: Mapping[int, int],
                      legs: Mapping[str, Legs], err: _Err) -> None:
-    """At most three stages meet at a key point; where two leave it (a T junction), it
-    names the one that branches off and each of its elements has a branch leg."""
+    """At most three stages meet at a key point; where three meet (a T junction), it
+    names the one that branches off and each of its elements has a branch leg. The
+    other stages are its main line: at most one enters it and at most one leaves."""
     for v, b in branch.items():
-        if v < len(out) and b not in out[v]:
-            raise err(f"keypoints[{v}].branch: {b!r} is not a stage leaving this key point "
-                      f"(those are {out[v] or 'none'}); name one of them, or leave it out")
+        if v < len(inc) and b not in inc[v]:
+            raise err(f"keypoints[{v}].branch: {b!r} is not a stage that meets this key "
+                      f"point (those are {inc[v] or 'none'}); name one of them, or leave "
+                      "it out")
     for v in range(len(keypoints)):
-        deg = len(out[v]) + indeg[v]
+        deg = len(inc[v])
         if deg > 3:
             raise err(f"keypoints[{v}]: {deg} stages meet there; at most 3 (a T junction)")
-        if len(out[v]) == 2:
-            if branch.get(v) not in out[v]:
-                raise err(f"keypoints[{v}]: two stages leave it; name the one that branches "
-                          f'off with "branch": <stage index>')
+        if deg == 3:
+            if branch.get(v) not in inc[v]:
+                raise err(f"keypoints[{v}]: three stages meet there; name the one that "
+                          'branches off with "branch": <stage index>')
             for x in keypoints[v]:
                 if len(legs[x]) < 3:
                     raise err(f"keypoints[{v}]: {x!r} has no branch leg (a T part needs 3 "
                               "legs)")
+        main = {i for i in inc[v] if branch.get(v) != i}
+        ins = sum(stages[i].end == v for i in main)
+        if ins > 1 or sum(stages[i].start == v for i in main) > 1:
+            way = "enter" if ins > 1 else "leave"
+            raise err(f"keypoints[{v}]: two stages {way} it (besides a branch); the main "
+                      "line through a key point enters it once and leaves it once")

@@ -195,7 +195,7 @@ class StageGraphs:
         start = np.zeros(len(dims), dtype=np.int64)  # most a start leg holds
         for i in grp.stages:
             stage = st.stages[i]
-            end_leg = np.min([self._ints(st.legs[b][0], dims)
+            end_leg = np.min([self._ints(st.legs[b][st.end_leg(i)], dims)
                               for b in st.keypoints[stage.end]], axis=0)
             hi = np.maximum(hi, self._bounds(i, dims)[1] - end_leg)
             start = np.max([start] + [self._ints(st.legs[a][start_leg(st, i)], dims)
@@ -244,14 +244,15 @@ class StageGraphs:
         R = len(grp.dims)
         meta: list[tuple[int, str, Share]] = []
         lo_rows, hi_rows, w_rows = [], [], []
-        ends: dict[int, tuple[list[str], np.ndarray, np.ndarray]] = {}
+        ends: dict[tuple[int, int], tuple[list[str], np.ndarray, np.ndarray]] = {}
         for i in self._stages_from(grp, a, leg):
             stage = st.stages[i]
             lo, hi = self._bounds(i, grp.dims)
             shares = self._allowed_shares(i)
-            if stage.end not in ends:
-                ends[stage.end] = self._ends(grp, a, leg, stage.end)
-            bs, legs, w = ends[stage.end]
+            end = (stage.end, st.end_leg(i))   # a T is reached by its in- or branch leg
+            if end not in ends:
+                ends[end] = self._ends(grp, a, leg, *end)
+            bs, legs, w = ends[end]
             for b in bs:
                 self._lists[(i, a, b)] = {}
             # every end element and allowed share at once: the stage's own interval
@@ -280,17 +281,19 @@ class StageGraphs:
                 np.concatenate(hi_rows) if hi_rows else np.zeros((0, R), dtype=np.int64),
                 np.concatenate(w_rows) if w_rows else np.zeros((0, n1)))
 
-    def _ends(self, grp: _Group, a: str, leg: int, v: int
+    def _ends(self, grp: _Group, a: str, leg: int, v: int, end_leg: int = 0
               ) -> tuple[list[str], np.ndarray, np.ndarray]:
-        """The end elements of key point v, their legs in quanta, and the weights of
-        the edges into each (from start element a itself, then from each filler)."""
+        """The end elements of key point v, their legs (``end_leg``) in quanta, and the
+        weights of the edges into each (from start element a itself, then from each
+        filler; into a T's branch leg, the branch-in costs)."""
         st = self.st
         first = st.branch_transitions if leg == 2 else st.transitions
+        last = st.branch_in_transitions if end_leg == 2 else st.transitions
         bs = list(st.keypoints[v])
-        legs = np.array([self._ints(st.legs[b][0], grp.dims) for b in bs],
+        legs = np.array([self._ints(st.legs[b][end_leg], grp.dims) for b in bs],
                         dtype=np.int64).reshape(len(bs), len(grp.dims))
         w = np.array([[first.get((a, b), np.inf)]
-                      + [st.transitions.get((f, b), np.inf) for f in grp.fillers]
+                      + [last.get((f, b), np.inf) for f in grp.fillers]
                       for b in bs], dtype=np.float64).reshape(len(bs), len(grp.fillers) + 1)
         return bs, legs, w
 
@@ -396,7 +399,7 @@ class StageGraphs:
         offs, fill, fillers = self._paths[gid]
         ids = [fillers[j - 1] for j in fill[offs[p]:offs[p + 1]].tolist()]
         st = self.st
-        legs = (st.legs[a][start_leg(st, i)], st.legs[b][0])
+        legs = (st.legs[a][start_leg(st, i)], st.legs[b][st.end_leg(i)])
         return ids, {r: round(math.fsum([legs[0][r], legs[1][r]]
                                         + [st.elements[x][r] for x in ids]), 9)
                      for r in st.resources}
