@@ -105,20 +105,22 @@ def _first_items(A, cf, ne, closed, r):
         top = L - 1
     for l in range(top, -1, -1):
         for e in range(ne[l]):
-            for g in range(S):
-                best = np.inf
-                bt = -1
-                for f in range(ne[l + 1]):
-                    for g1 in range(g + 1):
-                        a = A[l, e, f, g1]
-                        b = B[l + 1, f, g - g1]
-                        if a < np.inf and b < np.inf:
-                            c = a + (b + cf[l + 1, f])
-                            if c < best:
-                                best = c
-                                bt = f * S + g1
-                B[l, e, g] = best
-                arg[l, e, g] = bt
+            # every (f, g1, g2) with both present, f then g1 ascending: for each share
+            # g = g1 + g2 the pairs come in (f, g1) order, and "<" keeps the first
+            for f in range(ne[l + 1]):
+                cfl = cf[l + 1, f]
+                for g1 in range(S):
+                    a = A[l, e, f, g1]
+                    if a == np.inf:
+                        continue
+                    for g2 in range(S - g1):
+                        b = B[l + 1, f, g2]
+                        if b == np.inf:
+                            continue
+                        c = a + (b + cfl)
+                        if c < B[l, e, g1 + g2]:
+                            B[l, e, g1 + g2] = c
+                            arg[l, e, g1 + g2] = f * S + g1
     return B, arg
 
 
@@ -163,6 +165,8 @@ class ChainProgram:
             self.cf[p, :len(es)] = [st.costs[e] for e in es]
         self.ne = np.array([len(es) for es in self.elems], dtype=np.int64)
         self.lists: list[list[list[dict[Share, StageList]]]] = []
+        self._final: dict[tuple[int, int, int, Share], int] = {}   # known final lengths
+        self._payloads: dict[tuple[int, int, int, int, int], Payload] = {}
         self.A = np.full((self.L, self.E, self.E, self.S), np.inf)
         for p, s in enumerate(self.stages):
             ends = self.elems[(p + 1) % len(self.elems)]
@@ -191,13 +195,17 @@ class ChainProgram:
         if ls is None or i >= self.k:
             return None
         if i and self._trusted is not None and self._more is not None:
-            s = self.stages[p]
-            e = self.elems[p][ei]
-            f = self.elems[(p + 1) % len(self.elems)][fi]
-            n = self._trusted(s, e, f, share)
-            while i >= n:
-                n = self._more(s, e, f, share)
-            ls = lists[share]
+            key = (p, ei, fi, share)
+            n = self._final.get(key, 1)
+            if i >= n:
+                s = self.stages[p]
+                e = self.elems[p][ei]
+                f = self.elems[(p + 1) % len(self.elems)][fi]
+                n = self._trusted(s, e, f, share)
+                while i >= n:
+                    n = self._more(s, e, f, share)
+                self._final[key] = n
+                ls = lists[share]
         return ls[i] if i < len(ls) else None
 
     # ---- lazy enumeration ---------------------------------------------------------
@@ -305,17 +313,14 @@ class ChainProgram:
     def _start_heap(self, B: np.ndarray, p: int, ei: int, g: int, node: _Node) -> None:
         """Every first candidate, as the general program's heap holds them; the first
         one popped is the completion the array pass found, its successors pending."""
-        S, cf = self.S, self.cf[p + 1]
-        Ap = self.A[p, ei]
-        Bn = B[p + 1]
-        cand: list[Item] = []
-        for fi in range(int(self.ne[p + 1])):
-            cfi = float(cf[fi])
-            for g1 in range(g + 1):
-                a = Ap[fi, g1]
-                b = Bn[fi, g - g1]
-                if a < np.inf and b < np.inf:
-                    cand.append((float(a) + (float(b) + cfi), fi * S + g1, 0, 0))
+        S, F = self.S, int(self.ne[p + 1])
+        a = self.A[p, ei, :F, :g + 1]
+        b = B[p + 1, :F, g::-1]                  # b[f, g1] = completion at share g - g1
+        ok = (a < np.inf) & (b < np.inf)
+        fi, g1 = np.nonzero(ok)                  # (f, g1) ascending: the pairs' order
+        c = a[fi, g1] + (b[fi, g1] + self.cf[p + 1, fi])
+        cand: list[Item] = [(x, t, 0, 0) for x, t in zip(c.tolist(), (fi * S + g1).tolist(),
+                                                         strict=True)]
         heapq.heapify(cand)
         node.seen = {(t, 0, 0) for _c, t, _i, _j in cand}
         first = heapq.heappop(cand)
@@ -325,21 +330,23 @@ class ChainProgram:
 
     def _payload(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
                  arg: np.ndarray, p: int, ei: int, g: int, j: int) -> Payload:
-        """Completion j of (p, ei, g) as the general program's nested payload."""
-        out: Payload = {}
-        cur = out
-        while p < self.L:
-            item = self._item(nodes, B, arg, p, ei, g, j)
-            assert item is not None
-            _c, t, i, j = item
-            fi, g1 = divmod(t, self.S)
-            ent = self._entry(p, ei, fi, self.share(g1), i)
-            assert ent is not None
-            f = self.elems[(p + 1) % len(self.elems)][fi]
-            sub: Payload = {}
-            cur[self.stages[p]] = (f, ent[1], sub)
-            cur = sub
-            if self._is_last(p):
-                break
-            p, ei, g = p + 1, fi, g - g1
+        """Completion j of (p, ei, g) as the general program's nested payload; a
+        completion's payload is made once and shared by every structure through it
+        (payloads are only read)."""
+        if p == self.L:
+            return {}
+        key = (id(nodes), p, ei, g, j)
+        got = self._payloads.get(key)
+        if got is not None:
+            return got
+        item = self._item(nodes, B, arg, p, ei, g, j)
+        assert item is not None
+        _c, t, i, j2 = item
+        fi, g1 = divmod(t, self.S)
+        ent = self._entry(p, ei, fi, self.share(g1), i)
+        assert ent is not None
+        f = self.elems[(p + 1) % len(self.elems)][fi]
+        sub = {} if self._is_last(p) else self._payload(nodes, B, arg, p + 1, fi, g - g1, j2)
+        out: Payload = {self.stages[p]: (f, ent[1], sub)}
+        self._payloads[key] = out
         return out
