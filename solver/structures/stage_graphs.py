@@ -355,12 +355,13 @@ class StageGraphs:
         self._paths.append((offs, fill, grp.fillers))
         self._graph_of.append((G, grp.max_len + 3, grp.fillers))
         costs, first = costs.tolist(), first.tolist()
+        gi, lists, grow = len(self._graph_of) - 1, self._lists, K < self.k
         for q, (i, b, share) in enumerate(meta):
             if first[q] < first[q + 1]:
-                ls, n = sorted_paths(costs, first[q], first[q + 1], K, self.k, same)
-                self._lists[(i, a, b)][share] = [(c, (gid, p)) for c, p in ls]
-                if len(ls) == K < self.k:  # more may follow
-                    self._more[(i, a, b, share)] = (n, len(self._graph_of) - 1, q, K)
+                ls, n = sorted_paths(costs, first[q], first[q + 1], K, self.k, same, gid)
+                lists[(i, a, b)][share] = ls
+                if grow and len(ls) == K:  # more may follow
+                    self._more[(i, a, b, share)] = (n, gi, q, K)
         self.counts["stage_graphs"] += 1
         self.counts["stage_queries"] += len(meta)
         self.counts["graph_rows"] += rows
@@ -384,8 +385,8 @@ class StageGraphs:
         costs, offs, fill, first, same = _stage_kbest_of(G, np.array([q]), K, depth)
         gid = len(self._paths)
         self._paths.append((offs, fill, fillers))
-        ls, n = sorted_paths(costs.tolist(), 0, int(first[1]), K, self.k, same)
-        self._lists[(i, a, b)][share] = [(c, (gid, p)) for c, p in ls]
+        ls, n = sorted_paths(costs.tolist(), 0, int(first[1]), K, self.k, same, gid)
+        self._lists[(i, a, b)][share] = ls
         if len(ls) == K < self.k:  # more may follow
             self._more[(i, a, b, share)] = (n, gi, q, K)
             return n

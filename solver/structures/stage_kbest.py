@@ -292,11 +292,12 @@ def _stage_kbest_of(G, qs, K, depth):
 TRUST_EPS = 1e-9   # relative: far above the rounding between two ways of summing
 
 
-def sorted_paths(costs: list[float], lo: int, hi: int, K: int, k: int, same: bool
-                 ) -> tuple[list[tuple[float, int]], int]:
+def sorted_paths(costs: list[float], lo: int, hi: int, K: int, k: int, same: bool,
+                 gid: int) -> tuple[list[tuple[float, tuple[int, int]]], int]:
     """Paths lo..hi-1 of one query (found with a limit of K paths, at most k wanted)
-    sorted by their front-to-back sums (stable, as the lists always were), and how
-    many of them lead the sorted list of all its k first paths whatever comes after.
+    as a stage list (cost, (gid, path)) sorted by their front-to-back sums (stable,
+    as the lists always were), and how many of them lead the sorted list of all its
+    k first paths whatever comes after.
 
     The enumeration ranks paths by its own sums: a path's cost is an edge weight
     plus the cost of a shorter path (or the exact g of the forward pass, made of the
@@ -307,9 +308,11 @@ def sorted_paths(costs: list[float], lo: int, hi: int, K: int, k: int, same: boo
     a path not yet found ranks after the K-th found one, so its front-to-back sum is
     at least the K-th one's less rounding: only paths cheaper than that by a margin
     are final then."""
-    ls = [(costs[p], p) for p in range(lo, hi)]
+    if same:   # already in order: a stable sort would leave it as it is
+        return [(costs[p], (gid, p)) for p in range(lo, hi)], hi - lo
+    ls = [(costs[p], (gid, p)) for p in range(lo, hi)]
     ls.sort(key=lambda t: t[0])
-    if same or hi - lo < K or K >= k:
+    if hi - lo < K or K >= k:
         return ls, len(ls)
     last = costs[hi - 1]
     bound = last - TRUST_EPS * max(1.0, abs(last))
