@@ -164,6 +164,9 @@ class ChainProgram:
         for p, es in enumerate(self.elems):
             self.cf[p, :len(es)] = [st.costs[e] for e in es]
         self.ne = np.array([len(es) for es in self.elems], dtype=np.int64)
+        self.cfl: list[list[float]] = self.cf.tolist()
+        self.shares: list[Share] = [self.share(g) for g in range(self.S)]
+        self.last = self.L - 1 if st.closed else -1   # the position closing a cycle
         self.lists: list[list[list[dict[Share, StageList]]]] = []
         self._final: dict[tuple[int, int, int, Share], int] = {}   # known final lengths
         self._payloads: dict[tuple[int, int, int, int, int], Payload] = {}
@@ -254,12 +257,17 @@ class ChainProgram:
     def _item(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
               arg: np.ndarray, p: int, ei: int, g: int, j: int) -> Item | None:
         """Completion j of (position p, element ei, share g), or None."""
+        node = nodes.get((p, ei, g))
+        if node is None:
+            node = self._node(nodes, B, arg, p, ei, g)
+        items = node.items
+        if j < len(items):
+            return items[j]
         if j >= self.k:
             return None
-        node = self._node(nodes, B, arg, p, ei, g)
-        while len(node.items) <= j and not node.done:
+        while len(items) <= j and not node.done:
             self._advance(nodes, B, arg, p, ei, g, node)
-        return node.items[j] if j < len(node.items) else None
+        return items[j] if j < len(items) else None
 
     def _is_last(self, p: int) -> bool:
         """Position p's stage closes the cycle: its completions are its list."""
@@ -272,9 +280,9 @@ class ChainProgram:
             node.done = True
             return
         S = self.S
-        if self._is_last(p):
+        if p == self.last:
             r = node.items[0][1] // S
-            ent = self._entry(p, ei, r, self.share(g), len(node.items))
+            ent = self._entry(p, ei, r, self.shares[g], len(node.items))
             if ent is None:
                 node.done = True
             else:
@@ -283,7 +291,7 @@ class ChainProgram:
         if p == self.L:        # the leaf of an open chain: one empty completion
             node.done = True
             return
-        cf = self.cf[p + 1]
+        cf = self.cfl[p + 1]
         if node.heap is None:
             self._start_heap(B, p, ei, g, node)
         heap = node.heap
@@ -295,14 +303,14 @@ class ChainProgram:
             for i2, j2 in ((i + 1, j), (i, j + 1)):
                 if (t, i2, j2) in node.seen:
                     continue
-                a_ = self._entry(p, ei, fi, self.share(g1), i2)
+                a_ = self._entry(p, ei, fi, self.shares[g1], i2)
                 if a_ is None:
                     continue
                 b_ = self._item(nodes, B, arg, p + 1, fi, g - g1, j2)
                 if b_ is None:
                     continue
                 node.seen.add((t, i2, j2))
-                heapq.heappush(heap, (a_[0] + (b_[0] + float(cf[fi])), t, i2, j2))
+                heapq.heappush(heap, (a_[0] + (b_[0] + cf[fi]), t, i2, j2))
         if not heap:
             node.done = True
             return
