@@ -131,6 +131,8 @@ class StageGraphs:
         # (stage, a, b, share) -> (trusted length, graph, query, paths asked)
         self._more: dict[tuple[int, str, str, Share], tuple[int, int, int, int]] = {}
         self._graph_of: list[tuple[StageGraph, int, tuple[str, ...]]] = []
+        self._ends_of: dict[tuple[int, str, int, tuple[str, ...], int],
+                            tuple[list[str], np.ndarray, np.ndarray]] = {}
         gnames, gq, _glo, ghi = grid
         self.gnames, self.gq, self.ghi = gnames, gq, ghi
         self.shares = list(itertools.product(*[range(h + 1) for h in ghi]))
@@ -285,8 +287,13 @@ class StageGraphs:
               ) -> tuple[list[str], np.ndarray, np.ndarray]:
         """The end elements of key point v, their legs (``end_leg``) in quanta, and the
         weights of the edges into each (from start element a itself, then from each
-        filler; into a T's branch leg, the branch-in costs)."""
+        filler; into a T's branch leg, the branch-in costs). Made once per group, start,
+        leg and set of end elements (every corner of a block outline has the same)."""
         st = self.st
+        key = (id(grp), a, leg, tuple(st.keypoints[v]), end_leg)
+        got = self._ends_of.get(key)
+        if got is not None:
+            return got
         first = st.branch_transitions if leg == 2 else st.transitions
         last = st.branch_in_transitions if end_leg == 2 else st.transitions
         bs = list(st.keypoints[v])
@@ -295,6 +302,7 @@ class StageGraphs:
         w = np.array([[first.get((a, b), np.inf)]
                       + [last.get((f, b), np.inf) for f in grp.fillers]
                       for b in bs], dtype=np.float64).reshape(len(bs), len(grp.fillers) + 1)
+        self._ends_of[key] = (bs, legs, w)
         return bs, legs, w
 
     def _allowed_shares(self, i: int) -> list[Share]:
