@@ -44,27 +44,28 @@ def t_building() -> dict:
 def ring_with_wings() -> dict:
     """The paper's Fig. 1(c): a 72 x 60 m courtyard ring (drawn clockwise, so its main
     facades face the courtyard; the sample parts have windows on both faces) with a
-    wing out of the middle of every side, one of them with a T of its own: a 75 m wing
-    south whose T at 45 m sends a 30 m branch east. The T parts reach about 19 m along
+    wing out of the middle of every side, one of them with a T of its own: a 77 m wing
+    south whose T at 45 m sends a 32 m branch east. The T parts reach about 19 m along
     each leg, so T junctions stand at least two legs apart and every side of the ring
-    runs from a corner to a T. Facades face the right of each line."""
+    runs from a corner to a T; wings of 32 m close in both sample styles (T leg, end
+    part and modules). Facades face the right of each line."""
     return _fc(_line([(0, 0), (0, 60), (72, 60), (72, 0), (0, 0)], id="ring"),
-               _line([(36, 0), (36, -45), (36, -75)], id="south_wing"),
-               _line([(36, -45), (66, -45)], id="branch"),
-               _line([(36, 60), (36, 90)], id="north_wing"),
-               _line([(0, 30), (-30, 30)], id="west_wing"),
-               _line([(72, 30), (102, 30)], id="east_wing"))
+               _line([(36, 0), (36, -45), (36, -77)], id="south_wing"),
+               _line([(36, -45), (68, -45)], id="branch"),
+               _line([(36, 60), (36, 92)], id="north_wing"),
+               _line([(0, 30), (-32, 30)], id="west_wing"),
+               _line([(72, 30), (104, 30)], id="east_wing"))
 
 
 def ring_outward_wings() -> dict:
     """A 72 x 60 m courtyard ring whose facades face out to the street (drawn
     anticlockwise) with a wing on either side of it: a 36 m wing out of the south side
-    into the street (its T part stands turned over, see ``export/t_poses.py``) and a 30 m
+    into the street (its T part stands turned over, see ``export/t_poses.py``) and a 32 m
     wing from the north side into the courtyard, behind the facade. Facades face the
     right of each line."""
     return _fc(_line([(0, 0), (72, 0), (72, 60), (0, 60), (0, 0)], id="ring"),
                _line([(36, 0), (36, -36)], id="street_wing"),
-               _line([(36, 60), (36, 30)], id="courtyard_wing"))
+               _line([(36, 60), (36, 28)], id="courtyard_wing"))
 
 
 def h_building() -> dict:
@@ -74,6 +75,16 @@ def h_building() -> dict:
     return _fc(_line([(0, 90), (0, 0)], id="west_range"),
                _line([(48, 0), (48, 90)], id="east_range"),
                _line([(0, 45), (48, 45)], id="bar"))
+
+
+def ladder_building() -> dict:
+    """A ladder: two 150 m ranges facing out, east and west, joined by two 48 m bars
+    (each the wing of the T junctions at both its ends), so the bars and the ranges
+    between them close a courtyard. Facades face the right of each line."""
+    return _fc(_line([(0, 150), (0, 0)], id="west_range"),
+               _line([(48, 0), (48, 150)], id="east_range"),
+               _line([(0, 45), (48, 45)], id="south_bar"),
+               _line([(0, 105), (48, 105)], id="north_bar"))
 
 
 def footprint_courtyard() -> dict:
@@ -100,6 +111,7 @@ GENERATED = {
     "skeletons/ring_with_wings.geojson": ring_with_wings,
     "skeletons/ring_outward_wings.geojson": ring_outward_wings,
     "skeletons/h_building.geojson": h_building,
+    "skeletons/ladder_building.geojson": ladder_building,
     "blocks/block.geojson": block,
 }
 

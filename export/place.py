@@ -218,7 +218,7 @@ class _Placer:
         factors)."""
         for s, st in enumerate(self.plan.stages):
             ends = [(self.leg_part(st.start), self.leg_len(st.start, st.start_leg)),
-                    (self.leg_part(st.end), self.leg_len(st.end, 0))]
+                    (self.leg_part(st.end), self.leg_len(st.end, st.end_leg))]
             rigid = sum(x for p, x in ends if p is not None and p.cls == "t_junction")
             elastic = sum(x for p, x in ends if p is None or p.cls != "t_junction") + \
                 sum(_geom_length(self.parts[x]) for x in self.sol.stages[s])
@@ -235,11 +235,15 @@ class _Placer:
         """The vector each of key j's legs spans from the key point."""
         legs = {}
         rigid = p.cls == "t_junction"
-        s_in = self.ins[j]
-        if s_in is not None:
-            scale = 1.0 if rigid else self.stretch[s_in]
-            path = self.paths[s_in]
-            legs[0] = path.at(path.length - self.leg_len(j, 0) * scale) - self.kxy[j]
+        # what enters j: its main line by the in-leg, an H's bar by the branch leg
+        for s in [self.ins[j]] + [b for b in [self.plan.branch.get(j)] if b is not None
+                                  and self.plan.stages[b].end == j]:
+            if s is None:
+                continue
+            leg = self.plan.stages[s].end_leg
+            scale = 1.0 if rigid else self.stretch[s]
+            path = self.paths[s]
+            legs[leg] = path.at(path.length - self.leg_len(j, leg) * scale) - self.kxy[j]
         for s in self.outs[j]:
             leg = self.plan.stages[s].start_leg
             scale = 1.0 if rigid else self.stretch[s]

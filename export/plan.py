@@ -83,10 +83,13 @@ class PlacementPlan:
     joints: dict[str, tuple[float, float]] = field(default_factory=dict)  # id -> legs
 
     def incoming(self) -> dict[int, int | None]:
-        """Each key point's incoming stage (None at a tree's root)."""
+        """Each key point's incoming stage on its main line, by its in-leg (None where
+        none enters so: a tree's root, an end whose stage leaves it). A branch that ends
+        at its T (an H's bar) is not one: see :attr:`branch`."""
         ins: dict[int, int | None] = {j: None for j in range(len(self.keys))}
         for s, st in enumerate(self.stages):
-            ins[st.end] = s
+            if st.end_leg == 0:
+                ins[st.end] = s
         return ins
 
     def outgoing(self) -> dict[int, list[int]]:

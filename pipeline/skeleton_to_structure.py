@@ -113,70 +113,108 @@ def _front_along(sk: Skeleton, chain: _Chain, forward: bool) -> Front:
 
 
 def _orient(sk: Skeleton, keys: list[int], chains: list[_Chain]) -> tuple[int, dict]:
-    """Root key index and each chain's direction as (from, to) key indices: stages point
-    away from the root (trees) or around the cycle through it, facades to the right of
-    travel wherever the shape allows."""
+    """Root key index and each chain's direction as (from, to) key indices.
+
+    The chains form main lines: a line runs on through every corner and through the
+    main line of every T junction, and stops where it meets a T by its branch. A key
+    part's in-leg and out-leg lie on one line, so each line is walked one way: the way
+    that leaves most T junctions by their branch (stages branch off as T parts are
+    made), then faces most facades to the right of travel (the canonical facade faces
+    right), then starts at its first key point. A line may still end at a T by its
+    branch (the bar of an H is the branch of both its T junctions). The root is the
+    first key point no stage enters (a tree) or the first key point of the cycle that
+    only the cycle enters (a cycle)."""
     index = {v: j for j, v in enumerate(keys)}
-    adj = defaultdict(list)
-    for s, c in enumerate(chains):
-        adj[index[c.a]].append((s, index[c.b]))
-        adj[index[c.b]].append((s, index[c.a]))
-    cyclic = len(chains) == len(keys)
-    on_cycle = [_on_cycle(s, adj, chains, index) for s in range(len(chains))] if cyclic \
-        else [False] * len(chains)
-    if cyclic:
-        roots = [next(j for j in range(len(keys)) if any(on_cycle[s] for s, _w in adj[j]))]
-    else:
-        ends = [index[k.id] for k in sk.keypoints if k.kind == "end"]
-        roots = ends or [0]
-
-    def walk(root: int) -> dict[int, tuple[int, int]]:
-        oriented: dict[int, tuple[int, int]] = {}
-        if cyclic:  # around the cycle first, in the direction its facades face right
-            s0, w0 = next((s, w) for s, w in adj[root] if on_cycle[s])
-            fwd = index[chains[s0].a] == root
-            if _front_along(sk, chains[s0], fwd) != "right":
-                s0, w0 = next((s, w) for s, w in adj[root] if on_cycle[s] and s != s0)
-            prev, v, s, w = None, root, s0, w0
-            while True:
-                oriented[s] = (v, w)
-                prev, v = s, w
-                if v == root:
-                    break
-                s, w = next((s, w) for s, w in adj[v] if s != prev and on_cycle[s])
-        todo = [root] + [w for _v, w in oriented.values()]
-        seen = set(todo)
-        while todo:  # then every other stage points away from what is reached
-            v = todo.pop()
-            for s, w in adj[v]:
-                if s not in oriented and w not in seen:
-                    oriented[s] = (v, w)
-                    seen.add(w)
-                    todo.append(w)
-        return oriented
-
-    def facing_right(oriented) -> int:
-        return sum(_front_along(sk, chains[s], index[chains[s].a] == a) == "right"
-                   for s, (a, _b) in oriented.items())
-
+    ends = [(index[c.a], index[c.b]) for c in chains]
     branch_of = {index[k.id]: next(s for s, c in enumerate(chains) if k.branch in c.edges)
                  for k in sk.keypoints if k.kind == "t_junction"}
-
-    def branches_leave(oriented) -> bool:  # a T's branch stage must start at the T
-        return all(oriented[s][0] == t for t, s in branch_of.items())
-
-    walks = {r: walk(r) for r in roots}
-    if any(len(o) != len(chains) for o in walks.values()):
+    inc: dict[int, list[int]] = defaultdict(list)
+    for s, (a, b) in enumerate(ends):
+        inc[a].append(s)
+        inc[b].append(s)
+    if len(chains) > len(keys):
         raise SkeletonError(f"{sk.name}: more than one cycle; split it into a cycle and "
                             "trees, or into several buildings")
-    valid = [r for r in roots if branches_leave(walks[r])]
-    if not valid:
-        xy = {k.id: k.xy for k in sk.keypoints}
-        ts = ", ".join(f"({xy[keys[t]][0]:.1f}, {xy[keys[t]][1]:.1f})" for t in branch_of)
-        raise SkeletonError(f"{sk.name}: its T junctions at {ts} branch into each other, so "
-                            "no end can start the building; make one of them a corner")
-    best = max(valid, key=lambda r: (facing_right(walks[r]), -valid.index(r)))
-    return best, walks[best]
+    def score(walk: list[tuple[int, int, int]]) -> tuple[int, int, int]:
+        leave = sum(branch_of.get(a) == s for s, a, _b in walk)
+        right = sum(_front_along(sk, chains[s], index[chains[s].a] == a) == "right"
+                    for s, a, _b in walk)
+        return leave, right, -walk[0][1]
+
+    oriented: dict[int, tuple[int, int]] = {}
+    bars = []        # lines that are the branch at both ends (an H's bar)
+    for line in _main_lines(ends, inc, branch_of):
+        back = [(s, b, a) for s, a, b in reversed(line)]
+        for s, a, b in max((line, back), key=score):   # the first of equals: as found
+            oriented[s] = (a, b)
+        if branch_of.get(line[0][1]) == line[0][0] and branch_of.get(line[-1][2]) == \
+                line[-1][0]:
+            bars.append(line)
+    root = _root(keys, chains, ends, inc, oriented)
+    for line in bars:   # a cycle of bars and ranges may need a bar turned to be cut
+        if root is not None:
+            break
+        for s, _a, _b in line:
+            oriented[s] = oriented[s][::-1]
+        root = _root(keys, chains, ends, inc, oriented)
+    if root is None:
+        kp_of = {k.id: k for k in sk.keypoints}
+        xy = kp_of[keys[0]].xy
+        raise SkeletonError(f"{sk.name}: its cycle (near ({xy[0]:.1f}, {xy[1]:.1f})) has "
+                            "no key point where it could be cut: every one is also entered "
+                            "by a T junction's branch; draw one wing the other way")
+    return root, oriented
+
+
+def _main_lines(ends: list[tuple[int, int]], inc: dict[int, list[int]],
+                branch_of: dict[int, int]) -> list[list[tuple[int, int, int]]]:
+    """The chains as main lines, each as (chain, from, to) in walking order: chains that
+    meet where neither is a T's branch run on as one line (a path, or once round a
+    cycle)."""
+    def other(s: int, v: int) -> int:
+        a, b = ends[s]
+        return b if a == v else a
+
+    def nxt(v: int, s: int) -> int | None:
+        if branch_of.get(v) == s:
+            return None
+        return next((t for t in inc[v] if t != s and t != branch_of.get(v)), None)
+    seen: set[int] = set()
+    lines = []
+    for s0 in range(len(ends)):
+        if s0 in seen:
+            continue
+        v, s = ends[s0][0], s0      # back to an end of the line (or once round it)
+        while (t := nxt(v, s)) is not None and t != s0:
+            v, s = other(t, v), t
+        line: list[tuple[int, int, int]] = []
+        cur: int | None = s
+        while cur is not None and cur not in seen:
+            w = other(cur, v)
+            line.append((cur, v, w))
+            seen.add(cur)
+            cur, v = nxt(w, cur), w
+        lines.append(line)
+    return lines
+
+
+def _root(keys: list[int], chains: list[_Chain], ends: list[tuple[int, int]],
+          inc: dict[int, list[int]], oriented: dict[int, tuple[int, int]]) -> int | None:
+    """The structure's root: the first key point no stage enters (a tree), or the first
+    key point of the cycle that exactly one stage enters, on the cycle (a cycle: there
+    it is cut; None if there is none)."""
+    enters: defaultdict[int, int] = defaultdict(int)
+    for _a, b in oriented.values():
+        enters[b] += 1
+    if len(chains) < len(keys):
+        return next(j for j in range(len(keys)) if not enters[j])
+    on_cycle = {v for s in range(len(chains)) if _on_cycle(s, inc, ends)
+                for v in ends[s]}
+    for j in range(len(keys)):
+        if j in on_cycle and enters[j] == 1 and any(
+                oriented[s][1] == j and _on_cycle(s, inc, ends) for s in inc[j]):
+            return j
+    return None
 
 
 @dataclass(frozen=True)
@@ -247,7 +285,7 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
         name=sk.name, closed=sk.closed, style=style, frame=sk.frame.describe(),
         keys=tuple(PlanKey(kp_of[v].xy, kp_of[v].kind, v) for v in keys),  # type: ignore[arg-type]
         stages=tuple(PlanStage(st.start, st.end, structure.start_leg(s), *placed[s],
-                               asked=dict(st.constraints))
+                               asked=dict(st.constraints), end_leg=structure.end_leg(s))
                      for s, st in enumerate(structure.stages)),
         branch=dict(kp.branch), asked=dict(structure.global_constraints),
         joints=_joint_variants(db.quantum) if kp.joint else {})
@@ -509,13 +547,14 @@ def shortest_stage(db: PartDB, style: str) -> float:
     return min((p.length for p in db.select("middle", style)), default=0.0)
 
 
-def _on_cycle(s, adj, chains, index) -> bool:
+def _on_cycle(s: int, inc: dict[int, list[int]], ends: list[tuple[int, int]]) -> bool:
     """Whether chain s lies on the (single) cycle: removing it keeps its ends joined."""
-    a, b = index[chains[s].a], index[chains[s].b]
+    a, b = ends[s]
     seen, todo = {a}, [a]
     while todo:
         v = todo.pop()
-        for t, w in adj[v]:
+        for t in inc[v]:
+            w = ends[t][1] if ends[t][0] == v else ends[t][0]
             if t != s and w not in seen:
                 seen.add(w)
                 todo.append(w)

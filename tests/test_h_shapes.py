@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from citysynth import examples
+from citysynth.export.audit import audit_usd
 from citysynth.export.usd import validate
 from citysynth.pipeline.cli import main
 from citysynth.solver import ProblemError
@@ -22,7 +23,7 @@ from citysynth.solver.structures import Structure, solve_structure
 from tests.bruteforce_structure import enumerate_structure, solution_cost
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_audit import _audit, _failures  # noqa: E402
+from test_audit import MAX_BEYOND, _failures  # noqa: E402
 
 SKELETONS = examples.ROOT / "skeletons"
 
@@ -45,7 +46,15 @@ def _check_layout(tmp_path: Path, lay: dict, sample_db, name: str) -> None:
             assert abs(stage["stretch"] - 1.0) <= (hi - lo) / 2 / stage["length"] + 1e-6
     usd = tmp_path / f"{name}.usda"
     assert validate(usd) == []
-    assert _failures(*_audit(tmp_path / f"{name}.layout.json", sample_db)) == []
+    # the audit's bar (tests/test_audit.py), the mass allowed as deep as the deepest
+    # profile a module has at either end: a module between families (classic_mid_10.0_
+    # a0_b3) ends in the deeper one
+    parts = {p.id: p for p in sample_db.parts}
+    mids = [parts[i["part"]] for i in lay["instances"] if i["class"] == "middle"]
+    shallow = min(-p.sec_in.bounds[0] for p in mids)
+    deep = max(-sec.bounds[0] for p in mids for sec in (p.sec_in, p.sec_out))
+    assert _failures(name, audit_usd(usd, lay["structures"], shallow,
+                                     reach=deep + MAX_BEYOND)) == []
 
 
 @pytest.mark.parametrize("style", ["classic", "modern"])
@@ -57,6 +66,35 @@ def test_outward_ring_with_a_wing_into_the_street(tmp_path, style, sample_db):
     poses = sorted(k.get("pose", "") for k in st["keys"] if k["kind"] == "t_junction")
     assert poses == ["", "swap+street"]
     _check_layout(tmp_path, lay, sample_db, "ring_outward_wings")
+
+
+@pytest.mark.parametrize("name", ["h_building", "ladder_building"])
+@pytest.mark.parametrize("style", ["classic", "modern"])
+def test_h_and_ladder_build(tmp_path, name, style, sample_db):
+    """Two ranges joined by bars, each bar the wing of the T junctions at both its ends:
+    it ends at one of them by its branch leg, where the T part stands turned end for
+    end (the bar's facade faces the same way all along)."""
+    (lay,) = _build(tmp_path, name, style)
+    (st,) = lay["structures"]
+    ts = [j for j, k in enumerate(st["keys"]) if k["kind"] == "t_junction"]
+    bars = len(ts) // 2
+    assert len(ts) == (2 if name == "h_building" else 4)
+    # every T is entered by its main line, and one T of each bar by the bar itself
+    assert sum(stage["to"] in ts for stage in st["stages"]) == len(ts) + bars
+    assert sum(st["keys"][j].get("pose") == "swap" for j in ts) == bars
+    _check_layout(tmp_path, lay, sample_db, name)
+
+
+def test_h_is_deterministic_and_its_k_best_differ(tmp_path):
+    """The same H twice gives the same bytes; its k = 2 best layouts differ."""
+    runs = []
+    for run in ("a", "b"):
+        lays = _build(tmp_path / run, "h_building", "classic", k=2)
+        assert lays[0]["cost"] <= lays[1]["cost"]
+        assert lays[0]["instances"] != lays[1]["instances"]
+        runs.append([(tmp_path / run / f"h_building_{r}{ext}").read_bytes()
+                     for r in (1, 2) for ext in (".layout.json", ".usda")])
+    assert runs[0] == runs[1]
 
 
 # ---- the solver on structures whose branches end at a T, against enumeration ----------
