@@ -26,7 +26,8 @@ def test_gallery_writes_the_asked_figures(tmp_path, capsys):
         assert img.size == (1400, 700)
         assert len(img.getcolors(1 << 20) or []) > 50        # a rendering, not a blank
     assert sorted(p.stem for p in tmp_path.glob("*.png")) == ["fig4", "fig7"]
-    assert set(FIGURES) == {"fig1c", "fig1d", "fig4", "fig5", "fig6", "fig7", "fig8"}
+    assert set(FIGURES) == {"fig1c", "fig1d", "fig4", "fig5", "fig6", "fig7", "fig8",
+                            "complex"}
 
 
 def test_gallery_joints_sheet(tmp_path, capsys):

@@ -8,6 +8,9 @@ shipped sample library, one PNG each (three-quarter view beside a top view):
 * ``fig6.png``: the ring's three best layouts in the classic style;
 * ``fig7.png``: an 80 m street of complete buildings;
 * ``fig8.png``: the T building under three door intervals per side;
+* ``complex.png``: T junctions beyond the paper's figures: an H, a ladder (bars that are
+  the wing of the T junctions at both their ends) and a ring facing the street with a
+  wing into it (its T part turned over);
 * ``joints.png``: close-ups of every kind of joint in both styles (an acute, a right and
   an obtuse convex corner, a concave corner, a bend, a T junction; see
   :mod:`.gallery_joints`).
@@ -114,9 +117,15 @@ def _fig8(db):
     return lays, "Fig. 8: doors per side " + ", ".join(f"{a:g}-{b:g}" for a, b in DOORS)
 
 
+def _complex(db):
+    lays = [_building(db, examples.ROOT / "skeletons" / f"{name}.geojson", "classic")[0]
+            for name in ("h_building", "ladder_building", "ring_outward_wings")]
+    return lays, "An H, a ladder, a ring facing out with a wing into the street"
+
+
 FIGURES: dict[str, Callable[[PartDB], tuple[list[Layout], str]]] = {
     "fig1c": _fig1c, "fig1d": _fig1d, "fig4": _fig4, "fig5": _fig5, "fig6": _fig6,
-    "fig7": _fig7, "fig8": _fig8}
+    "fig7": _fig7, "fig8": _fig8, "complex": _complex}
 SHEETS = ("joints",)    # figures of their own layout (a grid of close-ups)
 
 
