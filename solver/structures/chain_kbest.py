@@ -127,12 +127,11 @@ def _first_items(A, cf, ne, closed, r):
 class _Node:
     """The completions of one (position, element, share) found so far."""
 
-    __slots__ = ("items", "heap", "seen", "pending", "done")
+    __slots__ = ("items", "heap", "pending", "done")
 
     def __init__(self, first: Item | None):
         self.items: list[Item] = [] if first is None else [first]
         self.heap: list[Item] | None = None
-        self.seen: set[tuple[int, int, int]] = set()
         self.pending: Item | None = None   # popped, its successors not offered yet
         self.done = first is None
 
@@ -297,19 +296,20 @@ class ChainProgram:
         heap = node.heap
         assert heap is not None
         if node.pending is not None:
+            # offer (i, j + 1), and (i + 1, 0) after (i, 0): every pair once, each after
+            # one with a smaller key, so the pops are all pairs in key order exactly as
+            # the general program's heap (which offers both and keeps a seen set) pops
             _c, t, i, j = node.pending
             node.pending = None
             fi, g1 = divmod(t, S)
-            for i2, j2 in ((i + 1, j), (i, j + 1)):
-                if (t, i2, j2) in node.seen:
-                    continue
-                a_ = self._entry(p, ei, fi, self.shares[g1], i2)
+            share, sub = self.shares[g1], g - g1
+            for i2, j2 in ((i, j + 1), (i + 1, 0)) if j == 0 else ((i, j + 1),):
+                a_ = self._entry(p, ei, fi, share, i2)
                 if a_ is None:
                     continue
-                b_ = self._item(nodes, B, arg, p + 1, fi, g - g1, j2)
+                b_ = self._item(nodes, B, arg, p + 1, fi, sub, j2)
                 if b_ is None:
                     continue
-                node.seen.add((t, i2, j2))
                 heapq.heappush(heap, (a_[0] + (b_[0] + cf[fi]), t, i2, j2))
         if not heap:
             node.done = True
@@ -330,7 +330,6 @@ class ChainProgram:
         cand: list[Item] = [(x, t, 0, 0) for x, t in zip(c.tolist(), (fi * S + g1).tolist(),
                                                          strict=True)]
         heapq.heapify(cand)
-        node.seen = {(t, 0, 0) for _c, t, _i, _j in cand}
         first = heapq.heappop(cand)
         if first[:2] != node.items[0][:2]:
             raise AssertionError("first completion differs from the array pass")
