@@ -164,11 +164,16 @@ def _t_plan(db, **wing_props):
     return skeleton_structure(sk, db, "classic")
 
 
-def test_t_wing_on_the_wrong_side_is_an_error(db):
+def test_t_wing_facing_the_other_way_turns_the_t_part(db):
+    """A wing whose facade faces the other side of its line (the mass on the out-leg's
+    side) takes the T part turned end for end (``export/t_poses.py``); the layout's
+    checks (facades on the skeleton, facing their stage's front) pass."""
     plan = _t_plan(db, wing={"front": "left"})
+    assert all(x.endswith("@swap") for kp in plan.structure.keypoints for x in kp
+               if x.startswith("classic_t"))
     sol = solve_structure(plan.structure).solutions[0]
-    with pytest.raises(ExportError, match="wing's facade faces the other way.*\"right\""):
-        layout("t", 1, [plan.placement], [sol], db)
+    (st,) = layout("t", 1, [plan.placement], [sol], db).structures
+    assert [k.get("pose") for k in st["keys"] if k["kind"] == "t_junction"] == ["swap"]
 
 
 def test_parts_that_do_not_meet_are_an_error(db, monkeypatch):
