@@ -133,6 +133,8 @@ class StageGraphs:
         self._graph_of: list[tuple[StageGraph, int, tuple[str, ...]]] = []
         self._ends_of: dict[tuple[int, str, int, tuple[str, ...], int],
                             tuple[list[str], np.ndarray, np.ndarray]] = {}
+        self._boxes: dict[tuple[int, int], tuple[list[tuple[int, str, Share]], np.ndarray,
+                                                 np.ndarray, np.ndarray]] = {}
         gnames, gq, _glo, ghi = grid
         self.gnames, self.gq, self.ghi = gnames, gq, ghi
         self.shares = list(itertools.product(*[range(h + 1) for h in ghi]))
@@ -242,46 +244,56 @@ class StageGraphs:
         boxes of admissible states before the end key's leg, and the weights of the
         edges into the end key (from the start itself, then from each filler)."""
         st = self.st
-        wide = [grp.dims.index(r) for r in self.gnames]
         R = len(grp.dims)
         meta: list[tuple[int, str, Share]] = []
         lo_rows, hi_rows, w_rows = [], [], []
         ends: dict[tuple[int, int], tuple[list[str], np.ndarray, np.ndarray]] = {}
         for i in self._stages_from(grp, a, leg):
             stage = st.stages[i]
-            lo, hi = self._bounds(i, grp.dims)
-            shares = self._allowed_shares(i)
             end = (stage.end, st.end_leg(i))   # a T is reached by its in- or branch leg
             if end not in ends:
                 ends[end] = self._ends(grp, a, leg, *end)
             bs, legs, w = ends[end]
             for b in bs:
                 self._lists[(i, a, b)] = {}
-            # every end element and allowed share at once: the stage's own interval
-            # with the share on the structure-wide dimensions, the end key's leg taken
-            # off (a block with a per-block door count has dozens of shares per stage
-            # and end element, a city corner 20-30 end elements)
-            LO = np.repeat(lo[None, :], len(shares), axis=0)
-            HI = np.repeat(hi[None, :], len(shares), axis=0)
-            if wide:
-                G = np.array(shares, dtype=np.int64).reshape(len(shares), len(wide))
-                LO[:, wide] = G
-                HI[:, wide] = G
-            qlo = np.maximum(LO[None, :, :] - legs[:, None, :], 0)
-            qhi = np.minimum(HI[None, :, :] - legs[:, None, :], grp.cap)
-            bi, j = np.nonzero((qlo <= qhi).all(axis=2))   # by end element, then share
-            if not len(bi):
-                continue
-            meta.extend((i, bs[x], shares[y]) for x, y in zip(bi.tolist(), j.tolist(),
-                                                               strict=True))
-            lo_rows.append(qlo[bi, j])
-            hi_rows.append(qhi[bi, j])
-            w_rows.append(w[bi])
+            got = self._boxes.get((id(grp), i))   # the same for every start element
+            if got is None:
+                got = self._boxes[(id(grp), i)] = self._stage_boxes(grp, i, bs, legs)
+            part, qlo, qhi, bi = got
+            if part:
+                meta.extend(part)
+                lo_rows.append(qlo)
+                hi_rows.append(qhi)
+                w_rows.append(w[bi])
         n1 = len(grp.fillers) + 1
         return (meta,
                 np.concatenate(lo_rows) if lo_rows else np.zeros((0, R), dtype=np.int64),
                 np.concatenate(hi_rows) if hi_rows else np.zeros((0, R), dtype=np.int64),
                 np.concatenate(w_rows) if w_rows else np.zeros((0, n1)))
+
+    def _stage_boxes(self, grp: _Group, i: int, bs: list[str], legs: np.ndarray
+                     ) -> tuple[list[tuple[int, str, Share]], np.ndarray, np.ndarray,
+                                np.ndarray]:
+        """Stage i's queries on a graph of its group, whatever its start element: every
+        end element and allowed share at once, the stage's own interval with the share
+        on the structure-wide dimensions, the end key's leg taken off (a block with a
+        per-block door count has dozens of shares per stage and end element, a city
+        corner 20-30 end elements). Returns the (stage, end element, share) of each,
+        their boxes and the end element (index into ``bs``) of each."""
+        lo, hi = self._bounds(i, grp.dims)
+        shares = self._allowed_shares(i)
+        wide = [grp.dims.index(r) for r in self.gnames]
+        LO = np.repeat(lo[None, :], len(shares), axis=0)
+        HI = np.repeat(hi[None, :], len(shares), axis=0)
+        if wide:
+            G = np.array(shares, dtype=np.int64).reshape(len(shares), len(wide))
+            LO[:, wide] = G
+            HI[:, wide] = G
+        qlo = np.maximum(LO[None, :, :] - legs[:, None, :], 0)
+        qhi = np.minimum(HI[None, :, :] - legs[:, None, :], grp.cap)
+        bi, j = np.nonzero((qlo <= qhi).all(axis=2))   # by end element, then share
+        part = [(i, bs[x], shares[y]) for x, y in zip(bi.tolist(), j.tolist(), strict=True)]
+        return part, qlo[bi, j], qhi[bi, j], bi
 
     def _ends(self, grp: _Group, a: str, leg: int, v: int, end_leg: int = 0
               ) -> tuple[list[str], np.ndarray, np.ndarray]:
