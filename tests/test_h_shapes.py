@@ -244,3 +244,17 @@ def test_main_line_must_pass_a_key_point():
                     {"from": 2, "to": 1, "constraints": {"length": [4, 4]}}]}
     with pytest.raises(ProblemError, match=r"keypoints\[1\]: two stages enter it"):
         Structure.from_dict(d)
+
+
+def test_main_line_changing_its_front_at_a_t_is_one_message(tmp_path, capsys):
+    """A main line whose two halves face opposite sides at a T: no T part has that, so
+    the command says where and how to fix it (exit 2, no traceback)."""
+    from test_skeletons import fc, feat, metres
+    f = tmp_path / "bad_t.geojson"
+    f.write_text(json.dumps(fc(feat("LineString", metres([(0, 0), (40, 0)])),
+                               feat("LineString", metres([(40, 0), (80, 0)]), front="left"),
+                               feat("LineString", metres([(40, 0), (40, 40)])))))
+    assert main(["building", str(f), "--library", str(examples.SAMPLE_LIBRARY),
+                 "--no-preview", "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "changes its front there" in err and "Traceback" not in err
