@@ -139,19 +139,19 @@ class _Node:
 class ChainProgram:
     """The k best structures of a chain or cycle (see the module docstring).
 
-    ``stage_lists(s, a, b)``: share -> cost-sorted list, as for the general program;
-    ``trusted(s, a, b, share)`` how many leading entries are final (k once the list
-    is complete) and ``more(...)`` finds more and returns the new trusted length
-    (both optional: lists are then complete)."""
+    ``stage_lists(s, a, b)``: share -> cost-sorted list, as for the general program.
+    A list may say that only its ``final`` leading entries are final (more paths may
+    follow, :class:`citysynth.solver.structures.stage_kbest.Growing`); ``more(s, a, b,
+    share)`` then replaces it by a longer one and returns its new ``final`` count (k
+    once complete). Without ``final`` a list is complete."""
 
     def __init__(self, st: Structure, k: int, ghi: list[int], glo: list[int],
                  chain: tuple[list[int], list[int]],
                  stage_lists: Callable[[int, str, str], dict[Share, StageList]],
-                 trusted: Callable[[int, str, str, Share], int] | None = None,
                  more: Callable[[int, str, str, Share], int] | None = None):
         self.st, self.k, self.glo = st, k, glo
         self.keys, self.stages = chain
-        self.stage_lists, self._trusted, self._more = stage_lists, trusted, more
+        self.stage_lists, self._more = stage_lists, more
         self.one = len(ghi) == 1
         self.S = ghi[0] + 1 if self.one else 1
         self.elems = [list(st.keypoints[v]) for v in self.keys]
@@ -167,22 +167,32 @@ class ChainProgram:
         self.shares: list[Share] = [self.share(g) for g in range(self.S)]
         self.last = self.L - 1 if st.closed else -1   # the position closing a cycle
         self.lists: list[list[list[dict[Share, StageList]]]] = []
-        self._final: dict[tuple[int, int, int, Share], int] = {}   # known final lengths
         self._payloads: dict[tuple[int, int, int, int, int], Payload] = {}
         self.A = np.full((self.L, self.E, self.E, self.S), np.inf)
+        at: list[int] = []      # flat indices into A and the first entries' costs
+        firsts: list[float] = []
         for p, s in enumerate(self.stages):
             ends = self.elems[(p + 1) % len(self.elems)]
             self.lists.append([[stage_lists(s, e, f) for f in ends] for e in self.elems[p]])
             for ei, e in enumerate(self.elems[p]):
                 for fi, f in enumerate(ends):
-                    for share, ls in self.lists[p][ei][fi].items():
-                        if trusted is not None and more is not None:
-                            n = trusted(s, e, f, share)
-                            while n < 1:       # entry 0 final before the array pass
-                                n = more(s, e, f, share)
-                            ls = self.lists[p][ei][fi][share]
+                    base = ((p * self.E + ei) * self.E + fi) * self.S
+                    lists = self.lists[p][ei][fi]
+                    for share, ls in lists.items():
+                        if getattr(ls, "final", 1) < 1:   # entry 0 final first
+                            self._grow(s, e, f, share, 0)
+                            ls = lists[share]
                         if ls:
-                            self.A[p, ei, fi, share[0] if self.one else 0] = ls[0][0]
+                            at.append(base + (share[0] if self.one else 0))
+                            firsts.append(ls[0][0])
+        self.A.reshape(-1)[at] = firsts
+
+    def _grow(self, s: int, e: str, f: str, share: Share, i: int) -> None:
+        """Ask for more paths until entry i of a list is final (or known absent)."""
+        if self._more is None:
+            raise AssertionError("a stage list that may grow, and no way to grow it")
+        while self._more(s, e, f, share) <= i:
+            pass
 
     def share(self, g: int) -> Share:
         return (g,) if self.one else ()
@@ -196,18 +206,10 @@ class ChainProgram:
         ls = lists.get(share)
         if ls is None or i >= self.k:
             return None
-        if i and self._trusted is not None and self._more is not None:
-            key = (p, ei, fi, share)
-            n = self._final.get(key, 1)
-            if i >= n:
-                s = self.stages[p]
-                e = self.elems[p][ei]
-                f = self.elems[(p + 1) % len(self.elems)][fi]
-                n = self._trusted(s, e, f, share)
-                while i >= n:
-                    n = self._more(s, e, f, share)
-                self._final[key] = n
-                ls = lists[share]
+        if i >= getattr(ls, "final", self.k):
+            self._grow(self.stages[p], self.elems[p][ei],
+                       self.elems[(p + 1) % len(self.elems)][fi], share, i)
+            ls = lists[share]
         return ls[i] if i < len(ls) else None
 
     # ---- lazy enumeration ---------------------------------------------------------

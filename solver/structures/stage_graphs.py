@@ -45,6 +45,7 @@ from citysynth.solver.structures.decompose import (
 )
 from citysynth.solver.structures.model import Structure
 from citysynth.solver.structures.stage_kbest import (
+    Growing,
     StageGraph,
     _stage_kbest,
     _stage_kbest_of,
@@ -128,8 +129,6 @@ class StageGraphs:
             raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
         self.st, self.k, self.table = st, k, table
         self.first = k if first is None else max(1, min(first, k))
-        # (stage, a, b, share) -> (trusted length, graph, query, paths asked)
-        self._more: dict[tuple[int, str, str, Share], tuple[int, int, int, int]] = {}
         self._graph_of: list[tuple[StageGraph, int, tuple[str, ...]]] = []
         self._ends_of: dict[tuple[int, str, int, tuple[str, ...], int],
                             tuple[list[str], np.ndarray, np.ndarray]] = {}
@@ -375,13 +374,11 @@ class StageGraphs:
         self._paths.append((offs, fill, grp.fillers))
         self._graph_of.append((G, grp.max_len + 3, grp.fillers))
         costs, first = costs.tolist(), first.tolist()
-        gi, lists, grow = len(self._graph_of) - 1, self._lists, K < self.k
+        gi, lists, k = len(self._graph_of) - 1, self._lists, self.k
         for q, (i, b, share) in enumerate(meta):
             if first[q] < first[q + 1]:
-                ls, n = sorted_paths(costs, first[q], first[q + 1], K, self.k, same, gid)
-                lists[(i, a, b)][share] = ls
-                if grow and len(ls) == K:  # more may follow
-                    self._more[(i, a, b, share)] = (n, gi, q, K)
+                lists[(i, a, b)][share] = sorted_paths(costs, first[q], first[q + 1], K, k,
+                                                       same, gid, gi, q)
         self.counts["stage_graphs"] += 1
         self.counts["stage_queries"] += len(meta)
         self.counts["graph_rows"] += rows
@@ -390,27 +387,21 @@ class StageGraphs:
     def lists(self, i: int, a: str, b: str) -> dict[Share, StageList]:
         return self._lists.get((i, a, b), {})
 
-    def trusted(self, i: int, a: str, b: str, share: Share) -> int:
-        """How many leading entries of a list are final: k once it is complete."""
-        got = self._more.get((i, a, b, share))
-        return self.k if got is None else got[0]
-
     def more(self, i: int, a: str, b: str, share: Share) -> int:
-        """Find twice as many paths of one list (at most k); returns its new trusted
-        length (k once complete). The list is replaced by a longer one with the same
-        leading entries."""
-        n, gi, q, K = self._more.pop((i, a, b, share))
-        G, depth, fillers = self._graph_of[gi]
-        K = min(self.k, 2 * K)
-        costs, offs, fill, first, same = _stage_kbest_of(G, np.array([q]), K, depth)
+        """Find twice as many paths of a :class:`Growing` list (at most k); returns how
+        many of its entries are final now (k once it is complete). The list is
+        replaced by a longer one with the same leading entries."""
+        old = self._lists[(i, a, b)][share]
+        assert isinstance(old, Growing)
+        G, depth, fillers = self._graph_of[old.gi]
+        K = min(self.k, 2 * old.K)
+        costs, offs, fill, first, same = _stage_kbest_of(G, np.array([old.q]), K, depth)
         gid = len(self._paths)
         self._paths.append((offs, fill, fillers))
-        ls, n = sorted_paths(costs.tolist(), 0, int(first[1]), K, self.k, same, gid)
+        ls = sorted_paths(costs.tolist(), 0, int(first[1]), K, self.k, same, gid, old.gi,
+                          old.q)
         self._lists[(i, a, b)][share] = ls
-        if len(ls) == K < self.k:  # more may follow
-            self._more[(i, a, b, share)] = (n, gi, q, K)
-            return n
-        return self.k
+        return ls.final if isinstance(ls, Growing) else self.k
 
     def filling(self, i: int, a: str, b: str, payload: tuple[int, int]
                 ) -> tuple[list[str], dict[str, float]]:

@@ -291,13 +291,29 @@ def _stage_kbest_of(G, qs, K, depth):
 
 TRUST_EPS = 1e-9   # relative: far above the rounding between two ways of summing
 
+StageEntry = tuple[float, tuple[int, int]]   # (cost, (paths index, path index))
+
+
+class Growing(list[StageEntry]):
+    """A stage list that more paths may follow: its ``final`` leading entries keep
+    their places whatever is found later; the graph (``gi``), the query (``q``) and
+    how many paths were asked (``K``) say where to find more. A complete list is a
+    plain list."""
+
+    __slots__ = ("final", "gi", "q", "K")
+    final: int
+    gi: int
+    q: int
+    K: int
+
 
 def sorted_paths(costs: list[float], lo: int, hi: int, K: int, k: int, same: bool,
-                 gid: int) -> tuple[list[tuple[float, tuple[int, int]]], int]:
-    """Paths lo..hi-1 of one query (found with a limit of K paths, at most k wanted)
-    as a stage list (cost, (gid, path)) sorted by their front-to-back sums (stable,
-    as the lists always were), and how many of them lead the sorted list of all its
-    k first paths whatever comes after.
+                 gid: int, gi: int, q: int) -> list[StageEntry]:
+    """Paths lo..hi-1 of query q of graph gi (found with a limit of K paths, at most
+    k wanted) as a stage list (cost, (gid, path)) sorted by their front-to-back sums
+    (stable, as the lists always were): a plain list when it is complete, else a
+    :class:`Growing` one that says how many of its entries lead the sorted list of all
+    its k first paths whatever comes after.
 
     The enumeration ranks paths by its own sums: a path's cost is an edge weight
     plus the cost of a shorter path (or the exact g of the forward pass, made of the
@@ -308,15 +324,20 @@ def sorted_paths(costs: list[float], lo: int, hi: int, K: int, k: int, same: boo
     a path not yet found ranks after the K-th found one, so its front-to-back sum is
     at least the K-th one's less rounding: only paths cheaper than that by a margin
     are final then."""
-    if same:   # already in order: a stable sort would leave it as it is
-        return [(costs[p], (gid, p)) for p in range(lo, hi)], hi - lo
-    ls = [(costs[p], (gid, p)) for p in range(lo, hi)]
-    ls.sort(key=lambda t: t[0])
-    if hi - lo < K or K >= k:
-        return ls, len(ls)
-    last = costs[hi - 1]
-    bound = last - TRUST_EPS * max(1.0, abs(last))
-    n = 0
-    while n < len(ls) and ls[n][0] <= bound:
-        n += 1
-    return ls, n
+    complete = hi - lo < K or K >= k
+    if same and complete:   # already in order: a stable sort would leave it as it is
+        return [(costs[p], (gid, p)) for p in range(lo, hi)]
+    ls = Growing((costs[p], (gid, p)) for p in range(lo, hi))
+    if not same:
+        ls.sort(key=lambda t: t[0])
+        if complete:
+            return list(ls)
+    n = len(ls)
+    if not same:
+        last = costs[hi - 1]
+        bound = last - TRUST_EPS * max(1.0, abs(last))
+        n = 0
+        while n < len(ls) and ls[n][0] <= bound:
+            n += 1
+    ls.final, ls.gi, ls.q, ls.K = n, gi, q, K
+    return ls
