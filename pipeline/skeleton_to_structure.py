@@ -483,9 +483,11 @@ def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
 
 def _transitions(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
     """The database's costs between every pair of parts; from a T's branch leg, the
-    branch costs. A T part in another pose than its own (:mod:`citysynth.export.t_poses`)
-    meets its neighbours with the sections that pose puts at its ends, compared as the
-    database compares sections. A mitre joint joins the modules on either side at no
+    branch costs; into a T's branch leg (an H's bar ending at its T), the disagreement
+    with the branch section. A T part in another pose than its own
+    (:mod:`citysynth.export.t_poses`) meets its neighbours with the sections that pose puts
+    at its ends, compared as the database compares sections. A mitre joint joins the
+    modules on either side at no
     cost of its own (they are cut to meet; its cost is its unary cost), and only modules:
     a stage with no module beside a joint would leave its corner empty."""
     ids = [p.id for p in fillers] + list(kp.parts)
@@ -500,23 +502,26 @@ def _transitions(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
                 trans[(x, y)] = float(db.cost[i, j])
             if np.isfinite(db.cost_branch[i, j]):
                 btrans[(x, y)] = float(db.cost_branch[i, j])
-    trans.update(_posed_costs(db, ids, base, posed))
+    posed_trans, into_branch = _section_costs(db, ids, base, posed)
+    trans.update(posed_trans)
     if kp.joint:   # only modules meet a joint: they are what is cut to fill its corner
         for jid in _joint_variants(db.quantum):
             for p in fillers:
                 trans[(p.id, jid)] = trans[(jid, p.id)] = 0.0
-    return {"transitions": trans, "branch_transitions": btrans}
+    return {"transitions": trans, "branch_transitions": btrans,
+            "branch_in_transitions": into_branch}
 
 
-def _posed_costs(db: PartDB, ids: list[str], base: dict[str, str], posed: set[str]
-                 ) -> dict[tuple[str, str], float]:
-    """Transitions into and out of T parts in a pose of their own: the database's
-    section disagreement between what the pose puts at each end (a turned T's out-leg
-    is its part's in-leg; a T turned over shows its main sections mirrored about the
-    middle of their depth)."""
-    if not posed:
-        return {}
+def _section_costs(db: PartDB, ids: list[str], base: dict[str, str], posed: set[str]
+                   ) -> tuple[dict[tuple[str, str], float], dict[tuple[str, str], float]]:
+    """Transitions into and out of T parts in a pose of their own, and from every part
+    into a T's branch leg: the database's section disagreement between what meets (a
+    turned T's out-leg is its part's in-leg; a T turned over shows its main sections
+    mirrored about the middle of their depth; the branch leg its branch section)."""
     parts = {p.id: p for p in db.parts}
+    ts = [y for y in ids if parts[base[y]].cls == "t_junction"]
+    if not ts:
+        return {}, {}
     idx = db.index()
 
     def ends(x: str) -> tuple[object, object]:
@@ -533,11 +538,14 @@ def _posed_costs(db: PartDB, ids: list[str], base: dict[str, str], posed: set[st
     sec = {x: ends(x) for x in ids}
     pairs = [(x, y) for x in ids for y in ids if (x in posed or y in posed)
              and db.allowed[idx[base[x]], idx[base[y]]]]
-    if not pairs:
-        return {}
-    areas = np.round(disagreement(np.array([sec[x][1] for x, _y in pairs], dtype=object),
-                                  np.array([sec[y][0] for _x, y in pairs], dtype=object)), 4)
-    return {pair: float(a) for pair, a in zip(pairs, areas.tolist(), strict=True)}
+    into = [(x, y) for x in ids for y in ts if db.allowed[idx[base[x]], idx[base[y]]]]
+    areas = np.round(disagreement(
+        np.array([sec[x][1] for x, _y in pairs + into], dtype=object),
+        np.array([sec[y][0] for _x, y in pairs] + [parts[base[y]].sec_branch
+                                                  for _x, y in into], dtype=object)), 4)
+    a = areas.tolist() if pairs or into else []
+    return (dict(zip(pairs, a[:len(pairs)], strict=True)),
+            dict(zip(into, a[len(pairs):], strict=True)))
 
 
 def shortest_stage(db: PartDB, style: str) -> float:
