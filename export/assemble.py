@@ -71,10 +71,13 @@ def world_boxes(lay: Layout, db: PartDB) -> trimesh.Trimesh:
     unit = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
 
     def box(inst, pieces):
-        v = np.vstack([p.vertices for p in pieces])
+        v = np.vstack([p.vertices for p in pieces if len(p.vertices)])
         lo, hi = v.min(axis=0), v.max(axis=0)
         main = max(pieces, key=lambda p: len(p.faces))
         shell = Piece(main.name, main.rgba, unit.vertices * (hi - lo) + lo, unit.faces)
         return (*place(shell, inst), shell.rgba)
 
-    return _coloured(box(inst, pieces) for inst, pieces in instances_with_pieces(lay, db))
+    # a module cut wholly away (at an acute nose both legs' last modules may lie past
+    # the other's plane) has no box
+    return _coloured(box(inst, pieces) for inst, pieces in instances_with_pieces(lay, db)
+                     if any(len(p.vertices) for p in pieces))

@@ -170,6 +170,8 @@ class GlbBuilder:
         extras = {"part": inst.part, "class": inst.cls, "prototype": inst.proto,
                   "structure": inst.structure}
         extras.update({"stage": inst.stage} if inst.stage is not None else {"key": inst.key})
+        if not pieces:      # cut wholly away at an acute nose: a node without a mesh
+            return self.node(label, extras=extras)
         if sheared(inst):   # its own geometry, baked into the layout frame
             parts = [(*place(p, inst), p) for p in pieces]
             mesh = self.mesh((db.library_hash, f"{inst.proto}@{label}"), parts, shared=False)
