@@ -158,7 +158,7 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
         provider = _provider(st, k, method, grid, max_memory_mb, table, solve_kw)
         results = best_structures(st, k, ghi, glo, provider.lists,
                                   getattr(provider, "more", None))
-    seen: dict[tuple[int, str, str, int], tuple[Any, list[str], dict[str, float]]] = {}
+    seen: dict[tuple[int, int], tuple[Any, str, str, list[str], dict[str, float]]] = {}
     sols = [_solution(st, provider, cost, e, payload, seen) for cost, e, payload in results]
     stats = {"method": method, **provider.stats(),
              "program": "lazy chain" if lazy_chain(st, ghi) else "general",
@@ -193,30 +193,34 @@ def _provider(st: Structure, k: int, method: StructureMethod, grid: Grid,
 
 
 def _solution(st: Structure, provider: Provider, cost: float, root_element: str,
-              payload: Payload, seen: dict[tuple[int, str, str, int],
-                                           tuple[Any, list[str], dict[str, float]]]
+              payload: Payload, seen: dict[tuple[int, int],
+                                           tuple[Any, str, str, list[str], dict[str, float]]]
               ) -> StructureSolution:
     """A combined payload read back into key elements, fillers and stage totals.
     ``seen``: stage entries already read back in this solve (the k best structures
     share most of their stages: 4,000 stages of 100 solutions of a 40-corner block
-    are about 150 distinct ones), by the entry's identity (the entry is kept with
-    them, so its id stays its own)."""
+    are about 150 distinct ones), by stage and the entry's identity (the entry is
+    kept with them, so its id stays its own; an entry belongs to one list, so to one
+    pair of key elements)."""
+    stages = st.stages
     keys = {root_of(st): root_element}
-    fills: list[list[str]] = [[] for _ in st.stages]
-    totals: list[dict[str, float]] = [{} for _ in st.stages]
+    fills: list[list[str]] = [[] for _ in stages]
+    totals: list[dict[str, float]] = [{} for _ in stages]
     todo = [payload]
     while todo:  # parents first: a stage's start key is known before the stage
         p = todo.pop()
         for s, (f, h, sub) in p.items():
-            stage = st.stages[s]
-            if stage.start not in keys:   # a stage that runs up the tree ends at its parent
-                keys[stage.start], f = f, keys[stage.end]
-            keys[stage.end] = f
-            key = (s, keys[stage.start], f, id(h))
-            got = seen.get(key)
+            got = seen.get((s, id(h)))
             if got is None or got[0] is not h:
-                got = seen[key] = (h, *provider.filling(s, keys[stage.start], f, h))
-            fills[s], totals[s] = list(got[1]), dict(got[2])
+                stage = stages[s]
+                if stage.start in keys:
+                    a, b = keys[stage.start], f
+                else:   # a stage that runs up the tree ends at its parent
+                    a, b = f, keys[stage.end]
+                got = seen[(s, id(h))] = (h, a, b, *provider.filling(s, a, b, h))
+            stage = stages[s]
+            keys[stage.start], keys[stage.end] = got[1], got[2]
+            fills[s], totals[s] = list(got[3]), dict(got[4])
             todo.append(sub)
     return StructureSolution([keys[v] for v in range(len(st.keypoints))], fills, cost,
                              totals)
