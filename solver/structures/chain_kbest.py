@@ -15,8 +15,8 @@ structure among the k best ever uses. Here the completions form a DAG over
   (:func:`_first_items`), from the first entry of every stage list;
 * a node's next completions come from a heap of candidates "stage list entry i, then
   completion j of the node after it", created only when a node is asked for its
-  second completion; popping (i, j) offers (i + 1, j) and (i, j + 1), each asked for
-  only then (a stage list finds more paths on demand, ``more``);
+  second completion; popping (i, j) offers (i, j + 1), and (i + 1, 0) after (i, 0),
+  each asked for only then (a stage list finds more paths on demand, ``more``);
 * the results are a merge of the root's streams.
 
 Exactly the same sums, in the same order, as the general program: a candidate costs
