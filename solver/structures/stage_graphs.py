@@ -49,6 +49,7 @@ from citysynth.solver.structures.stage_kbest import (
     StageGraph,
     _stage_kbest,
     _stage_kbest_of,
+    query_lists,
     sorted_paths,
 )
 
@@ -374,11 +375,11 @@ class StageGraphs:
         self._paths.append((offs, fill, grp.fillers))
         self._graph_of.append((G, grp.max_len + 3, grp.fillers))
         costs, first = costs.tolist(), first.tolist()
-        gi, lists, k = len(self._graph_of) - 1, self._lists, self.k
-        for q, (i, b, share) in enumerate(meta):
-            if first[q] < first[q + 1]:
-                lists[(i, a, b)][share] = sorted_paths(costs, first[q], first[q + 1], K, k,
-                                                       same, gid, gi, q)
+        lists = self._lists
+        for (i, b, share), ls in zip(meta, query_lists(costs, first, K, self.k, same, gid,
+                                                        len(self._graph_of) - 1), strict=True):
+            if ls is not None:
+                lists[(i, a, b)][share] = ls
         self.counts["stage_graphs"] += 1
         self.counts["stage_queries"] += len(meta)
         self.counts["graph_rows"] += rows

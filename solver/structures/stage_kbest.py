@@ -307,6 +307,21 @@ class Growing(list[StageEntry]):
     K: int
 
 
+def query_lists(costs: list[float], first: list[int], K: int, k: int, same: bool,
+                gid: int, gi: int) -> list[list[StageEntry] | None]:
+    """The stage list of every query of graph gi (None for a query with no path), as
+    :func:`sorted_paths` makes each; with one path each, complete and in order (k = 1),
+    in one loop (a block with a per-block door count has 6,480 queries)."""
+    if same and K == 1 and k == 1:
+        out: list[list[StageEntry] | None] = []
+        for q in range(len(first) - 1):
+            p = first[q]
+            out.append([(costs[p], (gid, p))] if p < first[q + 1] else None)
+        return out
+    return [sorted_paths(costs, first[q], first[q + 1], K, k, same, gid, gi, q)
+            if first[q] < first[q + 1] else None for q in range(len(first) - 1)]
+
+
 def sorted_paths(costs: list[float], lo: int, hi: int, K: int, k: int, same: bool,
                  gid: int, gi: int, q: int) -> list[StageEntry]:
     """Paths lo..hi-1 of query q of graph gi (found with a limit of K paths, at most
