@@ -287,3 +287,43 @@ def test_lazy_chain_program_on_a_block_outline(doors):
     assert len(lazy.solutions) == 30
     assert [(x.cost, x.keys, x.stages) for x in lazy.solutions] == \
         [(x.cost, x.keys, x.stages) for x in general.solutions]
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.one_of(varied(), chains()))
+def test_best_fillings_by_argmin_chains_are_the_enumerations(d):
+    """At k = 1 every stage list is the argmin chain of its graph (_stage_best): the
+    same fillings, costs and order as the lazy enumeration's first paths."""
+    import numpy as np
+
+    from citysynth.solver.structures import stage_graphs, stage_kbest
+
+    s = Structure.from_dict(d)
+    fast = solve_structure(s, 1)
+    old = stage_graphs._stage_kbest
+    stage_graphs._stage_kbest = lambda G, K, depth: stage_kbest._stage_kbest_of(
+        G, np.arange(G.qlo.shape[0]), K, depth)
+    try:
+        slow = solve_structure(s, 1)
+    finally:
+        stage_graphs._stage_kbest = old
+    assert [(x.cost, x.keys, x.stages, x.resources) for x in fast.solutions] == \
+        [(x.cost, x.keys, x.stages, x.resources) for x in slow.solutions]
+
+
+def test_paths_whose_sums_disagree_are_final_only_below_a_margin():
+    """Should the enumeration's sums and the front-to-back ones ever differ, a list
+    found with K paths keeps as final only the paths cheaper than the K-th by a margin
+    (a path not yet found may sort before the others); complete lists are plain."""
+    from citysynth.solver.structures.stage_kbest import Growing, sorted_paths
+
+    costs = [1.0, 2.0, 3.0 + 1e-15, 3.0]       # the last two out of order by rounding
+    ls = sorted_paths(costs, 0, 4, 4, 10, False, 7, 0, 5)
+    assert isinstance(ls, Growing)
+    assert [c for c, _ in ls] == [1.0, 2.0, 3.0, 3.0 + 1e-15]
+    assert ls.final == 2 and (ls.gi, ls.q, ls.K) == (0, 5, 4)
+    assert ls[0][1] == (7, 0)
+    same = sorted_paths([1.0, 2.0], 0, 2, 2, 10, True, 0, 0, 0)
+    assert isinstance(same, Growing) and same.final == 2     # in order: all final
+    done = sorted_paths(costs, 0, 4, 4, 4, False, 0, 0, 0)   # K = k: complete
+    assert not isinstance(done, Growing) and len(done) == 4
