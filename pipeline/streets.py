@@ -72,18 +72,93 @@ def runs(street: LineString, side: str, offset: float, depth: float) -> list[Run
     """The facade line of ``side`` cut at its bends, trimmed at bends toward the
     buildings (left turns) by ``depth`` times the half-turn's tangent on each side."""
     coords = np.asarray(facade_line(street, side, offset).coords)
-    turns = _turns(coords)
-    cuts = [0] + [i + 1 for i, t in enumerate(turns) if abs(t) > BEND] + [len(coords) - 1]
+    return _cut(coords, np.r_[0.0, _turns(coords), 0.0], side, depth)
+
+
+def _cut(coords: np.ndarray, turns: np.ndarray, side: str, depth: float,
+         bend: float = BEND) -> list[Run]:
+    """A facade line cut into runs at the vertices turning by more than ``bend``
+    degrees (its two ends always), each trimmed at a left turn. ``turns`` holds the turn at
+    every vertex, the ends' included (0 for a line's ends, the corner's own turn for a
+    ring's). Runs shorter than :data:`MIN_RUN` stay empty."""
+    cuts = [0] + [i for i in range(1, len(coords) - 1) if abs(turns[i]) > bend] + \
+        [len(coords) - 1]
     out: list[Run] = []
     for a, b in zip(cuts, cuts[1:], strict=False):
         line = LineString(coords[a:b + 1])
-        trim0 = depth * math.tan(math.radians(turns[a - 1]) / 2) if a > 0 else 0.0
-        trim1 = depth * math.tan(math.radians(turns[b - 1]) / 2) if b < len(coords) - 1 else 0.0
+        trim0 = depth * math.tan(math.radians(turns[a]) / 2)
+        trim1 = depth * math.tan(math.radians(turns[b]) / 2)
         lo, hi = max(trim0, 0.0), line.length - max(trim1, 0.0)
         if hi - lo < MIN_RUN:
             continue
         out.append(Run(side, len(out), substring(line, lo, hi)))
     return out
+
+
+RING_SIMPLIFY = 0.25  # m: a block outline is straightened this much before it is cut
+RING_BEND = 0.01     # degrees: ... and cut at every turn left (rows on chords of a bent
+#                      run would overlap behind a left turn: depth² tan(turn) / 2)
+
+
+def ring_runs(polygon: shapely.Polygon, depth: float, side: str = "ring") -> list[Run]:
+    """The runs of a polygon's rings, the buildings inside (a block's sides: each ring
+    travelled with the polygon on its left, from its sharpest corner), straightened
+    by :data:`RING_SIMPLIFY` and cut at every turn, each run trimmed at its convex
+    ends like a street's left turns, so neighbouring runs' rows meet without
+    overlapping; ``side`` names them (``ring_0``, ...)."""
+    poly = shapely.geometry.polygon.orient(polygon.simplify(RING_SIMPLIFY), 1.0)
+    out: list[Run] = []
+    for ring in [poly.exterior, *poly.interiors]:
+        pts = np.asarray(ring.coords)[:-1]
+        closed = np.vstack([pts, pts[:1], pts[1:2]])
+        turns = np.r_[0.0, _turns(closed)]            # turns[i]: at vertex i (i >= 1)
+        turns[0] = turns[len(pts)]
+        start = int(np.argmax(np.abs(turns[: len(pts)])))
+        order = np.r_[np.arange(start, len(pts)), np.arange(0, start + 1)]
+        for r in _cut(pts[order], turns[order], side, depth, RING_BEND):
+            out.append(Run(side, len(out), r.line))
+    return out
+
+
+def clear_runs(all_runs: list[Run], ground: shapely.Geometry, depth: float,
+               tol: float = 0.5) -> list[Run]:
+    """The runs whose rows (``depth`` deep on their left) stand on ``ground`` without
+    crossing each other: longest first, a run whose band would leave the ground or
+    cover a kept band by more than ``tol`` m² is shortened to its longest piece that
+    does not (:func:`_fit`; a notch near a corner, a block narrower than two rows), or
+    stays empty. The kept runs, in their given order."""
+    free = ground
+    keep: dict[int, Run] = {}
+    for i in sorted(range(len(all_runs)), key=lambda i: (-all_runs[i].line.length, i)):
+        line = _fit(all_runs[i].line, free, depth, tol)
+        if line is None:
+            continue
+        keep[i] = Run(all_runs[i].side, all_runs[i].index, line)
+        free = free.difference(_band(line, depth))
+    return [keep[i] for i in sorted(keep)]
+
+
+def _band(line: LineString, depth: float) -> shapely.Geometry:
+    return line.buffer(depth, single_sided=True, cap_style="flat", join_style="mitre")
+
+
+def _fit(line: LineString, free: shapely.Geometry, depth: float, tol: float
+         ) -> LineString | None:
+    """The longest piece of ``line`` whose band stays on ``free`` ground: the span
+    where it leaves (a notch near a corner, a row across the block) is cut out, the
+    longer end kept; None when less than :data:`MIN_RUN` is left."""
+    for _ in range(4):
+        bad = [g for g in shapely.get_parts(_band(line, depth).difference(free))
+               if g.area > tol / 10]
+        if sum(g.area for g in bad) <= tol:
+            return line
+        at = [line.project(shapely.Point(c)) for g in bad for c in g.exterior.coords]
+        lo, hi = min(at), max(at)
+        a, b = max(((0.0, lo), (hi, line.length)), key=lambda ab: ab[1] - ab[0])
+        if b - a < MIN_RUN:
+            return None
+        line = substring(line, a, b)
+    return None
 
 
 def building_depth(parts: list[Part]) -> float:
@@ -122,6 +197,13 @@ def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
     if not all_runs:
         raise UsageError(f"{name}: the street line has no straight run of at least "
                          f"{MIN_RUN:g} m to build on")
+    return solve_runs(name, all_runs, db, ask, frame)
+
+
+def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
+               frame: str = "local") -> Built:
+    """The k best rows of buildings on ``all_runs`` (each run solved on its own; see
+    :func:`solve_street`)."""
     t0 = time.perf_counter()
     solved = []
     for run in all_runs:
@@ -174,7 +256,8 @@ def street_layout(name: str, rank: int, all_runs: list[Run], solutions: list,
         structures.append({
             "name": run.name, "closed": False, "cost": sol.cost, "keys": [],
             "resources": dict(sol.resources), "asked": asked,
-            "stages": [{"length": run.line.length, "stretch": stretch,
+            "stages": [{"from": 0, "to": 1, "front": "right",   # the mass left of travel
+                        "length": run.line.length, "stretch": stretch,
                         "parts": list(sol.sequence), "asked": asked,
                         "met": dict(sol.resources),
                         "polyline": [list(c) for c in run.line.coords]}]})

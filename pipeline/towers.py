@@ -15,12 +15,14 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+import numpy as np
 import shapely
 from shapely import affinity
-from shapely.geometry import Polygon
+from shapely.geometry import Polygon, box
 from shapely.geometry.base import BaseGeometry
+from shapely.geometry.polygon import orient
 
 from citysynth.export.layout import Instance, Layout
 from citysynth.parts_db import Part, PartDB
@@ -129,28 +131,32 @@ def far_interval(values: list[float], tolerance: float) -> tuple[float, float]:
     return lo, hi
 
 
-def solve_tower(name: str, db: PartDB, lot: Lot, height: float, far: tuple[float, float], *,
-                style: str | None = None, k: int = 1) -> Built:
-    """The k best towers of exactly ``height`` metres and a floor-area ratio in ``far``
-    on ``lot`` (infeasible, with the solver's reason, when there is none)."""
-    if not (math.isfinite(height) and height > 0):
-        raise UsageError(f"--height must be a positive number of metres, got {height:g}")
+def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, float],
+                far: tuple[float, float], *, style: str | None = None, k: int = 1) -> Built:
+    """The k best towers of exactly ``height`` metres (or of any height in the interval
+    ``(lo, hi)``, a city zone's) and a floor-area ratio in ``far`` on ``lot``
+    (infeasible, with the solver's reason, when there is none)."""
+    lo, hi = (height, height) if isinstance(height, int | float) else height
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+        raise UsageError(f"--height must be a positive number of metres, got {lo:g}"
+                         + (f"-{hi:g}" if hi != lo else ""))
     check_lot(db, lot, style)
     t0 = time.perf_counter()
     area = (far[0] * lot.area, far[1] * lot.area)
-    problem = Problem.from_dict(tower_problem(db, height, area, style=style, k=k,
-                                              area_quantum=AREA_QUANTUM,
-                                              keep=lambda p: fits(p, lot)))
-    result = solve(problem)
+    problem = tower_problem(db, hi, area, style=style, k=k, area_quantum=AREA_QUANTUM,
+                            keep=lambda p: fits(p, lot))
+    problem["constraints"]["height"] = [lo, hi]
+    result = solve(Problem.from_dict(problem))
     t1 = time.perf_counter()
     timings = {"solve_s": t1 - t0}
+    at = f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
     if result.status != "ok":
         return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
-                     f"{height:g} m on a {lot.area:g} m² lot: {result.reason}",
+                     f"{at} m on a {lot.area:g} m² lot: {result.reason}",
                      timings=timings)
     parts = {p.id: p for p in db.parts}
     layouts = [tower_layout(name, rank, sol.sequence, sol.cost, parts, db, lot,
-                            {"height": [height, height], "floor_area": list(area)}, far)
+                            {"height": [lo, hi], "floor_area": list(area)}, far)
                for rank, sol in enumerate(result.solutions, start=1)]
     timings["layout_s"] = time.perf_counter() - t1
     return Built(name, "ok", layouts, timings=timings)
@@ -190,3 +196,73 @@ def tower_layout(name: str, rank: int, sequence: list[str], cost: float,
     return Layout(name, rank, {"name": db.name, "hash": db.library_hash,
                                "quantum": db.quantum},
                   parts[sequence[0]].style, lot.frame, [structure], instances)
+
+
+# --- towers on the lots of a city block --------------------------------------------------
+
+MIN_LOT_SHARE = 0.4   # a lot smaller than this share of size x size is dropped
+MIN_LOT_WIDTH = 0.5   # ... and one narrower on average than this share of size
+
+
+def cut_lots(ground: BaseGeometry, size: float) -> list[Polygon]:
+    """Roughly square lots of about ``size`` metres cut from ``ground`` (a block inset
+    by its setback; a polygon or several): a grid turned to each polygon's longer side,
+    as many cells along each side as fit best (so a cell is between 2/3 and 3/2 of
+    ``size``), each clipped to the polygon; pieces too small or too thin for a tower
+    (:data:`MIN_LOT_SHARE`, :data:`MIN_LOT_WIDTH`) are dropped. Coordinates to the
+    millimetre, in a fixed order (row by row along the grid)."""
+    lots: list[Polygon] = []
+    for poly in shapely.get_parts(ground):
+        if not isinstance(poly, Polygon) or poly.is_empty:
+            continue
+        angle = _long_side_angle(poly)
+        c = poly.centroid
+        g = affinity.rotate(poly, -angle, origin=c)
+        x0, y0, x1, y1 = g.bounds
+        nx, ny = max(1, round((x1 - x0) / size)), max(1, round((y1 - y0) / size))
+        w, h = (x1 - x0) / nx, (y1 - y0) / ny
+        for j in range(ny):
+            for i in range(nx):
+                cell = box(x0 + i * w, y0 + j * h, x0 + (i + 1) * w, y0 + (j + 1) * h)
+                for piece in shapely.get_parts(g.intersection(cell)):
+                    if (not isinstance(piece, Polygon) or piece.area < MIN_LOT_SHARE * size ** 2
+                            or 2 * piece.area / piece.length < MIN_LOT_WIDTH * size / 2):
+                        continue
+                    back = affinity.rotate(piece, angle, origin=c)
+                    back = shapely.transform(back, lambda xy: np.round(xy, 3))
+                    lots.append(orient(back.simplify(0.0), 1.0))
+    return lots
+
+
+def fits_a_tower(db: PartDB, lot: Lot, style: str | None) -> bool:
+    """Does some ground floor and some roof of the library fit the lot?"""
+    return all(any(fits(p, lot) for p in db.parts if p.cls == cls and
+                   (style is None or p.style == style)) for cls in ("ground_floor", "roof"))
+
+
+def towers_layout(name: str, rank: int, towers: list[Layout]) -> Layout:
+    """Several towers (one structure each, on its own lot) as one layout: a city
+    block's, the i-th structure's instances numbered i."""
+    structures, instances = [], []
+    for si, t in enumerate(towers):
+        structures += t.structures
+        instances += [replace(inst, structure=si) for inst in t.instances]
+    first = towers[0]
+    return Layout(name, rank, first.library, first.style, first.frame, structures, instances)
+
+
+def far_bounds(db: PartDB, style: str | None, height: tuple[float, float], size: float
+               ) -> tuple[float, float]:
+    """The lowest and highest floor-area ratio any tower of the library between
+    ``height`` metres could have on any lot :func:`cut_lots` keeps for ``size``
+    (between :data:`MIN_LOT_SHARE` of size x size and 1.5 size square): bounds, so an
+    interval outside them is impossible on every lot."""
+    parts = [p for p in db.parts if p.cls in ("ground_floor", "floor")
+             and (style is None or p.style == style) and p.length > 0]
+    roofs = [p.length for p in db.parts if p.cls == "roof" and (style is None or p.style == style)]
+    if not parts or not roofs:
+        return 0.0, 0.0
+    density = [(p.floor_area or 0.0) / p.length for p in parts]
+    lo = min(density) * max(height[0] - max(roofs), 0.0) / (1.5 * size) ** 2
+    hi = max(density) * height[1] / (MIN_LOT_SHARE * size ** 2)
+    return lo, hi

@@ -41,6 +41,18 @@ name = "waterfront"
 polygon = [[24.945, 60.164], [24.953, 60.164], [24.953, 60.168], [24.945, 60.168]]
 # or: highway = ["primary", "secondary"]   (blocks along such streets)
 style = "modern"            # and optionally library, k, pick, per_side, per_block
+kind = "perimeter"          # "perimeter" (facades round the block, the default), "row"
+                            #   (complete buildings along each side) or "towers"
+
+[[zone]]
+name = "park towers"
+highway = ["tertiary"]
+kind = "towers"             # a tower per lot cut from the block
+setback = 4.0               # row, towers: the block inset this far first (m; default 0)
+lot = 36.0                  # towers: lots about this many metres square (default 36)
+height = [40, 90]           # towers: each tower's height in metres (required)
+far = [2, 6]                # towers: floor area / lot area of each tower (required)
+# style = "tower"           # towers: only a style set in the zone itself counts
 ```
 """
 
@@ -61,11 +73,14 @@ from citysynth.solver.safe_read import read_toml
 
 Pick = Literal["best", "vary"]   # which of a block's k layouts it keeps
 PICKS: tuple[Pick, ...] = get_args(Pick)
+Kind = Literal["perimeter", "row", "towers"]   # what a zone's street blocks become
+KINDS: tuple[Kind, ...] = get_args(Kind)
+LOT = 36.0            # m: a towers zone's default lot size
 
 _Err = Callable[[str, str], ConfigError]   # (key, message) -> the error naming the file
 
-__all__ = ["PICKS", "BuildSettings", "CityConfig", "ConfigError", "Pick", "Zone",
-           "load_config", "parse_config"]
+__all__ = ["KINDS", "PICKS", "BuildSettings", "CityConfig", "ConfigError", "Kind", "Pick",
+           "Zone", "ZoneKind", "load_config", "parse_config"]
 
 
 @dataclass(frozen=True)
@@ -81,11 +96,27 @@ class BuildSettings:
 
 
 @dataclass(frozen=True)
+class ZoneKind:
+    """A zone's ``kind`` and the keys only that kind reads. A street block of a
+    ``"row"`` zone becomes complete buildings along each side, of a ``"towers"`` zone a
+    tower per lot (:mod:`citysynth.pipeline.city.kinds`); ``"perimeter"`` blocks are
+    facades round the block, as blocks outside any zone."""
+
+    kind: Kind = "perimeter"
+    setback: float = 0.0                        # row, towers: metres the block is inset
+    lot: float = LOT                            # towers: lots about this many metres square
+    height: tuple[float, float] = (0.0, 0.0)    # towers: metres
+    far: tuple[float, float] = (0.0, 0.0)       # towers: floor area over lot area
+    style: str | None = None                    # towers: the zone's own style, or any
+
+
+@dataclass(frozen=True)
 class Zone:
     name: str
     settings: BuildSettings
     polygon: tuple[tuple[float, float], ...] | None = None   # input coordinates
     highway: tuple[str, ...] = ()
+    kind: ZoneKind = field(default_factory=ZoneKind)
 
 
 @dataclass(frozen=True)
@@ -122,7 +153,9 @@ _TOP = _SETTINGS | {"seed", "stretch", "corner_tolerance", "mitre_cost", "min_ed
 _FOOTPRINTS = {"stretch", "tolerance", "storey_tolerance", "storey_height", "storeys",
                "roofs"}
 _SETBACK = {"default", "sidewalk", "lane_width", "highway"}
-_ZONE = _SETTINGS | {"name", "polygon", "highway"}
+_KIND_KEYS = {"setback": ("row", "towers"), "lot": ("towers",), "height": ("towers",),
+              "far": ("towers",)}
+_ZONE = _SETTINGS | {"name", "polygon", "highway", "kind"} | set(_KIND_KEYS)
 
 
 def load_config(path: str | Path | None) -> CityConfig:
@@ -271,7 +304,44 @@ def _zone(z: Any, i: int, settings: BuildSettings, base: Path, err: _Err) -> Zon
         hw = [hw]
     if not isinstance(hw, list) or not all(isinstance(h, str) for h in hw):
         raise err(where + "highway", 'must be a list of highway classes, e.g. ["primary"]')
-    return Zone(name, _settings(z, settings, where, base, err), polygon, tuple(hw))
+    return Zone(name, _settings(z, settings, where, base, err), polygon, tuple(hw),
+                _zone_kind(z, name, where, err))
+
+
+def _zone_kind(z: dict, name: str, where: str, err: _Err) -> ZoneKind:
+    """The zone's ``kind`` and its keys; a key of another kind, a towers zone without
+    its height or FAR, or an interval upside down names the zone and the key."""
+    kind = z.get("kind", "perimeter")
+    if kind not in KINDS:
+        raise err(where + "kind", f"zone {name!r}: must be one of {', '.join(KINDS)}, "
+                                  f"got {kind!r}")
+    for key, kinds in _KIND_KEYS.items():
+        if key in z and kind not in kinds:
+            raise err(where + key, f"zone {name!r}: only a zone of kind "
+                      f"{' or '.join(repr(k) for k in kinds)} reads it (this one is {kind!r})")
+    if kind != "towers":
+        return ZoneKind(kind, _pos(z, "setback", 0.0, where, err, zero=True))
+    for key, what in (("height", "each tower's height in metres"),
+                      ("far", "each tower's floor area over its lot's area")):
+        if key not in z:
+            raise err(where + key, f"zone {name!r}: a towers zone needs {key} = [min, max], "
+                                   f"{what}")
+    style = z.get("style")
+    return ZoneKind(kind, _pos(z, "setback", 0.0, where, err, zero=True),
+                    _pos(z, "lot", LOT, where, err), _positive_interval(z, "height", where,
+                                                                        name, err),
+                    _positive_interval(z, "far", where, name, err),
+                    style if isinstance(style, str) else None)
+
+
+def _positive_interval(z: dict, key: str, where: str, name: str, err: _Err
+                       ) -> tuple[float, float]:
+    iv = z[key]
+    if (not isinstance(iv, list) or len(iv) != 2 or not all(_isnum(x) for x in iv)
+            or not 0 < iv[0] <= iv[1]):
+        raise err(where + key, f"zone {name!r}: must be [min, max] with 0 < min <= max, "
+                               f"got {iv!r}")
+    return float(iv[0]), float(iv[1])
 
 
 def _polygon(poly: Any, where: str, err: _Err) -> tuple[tuple[float, float], ...]:

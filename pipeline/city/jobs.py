@@ -33,7 +33,7 @@ from citysynth.export.layout import SCHEMA, VERSION
 from citysynth.export.place import max_stretch
 from citysynth.parts_db import LibraryError, PartDB, load_library
 from citysynth.parts_db.files import write_text
-from citysynth.pipeline.city.config import Pick
+from citysynth.pipeline.city.config import Pick, ZoneKind
 from citysynth.pipeline.city.footprints import (
     FootprintSpec,
     Prepared,
@@ -41,6 +41,7 @@ from citysynth.pipeline.city.footprints import (
     prepare,
     prepare_again,
 )
+from citysynth.pipeline.city.kinds import solve_kind
 from citysynth.pipeline.errors import USER_ERRORS
 from citysynth.pipeline.layouts import Built, solve_layouts, write_outputs
 from citysynth.skeletons import Frame
@@ -110,6 +111,7 @@ class BlockJob:
     slack: float = CITY_SLACK
     footprint: FootprintSpec | None = None      # a footprint's feature and settings
     cut: bool = False                           # a street block cut back by footprints
+    zone_kind: ZoneKind | None = None           # a row or towers zone's block (kinds.py)
     input_hash: str = ""
 
     def with_hash(self) -> BlockJob:
@@ -118,6 +120,8 @@ class BlockJob:
         if self.k > 1:   # only k > 1 writes variants: k = 1 hashes and caches stay valid
             d["versions"].append(VARIANTS_VERSION)
         del d["library"]          # where the library lives does not change the output
+        if self.zone_kind is None:   # perimeter blocks keep their hashes (and caches)
+            del d["zone_kind"]
         text = json.dumps(d, sort_keys=True, separators=(",", ":"))
         return replace(self, input_hash=hashlib.sha256(text.encode()).hexdigest())
 
@@ -264,7 +268,8 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
     prep, built = solved
     rec["timings"] = dict(built.timings)
     if built.status != "ok":
-        return _finish(out, rec, "failed", t0, reason=failure(prep, job, db, built.reason))
+        return _finish(out, rec, "failed", t0, reason=built.reason if job.zone_kind
+                       else failure(prep, job, db, built.reason))
     if prep.storeys is not None:
         rec["storeys"] = prep.storeys
     if prep.note:
@@ -284,6 +289,8 @@ def solve_block(job: BlockJob, db: PartDB) -> str | tuple[Prepared, Built]:
     """The block's outline cleaned and its k best layouts (a footprint that fails is
     tried once more with its short sides absorbed), or why nothing buildable is left
     of it. The layouts may be infeasible: ``Built.status`` says."""
+    if job.zone_kind is not None:   # a row or towers zone's block: its reason is whole
+        return solve_kind(job, db)
     prep = prepare(job, db)
     if isinstance(prep, str):
         return prep

@@ -69,11 +69,26 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
         "skipped": _reasons(inputs.skipped) + with_status("skipped", "reason"),
         "errors": [{"id": i, "error": recs[i]["error"], "traceback": recs[i]["traceback"]}
                    for i in ids if recs[i]["status"] == "error"],
+        "kinds": count_kinds(inputs, recs),
         "timings": _stage_times(inputs, recs, t_blocks), "workers": workers,
         "scheduler": scheduler, "built": [i for i in ids if recs[i]["status"] == "built"]}
     write_report(out, report)
     write_blocks_geojson(out / BLOCKS_GEOJSON, inputs, recs)
     return report
+
+
+def count_kinds(inputs: CityInputs, recs: dict[str, dict[str, Any]]
+                ) -> dict[str, dict[str, int]]:
+    """Blocks by what they became (a zone's kind: perimeter, row or towers; or a
+    footprint), each by status: ``{"row": {"built": 4}, ...}``."""
+    out: dict[str, dict[str, int]] = {}
+    for job in inputs.jobs:
+        kind = job.zone_kind.kind if job.zone_kind else \
+            "perimeter" if job.kind == "block" else job.kind
+        status = recs.get(job.id, {}).get("status", "not run")
+        out.setdefault(kind, {}).setdefault(status, 0)
+        out[kind][status] += 1
+    return {k: dict(sorted(v.items())) for k, v in sorted(out.items())}
 
 
 def to_input_crs(frame: Frame) -> Callable[[np.ndarray], np.ndarray]:

@@ -29,7 +29,7 @@ import shapely
 
 from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.files import sweep_temporaries
-from citysynth.pipeline.city.config import BuildSettings, CityConfig
+from citysynth.pipeline.city.config import BuildSettings, CityConfig, ZoneKind
 from citysynth.pipeline.city.footprints import (
     CUT,
     FootprintSpec,
@@ -58,6 +58,7 @@ from citysynth.pipeline.city.process import (
 )
 from citysynth.pipeline.errors import ConfigError
 from citysynth.pipeline.layouts import check_style, default_style
+from citysynth.pipeline.towers import far_bounds
 from citysynth.skeletons import Feature, Frame, parse_geojson, read_geojson
 from citysynth.skeletons.geojson import LONLAT_FRAME
 from citysynth.skeletons.streets import Block, highway_classes, street_blocks
@@ -164,10 +165,14 @@ def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry
     """One job per distinct outline (the same outline twice is one block), by id."""
     libraries: dict[str, PartDB] = {}
     jobs: dict[str, BlockJob] = {}
+    for z in cfg.zones:   # every zone of another kind is checked, blocks in it or not
+        if z.kind.kind != "perimeter":
+            _library_style(z.settings, library, libraries, z.kind, z.name, cfg)
     for kind, poly, highways, spec in outlines:
         wkt = outline_wkt(poly)
-        zone_name, s = _zone_for(cfg, zones, poly, highways)
-        db, path, style = _library_style(s, library, libraries)
+        zone_name, s, zk = _zone_for(cfg, zones, poly, highways)
+        zone_kind = zk if kind == "block" and zk.kind != "perimeter" else None
+        db, path, style = _library_style(s, library, libraries, zone_kind, zone_name, cfg)
         _check_resources(cfg, s, zone_name, db, path)
         job = BlockJob(block_id(kind, wkt), kind, wkt, frame_tuple(frame), zone_name, path,
                        db.library_hash, style, s.k, s.pick, cfg.seed,
@@ -176,7 +181,7 @@ def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry
                        cfg.stretch, cfg.corner_tolerance, cfg.mitre_cost,
                        cfg.min_edge, cfg.slack,
                        spec if isinstance(spec, FootprintSpec) else None,
-                       cut=spec == CUT).with_hash()
+                       cut=spec == CUT, zone_kind=zone_kind).with_hash()
         jobs.setdefault(job.id, job)
     return sorted(jobs.values(), key=lambda j: j.id)
 
@@ -197,9 +202,11 @@ def _check_resources(cfg: CityConfig, s: BuildSettings, zone: str, db: PartDB,
 
 
 def _library_style(s: BuildSettings, library: str | Path | None,
-                   libraries: dict[str, PartDB]) -> tuple[PartDB, str, str]:
+                   libraries: dict[str, PartDB], kind: ZoneKind | None = None,
+                   zone: str = "", cfg: CityConfig | None = None) -> tuple[PartDB, str, str]:
     """The part database (each library loaded once, kept in ``libraries``), its folder
-    and the style a block with settings ``s`` is built in (checked to exist)."""
+    and the style a block with settings ``s`` (of a zone of ``kind``) is built in
+    (checked to exist)."""
     path = s.library or (str(Path(library).resolve()) if library else None)
     if path is None:
         raise ConfigError("no part library: give --library or library = \"...\" in the "
@@ -207,9 +214,42 @@ def _library_style(s: BuildSettings, library: str | Path | None,
     if path not in libraries:
         libraries[path] = load_library(path)
     db = libraries[path]
+    if kind is not None:
+        where = f"{cfg.path if cfg and cfg.path else 'city.toml'}: zone {zone!r}: "
+        return db, path, _kind_style(db, s, kind, where)
     style = s.style or default_style(db)
     check_style(db, style)
     return db, path, style
+
+
+def _kind_style(db: PartDB, s: BuildSettings, kind: ZoneKind, where: str) -> str:
+    """The style a row or towers zone builds in (a towers zone: its own ``style``, else
+    the library's first style with towers), checked against the library and the zone's
+    keys: a row takes no ``per_block`` (it is solved side by side), a towers zone's
+    ``far`` must be within what its heights and lot size allow."""
+    cls, what = ("ground_floor", "towers") if kind.kind == "towers" else \
+        ("building", "complete buildings")
+    styles = sorted({p.style for p in db.parts if p.cls == cls})
+    if kind.kind == "towers":
+        style = kind.style or (styles[0] if styles else "")
+    else:
+        style = s.style or default_style(db)
+    if style not in styles:
+        raise ConfigError(f"{where}style: the library {db.name!r} has no {what} of style "
+                          f"{style!r}; it has {', '.join(styles) or 'none'}")
+    if kind.kind == "row" and s.per_block:
+        raise ConfigError(f"{where}per_block: a row is solved one side at a time, so "
+                          "whole-block intervals cannot hold; use per_side (or per_block "
+                          "= {} in the zone to drop an inherited one)")
+    if kind.kind == "towers":
+        lo, hi = far_bounds(db, style, kind.height, kind.lot)
+        if kind.far[0] > hi or kind.far[1] < lo:
+            raise ConfigError(
+                f"{where}far: [{kind.far[0]:g}, {kind.far[1]:g}] cannot be met: towers of "
+                f"{kind.height[0]:g}-{kind.height[1]:g} m of the {style} parts on lots of "
+                f"about {kind.lot:g} m have a floor-area ratio between {lo:.2f} and "
+                f"{hi:.2f}; ask within that, or change height or lot")
+    return style
 
 
 def _highways(b: Block, feats: list[Feature]) -> tuple[str, ...]:
@@ -235,14 +275,14 @@ def _zone_polygons(cfg: CityConfig, frame: Frame,
 
 
 def _zone_for(cfg: CityConfig, zones: list[shapely.Geometry | None], poly: shapely.Polygon,
-              highways: tuple[str, ...]) -> tuple[str, BuildSettings]:
+              highways: tuple[str, ...]) -> tuple[str, BuildSettings, ZoneKind]:
     """The first zone the block falls in (its representative point inside the zone's
-    polygon, or a street of the zone's classes along it), and its settings."""
+    polygon, or a street of the zone's classes along it), its settings and kind."""
     c = poly.representative_point()
     for z, geom in zip(cfg.zones, zones, strict=True):
         if (geom is not None and geom.contains(c)) or (set(z.highway) & set(highways)):
-            return z.name, z.settings
-    return "", cfg.settings
+            return z.name, z.settings, z.kind
+    return "", cfg.settings, ZoneKind()
 
 
 # --- executing ------------------------------------------------------------------------

@@ -97,6 +97,9 @@ def summary_table(report: Report) -> str:
     if c["error"]:
         lines.append(f"{'internal errors':<22}{c['error']:>8}")
     lines.append(f"{'built / attempted':<22}{100 * report['built_share']:>7.1f}%")
+    if len(report.get("kinds", {})) > 1:   # zones of several kinds: built by kind
+        lines += [f"{'  ' + k + ' built':<22}{v.get('built', 0):>8}"
+                  for k, v in report["kinds"].items()]
     t = report["timings"]
     lines += ["", f"{'stage':<22}{'seconds':>8}", "-" * 30]
     names = [("inputs_s", "streets -> blocks"), ("structure_s", "structures (CPU)"),

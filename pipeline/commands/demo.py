@@ -99,7 +99,9 @@ def run(args) -> int:
     city, png = finish_city(inputs, report, out)
     errors = validate(city)
     c = report["counts"]
-    print(f"{c['built']} blocks built, {c['failed']} failed, {c['skipped']} pieces skipped; "
+    kinds = ", ".join(f"{v.get('built', 0)} {k}" for k, v in report["kinds"].items())
+    print(f"{c['built']} blocks built ({kinds}), {c['failed']} failed, {c['skipped']} pieces "
+          f"skipped; "
           f"wrote {city} (UsdValidation: {'clean' if not errors else f'{len(errors)} errors'})"
           f" and {png}")
     for e in errors:
