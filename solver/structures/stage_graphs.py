@@ -47,9 +47,9 @@ from citysynth.solver.structures.model import Structure
 from citysynth.solver.structures.stage_kbest import (
     Growing,
     StageGraph,
-    _stage_kbest,
+    _best_fill,
     _stage_kbest_of,
-    query_lists,
+    first_lists,
     sorted_paths,
 )
 
@@ -131,6 +131,8 @@ class StageGraphs:
         self.st, self.k, self.table = st, k, table
         self.first = k if first is None else max(1, min(first, k))
         self._graph_of: list[tuple[StageGraph, int, tuple[str, ...]]] = []
+        self._deferred: dict[int, int] = {}   # paths index -> graph, for one-path lists
+        self._read: dict[tuple[int, int], tuple[int, int]] = {}   # their paths, once found
         self._ends_of: dict[tuple[int, str, int, tuple[str, ...], int],
                             tuple[list[str], np.ndarray, np.ndarray]] = {}
         self._boxes: dict[tuple[int, int], tuple[list[tuple[int, str, Share]], np.ndarray,
@@ -369,15 +371,15 @@ class StageGraphs:
         if not meta or (self._ints(self.st.legs[a][leg], grp.dims) > grp.cap).any():
             return
         G, rows = self._graph(grp, a, leg, queries)
-        K = self.first
-        costs, offs, fill, first, same = _stage_kbest(G, K, grp.max_len + 3)
-        gid = len(self._paths)
-        self._paths.append((offs, fill, grp.fillers))
+        gid, gi = len(self._paths), len(self._graph_of)
         self._graph_of.append((G, grp.max_len + 3, grp.fillers))
-        costs, first = costs.tolist(), first.tolist()
+        found, paths = first_lists(G, self.first, self.k, grp.max_len + 3, gid, gi)
+        if paths is None:   # entries point at their queries: paths found when read
+            self._deferred[gid] = gi
+            paths = (_empty(), _empty())
+        self._paths.append((*paths, grp.fillers))
         lists = self._lists
-        for (i, b, share), ls in zip(meta, query_lists(costs, first, K, self.k, same, gid,
-                                                        len(self._graph_of) - 1), strict=True):
+        for (i, b, share), ls in zip(meta, found, strict=True):
             if ls is not None:
                 lists[(i, a, b)][share] = ls
         self.counts["stage_graphs"] += 1
@@ -409,6 +411,8 @@ class StageGraphs:
         """The fillers of a stage list entry and the stage's totals in original units
         (legs included), summed exactly as one-stage solutions are."""
         gid, p = payload
+        if gid in self._deferred:
+            gid, p = self._best_path(gid, p)
         offs, fill, fillers = self._paths[gid]
         ids = [fillers[j - 1] for j in fill[offs[p]:offs[p + 1]].tolist()]
         st = self.st
@@ -416,6 +420,21 @@ class StageGraphs:
         return ids, {r: round(math.fsum([legs[0][r], legs[1][r]]
                                         + [st.elements[x][r] for x in ids]), 9)
                      for r in st.resources}
+
+    def _best_path(self, gid: int, q: int) -> tuple[int, int]:
+        """Where the best path of query q of a one-path list set (see
+        :func:`~citysynth.solver.structures.stage_kbest.first_lists`) is, found once."""
+        got = self._read.get((gid, q))
+        if got is None:
+            G, _depth, fillers = self._graph_of[self._deferred[gid]]
+            fill, same = _best_fill(G, q)
+            offs = np.array([0, len(fill)], dtype=np.int64)
+            if not same:
+                raise AssertionError("a best filling's front-to-back sum differs from its "
+                                     "graph cost")
+            got = self._read[(gid, q)] = (len(self._paths), 0)
+            self._paths.append((offs, fill, fillers))
+        return got
 
     def stats(self) -> dict[str, Any]:
         return {"stages_by": "graphs", **self.counts}

@@ -143,10 +143,7 @@ def _query_states(qlo, qhi):
 
 @njit(cache=True)
 def _stage_kbest(G, K, depth):
-    """The K best fillings of every query of G (see :func:`_stage_kbest_of`); the
-    best one alone by :func:`_stage_best`."""
-    if K == 1:
-        return _stage_best(G)
+    """The K best fillings of every query of G (see :func:`_stage_kbest_of`)."""
     return _stage_kbest_of(G, np.arange(G.qlo.shape[0]), K, depth)
 
 
@@ -188,9 +185,13 @@ def _query_best(G, q, c):
 
 
 @njit(cache=True)
-def _best_back(G, row, e, back):
-    """The fillers of the best path into node (row, e), last first, into ``back``
-    (grown when full): each step takes the least predecessor (cost, then element)."""
+def _best_fill(G, q):
+    """The fillers (front to back) of the best filling of query q, as
+    :func:`_stage_kbest_of` with K = 1 finds it (each step back takes the least
+    predecessor: cost, then element), and whether its front-to-back sum is the
+    query's cost bit for bit."""
+    bc, bkey, row, e = _query_best(G, q, np.zeros(len(G.cap), dtype=np.int64))
+    back = np.empty(max(G.n, 8), dtype=np.int64)
     m = 0
     while e != 0:
         if m == len(back):
@@ -207,47 +208,29 @@ def _best_back(G, row, e, back):
                 if bp < 0 or cost < pc:
                     bp, pc = p, cost
         row, e = rp, bp
-    return m, back
+    fill = back[:m][::-1].copy()
+    prev = 0
+    cost = 0.0
+    for f in fill:
+        cost += G.W[f, prev]
+        prev = f
+    return fill, cost + G.wq[q, prev] == bc
 
 
 @njit(cache=True)
-def _stage_best(G):
-    """The best filling of every query of G, as :func:`_stage_kbest_of` with K = 1
-    finds it, without its heaps and path lists: a path's first entry is the least of
-    its choices (cost, then tie key) and the g of every node is exact, so the best
-    path is the argmin chain from the query back to the start. A block with a
-    per-block door count asks 6,480 queries; the lazy enumeration spends most of
-    its time there setting up slots that a first path never revisits."""
+def _stage_best_costs(G):
+    """The cost of the best filling of every query of G (inf: none), as
+    :func:`_stage_kbest_of` with K = 1 finds it: the least of the query's choices,
+    each the exact g of a node plus the edge into the end key. Without its heaps,
+    path lists or paths: a block with a per-block door count asks 6,480 queries and
+    its structures read a few dozen paths back (:func:`first_lists`)."""
     Q = G.qlo.shape[0]
     c = np.zeros(len(G.cap), dtype=np.int64)
-    costs = np.empty(Q)
-    offs = np.zeros(Q + 1, dtype=np.int64)
-    first = np.zeros(Q + 1, dtype=np.int64)
-    fill = np.empty(16, dtype=np.int64)
-    back = np.empty(16, dtype=np.int64)
-    npath = 0
-    sn = 0
-    same = True
+    out = np.empty(Q)
     for q in range(Q):
-        bc, bkey, brow, be = _query_best(G, q, c)
-        if bkey >= 0:
-            m, back = _best_back(G, brow, be, back)
-            while sn + m > len(fill):
-                fill = np.concatenate((fill, np.empty(len(fill), dtype=np.int64)))
-            prev = 0
-            cost = 0.0
-            for t in range(m):
-                f = back[m - 1 - t]
-                fill[sn + t] = f
-                cost += G.W[f, prev]
-                prev = f
-            costs[npath] = cost + G.wq[q, prev]
-            same = same and costs[npath] == bc
-            sn += m
-            npath += 1
-            offs[npath] = sn
-        first[q + 1] = npath
-    return costs[:npath], offs[:npath + 1], fill[:sn], first, same
+        bc, bkey, _row_, _e = _query_best(G, q, c)
+        out[q] = bc if bkey >= 0 else np.inf
+    return out
 
 
 @njit(cache=True)
@@ -290,6 +273,7 @@ def _stage_kbest_of(G, qs, K, depth):
 
 
 TRUST_EPS = 1e-9   # relative: far above the rounding between two ways of summing
+BEST_BY_ARGMIN = True   # one-path lists from costs alone (tests compare with the kernel)
 
 StageEntry = tuple[float, tuple[int, int]]   # (cost, (paths index, path index))
 
@@ -305,6 +289,30 @@ class Growing(list[StageEntry]):
     gi: int
     q: int
     K: int
+
+
+def first_lists(G: StageGraph, K: int, k: int, depth: int, gid: int, gi: int
+                ) -> tuple[list[list[StageEntry] | None], tuple[np.ndarray, np.ndarray] | None]:
+    """The stage list of every query of graph gi, with up to K paths (at most k are
+    wanted), and the paths (offs, fill) the entries (cost, (gid, path)) point into.
+    With one path each, only the costs are found (:func:`_stage_best_costs`): an
+    entry then points at its query, (gid, q), and the paths are None; the reader
+    finds the path when it needs it (``StageGraphs.filling``) and checks that its
+    front-to-back sum is the cost (it always is: see :func:`sorted_paths`)."""
+    if K == 1 and BEST_BY_ARGMIN:
+        out: list[list[StageEntry] | None] = []
+        for q, c in enumerate(_stage_best_costs(G).tolist()):
+            if c == np.inf:
+                out.append(None)
+            elif k == 1:
+                out.append([(c, (gid, q))])
+            else:
+                ls = Growing([(c, (gid, q))])
+                ls.final, ls.gi, ls.q, ls.K = 1, gi, q, 1
+                out.append(ls)
+        return out, None
+    costs, offs, fill, first, same = _stage_kbest(G, K, depth)
+    return query_lists(costs.tolist(), first.tolist(), K, k, same, gid, gi), (offs, fill)
 
 
 def query_lists(costs: list[float], first: list[int], K: int, k: int, same: bool,
