@@ -11,7 +11,8 @@ two must agree on every cost, or the benchmark stops.
 Targets (issue 15): a per-block interval at most 2x the cost of the same block
 without it; k = 100 at most 3x k = 1 on the 40-corner block. The last table times
 the four 40-corner solves the targets compare in turn, round after round (bench/timing.py,
-``interleaved``), so each ratio is of medians taken in the same rounds.
+``interleaved``, three times --runs rounds), so each ratio is of medians taken in the
+same rounds.
 
     python -m bench.structures [--runs 5] [--cpu]
 """
@@ -75,7 +76,8 @@ def _targets(runs: int) -> None:
     doors = Structure.from_dict(block_cycle(40, doors=DOORS))
     fns = {(d, k): (lambda st=st, k=k: solve_structure(st, k))
            for d, st in (("plain", plain), ("doors", doors)) for k in (1, 100)}
-    m = interleaved({f"{d} {k}": fn for (d, k), fn in fns.items()}, runs)
+    # three times the rounds: ratios of a few milliseconds move with a busy machine
+    m = interleaved({f"{d} {k}": fn for (d, k), fn in fns.items()}, 3 * runs)
     t = {name: v[0] for name, v in m.items()}
     rows = [("per-block interval / without it, k = 1", "doors 1", "plain 1", 2.0),
             ("per-block interval / without it, k = 100", "doors 100", "plain 100", 2.0),
