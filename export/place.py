@@ -179,6 +179,8 @@ class _Placer:
         self.record = _Record()
         self.stretch: list[float] = []
         self.solved: list[float] = []
+        self._bands: dict[int, BaseGeometry] = {}     # once every module is placed
+        self._far: dict[int, BaseGeometry] = {}
 
     def place(self) -> tuple[list[Instance], _Record]:
         self._stretches()
@@ -344,22 +346,41 @@ class _Placer:
         nearer its own facade: the plane of equal depth behind both facades. At a right
         angle this is the corner's bisector; facing each other, the middle."""
         stages = self.plan.stages
-        depth = [max((self.placed[i].y_range[1] for i in self.record.stages[s].fill),
-                     default=0.0) for s in range(len(stages))]
-        bands = [_band(st.points, st.front, depth[s]) for s, st in enumerate(stages)]
-        touching = {(a, b) for a, st_a in enumerate(stages) for b, st_b in enumerate(stages)
-                    if {st_a.start, st_a.end} & {st_b.start, st_b.end}}
+        bands = [self._stage_band(s) for s in range(len(stages))]
         tree = shapely.STRtree(bands)
         for s in range(len(stages)):
+            apart = set(self._apart(s))
             for i in self.record.stages[s].fill:
                 foot = _footprint(self.placed[i], self.span[i])
                 for t in tree.query(foot, predicate="intersects"):
-                    if t == s or (s, t) in touching:
+                    if int(t) not in apart:
                         continue
                     if foot.intersection(bands[t]).area > MEDIAL_MIN_AREA:
                         self._medial(i, s, int(t))
         for s in range(len(stages)):
             self._medial_runs(s)
+
+    def _apart(self, s: int) -> list[int]:
+        """The stages that share no key point with stage s."""
+        st = self.plan.stages[s]
+        return [t for t, o in enumerate(self.plan.stages)
+                if not {st.start, st.end} & {o.start, o.end}]
+
+    def _stage_band(self, s: int) -> BaseGeometry:
+        """The ground behind stage s's facades, as deep as its deepest module (once all
+        modules are placed: joints and medial cuts come after)."""
+        if s not in self._bands:
+            st = self.plan.stages[s]
+            depth = max((self.placed[i].y_range[1] for i in self.record.stages[s].fill),
+                        default=0.0)
+            self._bands[s] = _band(st.points, st.front, depth)
+        return self._bands[s]
+
+    def _far_band(self, s: int) -> BaseGeometry:
+        """The ground behind every stage that shares no key point with stage s."""
+        if s not in self._far:
+            self._far[s] = shapely.union_all([self._stage_band(u) for u in self._apart(s)])
+        return self._far[s]
 
     def _medial_runs(self, s: int) -> None:
         """Within one stage, a bend's fold plane separates every piece before it from
@@ -388,15 +409,19 @@ class _Placer:
     def _reaches_past(self, i: int, half: HalfPlane) -> bool:
         """Whether module i has mass past ``half`` (more than MEDIAL_MIN_AREA of plan)
         while its facade stays clear of it (a plane that would cut the facade is left)."""
-        placed = self.placed[i]
         n, c = np.asarray(half.normal), float(np.asarray(half.point) @ np.asarray(half.normal))
         facade = self._facade(i)
         if (facade @ n > c + TOL).any():
             return False
+        return self._past(i, half).area > MEDIAL_MIN_AREA
+
+    def _past(self, i: int, half: HalfPlane) -> BaseGeometry:
+        """The plan of module i (as cut so far) on the far side of ``half``."""
+        placed = self.placed[i]
         foot = _clipped_footprint(placed, self.span[i])
         size = 10.0 * (placed.length + abs(placed.y_range[0]) + abs(placed.y_range[1]) + 1.0)
-        return foot.intersection(_half_polygon(-n, np.asarray(half.point), size)).area \
-            > MEDIAL_MIN_AREA
+        return foot.intersection(_half_polygon(-np.asarray(half.normal),
+                                               np.asarray(half.point), size))
 
     def _facade(self, i: int) -> np.ndarray:
         """The world end points of module i's facade line as its cuts so far leave it (a
@@ -440,9 +465,14 @@ class _Placer:
 
     # -- mitre joints ---------------------------------------------------------------------
 
-    def _cut_reaching(self, order, half: HalfPlane) -> None:
-        """Add ``half`` to the modules, nearest the corner first, whose footprint
-        reaches past it; the first (the one at the corner) always."""
+    def _cut_reaching(self, order, half: HalfPlane, s: int, t: int) -> None:
+        """Add ``half`` to the modules of stage s, nearest the corner first, whose
+        footprint reaches past it; the first (the one at the corner) always. A module
+        whose mass past the plane misses stage t (the other side of the joint) and lies
+        in a stage sharing no corner with s is left to the medial plane between those
+        two (:meth:`_medial_cuts`): past a short side t (an acute corner cut off by a
+        few metres of facade) the joint's plane would leave a wedge of roof open."""
+        other, far = self._stage_band(t), self._far_band(s)
         for n, i in enumerate(order):
             placed = self.placed[i]
             (x0, x1), (y0, y1) = self.span[i], placed.y_range
@@ -450,6 +480,10 @@ class _Placer:
                 + placed.origin
             if n > 0 and not ((corners - half.point) @ np.asarray(half.normal) > TOL).any():
                 return
+            past = self._past(i, half) if n > 0 else None
+            if past is not None and past.intersection(other).area <= MEDIAL_MIN_AREA \
+                    and past.intersection(far).area > MEDIAL_MIN_AREA:
+                continue
             placed.halves.append(half if n == 0 else replace(half, extends=False))
 
     def _joint(self, j: int) -> None:
@@ -471,9 +505,9 @@ class _Placer:
         # every module near the corner whose mass reaches past a plane is cut by it (at
         # a right angle, the modules within a building depth of the corner)
         for half in before:
-            self._cut_reaching(reversed(fill_in), half)
+            self._cut_reaching(reversed(fill_in), half, s_in, s_out)
         for half in after:
-            self._cut_reaching(fill_out, half)
+            self._cut_reaching(fill_out, half, s_out, s_in)
         self.record.joints[j] = how
         self.record.joint_ends[j] = (self.kxy[j] - u_in * trim, self.kxy[j] + u_out * trim)
 
