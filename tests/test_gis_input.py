@@ -443,3 +443,25 @@ def test_zone_polygons_stay_lon_lat_when_the_streets_are_reprojected(district_gd
     got = prepare(f, None, load_config(cfg), None, "EPSG:3857")
     assert {j.zone for j in ref.jobs} == {"", "east"}
     assert summary(got) == summary(ref)
+
+
+def test_zone_polygons_in_lon_lat_or_in_the_kept_crs(district_gdf, tmp_path):
+    """Streets in a true-to-scale projected CRS are kept in its axes; a zone polygon in
+    lon/lat, or in that CRS's own metres, picks the same blocks as with lon/lat streets."""
+    ring = [[24.9470, 60.160], [24.960, 60.160], [24.960, 60.180], [24.9470, 60.180]]
+    tf = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:3067", always_xy=True)
+    zones = {}
+    for name, poly in (("lonlat", ring), ("tm35", [list(tf.transform(*q)) for q in ring])):
+        cfg = tmp_path / f"{name}.toml"
+        cfg.write_text(f'library = "{LIB}"\n[[zone]]\nname = "east"\nstyle = "modern"\n'
+                       f"polygon = {json.dumps(poly)}\n")
+        zones[name] = load_config(cfg)
+    f = tmp_path / "tm35fin.geojson"
+    district_gdf.to_crs("EPSG:3067").to_file(f, driver="GeoJSON")
+    ref = prepare(DISTRICT, None, zones["lonlat"], None)
+    east = sorted(j.id for j in ref.jobs if j.zone == "east")
+    assert east and len(east) < len(ref.jobs)
+    for cfg in zones.values():
+        got = prepare(f, None, cfg, None)
+        assert got.frame.source_crs == "EPSG:3067"
+        assert len([j for j in got.jobs if j.zone == "east"]) == len(east)

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol, TextIO
 
+import pyproj
 import shapely
 
 from citysynth.parts_db import PartDB, load_library
@@ -260,16 +261,25 @@ def _highways(b: Block, feats: list[Feature]) -> tuple[str, ...]:
 def _zone_polygons(cfg: CityConfig, frame: Frame,
                    crs: str | None) -> list[shapely.Geometry | None]:
     """Each zone's polygon in the city frame (projected like the streets), or None for
-    a zone chosen by street class; in the order of ``cfg.zones``."""
+    a zone chosen by street class; in the order of ``cfg.zones``. Polygons are lon/lat;
+    with projected input they may also be written in the input's CRS (told apart by
+    range: projected metres are never all within +-180, +-90)."""
     with_poly = [(z.name, z.polygon) for z in cfg.zones if z.polygon]
     if not with_poly:
         return [None] * len(cfg.zones)
+    lonlat = all(-180 <= x <= 180 and -90 <= y <= 90 for _, poly in with_poly for x, y in poly)
+    zone_crs = None if lonlat else (frame.source_crs or crs)
+    if frame.crs != LONLAT_FRAME:   # projected input kept as it is: zones in its CRS
+        zone_crs = frame.source_crs
+        if lonlat:
+            tf = pyproj.Transformer.from_crs("EPSG:4326", frame.source_crs, always_xy=True)
+            with_poly = [(name, tuple(tf.transform(x, y) for x, y in poly))
+                         for name, poly in with_poly]
     fc = {"type": "FeatureCollection", "features": [
         {"type": "Feature", "properties": {"name": name},
          "geometry": {"type": "Polygon", "coordinates": [[*map(list, poly), list(poly[0])]]}}
         for name, poly in with_poly]}
-    feats, _ = parse_geojson(fc, "city.toml zones", None if frame.crs == LONLAT_FRAME else crs,
-                             frame.origin)   # lon/lat zones into a lon/lat-based frame
+    feats, _ = parse_geojson(fc, "city.toml zones", zone_crs, frame.origin)
     geoms = iter(f.geometry for f in feats)
     return [next(geoms) if z.polygon else None for z in cfg.zones]
 
