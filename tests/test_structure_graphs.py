@@ -293,9 +293,10 @@ def test_lazy_chain_program_on_a_block_outline(doors):
 @given(st.one_of(varied(), chains()))
 def test_best_fillings_by_argmin_chains_are_the_enumerations(d):
     """One-path stage lists (k = 1, and the lazy program's first paths) come from the
-    graphs' costs alone, their paths found when a solution reads them
-    (stage_kbest.first_lists): the same solutions, costs, totals and order as with
-    the lazy enumeration's first paths, at k = 1 and k = 3."""
+    graphs' costs alone, their paths found when a solution reads them, the lists made
+    when read and the lazy program's first entries taken as one array
+    (stage_kbest.one_path, StageGraphs.first_costs): the same solutions, costs, totals
+    and order as with the lazy enumeration's first paths, at k = 1 and k = 3."""
     from citysynth.solver.structures import stage_kbest
 
     s = Structure.from_dict(d)

@@ -143,12 +143,17 @@ class ChainProgram:
     A list may say that only its ``final`` leading entries are final (more paths may
     follow, :class:`citysynth.solver.structures.stage_kbest.Growing`); ``more(s, a, b,
     share)`` then replaces it by a longer one and returns its new ``final`` count (k
-    once complete). Without ``final`` a list is complete."""
+    once complete). Without ``final`` a list is complete. ``firsts``: the cost of every
+    list's first entry, C[stage, start element, end element, share] (elements by their
+    index at their key point, inf for none; see ``StageGraphs.first_costs``), when
+    the provider has them without making the lists: then a list is only asked for
+    when the enumeration reads it."""
 
     def __init__(self, st: Structure, k: int, ghi: list[int], glo: list[int],
                  chain: tuple[list[int], list[int]],
                  stage_lists: Callable[[int, str, str], dict[Share, StageList]],
-                 more: Callable[[int, str, str, Share], int] | None = None):
+                 more: Callable[[int, str, str, Share], int] | None = None,
+                 firsts: np.ndarray | None = None):
         self.st, self.k, self.glo = st, k, glo
         self.keys, self.stages = chain
         self.stage_lists, self._more = stage_lists, more
@@ -166,18 +171,27 @@ class ChainProgram:
         self.cfl: list[list[float]] = self.cf.tolist()
         self.shares: list[Share] = [self.share(g) for g in range(self.S)]
         self.last = self.L - 1 if st.closed else -1   # the position closing a cycle
-        self.lists: list[list[list[dict[Share, StageList]]]] = []
+        # the provider's lists by position, start and end element, asked for once
+        self.lists: list[list[list[dict[Share, StageList] | None]]] = [
+            [[None] * len(self.elems[(p + 1) % len(self.elems)]) for _e in self.elems[p]]
+            for p in range(self.L)]
         self._payloads: dict[tuple[int, int, int, int, int], Payload] = {}
-        self.A = np.full((self.L, self.E, self.E, self.S), np.inf)
+        if firsts is not None:
+            self.A = np.ascontiguousarray(firsts[self.stages][:, :self.E, :self.E, :self.S])
+        else:
+            self.A = self._first_entries()
+
+    def _first_entries(self) -> np.ndarray:
+        """The first entry of every list (made final first), as ``A`` holds them."""
+        A = np.full((self.L, self.E, self.E, self.S), np.inf)
         at: list[int] = []      # flat indices into A and the first entries' costs
         firsts: list[float] = []
         for p, s in enumerate(self.stages):
             ends = self.elems[(p + 1) % len(self.elems)]
-            self.lists.append([[stage_lists(s, e, f) for f in ends] for e in self.elems[p]])
             for ei, e in enumerate(self.elems[p]):
                 for fi, f in enumerate(ends):
                     base = ((p * self.E + ei) * self.E + fi) * self.S
-                    lists = self.lists[p][ei][fi]
+                    lists = self._lists(p, ei, fi)
                     for share, ls in lists.items():
                         if getattr(ls, "final", 1) < 1:   # entry 0 final first
                             self._grow(s, e, f, share, 0)
@@ -185,7 +199,18 @@ class ChainProgram:
                         if ls:
                             at.append(base + (share[0] if self.one else 0))
                             firsts.append(ls[0][0])
-        self.A.reshape(-1)[at] = firsts
+        A.reshape(-1)[at] = firsts
+        return A
+
+    def _lists(self, p: int, ei: int, fi: int) -> dict[Share, StageList]:
+        """The provider's lists of stage position p from element ei to fi by share (its
+        own dict: lists grow in place)."""
+        row = self.lists[p][ei]
+        got = row[fi]
+        if got is None:
+            got = row[fi] = self.stage_lists(self.stages[p], self.elems[p][ei],
+                                             self.elems[(p + 1) % len(self.elems)][fi])
+        return got
 
     def _grow(self, s: int, e: str, f: str, share: Share, i: int) -> None:
         """Ask for more paths until entry i of a list is final (or known absent)."""
@@ -202,7 +227,7 @@ class ChainProgram:
         """Entry i of the list of stage position p from element ei to fi, or None;
         finds more paths first when entry i is not final yet (entry 0 always is,
         from the constructor on)."""
-        lists = self.lists[p][ei][fi]   # the provider's dict: lists grow in place
+        lists = self._lists(p, ei, fi)
         ls = lists.get(share)
         if ls is None or i >= self.k:
             return None

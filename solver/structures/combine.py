@@ -134,16 +134,19 @@ def first_paths(st: Structure, k: int, ghi: list[int]) -> int:
 
 def best_structures(st: Structure, k: int, ghi: list[int], glo: list[int],
                     stage_lists: StageLists,
-                    more: Callable[[int, str, str, Share], int] | None = None
+                    more: Callable[[int, str, str, Share], int] | None = None,
+                    firsts: Callable[[], np.ndarray | None] | None = None
                     ) -> list[tuple[float, str, Payload]]:
     """The k best (cost, element at the root, payload) of structure ``st``. A payload
     maps each stage to (element at its end, the stage list's payload, payload below
     that end). ``ghi``/``glo``: bounds of the structure-wide resources in quanta.
     Chains and cycles go to the lazy program of :mod:`.chain_kbest` (same sums, same
-    order), whose lists may start short and grow by ``more`` (see there)."""
+    order), whose lists may start short and grow by ``more``, and whose first entries
+    may come as one array from ``firsts`` (see there)."""
     chain = chain_of(st, ghi) if LAZY_CHAINS else None
     if chain is not None:  # (chain_of is cheap: a walk over the stages)
-        return ChainProgram(st, k, ghi, glo, chain, stage_lists, more).run()
+        return ChainProgram(st, k, ghi, glo, chain, stage_lists, more,
+                            firsts() if firsts is not None else None).run()
     return _Program(st, k, ghi, stage_lists).run(glo)
 
 

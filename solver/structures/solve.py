@@ -157,7 +157,8 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
     with paused_gc():
         provider = _provider(st, k, method, grid, max_memory_mb, table, solve_kw)
         results = best_structures(st, k, ghi, glo, provider.lists,
-                                  getattr(provider, "more", None))
+                                  getattr(provider, "more", None),
+                                  getattr(provider, "first_costs", None))
     seen: dict[tuple[int, int], tuple[Any, str, str, list[str], dict[str, float]]] = {}
     sols = [_solution(st, provider, cost, e, payload, seen) for cost, e, payload in results]
     stats = {"method": method, **provider.stats(),

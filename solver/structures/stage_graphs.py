@@ -35,6 +35,7 @@ from citysynth.solver.estimate import DENSE_TABLE_MAX_BYTES, row_bytes
 from citysynth.solver.graph import STATUS_OK, _grow_graph
 from citysynth.solver.quantize import bounds_in_quanta, exact_divisor, is_multiple
 from citysynth.solver.solve import solve
+from citysynth.solver.structures import stage_kbest
 from citysynth.solver.structures.combine import Share, StageList
 from citysynth.solver.structures.decompose import (
     Grid,
@@ -48,13 +49,12 @@ from citysynth.solver.structures.stage_kbest import (
     Growing,
     StageGraph,
     _best_fill,
+    _stage_best_costs,
     _stage_kbest_of,
     first_lists,
+    one_path,
     sorted_paths,
 )
-
-# (stage, end element, share) of each query, and their boxes and weights as arrays
-Queries = tuple[list[tuple[int, str, Share]], np.ndarray, np.ndarray, np.ndarray]
 
 
 def _empty() -> np.ndarray:
@@ -119,6 +119,46 @@ def _box(hi: np.ndarray, r: np.ndarray, start: np.ndarray) -> tuple[np.ndarray, 
     return np.minimum(hi, start + max_len * r.max(axis=0)), max_len
 
 
+@dataclass
+class _QuerySet:
+    """The (stage, end element, share) queries on a group's graph from one start leg,
+    as arrays: the same whatever the start element (only the weights of the edges out
+    of it differ, :meth:`StageGraphs._weights`). Query q asks stage ``stages[pos[q]]``
+    to end on element ``bi[q]`` of its end key point with share ``shares[share[q]]``
+    (``code[q]``: the share's value when there is one structure-wide resource), its
+    last node inside the box qlo[q]..qhi[q]. ``span``: where the queries of a stage
+    and end element lie; ``ends``: the rows of each set of end elements and their leg.
+    Stage lists are made from them when read (:meth:`StageGraphs.lists`): a block with
+    a per-block door count asks 6,480 queries and its k best read a few dozen lists."""
+
+    stages: list[int]
+    qlo: np.ndarray
+    qhi: np.ndarray
+    pos: np.ndarray
+    bi: np.ndarray
+    share: np.ndarray
+    code: np.ndarray
+    span: dict[tuple[int, str], tuple[int, int]]
+    ends: list[tuple[tuple[int, int], np.ndarray, np.ndarray]]
+
+
+@dataclass
+class _Solved:
+    """The queries of one graph (start element ``a``) and where their lists are: the
+    best cost of each (``costs``, one-path lists made when read), or made already
+    (None: ``StageGraphs._lists`` holds them)."""
+
+    a: str
+    qs: _QuerySet
+    gid: int
+    gi: int
+    costs: np.ndarray | None
+
+
+def _cat(xs: list[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+    return np.concatenate(xs) if xs else np.zeros(shape, dtype=np.int64)
+
+
 class StageGraphs:
     """Every stage list of a structure, computed up front from shared graphs; a list's
     payload is (paths index, path index). ``first``: how many paths each query gets
@@ -133,19 +173,26 @@ class StageGraphs:
         self._graph_of: list[tuple[StageGraph, int, tuple[str, ...]]] = []
         self._deferred: dict[int, int] = {}   # paths index -> graph, for one-path lists
         self._read: dict[tuple[int, int], tuple[int, int]] = {}   # their paths, once found
-        self._ends_of: dict[tuple[int, str, int, tuple[str, ...], int],
-                            tuple[list[str], np.ndarray, np.ndarray]] = {}
-        self._boxes: dict[tuple[int, int], tuple[list[tuple[int, str, Share]], np.ndarray,
-                                                 np.ndarray, np.ndarray]] = {}
+        self._weights_of: dict[tuple[int, str, int, tuple[str, ...], int], np.ndarray] = {}
+        self._legs_of: dict[tuple[int, tuple[str, ...], int], np.ndarray] = {}
+        self._boxes: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                 np.ndarray]] = {}
+        self._sets: dict[tuple[int, tuple[int, ...]], _QuerySet] = {}
+        self._from: dict[tuple[int, str], _Solved | None] = {}   # (stage, start element)
+        self._solved: list[_Solved] = []
         gnames, gq, _glo, ghi = grid
         self.gnames, self.gq, self.ghi = gnames, gq, ghi
         self.shares = list(itertools.product(*[range(h + 1) for h in ghi]))
+        self._share_arr = np.array(self.shares, dtype=np.int64).reshape(
+            len(self.shares), len(ghi))
+        self._all_shares = np.arange(len(self.shares), dtype=np.int64)
+        self._alike: dict[tuple[str, ...], int] = {}   # end elements -> first key point
         tracked = {r for s in st.stages for r in s.constraints} | set(gnames)
         self.q = _quanta(st, tracked, gnames, gq)
         self.budget = int(max_memory_mb * 2**20)
         self._lists: dict[tuple[int, str, str], dict[Share, StageList]] = {}
         self._paths: list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = []
-        self._shares_of: dict[int, list[Share]] = {}
+        self._shares_of: dict[int, np.ndarray] = {}
         self.counts = {"stage_graphs": 0, "stage_queries": 0, "graph_rows": 0}
         groups = self._groups()
         for grp in groups:  # every box is checked before any graph is grown
@@ -241,95 +288,126 @@ class StageGraphs:
         return [i for i in grp.stages
                 if start_leg(st, i) == leg and a in st.keypoints[st.stages[i].start]]
 
-    def _queries(self, grp: _Group, a: str, leg: int) -> Queries:
-        """The (stage, end element, share) queries on the graph of (a, leg): their
-        boxes of admissible states before the end key's leg, and the weights of the
-        edges into the end key (from the start itself, then from each filler)."""
+    def _query_set(self, grp: _Group, stages: list[int]) -> _QuerySet:
+        """The queries of a graph of the group whose start may begin ``stages``: every
+        stage, end element and allowed share at once; made once for every start element
+        that begins the same stages (the three corner parts of a block outline)."""
+        key = (id(grp), tuple(stages))
+        got = self._sets.get(key)
+        if got is not None:
+            return got
         st = self.st
         R = len(grp.dims)
-        meta: list[tuple[int, str, Share]] = []
-        lo_rows, hi_rows, w_rows = [], [], []
-        ends: dict[tuple[int, int], tuple[list[str], np.ndarray, np.ndarray]] = {}
-        for i in self._stages_from(grp, a, leg):
+        cols: list[list[np.ndarray]] = [[], [], [], [], []]   # share, qlo, qhi, bi, pos
+        span: dict[tuple[int, str], tuple[int, int]] = {}
+        ends: dict[tuple[int, int], tuple[list[np.ndarray], list[np.ndarray]]] = {}
+        at = 0
+        for p, i in enumerate(stages):
             stage = st.stages[i]
             end = (stage.end, st.end_leg(i))   # a T is reached by its in- or branch leg
-            if end not in ends:
-                ends[end] = self._ends(grp, a, leg, *end)
-            bs, legs, w = ends[end]
-            for b in bs:
-                self._lists[(i, a, b)] = {}
-            got = self._boxes.get((id(grp), i))   # the same for every start element
-            if got is None:
-                got = self._boxes[(id(grp), i)] = self._stage_boxes(grp, i, bs, legs)
-            part, qlo, qhi, bi = got
-            if part:
-                meta.extend(part)
-                lo_rows.append(qlo)
-                hi_rows.append(qhi)
-                w_rows.append(w[bi])
-        n1 = len(grp.fillers) + 1
-        return (meta,
-                np.concatenate(lo_rows) if lo_rows else np.zeros((0, R), dtype=np.int64),
-                np.concatenate(hi_rows) if hi_rows else np.zeros((0, R), dtype=np.int64),
-                np.concatenate(w_rows) if w_rows else np.zeros((0, n1)))
+            box = self._stage_boxes(grp, i, *end)
+            bi = box[3]
+            m = len(bi)
+            for col, arr in zip(cols, (*box, np.full(m, p, dtype=np.int64)), strict=True):
+                col.append(arr)
+            bs = st.keypoints[stage.end]
+            cut = (at + np.searchsorted(bi, np.arange(len(bs) + 1))).tolist()
+            for x, b in enumerate(bs):
+                span[(i, b)] = (cut[x], cut[x + 1])
+            rows, bis = ends.setdefault((self._end_key(stage.end), end[1]), ([], []))
+            rows.append(np.arange(at, at + m))
+            bis.append(bi)
+            at += m
+        share, qlo, qhi, bi, pos = (_cat(col, (0, R) if c in (1, 2) else (0,))
+                                    for c, col in enumerate(cols))
+        code = self._share_arr[share, 0] if len(self.ghi) == 1 else np.zeros_like(share)
+        got = self._sets[key] = _QuerySet(
+            list(stages), qlo, qhi, pos, bi, share, code, span,
+            [(e, np.concatenate(rows), np.concatenate(bis)) for e, (rows, bis) in ends.items()])
+        return got
 
-    def _stage_boxes(self, grp: _Group, i: int, bs: list[str], legs: np.ndarray
-                     ) -> tuple[list[tuple[int, str, Share]], np.ndarray, np.ndarray,
-                                np.ndarray]:
+    def _end_key(self, v: int) -> int:
+        """The first key point with the same elements as key point v (alike key points
+        share their legs and weights: one array operation for every corner of a block)."""
+        return self._alike.setdefault(tuple(self.st.keypoints[v]), v)
+
+    def _stage_boxes(self, grp: _Group, i: int, v: int, end_leg: int
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Stage i's queries on a graph of its group, whatever its start element: every
         end element and allowed share at once, the stage's own interval with the share
         on the structure-wide dimensions, the end key's leg taken off (a block with a
         per-block door count has dozens of shares per stage and end element, a city
-        corner 20-30 end elements). Returns the (stage, end element, share) of each,
-        their boxes and the end element (index into ``bs``) of each."""
+        corner 20-30 end elements). Returns the share (index into ``shares``) of each,
+        their boxes and the end element (index into key point v's elements) of each,
+        by end element, then share."""
+        key = (id(grp), i)
+        got = self._boxes.get(key)
+        if got is not None:
+            return got
         lo, hi = self._bounds(i, grp.dims)
-        shares = self._allowed_shares(i)
-        wide = [grp.dims.index(r) for r in self.gnames]
-        LO = np.repeat(lo[None, :], len(shares), axis=0)
-        HI = np.repeat(hi[None, :], len(shares), axis=0)
-        if wide:
-            G = np.array(shares, dtype=np.int64).reshape(len(shares), len(wide))
+        legs = self._legs(grp, v, end_leg)
+        idx = self._allowed_shares(i)
+        R = len(grp.dims)
+        LO = np.empty((len(idx), R), dtype=np.int64)
+        HI = np.empty((len(idx), R), dtype=np.int64)
+        LO[:] = lo
+        HI[:] = hi
+        if self.gnames:
+            wide = [grp.dims.index(r) for r in self.gnames]
+            G = self._share_arr[idx]
             LO[:, wide] = G
             HI[:, wide] = G
         qlo = np.maximum(LO[None, :, :] - legs[:, None, :], 0)
         qhi = np.minimum(HI[None, :, :] - legs[:, None, :], grp.cap)
         bi, j = np.nonzero((qlo <= qhi).all(axis=2))   # by end element, then share
-        part = [(i, bs[x], shares[y]) for x, y in zip(bi.tolist(), j.tolist(), strict=True)]
-        return part, qlo[bi, j], qhi[bi, j], bi
+        got = self._boxes[key] = (idx[j], qlo[bi, j], qhi[bi, j], bi)
+        return got
 
-    def _ends(self, grp: _Group, a: str, leg: int, v: int, end_leg: int = 0
-              ) -> tuple[list[str], np.ndarray, np.ndarray]:
-        """The end elements of key point v, their legs (``end_leg``) in quanta, and the
-        weights of the edges into each (from start element a itself, then from each
-        filler; into a T's branch leg, the branch-in costs). Made once per group, start,
-        leg and set of end elements (every corner of a block outline has the same)."""
+    def _legs(self, grp: _Group, v: int, end_leg: int) -> np.ndarray:
+        """The legs (``end_leg``) of key point v's elements in quanta, once per group and
+        set of end elements (every corner of a block outline has the same)."""
+        st = self.st
+        key = (id(grp), tuple(st.keypoints[v]), end_leg)
+        got = self._legs_of.get(key)
+        if got is None:
+            bs = st.keypoints[v]
+            got = self._legs_of[key] = np.array(
+                [self._ints(st.legs[b][end_leg], grp.dims) for b in bs],
+                dtype=np.int64).reshape(len(bs), len(grp.dims))
+        return got
+
+    def _weights(self, grp: _Group, a: str, leg: int, v: int, end_leg: int) -> np.ndarray:
+        """The weights of the edges into each end element of key point v (from start
+        element a itself, then from each filler; into a T's branch leg, the branch-in
+        costs), once per group, start, leg and set of end elements."""
         st = self.st
         key = (id(grp), a, leg, tuple(st.keypoints[v]), end_leg)
-        got = self._ends_of.get(key)
-        if got is not None:
-            return got
-        first = st.branch_transitions if leg == 2 else st.transitions
-        last = st.branch_in_transitions if end_leg == 2 else st.transitions
-        bs = list(st.keypoints[v])
-        legs = np.array([self._ints(st.legs[b][end_leg], grp.dims) for b in bs],
-                        dtype=np.int64).reshape(len(bs), len(grp.dims))
-        w = np.array([[first.get((a, b), np.inf)]
-                      + [last.get((f, b), np.inf) for f in grp.fillers]
-                      for b in bs], dtype=np.float64).reshape(len(bs), len(grp.fillers) + 1)
-        self._ends_of[key] = (bs, legs, w)
-        return bs, legs, w
+        got = self._weights_of.get(key)
+        if got is None:
+            first = st.branch_transitions if leg == 2 else st.transitions
+            last = st.branch_in_transitions if end_leg == 2 else st.transitions
+            bs = st.keypoints[v]
+            got = self._weights_of[key] = np.array(
+                [[first.get((a, b), np.inf)] + [last.get((f, b), np.inf) for f in grp.fillers]
+                 for b in bs], dtype=np.float64).reshape(len(bs), len(grp.fillers) + 1)
+        return got
 
-    def _allowed_shares(self, i: int) -> list[Share]:
-        """The shares of the structure-wide resources stage i may take (its own
-        interval on such a resource, if any), once per stage."""
+    def _allowed_shares(self, i: int) -> np.ndarray:
+        """The shares (indices into ``shares``) of the structure-wide resources stage i
+        may take (its own interval on such a resource, if any), once per stage."""
         got = self._shares_of.get(i)
         if got is None:
             stage = self.st.stages[i]
-            got = [g for g in self.shares if share_allowed(stage, g, self.gnames, self.gq)]
+            if any(r in stage.constraints for r in self.gnames):
+                got = np.array([x for x, g in enumerate(self.shares)
+                                if share_allowed(stage, g, self.gnames, self.gq)],
+                               dtype=np.int64)
+            else:
+                got = self._all_shares
             self._shares_of[i] = got
         return got
 
-    def _graph(self, grp: _Group, a: str, leg: int, queries: Queries
+    def _graph(self, grp: _Group, a: str, leg: int, qs: _QuerySet
                ) -> tuple[StageGraph, int]:
         """Grow the graph of start element a on leg ``leg`` (forward only) and wrap it
         with its queries for the kernel; returns it and its row count."""
@@ -360,35 +438,84 @@ class StageGraphs:
                 f"{max_rows:,} state rows, the memory budget of "
                 f"{self.budget / 2**20:,.0f} MB; use a coarser quantum, tighter bounds "
                 "or raise the budget (--max-memory MB)")
-        _meta, qlo, qhi, wq = queries
+        wq = np.empty((len(qs.bi), n))
+        for (v, end_leg), rows, bi in qs.ends:
+            wq[rows] = self._weights(grp, a, leg, v, end_leg)[bi]
         return StageGraph(int(nrows) * n, n, W, g, row_state, r @ stride, cap, stride,
-                          dense, keys, vals, int(shift), qlo, qhi, wq), int(nrows)
+                          dense, keys, vals, int(shift), qs.qlo, qs.qhi, wq), int(nrows)
 
     def _solve(self, grp: _Group, a: str, leg: int) -> None:
-        """Fill the lists of every query of the graph of (a, leg)."""
-        queries = self._queries(grp, a, leg)
-        meta = queries[0]
-        if not meta or (self._ints(self.st.legs[a][leg], grp.dims) > grp.cap).any():
-            return
-        G, rows = self._graph(grp, a, leg, queries)
-        gid, gi = len(self._paths), len(self._graph_of)
-        self._graph_of.append((G, grp.max_len + 3, grp.fillers))
-        found, paths = first_lists(G, self.first, self.k, grp.max_len + 3, gid, gi)
-        if paths is None:   # entries point at their queries: paths found when read
-            self._deferred[gid] = gi
-            paths = (_empty(), _empty())
-        self._paths.append((*paths, grp.fillers))
-        lists = self._lists
-        for (i, b, share), ls in zip(meta, found, strict=True):
-            if ls is not None:
-                lists[(i, a, b)][share] = ls
-        self.counts["stage_graphs"] += 1
-        self.counts["stage_queries"] += len(meta)
-        self.counts["graph_rows"] += rows
+        """Solve the queries of the graph of (a, leg): their best costs (one-path lists,
+        made when read), or their lists of ``first`` paths."""
+        stages = self._stages_from(grp, a, leg)
+        qs = self._query_set(grp, stages)
+        rec = None
+        if len(qs.bi) and not (self._ints(self.st.legs[a][leg], grp.dims) > grp.cap).any():
+            G, rows = self._graph(grp, a, leg, qs)
+            gid, gi = len(self._paths), len(self._graph_of)
+            self._graph_of.append((G, grp.max_len + 3, grp.fillers))
+            if self.first == 1 and stage_kbest.BEST_BY_ARGMIN:
+                # entries point at their queries: paths found when read
+                rec = _Solved(a, qs, gid, gi, _stage_best_costs(G))
+                self._deferred[gid] = gi
+                self._paths.append((_empty(), _empty(), grp.fillers))
+            else:
+                found, paths = first_lists(G, self.first, self.k, grp.max_len + 3, gid, gi)
+                self._paths.append((*paths, grp.fillers))
+                rec = _Solved(a, qs, gid, gi, None)
+                shares = self.shares
+                for i in stages:
+                    for b in self.st.keypoints[self.st.stages[i].end]:
+                        lo, hi = qs.span[(i, b)]
+                        self._lists[(i, a, b)] = {
+                            shares[x]: ls for x, ls in zip(qs.share[lo:hi].tolist(),
+                                                           found[lo:hi], strict=True)
+                            if ls is not None}
+            self._solved.append(rec)
+            self.counts["stage_graphs"] += 1
+            self.counts["stage_queries"] += len(qs.bi)
+            self.counts["graph_rows"] += rows
+        for i in stages:
+            self._from[(i, a)] = rec
 
     # ---- the provider interface (see citysynth.solver.structures.combine) --------
     def lists(self, i: int, a: str, b: str) -> dict[Share, StageList]:
-        return self._lists.get((i, a, b), {})
+        """Stage i's lists from a to b by share (made on first reading from the best
+        costs of a graph's queries, then kept: :meth:`more` grows them in place)."""
+        got = self._lists.get((i, a, b))
+        if got is None:
+            got = self._lists[(i, a, b)] = self._one_path_lists(i, a, b)
+        return got
+
+    def _one_path_lists(self, i: int, a: str, b: str) -> dict[Share, StageList]:
+        rec = self._from.get((i, a))
+        if rec is None or rec.costs is None:
+            return {}
+        lo, hi = rec.qs.span.get((i, b), (0, 0))
+        shares, k, gid, gi = self.shares, self.k, rec.gid, rec.gi
+        return {shares[x]: one_path(c, gid, q, k, gi)
+                for q, c, x in zip(range(lo, hi), rec.costs[lo:hi].tolist(),
+                                   rec.qs.share[lo:hi].tolist(), strict=True)
+                if c < math.inf}
+
+    def first_costs(self) -> np.ndarray | None:
+        """The cost of the first entry of every stage list as one array C[stage, start
+        element, end element, share] (elements by their index at their key point,
+        inf where there is none; shares by value, one structure-wide resource at
+        most), when every list is made from its graph's best costs (else None): what
+        the lazy program of :mod:`.chain_kbest` starts from, without making the lists."""
+        if len(self.gnames) > 1 or any(rec.costs is None for rec in self._solved):
+            return None
+        st = self.st
+        E = max(len(kp) for kp in st.keypoints)
+        C = np.full((len(st.stages), E, E, self.ghi[0] + 1 if self.gnames else 1), np.inf)
+        for rec in self._solved:
+            qs = rec.qs
+            ai = np.array([st.keypoints[st.stages[i].start].index(rec.a) for i in qs.stages],
+                          dtype=np.int64)
+            stage = np.array(qs.stages, dtype=np.int64)
+            C[stage[qs.pos], ai[qs.pos], qs.bi, qs.code] = rec.costs
+        return C
 
     def more(self, i: int, a: str, b: str, share: Share) -> int:
         """Find twice as many paths of a :class:`Growing` list (at most k); returns how
@@ -445,9 +572,11 @@ class StageGraphs:
         if self.gnames:
             return None
         st = self.st
-        empty = sorted((t for t, ls in self._lists.items() if not ls), key=lambda t: t[0])
+        empty = sorted(((i, a, b) for i, a in self._from
+                        for b in st.keypoints[st.stages[i].end] if not self.lists(i, a, b)),
+                       key=lambda t: t[0])
         blocked = [(i, a, b) for i, a, b in empty
-                   if not any(self._lists.get((i, x, y))
+                   if not any(self.lists(i, x, y)
                               for x in st.keypoints[st.stages[i].start]
                               for y in st.keypoints[st.stages[i].end])]
         if not empty:

@@ -292,27 +292,27 @@ class Growing(list[StageEntry]):
 
 
 def first_lists(G: StageGraph, K: int, k: int, depth: int, gid: int, gi: int
-                ) -> tuple[list[list[StageEntry] | None], tuple[np.ndarray, np.ndarray] | None]:
+                ) -> tuple[list[list[StageEntry] | None], tuple[np.ndarray, np.ndarray]]:
     """The stage list of every query of graph gi, with up to K paths (at most k are
-    wanted), and the paths (offs, fill) the entries (cost, (gid, path)) point into.
-    With one path each, only the costs are found (:func:`_stage_best_costs`): an
-    entry then points at its query, (gid, q), and the paths are None; the reader
-    finds the path when it needs it (``StageGraphs.filling``) and checks that its
-    front-to-back sum is the cost (it always is: see :func:`sorted_paths`)."""
-    if K == 1 and BEST_BY_ARGMIN:
-        out: list[list[StageEntry] | None] = []
-        for q, c in enumerate(_stage_best_costs(G).tolist()):
-            if c == np.inf:
-                out.append(None)
-            elif k == 1:
-                out.append([(c, (gid, q))])
-            else:
-                ls = Growing([(c, (gid, q))])
-                ls.final, ls.gi, ls.q, ls.K = 1, gi, q, 1
-                out.append(ls)
-        return out, None
+    wanted), by the lazy enumeration, and the paths (offs, fill) the entries (cost,
+    (gid, path)) point into. One-path lists need no enumeration: see
+    :func:`one_path`."""
     costs, offs, fill, first, same = _stage_kbest(G, K, depth)
     return query_lists(costs.tolist(), first.tolist(), K, k, same, gid, gi), (offs, fill)
+
+
+def one_path(c: float, gid: int, q: int, k: int, gi: int) -> list[StageEntry]:
+    """The one-path list of query q of graph gi from its best cost alone
+    (:func:`_stage_best_costs`, when BEST_BY_ARGMIN): its entry (c, (gid, q)) points at
+    the query, whose path the reader finds when it needs it (``StageGraphs.filling``,
+    which checks that its front-to-back sum is the cost: it always is, see
+    :func:`sorted_paths`). Complete at k = 1, else :class:`Growing` (its one entry
+    final)."""
+    if k == 1:
+        return [(c, (gid, q))]
+    ls = Growing([(c, (gid, q))])
+    ls.final, ls.gi, ls.q, ls.K = 1, gi, q, 1
+    return ls
 
 
 def query_lists(costs: list[float], first: list[int], K: int, k: int, same: bool,
