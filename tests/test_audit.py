@@ -114,13 +114,6 @@ def test_every_district_block_meets_the_bar(tmp_path, sample_db):
                 assert k["kind"] != "corner" or "end_" not in k["part"]
 
 
-# Two Helsinki blocks still miss the bar (open in issue 11): a tight ring where a module
-# past a bend still overlaps the folded piece before it (0.72 % overlap), and an acute
-# corner split by an 8 m side into two joints, whose modules are cut on different
-# planes and leave a wedge of the roof band open (1.27 % gaps).
-KNOWN = {"b169c3dda5a", "b19329a1232"}
-
-
 def test_every_helsinki_block_meets_the_bar(helsinki_run, sample_db):
-    failures = [f for f in _audit_run(helsinki_run, sample_db) if f.split()[0] not in KNOWN]
+    failures = _audit_run(helsinki_run, sample_db)
     assert not failures, "\n".join(failures)

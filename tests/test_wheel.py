@@ -211,6 +211,10 @@ def test_demo_runs_from_an_empty_folder(venv, tmp_path):
         assert len(written) == int(n), (name, sorted(f.name for f in written))
     assert re.search(r"wrote out/city\.usda \(UsdValidation: clean\) and out/city\.png",
                      p.stdout), p.stdout[-2000:]
+    # the progress line and the summary count the same skipped pieces
+    shown = re.findall(r"skipped (\d+)", p.stderr.replace("\r", "\n"))
+    told = re.search(r"(\d+) pieces skipped", p.stdout)
+    assert shown and told and shown[-1] == told.group(1), (shown[-1:], p.stdout[-300:])
     for name in ("t_building_1.usda", "t_building_3.png", "block.usda", "block.glb",
                  "city.usda", "city.png", "manifest.json", "report.json"):
         assert (out / name).is_file(), name

@@ -95,7 +95,8 @@ def run(args) -> int:
           f"{CITY_CONFIG.name}, to {out}/")
     cfg = load_config(CITY_CONFIG)
     inputs = prepare(DISTRICT, None, cfg, None)
-    report = run_city(inputs, out, workers=cpu_count(), progress=progress_printer())
+    report = run_city(inputs, out, workers=cpu_count(),
+                      progress=progress_printer(pieces=len(inputs.skipped)))
     city, png = finish_city(inputs, report, out)
     errors = validate(city)
     c = report["counts"]
