@@ -224,12 +224,45 @@ def _stage_best_costs(G):
     each the exact g of a node plus the edge into the end key. Without its heaps,
     path lists or paths: a block with a per-block door count asks 6,480 queries and
     its structures read a few dozen paths back (:func:`first_lists`)."""
-    Q = G.qlo.shape[0]
-    c = np.zeros(len(G.cap), dtype=np.int64)
+    return _best_costs(G.g, G.wq, G.qlo, G.qhi, G.stride, G.dense, G.keys, G.vals, G.shift)
+
+
+@njit(cache=True)
+def _best_costs(g, wq, qlo, qhi, stride, dense, keys, vals, shift):
+    """:func:`_stage_best_costs` on G's arrays, read from the named tuple once, and by
+    cost alone: 7x faster than :func:`_query_best` per query (6,480 queries of a block
+    with a per-block door count, 0.75 to 0.11 ms). The same minimum: the states of a
+    box come in increasing order (the counter's first digit has the smallest stride),
+    so keys (state * n + element) do too and the first strict minimum is the least
+    (cost, key); a cost with an inf term is inf and never below ``bc``."""
+    Q, n = wq.shape
+    R = qlo.shape[1]
+    c = np.zeros(R, dtype=np.int64)
     out = np.empty(Q)
     for q in range(Q):
-        bc, bkey, _row_, _e = _query_best(G, q, c)
-        out[q] = bc if bkey >= 0 else np.inf
+        for i in range(R):
+            c[i] = qlo[q, i]
+        bc = np.inf
+        while True:  # every state of the query's box: a mixed-radix counter
+            s = 0
+            for i in range(R):
+                s += c[i] * stride[i]
+            row = s if dense else hash_find(keys, vals, shift, s)
+            if row >= 0:
+                for e in range(n):
+                    cost = g[row, e] + wq[q, e]
+                    if cost < bc:
+                        bc = cost
+            i = 0
+            while i < R:
+                c[i] += 1
+                if c[i] <= qhi[q, i]:
+                    break
+                c[i] = qlo[q, i]
+                i += 1
+            if i == R:
+                break
+        out[q] = bc
     return out
 
 
