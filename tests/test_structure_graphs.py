@@ -327,3 +327,49 @@ def test_paths_whose_sums_disagree_are_final_only_below_a_margin():
     assert isinstance(same, Growing) and same.final == 2     # in order: all final
     done = sorted_paths(costs, 0, 4, 4, 4, False, 0, 0, 0)   # K = k: complete
     assert not isinstance(done, Growing) and len(done) == 4
+
+
+def _graphs(s: Structure, k: int):
+    from citysynth.solver.structures.solve import _global_grid
+    from citysynth.solver.structures.stage_graphs import StageGraphs
+
+    return StageGraphs(s, k, _global_grid(s), 512, "dense")._graph_of
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.one_of(varied(), chains()))
+def test_dense_forward_pass_is_the_general_kernels(d):
+    """Dense stage graphs are grown by stage_forward.forward_dense, states in order,
+    instead of graph._grow_graph: the same g bit for bit on every graph, so the same
+    solutions in the same order (k = 1 and 3), and on the benchmark's block with its
+    door interval."""
+    from citysynth.solver.structures import stage_graphs
+
+    s = Structure.from_dict(d)
+    for k in (1, 3):
+        fast, fast_graphs = solve_structure(s, k, table="dense"), _graphs(s, k)
+        stage_graphs.DENSE_FORWARD = False
+        try:
+            slow, slow_graphs = solve_structure(s, k, table="dense"), _graphs(s, k)
+        finally:
+            stage_graphs.DENSE_FORWARD = True
+        assert len(fast_graphs) == len(slow_graphs)
+        for (a, _, _), (b, _, _) in zip(fast_graphs, slow_graphs, strict=True):
+            assert a.g.shape == b.g.shape and (a.g == b.g).all()
+            assert a.qbase == b.qbase and (a.row_state == b.row_state).all()
+        assert [(x.cost, x.keys, x.stages, x.resources) for x in fast.solutions] == \
+            [(x.cost, x.keys, x.stages, x.resources) for x in slow.solutions]
+
+
+def test_dense_forward_pass_on_a_block_with_a_door_interval():
+    from citysynth.solver.structures import stage_graphs
+
+    s = Structure.from_dict(block_cycle(12, doors=(6.0, 14.0)))
+    fast = _graphs(s, 1)
+    stage_graphs.DENSE_FORWARD = False
+    try:
+        slow = _graphs(s, 1)
+    finally:
+        stage_graphs.DENSE_FORWARD = True
+    for (a, _, _), (b, _, _) in zip(fast, slow, strict=True):
+        assert (a.g == b.g).all()

@@ -45,6 +45,7 @@ from citysynth.solver.structures.decompose import (
     start_leg,
 )
 from citysynth.solver.structures.model import Structure
+from citysynth.solver.structures.stage_forward import forward_dense
 from citysynth.solver.structures.stage_kbest import (
     Growing,
     StageGraph,
@@ -55,6 +56,8 @@ from citysynth.solver.structures.stage_kbest import (
     one_path,
     sorted_paths,
 )
+
+DENSE_FORWARD = True   # dense row tables by stage_forward (tests compare with _grow_graph)
 
 
 def _empty() -> np.ndarray:
@@ -424,11 +427,20 @@ class StageGraphs:
         stride = np.cumprod(np.concatenate(([1], cap[:-1] + 1))).astype(np.int64)
         S = int(stride[-1] * (cap[-1] + 1))
         dense = self._dense(S, n)
+        off = r @ stride
+        wq = np.empty((len(qs.bi), n))   # the weights of the edges into the end keys
+        for (v, end_leg), rows, bi in qs.ends:
+            wq[rows] = self._weights(grp, a, leg, v, end_leg)[bi]
+        if dense and DENSE_FORWARD:   # a row per state: the states in order suffice
+            g = forward_dense(n, r, cap, stride, S, off, W)
+            return StageGraph(S * n, n, W, g, np.arange(S, dtype=np.int64), off, cap, stride,
+                              True, np.full(1, -1, dtype=np.int64),
+                              np.full(1, -1, dtype=np.int32), 0, qs.qlo, qs.qhi, wq), S
         front = np.zeros(n, dtype=np.bool_)
         front[0] = True
         max_rows = max((self.budget - 8 * n * n) // row_bytes(n, dense), 1)
         (status, nrows, g, _h, row_state, *_), (keys, vals, shift) = _grow_graph(
-            n, r, np.zeros(R, dtype=np.int64), cap, stride, S, r @ stride,
+            n, r, np.zeros(R, dtype=np.int64), cap, stride, S, off,
             r.sum(axis=1), int(cap.sum()), W, np.ones(n, dtype=np.int64), front,
             np.zeros(n, dtype=np.bool_), np.zeros(n), dense, min(S, 1 << 12), max_rows,
             True, False)
@@ -438,11 +450,8 @@ class StageGraphs:
                 f"{max_rows:,} state rows, the memory budget of "
                 f"{self.budget / 2**20:,.0f} MB; use a coarser quantum, tighter bounds "
                 "or raise the budget (--max-memory MB)")
-        wq = np.empty((len(qs.bi), n))
-        for (v, end_leg), rows, bi in qs.ends:
-            wq[rows] = self._weights(grp, a, leg, v, end_leg)[bi]
-        return StageGraph(int(nrows) * n, n, W, g, row_state, r @ stride, cap, stride,
-                          dense, keys, vals, int(shift), qs.qlo, qs.qhi, wq), int(nrows)
+        return StageGraph(int(nrows) * n, n, W, g, row_state, off, cap, stride, dense, keys,
+                          vals, int(shift), qs.qlo, qs.qhi, wq), int(nrows)
 
     def _solve(self, grp: _Group, a: str, leg: int) -> None:
         """Solve the queries of the graph of (a, leg): their best costs (one-path lists,
