@@ -13,6 +13,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -373,3 +374,31 @@ def test_dense_forward_pass_on_a_block_with_a_door_interval():
         stage_graphs.DENSE_FORWARD = True
     for (a, _, _), (b, _, _) in zip(fast, slow, strict=True):
         assert (a.g == b.g).all()
+
+
+def test_tables_given_back_serve_the_next_solve_unchanged():
+    """A solve gives its graphs' tables back (buffers) and the next one reuses them:
+    solves in turn of different blocks give what fresh tables give; a buffer is handed
+    out again only once given back, and no larger than four times what is asked."""
+    from citysynth.solver.structures import buffers
+
+    blocks = [Structure.from_dict(block_cycle(12, doors=(6.0, 14.0))),
+              Structure.from_dict(block_cycle(8)),
+              Structure.from_dict(block_cycle(12, doors=(4.0, 9.0)))]
+    buffers._free.buffers = []
+    first = [[(x.cost, x.keys, x.stages) for x in solve_structure(b, 3).solutions]
+             for b in blocks]
+    assert buffers._free.buffers   # given back
+    again = [[(x.cost, x.keys, x.stages) for x in solve_structure(b, 3).solutions]
+             for b in reversed(blocks)]
+    assert again[::-1] == first
+    buffers._free.buffers = []
+    a = buffers.take(2000, 3)
+    b = buffers.take(2000, 3)
+    assert not np.shares_memory(a, b)
+    buffers.give_back([a])
+    c = buffers.take(1000, 3)
+    assert np.shares_memory(a, c) and c.shape == (1000, 3)
+    assert not np.shares_memory(buffers.take(1000, 3), a)   # handed out already
+    buffers.give_back([c])
+    assert not np.shares_memory(buffers.take(100, 3), a)   # more than four times too large

@@ -159,13 +159,20 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
         results = best_structures(st, k, ghi, glo, provider.lists,
                                   getattr(provider, "more", None),
                                   getattr(provider, "first_costs", None))
-    seen: dict[tuple[int, int], tuple[Any, str, str, list[str], dict[str, float]]] = {}
-    sols = [_solution(st, provider, cost, e, payload, seen) for cost, e, payload in results]
-    stats = {"method": method, **provider.stats(),
-             "program": "lazy chain" if lazy_chain(st, ghi) else "general",
-             "solve_s": time.perf_counter() - t0}
+        seen: dict[tuple[int, int], tuple[Any, str, str, list[str], dict[str, float]]] = {}
+        sols = [_solution(st, provider, cost, e, payload, seen)
+                for cost, e, payload in results]
+        stats = {"method": method, **provider.stats(),
+                 "program": "lazy chain" if lazy_chain(st, ghi) else "general",
+                 "solve_s": time.perf_counter() - t0}
+        why = None if sols else provider.reason()
+        if isinstance(provider, StageGraphs):
+            provider.release()   # its tables serve the next solve (nothing reads them now)
+        # dropped while the collector still sleeps: reference counts free them at once,
+        # where the collector, woken with the hundreds of thousands of objects made
+        # since it paused, would scan them all first (and again as solutions are read)
+        del provider, results, seen
     if not sols:
-        why = provider.reason()
         detail = f"; e.g. {why}" if why else ""
         wide = " and the structure-wide intervals" if gnames else ""
         return StructureResult("infeasible", [], stats,

@@ -28,14 +28,14 @@ _FM = {"nnan", "nsz", "reassoc"}  # no NaNs ever occur; inf does, so no "ninf"
 
 
 @njit(cache=True, fastmath=_FM)
-def forward_dense(n, r, cap, stride, S, off, W):
-    """g[state, element] of the stage graph whose start (element 0) sits at state
-    off[0] with g = 0: the least cost of a path from it to each node, inf where
-    there is none. ``r``: each element's consumption (int64 [n, R]), ``cap`` the box,
-    ``off = r @ stride``, ``W[f, e]`` the weight of e -> f (row 0 all inf: nothing
-    enters the start)."""
+def forward_dense(n, r, cap, stride, S, off, W, g):
+    """Write into g[state, element] (float64 [S, n], any content) the stage graph
+    whose start (element 0) sits at state off[0] with g = 0: the least cost of a path
+    from it to each node, inf where there is none. ``r``: each element's consumption
+    (int64 [n, R]), ``cap`` the box, ``off = r @ stride``, ``W[f, e]`` the weight of
+    e -> f (row 0 all inf: nothing enters the start)."""
     R = len(cap)
-    g = np.full((S, n), np.inf)
+    g[:, :] = np.inf
     c = np.zeros(R, dtype=np.int64)
     gv = np.empty(n)
     s0 = off[0]
@@ -58,4 +58,3 @@ def forward_dense(n, r, cap, stride, S, off, W):
             s2 = s + off[f]
             if best < g[s2, f]:
                 g[s2, f] = best
-    return g

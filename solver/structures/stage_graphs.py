@@ -36,6 +36,7 @@ from citysynth.solver.graph import STATUS_OK, _grow_graph
 from citysynth.solver.quantize import bounds_in_quanta, exact_divisor, is_multiple
 from citysynth.solver.solve import solve
 from citysynth.solver.structures import stage_kbest
+from citysynth.solver.structures.buffers import give_back, take
 from citysynth.solver.structures.combine import Share, StageList
 from citysynth.solver.structures.decompose import (
     Grid,
@@ -183,6 +184,7 @@ class StageGraphs:
         self._sets: dict[tuple[int, tuple[int, ...]], _QuerySet] = {}
         self._from: dict[tuple[int, str], _Solved | None] = {}   # (stage, start element)
         self._solved: list[_Solved] = []
+        self._taken: list[np.ndarray] = []   # tables from buffers.take, given back by release
         gnames, gq, _glo, ghi = grid
         self.gnames, self.gq, self.ghi = gnames, gq, ghi
         self.shares = list(itertools.product(*[range(h + 1) for h in ghi]))
@@ -428,11 +430,12 @@ class StageGraphs:
         S = int(stride[-1] * (cap[-1] + 1))
         dense = self._dense(S, n)
         off = r @ stride
-        wq = np.empty((len(qs.bi), n))   # the weights of the edges into the end keys
+        wq = self._take(len(qs.bi), n)   # the weights of the edges into the end keys
         for (v, end_leg), rows, bi in qs.ends:
             wq[rows] = self._weights(grp, a, leg, v, end_leg)[bi]
         if dense and DENSE_FORWARD:   # a row per state: the states in order suffice
-            g = forward_dense(n, r, cap, stride, S, off, W)
+            g = self._take(S, n)
+            forward_dense(n, r, cap, stride, S, off, W, g)
             return StageGraph(S * n, n, W, g, np.arange(S, dtype=np.int64), off, cap, stride,
                               True, np.full(1, -1, dtype=np.int64),
                               np.full(1, -1, dtype=np.int32), 0, qs.qlo, qs.qhi, wq), S
@@ -486,6 +489,21 @@ class StageGraphs:
             self.counts["graph_rows"] += rows
         for i in stages:
             self._from[(i, a)] = rec
+
+    def _take(self, rows: int, cols: int) -> np.ndarray:
+        a = take(rows, cols)
+        self._taken.append(a)
+        return a
+
+    def release(self) -> None:
+        """Give the graphs' tables back for the next solve (:mod:`.buffers`): call it
+        once nothing reads this provider any more; it can answer nothing after."""
+        self._graph_of.clear()
+        self._solved.clear()
+        self._from.clear()
+        self._lists.clear()
+        give_back(self._taken)
+        self._taken.clear()
 
     # ---- the provider interface (see citysynth.solver.structures.combine) --------
     def lists(self, i: int, a: str, b: str) -> dict[Share, StageList]:
