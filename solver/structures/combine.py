@@ -26,7 +26,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from citysynth.solver.structures.chain_kbest import ChainProgram, chain_of
+from citysynth.solver.structures.chain_kbest import ChainProgram, Read, Rows, chain_of
 from citysynth.solver.structures.model import Structure
 
 X = TypeVar("X")
@@ -135,19 +135,21 @@ def first_paths(st: Structure, k: int, ghi: list[int]) -> int:
 def best_structures(st: Structure, k: int, ghi: list[int], glo: list[int],
                     stage_lists: StageLists,
                     more: Callable[[int, str, str, Share], int] | None = None,
-                    firsts: Callable[[], np.ndarray | None] | None = None
-                    ) -> list[tuple[float, str, Payload]]:
+                    firsts: Callable[[], np.ndarray | None] | None = None,
+                    read: Read | None = None
+                    ) -> list[tuple[float, str, Payload | Rows]]:
     """The k best (cost, element at the root, payload) of structure ``st``. A payload
     maps each stage to (element at its end, the stage list's payload, payload below
     that end). ``ghi``/``glo``: bounds of the structure-wide resources in quanta.
     Chains and cycles go to the lazy program of :mod:`.chain_kbest` (same sums, same
-    order), whose lists may start short and grow by ``more``, and whose first entries
-    may come as one array from ``firsts`` (see there)."""
+    order), whose lists may start short and grow by ``more``, whose first entries may
+    come as one array from ``firsts``, and whose structures come back as their rows
+    when ``read`` reads a stage list entry (see there)."""
     chain = chain_of(st, ghi) if LAZY_CHAINS else None
     if chain is not None:  # (chain_of is cheap: a walk over the stages)
         return ChainProgram(st, k, ghi, glo, chain, stage_lists, more,
-                            firsts() if firsts is not None else None).run()
-    return _Program(st, k, ghi, stage_lists).run(glo)
+                            firsts() if firsts is not None else None, read).run()
+    return [*_Program(st, k, ghi, stage_lists).run(glo)]
 
 
 class _Program:

@@ -21,6 +21,7 @@ from citysynth.solver.errors import ProblemError, TooLargeError
 from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.quantize import exact_divisor, is_multiple
 from citysynth.solver.solve import Status, check_k
+from citysynth.solver.structures.chain_kbest import Read, Rows
 from citysynth.solver.structures.combine import (
     Payload,
     best_structures,
@@ -156,12 +157,12 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
     gnames, _gq, glo, ghi = grid
     with paused_gc():
         provider = _provider(st, k, method, grid, max_memory_mb, table, solve_kw)
+        read = _reader(provider)
+        ends = _ends_of(st)
         results = best_structures(st, k, ghi, glo, provider.lists,
                                   getattr(provider, "more", None),
-                                  getattr(provider, "first_costs", None))
-        seen: dict[tuple[int, int], tuple[Any, str, str, list[str], dict[str, float]]] = {}
-        sols = [_solution(st, provider, cost, e, payload, seen)
-                for cost, e, payload in results]
+                                  getattr(provider, "first_costs", None), read)
+        sols = [_solution(st, cost, e, payload, read, ends) for cost, e, payload in results]
         stats = {"method": method, **provider.stats(),
                  "program": "lazy chain" if lazy_chain(st, ghi) else "general",
                  "solve_s": time.perf_counter() - t0}
@@ -171,7 +172,7 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
         # dropped while the collector still sleeps: reference counts free them at once,
         # where the collector, woken with the hundreds of thousands of objects made
         # since it paused, would scan them all first (and again as solutions are read)
-        del provider, results, seen
+        del provider, results, read
     if not sols:
         detail = f"; e.g. {why}" if why else ""
         wide = " and the structure-wide intervals" if gnames else ""
@@ -200,35 +201,55 @@ def _provider(st: Structure, k: int, method: StructureMethod, grid: Grid,
         "max_memory_mb": max_memory_mb, "table": table, **solve_kw})
 
 
-def _solution(st: Structure, provider: Provider, cost: float, root_element: str,
-              payload: Payload, seen: dict[tuple[int, int],
-                                           tuple[Any, str, str, list[str], dict[str, float]]]
-              ) -> StructureSolution:
-    """A combined payload read back into key elements, fillers and stage totals.
-    ``seen``: stage entries already read back in this solve (the k best structures
-    share most of their stages: 4,000 stages of 100 solutions of a 40-corner block
-    are about 150 distinct ones), by stage and the entry's identity (the entry is
-    kept with them, so its id stays its own; an entry belongs to one list, so to one
-    pair of key elements)."""
-    stages = st.stages
-    keys = {root_of(st): root_element}
-    fills: list[list[str]] = [[] for _ in stages]
-    totals: list[dict[str, float]] = [{} for _ in stages]
+def _reader(provider: Provider) -> Read:
+    """The provider's ``filling`` of a stage list entry, once per entry: the k best
+    structures share most of their stages (4,000 stages of 100 solutions of a
+    40-corner block are about 100 distinct entries). By stage and the entry's identity
+    (the entry is kept with them, so its id stays its own; an entry belongs to one
+    list, so to one pair of key elements)."""
+    seen: dict[tuple[int, int], tuple[Any, list[str], dict[str, float]]] = {}
+
+    def read(s: int, a: str, b: str, h: Any) -> tuple[list[str], dict[str, float]]:
+        got = seen.get((s, id(h)))
+        if got is None or got[0] is not h:
+            got = seen[(s, id(h))] = (h, *provider.filling(s, a, b, h))
+        return got[1], got[2]
+    return read
+
+
+def _solution(st: Structure, cost: float, root_element: str, payload: Payload | Rows,
+              read: Read, ends: tuple[list[int], list[int]]) -> StructureSolution:
+    """A structure read back into key elements, fillers and stage totals: from the
+    rows of the lazy chain program (copied: rows are shared by the structures), or
+    from a combined payload, stage by stage. ``ends``: every stage's key points."""
+    if isinstance(payload, tuple):
+        keys, fills, totals = payload
+        return StructureSolution(list(keys), [list(f) for f in fills], cost,
+                                 [dict(t) for t in totals])
+    starts, stops = ends
+    at: list[str | None] = [None] * len(st.keypoints)
+    at[root_of(st)] = root_element
+    fills = [[] for _ in starts]
+    totals = [{} for _ in starts]
     todo = [payload]
     while todo:  # parents first: a stage's start key is known before the stage
         p = todo.pop()
         for s, (f, h, sub) in p.items():
-            got = seen.get((s, id(h)))
-            if got is None or got[0] is not h:
-                stage = stages[s]
-                if stage.start in keys:
-                    a, b = keys[stage.start], f
-                else:   # a stage that runs up the tree ends at its parent
-                    a, b = f, keys[stage.end]
-                got = seen[(s, id(h))] = (h, a, b, *provider.filling(s, a, b, h))
-            stage = stages[s]
-            keys[stage.start], keys[stage.end] = got[1], got[2]
-            fills[s], totals[s] = list(got[3]), dict(got[4])
+            start, end = at[starts[s]], at[stops[s]]
+            if start is None:   # a stage that runs up the tree ends at its parent
+                assert end is not None
+                a, b = f, end
+                at[starts[s]] = f
+            else:
+                a, b = start, f
+                at[stops[s]] = f
+            fill, total = read(s, a, b, h)
+            fills[s], totals[s] = list(fill), dict(total)
             todo.append(sub)
-    return StructureSolution([keys[v] for v in range(len(st.keypoints))], fills, cost,
-                             totals)
+    assert None not in at
+    return StructureSolution(at, fills, cost, totals)   # type: ignore[arg-type]
+
+
+def _ends_of(st: Structure) -> tuple[list[int], list[int]]:
+    """The key points at the start and at the end of every stage."""
+    return [s.start for s in st.stages], [s.end for s in st.stages]
