@@ -342,14 +342,28 @@ class ChainProgram:
             node.pending = None
             fi, g1 = divmod(t, S)
             share, sub = self.shares[g1], g - g1
+            lists = self.lists[p][ei][fi]
+            ls = None if lists is None else lists.get(share)
+            after = nodes.get((p + 1, fi, sub))
             for i2, j2 in ((i, j + 1), (i + 1, 0)) if j == 0 else ((i, j + 1),):
-                a_ = self._entry(p, ei, fi, share, i2)
-                if a_ is None:
-                    continue
-                b_ = self._item(nodes, B, arg, p + 1, fi, sub, j2)
-                if b_ is None:
-                    continue
-                heapq.heappush(heap, (a_[0] + (b_[0] + cf[fi]), t, i2, j2))
+                # the entry and the completion, read directly when they are found and
+                # final already (most are), else by _entry and _item
+                if ls is not None and i2 < len(ls) and i2 < getattr(ls, "final", i2 + 1):
+                    a = ls[i2][0]
+                else:
+                    ent = self._entry(p, ei, fi, share, i2)
+                    if ent is None:
+                        continue
+                    a = ent[0]
+                if after is not None and j2 < len(after.items):
+                    b = after.items[j2][0]
+                else:
+                    got = self._item(nodes, B, arg, p + 1, fi, sub, j2)
+                    if got is None:
+                        continue
+                    b = got[0]
+                    after = nodes[(p + 1, fi, sub)]
+                heapq.heappush(heap, (a + (b + cf[fi]), t, i2, j2))
         if not heap:
             node.done = True
             return
