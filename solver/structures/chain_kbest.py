@@ -131,13 +131,14 @@ def _first_items(A, cf, ne, closed, r):
 class _Node:
     """The completions of one (position, element, share) found so far."""
 
-    __slots__ = ("items", "heap", "pending", "done")
+    __slots__ = ("items", "heap", "pending", "done", "rows")
 
     def __init__(self, first: Item | None):
         self.items: list[Item] = [] if first is None else [first]
         self.heap: list[Item] | None = None
         self.pending: Item | None = None   # popped, its successors not offered yet
         self.done = first is None
+        self.rows: dict[int, Rows] | None = None   # completions read back (_rows), by j
 
 
 class ChainProgram:
@@ -183,7 +184,6 @@ class ChainProgram:
             for p in range(self.L)]
         self._payloads: dict[tuple[int, int, int, int, int], Payload] = {}
         self.read = read
-        self._read: dict[tuple[int, int, int, int, int], Rows] = {}
         self.kps = list(self.keys) + ([] if st.closed else [st.stages[self.stages[-1]].end])
         if firsts is not None:
             self.A = np.ascontiguousarray(firsts[self.stages][:, :self.E, :self.E, :self.S])
@@ -419,8 +419,12 @@ class ChainProgram:
         and one entry set in each, where the general payload is read back stage by
         stage for every structure (100 structures of a 40-corner block: 4,000 stages,
         about 1,250 completions). Rows are only read."""
-        key = (id(nodes), p, ei, g, j)
-        got = self._read.get(key)
+        node = nodes.get((p, ei, g))
+        if node is None:
+            node = self._node(nodes, B, arg, p, ei, g)
+        if node.rows is None:
+            node.rows = {}
+        got = node.rows.get(j)
         if got is not None:
             return got
         e = self.elems[p][ei]
@@ -429,14 +433,15 @@ class ChainProgram:
             fills: list[list[str]] = [None] * self.L            # type: ignore[list-item]
             totals: list[dict[str, float]] = [None] * self.L    # type: ignore[list-item]
         else:
-            item = self._item(nodes, B, arg, p, ei, g, j)
-            assert item is not None
-            _c, t, i, j2 = item
+            _c, t, i, j2 = node.items[j]   # found: the structure ran through it
             fi, g1 = divmod(t, self.S)
-            ent = self._entry(p, ei, fi, self.shares[g1], i)
+            share = self.shares[g1]
+            lists = self.lists[p][ei][fi]
+            ls = None if lists is None else lists.get(share)
+            ent = ls[i] if ls is not None and i < len(ls) else self._entry(p, ei, fi, share, i)
             assert ent is not None and self.read is not None
             f = self.elems[(p + 1) % len(self.elems)][fi]
-            if self._is_last(p):   # the cycle closes on the root's element
+            if p == self.last:   # the cycle closes on the root's element
                 keys = [None] * len(self.st.keypoints)   # type: ignore[list-item]
                 fills = [None] * self.L                  # type: ignore[list-item]
                 totals = [None] * self.L                 # type: ignore[list-item]
@@ -447,5 +452,5 @@ class ChainProgram:
             s = self.stages[p]
             fills[s], totals[s] = self.read(s, e, f, ent[1])
         keys[self.kps[p]] = e
-        got = self._read[key] = (keys, fills, totals)
+        got = node.rows[j] = (keys, fills, totals)
         return got
