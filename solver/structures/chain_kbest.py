@@ -277,6 +277,8 @@ class ChainProgram:
             c, t, j = heapq.heappop(heap)
             nodes, ri, g, B, arg = streams[t]
             results.append((c, roots[ri], out(nodes, B, arg, 0, ri, g, j)))
+            if len(results) == self.k:
+                break
             nxt = self._item(nodes, B, arg, 0, ri, g, j + 1)
             if nxt is not None:
                 heapq.heappush(heap, (nxt[0] + st.costs[roots[ri]], t, j + 1))
@@ -334,6 +336,7 @@ class ChainProgram:
             self._start_heap(B, p, ei, g, node)
         heap = node.heap
         assert heap is not None
+        offers: list[Item] = []
         if node.pending is not None:
             # offer (i, j + 1), and (i + 1, 0) after (i, 0): every pair once, each after
             # one with a smaller key, so the pops are all pairs in key order exactly as
@@ -363,11 +366,16 @@ class ChainProgram:
                         continue
                     b = got[0]
                     after = nodes[(p + 1, fi, sub)]
-                heapq.heappush(heap, (a + (b + cf[fi]), t, i2, j2))
-        if not heap:
+                offers.append((a + (b + cf[fi]), t, i2, j2))
+        if offers:   # push all but the last, then push it and pop the least at once
+            for x in offers[:-1]:
+                heapq.heappush(heap, x)
+            item = heapq.heappushpop(heap, offers[-1])
+        elif heap:
+            item = heapq.heappop(heap)
+        else:
             node.done = True
             return
-        item = heapq.heappop(heap)
         node.items.append(item)
         node.pending = item
 
