@@ -402,3 +402,42 @@ def test_tables_given_back_serve_the_next_solve_unchanged():
     assert not np.shares_memory(buffers.take(1000, 3), a)   # handed out already
     buffers.give_back([c])
     assert not np.shares_memory(buffers.take(100, 3), a)   # more than four times too large
+
+
+@st.composite
+def chains_with_a_wide_interval(draw):
+    """A chain or cycle with a structure-wide interval on doors (a door count per
+    block) or on length: the path the issue's per-block interval takes (stage lists
+    made when read from the graphs' best costs, the first entries as one array, the
+    structures read back as rows)."""
+    d = draw(chains())
+    if "constraints" not in d:
+        lo = draw(st.integers(0, 3))
+        d["constraints"] = {"doors": [lo, lo + draw(st.integers(0, 3))]}
+    return d
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(chains_with_a_wide_interval())
+def test_structure_wide_interval_k1_and_k3_are_the_enumerations(d):
+    """With a structure-wide interval, k = 1 and k = 3: the costs are the k smallest of
+    the exhaustive enumeration, every structure valid and within the interval, and the
+    same structures as the general program's (lists made in full, payloads)."""
+    from citysynth.solver.structures import combine
+
+    s = Structure.from_dict(d)
+    expected = enumerate_structure(d, 3)
+    for k in (1, 3):
+        r = solve_structure(s, k)
+        assert r.stats["program"] == "lazy chain"
+        check(d, r, k, expected)
+        for sol in r.solutions:
+            for name, (lo, hi) in d["constraints"].items():
+                assert lo - 1e-9 <= sum(res[name] for res in sol.resources) <= hi + 1e-9
+        combine.LAZY_CHAINS = False
+        try:
+            general = solve_structure(s, k)
+        finally:
+            combine.LAZY_CHAINS = True
+        assert [(x.cost, x.keys, x.stages, x.resources) for x in r.solutions] == \
+            [(x.cost, x.keys, x.stages, x.resources) for x in general.solutions]
