@@ -103,50 +103,71 @@ def write_part(db: PartDB, inst: Instance, path: Path) -> None:
     component model with a mesh per piece, each bound to its library material: a
     ``Looks/<material>`` prim referencing the shared material layer (a prototype
     cannot see outside itself, so each holds a reference, and every one of them is the
-    same material). ``displayColor`` (linear) for viewers that skip materials."""
+    same material). ``displayColor`` (linear) for viewers that skip materials.
+
+    Written as layer specs (Sdf), not through a stage: a city writes one prototype per
+    cut joint, tens a block, and a stage (composing, then copying its layer so the
+    material references are added where nothing tries to resolve them) took 40 % more
+    time for the same composed result."""
     part = next(p for p in db.parts if p.id == inst.part)
-    stage = Usd.Stage.CreateInMemory()
-    name = prim_name(inst.proto)
-    root = UsdGeom.Xform.Define(stage, f"/{name}")
-    model = Usd.ModelAPI(root.GetPrim())
-    model.SetKind(Kind.Tokens.component)
-    root.GetPrim().SetCustomDataByKey("citysynth:part", part.id)
-    root.GetPrim().SetCustomDataByKey("citysynth:class", part.cls)
-    root.GetPrim().SetCustomDataByKey("citysynth:library", db.library_hash)
-    if inst.cut is not None:
-        root.GetPrim().SetCustomDataByKey("citysynth:cut", _vt(inst.cut.to_dict()))
-    looks = UsdGeom.Scope.Define(stage, f"/{name}/Looks")
-    for i, piece in enumerate(prototype_pieces(db, inst)):
-        label = prim_name(f"{piece.name}_{i}")
-        mesh = UsdGeom.Mesh.Define(stage, f"/{name}/{label}")
-        pts = piece.vertices.astype(np.float32)
-        mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(pts))
-        mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(
-            np.full(len(piece.faces), 3, dtype=np.int32)))
-        mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(
-            piece.faces.astype(np.int32).ravel()))
-        mesh.CreateNormalsAttr(Vt.Vec3fArray.FromNumpy(piece.normals.astype(np.float32)))
-        mesh.SetNormalsInterpolation(UsdGeom.Tokens.uniform)
-        mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
-        mesh.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*pts.min(axis=0).tolist()),
-                                             Gf.Vec3f(*pts.max(axis=0).tolist())]))
-        mesh.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set(
-            Vt.Vec3fArray([Gf.Vec3f(*linear_rgb(piece))]))
-        if piece.rgba[3] < 255:
-            mesh.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.constant).Set(
-                Vt.FloatArray([opacity(piece)]))
-        material = UsdShade.Material.Define(
-            stage, looks.GetPath().AppendChild(material_name(piece)))
-        UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
-    stage.SetDefaultPrim(root.GetPrim())
-    # the references to the library go on a copy no stage composes: an anonymous
-    # layer cannot resolve a relative path, and a stage would complain of each one
     layer = Sdf.Layer.CreateAnonymous(".usdc")
-    layer.TransferContent(stage.GetRootLayer())
-    for spec in layer.GetPrimAtPath(looks.GetPath()).nameChildren:
-        spec.referenceList.Prepend(Sdf.Reference(f"./{material_file(spec.name)}"))
+    name = prim_name(inst.proto)
+    root = Sdf.PrimSpec(layer, name, Sdf.SpecifierDef, "Xform")
+    root.kind = Kind.Tokens.component
+    data = {"part": part.id, "class": part.cls, "library": db.library_hash}
+    if inst.cut is not None:
+        data["cut"] = _vt(inst.cut.to_dict())
+    root.customData = {"citysynth": data}
+    looks = Sdf.PrimSpec(root, "Looks", Sdf.SpecifierDef, "Scope")
+    for i, piece in enumerate(prototype_pieces(db, inst)):
+        _mesh_spec(root, prim_name(f"{piece.name}_{i}"), piece,
+                   _material_spec(looks, material_name(piece)))
     _stage_metadata(layer, name)
     _export(layer, path)
+
+
+def _spec(prim: Sdf.PrimSpec, name: str, type_name, value, interpolation: str = "",
+          variability=Sdf.VariabilityVarying) -> None:
+    """An attribute of ``prim`` as its schema declares it (not custom)."""
+    attr = Sdf.AttributeSpec(prim, name, type_name, variability)
+    attr.default = value
+    if interpolation:
+        attr.SetInfo("interpolation", interpolation)
+
+
+def _mesh_spec(parent: Sdf.PrimSpec, label: str, piece: Piece, material: Sdf.Path) -> None:
+    """A UsdGeom Mesh of ``piece`` (triangles, flat normals, extent, display colour and
+    opacity) bound to ``material``."""
+    t = Sdf.ValueTypeNames
+    mesh = Sdf.PrimSpec(parent, label, Sdf.SpecifierDef, "Mesh")
+    pts = piece.vertices.astype(np.float32)
+    _spec(mesh, "points", t.Point3fArray, Vt.Vec3fArray.FromNumpy(pts))
+    _spec(mesh, "faceVertexCounts", t.IntArray,
+          Vt.IntArray.FromNumpy(np.full(len(piece.faces), 3, dtype=np.int32)))
+    _spec(mesh, "faceVertexIndices", t.IntArray,
+          Vt.IntArray.FromNumpy(piece.faces.astype(np.int32).ravel()))
+    _spec(mesh, "normals", t.Normal3fArray,
+          Vt.Vec3fArray.FromNumpy(piece.normals.astype(np.float32)), UsdGeom.Tokens.uniform)
+    _spec(mesh, "subdivisionScheme", t.Token, UsdGeom.Tokens.none,
+          variability=Sdf.VariabilityUniform)
+    _spec(mesh, "extent", t.Float3Array, Vt.Vec3fArray(
+        [Gf.Vec3f(*pts.min(axis=0).tolist()), Gf.Vec3f(*pts.max(axis=0).tolist())]))
+    _spec(mesh, "primvars:displayColor", t.Color3fArray,
+          Vt.Vec3fArray([Gf.Vec3f(*linear_rgb(piece))]), UsdGeom.Tokens.constant)
+    if piece.rgba[3] < 255:
+        _spec(mesh, "primvars:displayOpacity", t.FloatArray,
+              Vt.FloatArray([opacity(piece)]), UsdGeom.Tokens.constant)
+    mesh.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["MaterialBindingAPI"]))
+    binding = Sdf.RelationshipSpec(mesh, "material:binding", False)
+    binding.targetPathList.Prepend(material)
+
+
+def _material_spec(looks: Sdf.PrimSpec, name: str) -> Sdf.Path:
+    """``Looks/<name>``, a Material referencing the library's material layer (once)."""
+    if name not in looks.nameChildren:
+        spec = Sdf.PrimSpec(looks, name, Sdf.SpecifierDef, "Material")
+        spec.referenceList.Prepend(Sdf.Reference(f"./{material_file(name)}"))
+    return looks.path.AppendChild(name)
 
 
 def write_material(piece: Piece, path: Path) -> None:
