@@ -133,9 +133,20 @@ def _stage_regions(stages: list[dict], depth: float) -> list[BaseGeometry]:
     out = []
     for pts, front in lines:
         side = depth if front == "right" else -depth   # the mass is left of travel
-        out.append(LineString(pts).buffer(side, single_sided=True, cap_style="flat",
-                                          join_style="mitre"))
+        for open_pts in _opened(pts):
+            out.append(LineString(open_pts).buffer(side, single_sided=True, cap_style="flat",
+                                                   join_style="mitre"))
     return out
+
+
+def _opened(pts: list) -> list[list]:
+    """A polyline as open polylines: a stage that goes round a whole ring (a round block
+    with one seam) ends where it starts, and GEOS buffers a closed line on one side
+    wrongly; its two halves share the middle segment, so every joint is mitred."""
+    if len(pts) < 4 or tuple(pts[0]) != tuple(pts[-1]):
+        return [pts]
+    m = len(pts) // 2
+    return [pts[:m + 1], pts[m - 1:]]
 
 
 def _ring_order(stages: list[dict]) -> list[dict]:

@@ -10,6 +10,7 @@ geometry is refused with a message naming the feature and the place.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Iterable
 from typing import Any, cast
 
@@ -22,7 +23,15 @@ from shapely.validation import explain_validity
 
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.geojson import Feature, Frame, angle_between
-from citysynth.skeletons.model import FRONTS, Edge, Front, KeyPoint, Skeleton, flip
+from citysynth.skeletons.model import (
+    FRONTS,
+    Edge,
+    Front,
+    KeyPoint,
+    KeyPointKind,
+    Skeleton,
+    flip,
+)
 from citysynth.skeletons.streets import street_blocks
 
 SNAP = 0.01            # metres: endpoints closer than this are the same key point
@@ -72,12 +81,10 @@ def _classify(ids: Iterable[int], xy: dict[int, np.ndarray], g: nx.Graph, edges:
                 raise SkeletonError(f"{where(v)}: the facades of its two edges face opposite "
                                     "sides; give both edges the same front")
             turn = angle_between(xy[v] - xy[nbrs[0]], xy[nbrs[1]] - xy[v])
-            if abs(turn) < straight_tol:
-                kps.append(KeyPoint(v, p, "bend", 2, turn=turn))
-            else:
-                convex = turn > 0 if f_in == "right" else turn < 0
-                kps.append(KeyPoint(v, p, "corner", 2, angle=180.0 - abs(turn),
-                                    convex=convex, turn=turn))
+            convex = turn > 0 if f_in == "right" else turn < 0
+            kind: KeyPointKind = "bend" if abs(turn) < straight_tol else "corner"
+            kps.append(KeyPoint(v, p, kind, 2, angle=180.0 - abs(turn), convex=convex,
+                                turn=turn))
         elif d == 3:
             dirs = [(xy[u] - xy[v]) / np.linalg.norm(xy[u] - xy[v]) for u in nbrs]
             pairs = [(0, 1, 2), (0, 2, 1), (1, 2, 0)]
@@ -155,7 +162,18 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
 
     kps = _classify(sorted(xy), xy, g, edges, straight_tol, where)
     closed = all(k.degree == 2 for k in kps)
-    return Skeleton(name, kps, edges, closed, frame)
+    return Skeleton(name, seamed(kps) if closed else kps, edges, closed, frame)
+
+
+def seamed(kps: list[KeyPoint]) -> list[KeyPoint]:
+    """A closed ring's key points, with a seam where it has none: a ring that only bends
+    (a round plaza, a roundabout's island, a gasometer) has nowhere to anchor parts, so
+    its sharpest bend (the first of equals) becomes a corner, which a mitre joint
+    closes like any corner no library part fits."""
+    if any(k.kind != "bend" for k in kps):
+        return kps
+    i = max(range(len(kps)), key=lambda j: (abs(kps[j].turn or 0.0), -j))
+    return [dataclasses.replace(k, kind="corner") if j == i else k for j, k in enumerate(kps)]
 
 
 def _split_at_touching_ends(edges: list[Edge], xy: dict[int, np.ndarray]) -> list[Edge]:
@@ -264,12 +282,10 @@ def _ring_skeleton(ring: LinearRing, f: Feature, name: str, frame: Frame, min_ed
         prev, nxt = (v - 1) % n, (v + 1) % n
         turn = angle_between(pts[v] - pts[prev], pts[nxt] - pts[v])
         p = (float(pts[v][0]), float(pts[v][1]))
-        if abs(turn) < straight_tol:
-            kps.append(KeyPoint(v, p, "bend", 2, turn=turn))
-        else:
-            kps.append(KeyPoint(v, p, "corner", 2, angle=180.0 - abs(turn), convex=turn > 0,
-                                turn=turn))
-    return Skeleton(name, kps, edges, True, frame)
+        kind: KeyPointKind = "bend" if abs(turn) < straight_tol else "corner"
+        kps.append(KeyPoint(v, p, kind, 2, angle=180.0 - abs(turn), convex=turn > 0,
+                            turn=turn))
+    return Skeleton(name, seamed(kps), edges, True, frame)
 
 
 def blocks_from_streets(features: Iterable[Feature], *, setback: float = 6.0,

@@ -33,8 +33,8 @@ class KeyPoint:
     xy: tuple[float, float]
     kind: KeyPointKind
     degree: int
-    angle: float | None = None     # corners: degrees between the two legs (0-180)
-    convex: bool | None = None     # corners: True when the facade turns around the mass
+    angle: float | None = None     # corners, bends: degrees between the two legs (0-180)
+    convex: bool | None = None     # corners, bends: True when the facade turns around the mass
     turn: float | None = None      # corners and bends: signed turn along the path (deg)
     branch: int | None = None      # T junctions: index of the edge that branches off
 

@@ -117,3 +117,24 @@ def test_every_district_block_meets_the_bar(tmp_path, sample_db):
 def test_every_helsinki_block_meets_the_bar(helsinki_run, sample_db):
     failures = _audit_run(helsinki_run, sample_db)
     assert not failures, "\n".join(failures)
+
+
+def test_a_round_block_builds_with_one_seam_and_meets_the_bar(tmp_path, sample_db):
+    """A round block (a 64-gon of 48 m radius: a plaza, a roundabout's island) has no
+    corner; it gets one seam, a mitre joint, and its one stage runs round the rest."""
+    import math
+    lon0, lat0 = 8.4037, 49.0135
+    ring = [[lon0 + 48 * math.cos(2 * math.pi * i / 64) / (111320 * math.cos(math.radians(lat0))),
+             lat0 + 48 * math.sin(2 * math.pi * i / 64) / 110540] for i in range(65)]
+    src = tmp_path / "plaza.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": "plaza"},
+         "geometry": {"type": "Polygon", "coordinates": [ring]}}]}))
+    assert main(["block", str(src), "--library", str(LIB), "--style", "classic", "-o",
+                 str(tmp_path), "--no-preview"]) == 0
+    lay = json.loads((tmp_path / "plaza.layout.json").read_text())
+    (st,) = lay["structures"]
+    assert len(st["keys"]) == 1 and len(st["stages"]) == 1 and st["keys"][0]["joint"] == "mitre"
+    name, a = _audit(tmp_path / "plaza.layout.json", sample_db)
+    assert a.band > 2000, a.line()
+    assert not _failures(name, a)

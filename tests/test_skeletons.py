@@ -224,3 +224,23 @@ def test_corner_angles_match_the_library_within_a_tolerance():
         match_corner_angles(sk, [(90, True), (135, False)])
     msg = str(exc.value)
     assert "concave corner of 90.0°" in msg and "90° convex, 135° concave" in msg
+
+
+def test_a_round_ring_gets_one_seam():
+    """A ring that only bends (a 64-gon: 5.6° a vertex) would have nowhere to anchor
+    parts; its sharpest bend becomes a corner, once, and the rest stay bends. A ring
+    with a real corner is left as it is."""
+    import math
+    circle = metres([(40 * math.cos(2 * math.pi * i / 64), 40 * math.sin(2 * math.pi * i / 64))
+                     for i in range(64)] + [(40.0, 0.0)])
+    circle[7] = [circle[7][0] * 1.0000005, circle[7][1]]     # 0.25 m out: the sharpest bend
+    feats, frame = parse_geojson(fc(feat("Polygon", [circle], id="plaza")))
+    (sk,) = skeletons_from_polygons(feats, frame)
+    corners = [k for k in sk.keypoints if k.kind == "corner"]
+    assert len(corners) == 1 and len(sk.keypoints) == 64
+    assert corners[0].id == 7 and corners[0].convex is True and 165 < corners[0].angle < 175
+    lines = skeleton_from_lines(*parse_geojson(fc(feat("LineString", circle))))
+    assert lines.closed and sum(k.kind == "corner" for k in lines.keypoints) == 1
+    square = metres([(0, 0), (30, 0), (30, 30), (0, 30), (0, 0)])
+    (sq,) = skeletons_from_polygons(*parse_geojson(fc(feat("Polygon", [square]))))
+    assert [k.kind for k in sq.keypoints] == ["corner"] * 4
