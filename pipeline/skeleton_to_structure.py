@@ -51,6 +51,7 @@ from citysynth.export.t_poses import (
 from citysynth.parts_db import Part, PartDB
 from citysynth.parts_db.manifest import PartClass
 from citysynth.parts_db.sections import disagreement
+from citysynth.pipeline.corner_room import CornerRoom, mass_depth
 from citysynth.skeletons import Skeleton
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.solver.structures import Stage, Structure
@@ -313,6 +314,8 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
     with their branch stage; end parts by the way the stage runs."""
     kp_of = {kp.id: kp for kp in sk.keypoints}
     corners = db.select("corner", style)
+    room = CornerRoom(sk, max((mass_depth(p) for p in db.select("middle", style)),
+                              default=0.0)) if corners else None
     options: list[tuple[str, ...]] = []
     branch: dict[int, int] = {}
     parts: dict[str, Part] = {}
@@ -325,6 +328,9 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
             opts = [p for p in corners if p.convex == kp.convex and p.angle is not None
                     and kp.angle is not None and abs(p.angle - kp.angle) <= angle_tol
                     and _fits(p, kp.angle, run)]
+            if opts and room is not None:   # rigid: only where the block has room for it
+                own = [i for c in chains if v in (c.a, c.b) for i in c.edges]
+                opts = [p for p in opts if room.fits(p, v, own)]
             extra = list(_joint_variants(db.quantum))
         elif kp.kind == "t_junction":
             branch[j] = next(s for s, c in enumerate(chains) if kp.branch in c.edges)

@@ -78,3 +78,26 @@ def test_corner_without_a_part_is_a_mitre_joint(db):
                for opts in plan.structure.keypoints)
     r = solve_structure(plan.structure)
     assert r.status == "ok" and all(k.startswith("joint:mitre") for k in r.solutions[0].keys)
+
+
+def test_a_corner_part_needs_room_behind_its_corner(db):
+    """A 12 m slot cut 50 m into a block: the library's concave 90° corner part fits the
+    slot's west bottom corner, but not its east one, 18 m from the block's east side,
+    where its mass would reach through that side into the street; that corner is a
+    mitre joint (whose modules are cut where the block is thin)."""
+    slot = metres([(0, 0), (100, 0), (100, 80), (82, 80), (82, 30), (70, 30), (70, 80),
+                   (0, 80), (0, 0)])
+    feats, frame = parse_geojson(fc(feat("Polygon", [slot])))
+    (sk,) = skeletons_from_polygons(feats, frame)
+    plan = skeleton_structure(sk, db, "classic")
+    # the frame is centred on the block: (70, 30) is (20, -10)
+    spots = {(20, -10): "slot west", (32, -10): "slot east", (-50, -40): "south-west"}
+    at = {}
+    for key, opts in zip(plan.placement.keys, plan.structure.keypoints, strict=True):
+        near = [n for (x, y), n in spots.items() if abs(x - key.xy[0]) + abs(y - key.xy[1]) < 0.1]
+        if near:
+            at[near[0]] = [x for x in opts if not x.startswith("joint:")]
+    assert len(at) == 3
+    assert any("concave" in x for x in at["slot west"]), at["slot west"]
+    assert at["slot east"] == []
+    assert any("convex" in x for x in at["south-west"])
