@@ -441,3 +441,21 @@ def test_structure_wide_interval_k1_and_k3_are_the_enumerations(d):
             combine.LAZY_CHAINS = True
         assert [(x.cost, x.keys, x.stages, x.resources) for x in r.solutions] == \
             [(x.cost, x.keys, x.stages, x.resources) for x in general.solutions]
+
+
+@pytest.mark.parametrize("doors", [None, (6.0, 14.0)])
+def test_first_candidates_by_loop_or_by_arrays_are_the_same(doors):
+    """A node's first candidates (chain_kbest._start_heap) come from a Python loop when
+    there are few, from arrays otherwise: the same structures either way."""
+    from citysynth.solver.structures import chain_kbest
+
+    s = Structure.from_dict(block_cycle(12, doors=doors))
+    old = chain_kbest.SMALL_START
+    got = []
+    for small in (0, 10**6):
+        chain_kbest.SMALL_START = small
+        try:
+            got.append([(x.cost, x.keys, x.stages) for x in solve_structure(s, 30).solutions])
+        finally:
+            chain_kbest.SMALL_START = old
+    assert len(got[0]) == 30 and got[0] == got[1]

@@ -29,6 +29,7 @@ sort did. A test compares the two on generated structures.
 from __future__ import annotations
 
 import heapq
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -37,6 +38,7 @@ from numba import njit
 
 from citysynth.solver.structures.model import Structure
 
+SMALL_START = 32   # at most this many first pairs: a node's heap made without arrays
 Share = tuple[int, ...]
 StageList = list[tuple[float, Any]]
 Payload = dict[int, tuple[str, Any, "Payload"]]
@@ -385,11 +387,19 @@ class ChainProgram:
         S, F = self.S, int(self.ne[p + 1])
         a = self.A[p, ei, :F, :g + 1]
         b = B[p + 1, :F, g::-1]                  # b[f, g1] = completion at share g - g1
-        ok = (a < np.inf) & (b < np.inf)
-        fi, g1 = np.nonzero(ok)                  # (f, g1) ascending: the pairs' order
-        c = a[fi, g1] + (b[fi, g1] + self.cf[p + 1, fi])
-        cand: list[Item] = [(x, t, 0, 0) for x, t in zip(c.tolist(), (fi * S + g1).tolist(),
-                                                         strict=True)]
+        # (f, g1) ascending: the pairs' order. A few pairs (no structure-wide resource)
+        # by a Python loop, which costs less than the array calls; the same float sums
+        cand: list[Item]
+        if F * (g + 1) <= SMALL_START:
+            cf, al, bl, inf = self.cfl[p + 1], a.tolist(), b.tolist(), math.inf
+            cand = [(x + (y + cf[fi]), fi * S + g1, 0, 0) for fi in range(F)
+                    for g1, (x, y) in enumerate(zip(al[fi], bl[fi], strict=True))
+                    if x < inf and y < inf]
+        else:
+            fi, g1 = np.nonzero((a < np.inf) & (b < np.inf))
+            c = a[fi, g1] + (b[fi, g1] + self.cf[p + 1, fi])
+            cand = [(x, t, 0, 0) for x, t in zip(c.tolist(), (fi * S + g1).tolist(),
+                                                 strict=True)]
         heapq.heapify(cand)
         first = heapq.heappop(cand)
         if first[:2] != node.items[0][:2]:
