@@ -357,11 +357,9 @@ class StageGraphs:
         HI = np.empty((len(idx), R), dtype=np.int64)
         LO[:] = lo
         HI[:] = hi
-        if self.gnames:
-            wide = [grp.dims.index(r) for r in self.gnames]
-            G = self._share_arr[idx]
-            LO[:, wide] = G
-            HI[:, wide] = G
+        for w, r in enumerate(self.gnames):   # the share on each structure-wide dimension
+            d = grp.dims.index(r)
+            LO[:, d] = HI[:, d] = self._share_arr[idx, w]
         qlo = np.maximum(LO[None, :, :] - legs[:, None, :], 0)
         qhi = np.minimum(HI[None, :, :] - legs[:, None, :], grp.cap)
         bi, j = np.nonzero((qlo <= qhi).all(axis=2))   # by end element, then share
