@@ -130,6 +130,27 @@ def _first_items(A, cf, ne, closed, r):
     return B, arg
 
 
+@njit(cache=True)
+def _first_pairs(a, b, cf, S):
+    """A node's first candidates: cost a[f, g1] + (b[f, g1] + cf[f]) and pair
+    f * S + g1 of every pair with both terms finite, sorted by (cost, pair) (a stable
+    sort of the pairs made in ascending order)."""
+    F, G = a.shape
+    c = np.empty(F * G)
+    t = np.empty(F * G, dtype=np.int64)
+    m = 0
+    for f in range(F):
+        for g1 in range(G):
+            x = a[f, g1]
+            y = b[f, g1]
+            if x < np.inf and y < np.inf:
+                c[m] = x + (y + cf[f])
+                t[m] = f * S + g1
+                m += 1
+    order = np.argsort(c[:m], kind="mergesort")
+    return c[:m][order], t[:m][order]
+
+
 class _Node:
     """The completions of one (position, element, share) found so far."""
 
@@ -395,12 +416,10 @@ class ChainProgram:
             cand = [(x + (y + cf[fi]), fi * S + g1, 0, 0) for fi in range(F)
                     for g1, (x, y) in enumerate(zip(al[fi], bl[fi], strict=True))
                     if x < inf and y < inf]
-        else:
-            fi, g1 = np.nonzero((a < np.inf) & (b < np.inf))
-            c = a[fi, g1] + (b[fi, g1] + self.cf[p + 1, fi])
-            cand = [(x, t, 0, 0) for x, t in zip(c.tolist(), (fi * S + g1).tolist(),
-                                                 strict=True)]
-        heapq.heapify(cand)
+            heapq.heapify(cand)
+        else:   # sorted by (cost, pair), so a heap already
+            c, t = _first_pairs(a, b, self.cf[p + 1, :F], S)
+            cand = [(x, y, 0, 0) for x, y in zip(c.tolist(), t.tolist(), strict=True)]
         first = heapq.heappop(cand)
         if first[:2] != node.items[0][:2]:
             raise AssertionError("first completion differs from the array pass")
