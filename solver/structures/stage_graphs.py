@@ -164,9 +164,13 @@ def _cat(xs: list[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
 
 
 class StageGraphs:
-    """Every stage list of a structure, computed up front from shared graphs; a list's
+    """Every stage list of a structure, from shared graphs solved up front; a list's
     payload is (paths index, path index). ``first``: how many paths each query gets
-    up front (k unless given); :meth:`more` finds more of one query on demand."""
+    up front (k unless given); :meth:`more` finds more of one query on demand. With
+    one path each, only the queries' best costs are found up front (arrays, one per
+    graph) and a list is made when it is read (:meth:`lists`; the lazy program takes
+    the first entries as one array, :meth:`first_costs`). :meth:`release` gives the
+    graphs' tables back for the next solve."""
 
     def __init__(self, st: Structure, k: int, grid: Grid, max_memory_mb: float,
                  table: str = "auto", first: int | None = None):
