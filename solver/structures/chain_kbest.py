@@ -208,8 +208,9 @@ class ChainProgram:
         self._payloads: dict[tuple[int, int, int, int, int], Payload] = {}
         self.read = read
         self.kps = list(self.keys) + ([] if st.closed else [st.stages[self.stages[-1]].end])
-        if firsts is not None:
-            self.A = np.ascontiguousarray(firsts[self.stages][:, :self.E, :self.E, :self.S])
+        if firsts is not None:   # by stage: by position here (as it is, when in order)
+            A = firsts if self.stages == list(range(self.L)) else firsts[self.stages]
+            self.A = np.ascontiguousarray(A[:, :self.E, :self.E, :self.S])
         else:
             self.A = self._first_entries()
 
