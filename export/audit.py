@@ -29,8 +29,10 @@ from pathlib import Path
 import numpy as np
 import shapely
 from pxr import Usd, UsdGeom
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
+
+from citysynth.export.joints import behind
 
 ROOF_NZ = 0.2          # faces whose normal's z exceeds this are roof-like (looked at from above)
 FOOTPRINT_NZ = 0.05    # faces steeper than this project to nothing useful in plan
@@ -130,23 +132,7 @@ def _stage_regions(stages: list[dict], depth: float) -> list[BaseGeometry]:
         prev = ins.get(s["from"])
         if prev is not None and prev["front"] == s["front"]:
             lines.append((prev["polyline"][-2:] + s["polyline"][1:2], s["front"]))
-    out = []
-    for pts, front in lines:
-        side = depth if front == "right" else -depth   # the mass is left of travel
-        for open_pts in _opened(pts):
-            out.append(LineString(open_pts).buffer(side, single_sided=True, cap_style="flat",
-                                                   join_style="mitre"))
-    return out
-
-
-def _opened(pts: list) -> list[list]:
-    """A polyline as open polylines: a stage that goes round a whole ring (a round block
-    with one seam) ends where it starts, and GEOS buffers a closed line on one side
-    wrongly; its two halves share the middle segment, so every joint is mitred."""
-    if len(pts) < 4 or tuple(pts[0]) != tuple(pts[-1]):
-        return [pts]
-    m = len(pts) // 2
-    return [pts[:m + 1], pts[m - 1:]]
+    return [behind(pts, front, depth) for pts, front in lines]
 
 
 def _ring_order(stages: list[dict]) -> list[dict]:

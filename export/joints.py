@@ -27,8 +27,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+import shapely
+from shapely.geometry import LineString
+from shapely.geometry.base import BaseGeometry
 
 from citysynth.export.layout import AXIS_DIGITS, COORD_DIGITS, Cut, Instance
 
@@ -168,3 +172,20 @@ def joint_halves(p: np.ndarray, u_in: np.ndarray, u_out: np.ndarray, mass_left: 
         chamfer = HalfPlane(tuple(-into), tuple(np.asarray(p) - into * CHAMFER), extends=False)
         return before + [chamfer], after + [chamfer], "mitre", 0.0
     return before, after, "mitre", 0.0
+
+
+def behind(points: Any, front: str, depth: float) -> BaseGeometry:
+    """The ground behind a facade polyline, ``depth`` deep, mitred at its bends (the
+    mass lies left of travel where the facades face right). A polyline that ends where
+    it starts (a stage round a whole ring: a round block's one seam) is buffered as two
+    halves sharing its middle segment, since GEOS buffers a closed line on one side
+    wrongly (the ring's inside filled, or the wrong side)."""
+    side = depth if front == "right" else -depth
+    pts = [tuple(p) for p in points]
+    halves = [pts]
+    if len(pts) >= 4 and pts[0] == pts[-1]:
+        m = len(pts) // 2
+        halves = [pts[:m + 1], pts[m - 1:]]
+    return shapely.union_all([LineString(h).buffer(side, single_sided=True, cap_style="flat",
+                                                   join_style="mitre") for h in halves])
+

@@ -33,11 +33,18 @@ from typing import Any, Protocol
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString, Polygon
+from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from citysynth.export.errors import ExportError
-from citysynth.export.joints import HalfPlane, Placed, bisector, facade_span, joint_halves
+from citysynth.export.joints import (
+    HalfPlane,
+    Placed,
+    behind,
+    bisector,
+    facade_span,
+    joint_halves,
+)
 from citysynth.export.layout import Instance, Layout
 from citysynth.export.plan import Front, PlacementPlan, PlanStage, is_joint
 from citysynth.export.t_poses import SEP, main_depth, part_leg, t_pose
@@ -373,7 +380,7 @@ class _Placer:
             st = self.plan.stages[s]
             depth = max((self.placed[i].y_range[1] for i in self.record.stages[s].fill),
                         default=0.0)
-            self._bands[s] = _band(st.points, st.front, depth)
+            self._bands[s] = behind(st.points, st.front, depth)
         return self._bands[s]
 
     def _far_band(self, s: int) -> BaseGeometry:
@@ -535,13 +542,6 @@ def _mass_normal(direction: np.ndarray, front: Front) -> np.ndarray:
     u = np.asarray(direction, dtype=float)
     u = u / float(np.hypot(*u))
     return _left(u) if front == "right" else -_left(u)
-
-
-def _band(points, front: Front, depth: float) -> BaseGeometry:
-    """The ground behind a stage's facades, ``depth`` deep."""
-    side = depth if front == "right" else -depth     # the mass lies left of travel
-    return LineString(points).buffer(side, single_sided=True, cap_style="flat",
-                                     join_style="mitre")
 
 
 def _footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
