@@ -311,3 +311,27 @@ def test_street_blocks_cut_back_where_footprints_stand(tmp_path):
         overlap += sum(f.intersection(buildings).area for f in feet)
     print(f"\nstreet blocks over footprint buildings: {overlap:.4f} m²")
     assert overlap == pytest.approx(0.0, abs=1e-6)
+
+
+def test_a_light_well_too_small_for_the_kit_is_closed_with_a_note(tmp_path):
+    """A 50 x 40 m building with a 2 x 2 m light well (its sides under the kit's 2.5 m)
+    and a 20 x 12 m courtyard: the light well is closed under the roof, with a note
+    naming it; the courtyard keeps its facades."""
+    outer = [(0, 0), (50, 0), (50, 40), (0, 40), (0, 0)]
+    well = [(6, 30), (6, 32), (8, 32), (8, 30), (6, 30)]
+    court = [(15, 14), (15, 26), (35, 26), (35, 14), (15, 14)]
+    rings = [lonlat_from_local(r, (24.94, 60.17)) for r in (outer, well, court)]
+    fp = tmp_path / "wells.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": "house"},
+         "geometry": {"type": "Polygon", "coordinates": rings}}]}))
+    assert run_city(tmp_path / "run", fp, workers=1) == 0
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())["blocks"]
+    ((bid, rec),) = manifest.items()
+    assert rec["status"] == "built"
+    assert "4.0 m² courtyard closed under the roof" in rec["note"], rec
+    lay = json.loads((tmp_path / "run" / "blocks" / f"{bid}.layout.json").read_text())
+    assert len(lay["structures"]) == 2      # the outline and the courtyard, no light well
+    report = json.loads((tmp_path / "run" / "report.json").read_text())
+    assert [n["note"] for n in report["notes"]] == [rec["note"]]
+    assert report["storeys_not_matched"] == []

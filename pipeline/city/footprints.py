@@ -330,6 +330,7 @@ def min_side(db: PartDB, style: str, slack: float) -> float:
     return max(shortest + 2 * db.quantum - slack, db.quantum)
 
 
+LIGHT_WELL = 50.0     # m²: a smaller courtyard with a side too short to build is closed
 RETRY_SIDE = 1.0      # m: a footprint no layout fits is cleaned again with sides this much longer
 
 
@@ -368,13 +369,34 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0) -> Prepared | str:
     if clean is None:
         return "nothing buildable is left of its outline once cleaned"
     props = {"id": fp.ref} if fp.ref else {}
-    rings = skeletons_from_polygons([Feature(fp.feature, clean, props)], frame)
-    bad = short_side(rings, shortest)
+    closed: list[str] = []
+    while True:
+        rings = skeletons_from_polygons([Feature(fp.feature, clean, props)], frame)
+        bad = short_side(rings, shortest)
+        hole = _courtyard(bad[0].name) if bad is not None else None
+        well = shapely.Polygon(clean.interiors[hole]) if hole is not None else None
+        if well is None or well.area >= LIGHT_WELL:
+            break
+        # a light well the kit's facades cannot line: closed under the roof
+        closed.append(f"a {well.area:.1f} m² courtyard")
+        clean = shapely.Polygon(clean.exterior, [r for i, r in enumerate(clean.interiors)
+                                                 if i != hole])
     if bad is not None:
         raise SkeletonError(too_short(fp.where, job.frame, fp.source_crs, bad[1], shortest,
                                       job.style))
     parts, storeys, note = choose_family(fp, db, job.style)
+    if closed:
+        well_note = (f"{fp.where}: {' and '.join(closed)} closed under the roof (sides "
+                     f"under the {shortest:.1f} m the {job.style} kit needs)")
+        note = f"{note}\n{well_note}" if note else well_note
     return Prepared(rings, fp.where, fp.stretch, job.slack, parts, storeys, note)
+
+
+def _courtyard(ring_name: str) -> int | None:
+    """The index among the polygon's holes of the ring named ``... courtyard <n>``
+    (:func:`~citysynth.skeletons.skeletons_from_polygons` numbers them from 1)."""
+    m = re.search(r" courtyard (\d+)$", ring_name)
+    return int(m.group(1)) - 1 if m else None
 
 
 def failure(prep: Prepared, job: BlockJob, db: PartDB, reason: str | None) -> str:

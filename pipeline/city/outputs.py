@@ -64,8 +64,9 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
         "counts": counts, "blocks": len(inputs.jobs),
         "built_share": counts["built"] / attempted if attempted else 1.0,
         "failed": with_status("failed", "reason"),
-        "storeys_not_matched": [{"id": i, "note": recs[i]["note"]} for i in ids
-                                if recs[i].get("note")],
+        "storeys_not_matched": [{"id": i, "note": n} for i in ids
+                                for n in _notes(recs[i]) if "storeys asked" in n],
+        "notes": [{"id": i, "note": n} for i in ids for n in _notes(recs[i])],
         "skipped": _reasons(inputs.skipped) + with_status("skipped", "reason"),
         "errors": [{"id": i, "error": recs[i]["error"], "traceback": recs[i]["traceback"]}
                    for i in ids if recs[i]["status"] == "error"],
@@ -75,6 +76,12 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
     write_report(out, report)
     write_blocks_geojson(out / BLOCKS_GEOJSON, inputs, recs)
     return report
+
+
+def _notes(rec: dict[str, Any]) -> list[str]:
+    """A block's notes (what its build changed of the input, e.g. storeys the kit could
+    not match, a light well closed), one by one."""
+    return [n for n in str(rec.get("note") or "").split("\n") if n]
 
 
 def count_kinds(inputs: CityInputs, recs: dict[str, dict[str, Any]]
