@@ -36,6 +36,7 @@ from citysynth.skeletons.streets import street_blocks
 
 SNAP = 0.01            # metres: endpoints closer than this are the same key point
 STRAIGHT_TOL = 15.0    # degrees: a smaller turn is a bend, not a corner
+DENSE = 0.02           # metres: an outline simplified within this (dense CAD or GIS curves)
 
 
 def _constraints(props: dict[str, Any], where: str) -> dict[str, tuple[float, float]]:
@@ -135,12 +136,6 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
     if not edges:
         raise SkeletonError(f"{prefix}no skeleton edges in the input")
     edges = _split_at_touching_ends(edges, xy)
-    for e in edges:  # after splitting: a wing drawn to a line can cut it short
-        if e.length < min_edge:
-            p = xy[e.a]
-            raise SkeletonError(
-                f"{e.source}: edge of {e.length:.2f} m at ({p[0]:.2f}, {p[1]:.2f}) is "
-                f"shorter than the smallest part ({min_edge:.2f} m)")
     _check_crossings(edges, xy)
     g = nx.Graph()
     g.add_nodes_from(xy)
@@ -162,7 +157,38 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
 
     kps = _classify(sorted(xy), xy, g, edges, straight_tol, where)
     closed = all(k.degree == 2 for k in kps)
-    return Skeleton(name, seamed(kps) if closed else kps, edges, closed, frame)
+    sk = Skeleton(name, seamed(kps) if closed else kps, edges, closed, frame)
+    _check_sides(sk, min_edge)   # after splitting: a wing drawn to a line can cut it short
+    return sk
+
+
+def _check_sides(sk: Skeleton, min_edge: float, where: str = "") -> None:
+    """Every side (the run between two key points that are not bends: modules fold
+    across bends, so a densely drawn curve is as good as a smooth one) must hold the
+    smallest part. Messages name ``where`` (else the side's feature)."""
+    if min_edge <= 0:
+        return
+    kp = {k.id: k for k in sk.keypoints}
+    at: dict[int, list[int]] = {}
+    for i, e in enumerate(sk.edges):
+        at.setdefault(e.a, []).append(i)
+        at.setdefault(e.b, []).append(i)
+    for start in (k.id for k in sk.keypoints if k.kind != "bend"):
+        for first in at[start]:
+            i, v, length = first, start, 0.0
+            while True:
+                e = sk.edges[i]
+                length += e.length
+                v = e.b if e.a == v else e.a
+                if kp[v].kind != "bend":
+                    break
+                i = next(j for j in at[v] if j != i)
+            if length < min_edge:
+                a, b = kp[start].xy, kp[v].xy
+                raise SkeletonError(
+                    f"{where or sk.edges[first].source or sk.name}: the {length:.2f} m side from "
+                    f"({a[0]:.2f}, {a[1]:.2f}) to ({b[0]:.2f}, {b[1]:.2f}) is shorter than "
+                    f"the smallest part ({min_edge:.2f} m)")
 
 
 def seamed(kps: list[KeyPoint]) -> list[KeyPoint]:
@@ -256,6 +282,9 @@ def _checked_polygon(poly: BaseGeometry, where: str, min_area: float) -> Polygon
 def _ring_skeleton(ring: LinearRing, f: Feature, name: str, frame: Frame, min_edge: float,
                    straight_tol: float) -> Skeleton:
     where = _in_file(f, name)
+    # a densely drawn curve (CAD, GIS densification) keeps its shape within DENSE, and
+    # loses the vertices that would fold every module many times over
+    ring = shapely.simplify(ring, DENSE, preserve_topology=True)
     pts = np.asarray(ring.coords)[:-1, :2]
     keep = [0]
     for i in range(1, len(pts)):  # drop repeated points
@@ -272,10 +301,6 @@ def _ring_skeleton(ring: LinearRing, f: Feature, name: str, frame: Frame, min_ed
     for i in range(n):
         a, b = i, (i + 1) % n
         length = float(np.linalg.norm(pts[b] - pts[a]))
-        if length < min_edge:
-            raise SkeletonError(
-                f"{where}: edge of {length:.2f} m at ({pts[a][0]:.2f}, {pts[a][1]:.2f}) is "
-                f"shorter than the smallest part ({min_edge:.2f} m)")
         edges.append(Edge(a, b, length, "right", cons, f.where))
     kps = []
     for v in range(n):
@@ -285,7 +310,9 @@ def _ring_skeleton(ring: LinearRing, f: Feature, name: str, frame: Frame, min_ed
         kind: KeyPointKind = "bend" if abs(turn) < straight_tol else "corner"
         kps.append(KeyPoint(v, p, kind, 2, angle=180.0 - abs(turn), convex=turn > 0,
                             turn=turn))
-    return Skeleton(name, seamed(kps), edges, True, frame)
+    sk = Skeleton(name, seamed(kps), edges, True, frame)
+    _check_sides(sk, min_edge, where)
+    return sk
 
 
 def blocks_from_streets(features: Iterable[Feature], *, setback: float = 6.0,

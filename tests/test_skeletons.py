@@ -152,7 +152,7 @@ def test_street_setbacks_follow_width_lanes_and_class():
     ([feat("Polygon", [metres([(0, 0), (10, 10), (10, 0), (0, 10), (0, 0)])], id="bow")],
      "poly", "invalid polygon"),
     ([feat("Polygon", [metres([(0, 0), (10, 0), (20, 0), (0, 0)])])], "poly", "degenerate"),
-    ([feat("LineString", metres([(0, 0), (2, 0), (30, 0)]))], "lines", "shorter than the "
+    ([feat("LineString", metres([(0, 0), (2, 0), (2, 30)]))], "lines", "shorter than the "
      "smallest part"),
     ([feat("LineString", metres([(0, 0), (30, 0)])),
       feat("LineString", metres([(50, 0), (80, 0)]))], "lines", "disconnected"),
@@ -244,3 +244,15 @@ def test_a_round_ring_gets_one_seam():
     square = metres([(0, 0), (30, 0), (30, 30), (0, 30), (0, 0)])
     (sq,) = skeletons_from_polygons(*parse_geojson(fc(feat("Polygon", [square]))))
     assert [k.kind for k in sq.keypoints] == ["corner"] * 4
+
+
+def test_a_densely_drawn_curve_is_one_side():
+    """Edges between bends need not hold a part: a circle drawn with 2,000 vertices
+    (15 cm edges) is one side round a seam, as a smooth one is, and is simplified within
+    2 cm first (about 110 vertices: modules fold across a few bends, not dozens)."""
+    import math
+    circle = metres([(48 * math.cos(2 * math.pi * i / 2000), 48 * math.sin(2 * math.pi * i / 2000))
+                     for i in range(2000)] + [(48.0, 0.0)])
+    (sk,) = skeletons_from_polygons(*parse_geojson(fc(feat("Polygon", [circle]))), min_edge=2.4)
+    assert sum(k.kind == "corner" for k in sk.keypoints) == 1
+    assert 80 < len(sk.keypoints) < 150
