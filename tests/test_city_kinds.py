@@ -66,6 +66,9 @@ def test_the_demo_district_has_every_kind(mixed):
     assert report["kinds"] == {"perimeter": {"built": 1}, "row": {"built": 4},
                                "towers": {"built": 2}}
     assert report["counts"]["built"] == 7 and not report["failed"] and not report["errors"]
+    blocks = json.loads((out / "blocks.geojson").read_text())["features"]
+    kinds = [f["properties"]["zone_kind"] for f in blocks if f["properties"]["id"]]
+    assert sorted(kinds) == ["perimeter"] + ["row"] * 4 + ["towers"] * 2
     assert validate(out / "city.usda") == []
     for bid in report["built"]:
         assert validate(out / "blocks" / f"{bid}.usda") == []

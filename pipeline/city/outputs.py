@@ -145,7 +145,9 @@ def write_blocks_geojson(path: Path, inputs: CityInputs,
         rec = recs.get(job.id, {"status": "not run"})
         props = {"id": job.id, "kind": job.kind, "zone": job.zone, "style": job.style,
                  "status": rec["status"]}
-        props.update({k: rec[k] for k in ("reason", "error", "rank", "of", "cost")
+        if job.footprint is None:   # a street block: what its zone makes of it
+            props["zone_kind"] = job.zone_kind.kind if job.zone_kind else "perimeter"
+        props.update({k: rec[k] for k in ("reason", "error", "rank", "of", "cost", "note")
                       if rec.get(k) is not None})
         geometry = {"type": "Polygon", "coordinates": [ring(poly.exterior.coords)] +
                     [ring(r.coords) for r in poly.interiors]}
