@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString
+from shapely.geometry import LineString, Polygon
 from shapely.geometry.base import BaseGeometry
 
 from citysynth.export.layout import AXIS_DIGITS, COORD_DIGITS, Cut, Instance
@@ -149,6 +149,38 @@ def bisector(u_in: np.ndarray, u_out: np.ndarray) -> np.ndarray:
     return n / norm
 
 
+def _turn(u_in: np.ndarray, u_out: np.ndarray) -> float:
+    """The signed turn, in degrees, from travel along ``u_in`` to travel along ``u_out``."""
+    return math.degrees(math.atan2(u_in[0] * u_out[1] - u_in[1] * u_out[0],
+                                   float(np.asarray(u_in) @ np.asarray(u_out))))
+
+
+def is_convex(u_in: np.ndarray, u_out: np.ndarray, mass_left: bool) -> bool:
+    """Whether a joint turns toward the mass (a street corner) rather than away from it
+    (a corner the end modules are extended behind, up to the bisector)."""
+    return (_turn(u_in, u_out) > 0) == mass_left
+
+
+def concave_reach(p: np.ndarray, u: np.ndarray, half: HalfPlane, front: str,
+                  depth: float, incoming: bool) -> BaseGeometry:
+    """The ground a module at a concave joint ``p`` covers past it once extended up to
+    the joint's plane ``half``: its stage's band (``depth`` deep, its stage running
+    along ``u`` into p when ``incoming``, else out of it) continued past p up to the
+    plane, as far as an extension goes. The band itself stops square at p and misses
+    this, so a stage beyond it would not see that mass."""
+    u = np.asarray(u, dtype=float)
+    p = np.asarray(p, dtype=float)
+    far = MAX_EXTEND_DEPTHS * max(depth, 1.0)
+    line = [p, p + u * far] if incoming else [p - u * far, p]
+    strip = behind(line, front, depth)
+    n, q = np.asarray(half.normal, dtype=float), np.asarray(half.point, dtype=float)
+    t = np.array([-n[1], n[0]])
+    size = 4.0 * (far + depth)
+    keep = Polygon([q + t * size, q + t * size - n * size, q - t * size - n * size,
+                    q - t * size])
+    return strip.intersection(keep)
+
+
 def joint_halves(p: np.ndarray, u_in: np.ndarray, u_out: np.ndarray, mass_left: bool
                  ) -> tuple[list[HalfPlane], list[HalfPlane], str, float]:
     """The half-planes for the module arriving at ``p`` and the one leaving it, the
@@ -157,9 +189,8 @@ def joint_halves(p: np.ndarray, u_in: np.ndarray, u_out: np.ndarray, mass_left: 
     n = bisector(u_in, u_out)
     before = [HalfPlane(tuple(n), tuple(p))]
     after = [HalfPlane(tuple(-n), tuple(p))]
-    turn = math.degrees(math.atan2(u_in[0] * u_out[1] - u_in[1] * u_out[0],
-                                   float(u_in @ u_out)))
-    convex = (turn > 0) == mass_left            # turning toward the mass
+    turn = _turn(u_in, u_out)
+    convex = is_convex(u_in, u_out, mass_left)
     between = 180.0 - abs(turn)                 # the angle between the two facades
     into = -np.asarray(u_in) + np.asarray(u_out)   # the bisector, into the mass
     into = into / max(float(np.hypot(*into)), 1e-12)

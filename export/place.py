@@ -42,7 +42,9 @@ from citysynth.export.joints import (
     Placed,
     behind,
     bisector,
+    concave_reach,
     facade_span,
+    is_convex,
     joint_halves,
 )
 from citysynth.export.layout import Instance, Layout
@@ -188,6 +190,9 @@ class _Placer:
         self.solved: list[float] = []
         self._bands: dict[int, BaseGeometry] = {}     # once every module is placed
         self._far: dict[int, BaseGeometry] = {}
+        # stage -> (its segment at the joint, the ground its end module covers past a
+        # concave mitre joint, up to the joint's plane)
+        self._reach: dict[int, list[tuple[int, BaseGeometry]]] = {}
 
     def place(self) -> tuple[list[Instance], _Record]:
         self._stretches()
@@ -351,7 +356,9 @@ class _Placer:
         """Where the masses of two stages that share no key point overlap (a narrow end
         of a block, a block too small for a courtyard), each module keeps what lies
         nearer its own facade: the plane of equal depth behind both facades. At a right
-        angle this is the corner's bisector; facing each other, the middle."""
+        angle this is the corner's bisector; facing each other, the middle. A stage's
+        mass is its band, and past a concave mitre joint its end module's extension up
+        to the joint's plane (:meth:`_medial_reach`)."""
         stages = self.plan.stages
         bands = [self._stage_band(s) for s in range(len(stages))]
         tree = shapely.STRtree(bands)
@@ -359,13 +366,43 @@ class _Placer:
             apart = set(self._apart(s))
             for i in self.record.stages[s].fill:
                 foot = _footprint(self.placed[i], self.span[i])
+                met = set()
                 for t in tree.query(foot, predicate="intersects"):
                     if int(t) not in apart:
                         continue
                     if foot.intersection(bands[t]).area > MEDIAL_MIN_AREA:
+                        met.add(int(t))
                         self._medial(i, s, int(t))
+                self._medial_reach(i, s, foot, apart - met)
         for s in range(len(stages)):
             self._medial_runs(s)
+
+    def _medial_reach(self, i: int, s: int, foot: BaseGeometry, apart: set[int]) -> None:
+        """Module i against the ground a stage t extends over past a concave mitre
+        joint (outside t's band: a narrow wing's inner corner, whose end module reaches
+        past the corner into the modules of the far side). Tested with module i as its
+        own joints cut it (its plain rectangle would reach the other side of its
+        corner's plane too), and cut only where what the medial plane removes lies
+        mostly within t's mass: the plane is infinite, t's extension is not."""
+        clipped = None
+        for t in sorted(apart):
+            for k, reach in self._reach.get(t, []):
+                if not foot.intersects(reach):
+                    continue
+                if clipped is None:
+                    clipped = _clipped_footprint(self.placed[i], self.span[i])
+                if clipped.intersection(reach).area <= MEDIAL_MIN_AREA:
+                    continue
+                half = self._medial_half(i, s, t, k)
+                if half is None or half in self.placed[i].halves:
+                    continue
+                past = self._past(i, half)
+                if past.area <= MEDIAL_MIN_AREA:
+                    continue
+                mass = shapely.union_all([self._stage_band(t), reach])
+                if past.intersection(mass).area >= REACH_SHARE * past.area:
+                    self.placed[i].halves.append(half)
+                    clipped = None
 
     def _apart(self, s: int) -> list[int]:
         """The stages that share no key point with stage s."""
@@ -373,14 +410,17 @@ class _Placer:
         return [t for t, o in enumerate(self.plan.stages)
                 if not {st.start, st.end} & {o.start, o.end}]
 
+    def _stage_depth(self, s: int) -> float:
+        """How deep stage s's deepest module reaches behind its facade."""
+        return max((self.placed[i].y_range[1] for i in self.record.stages[s].fill),
+                   default=0.0)
+
     def _stage_band(self, s: int) -> BaseGeometry:
         """The ground behind stage s's facades, as deep as its deepest module (once all
         modules are placed: joints and medial cuts come after)."""
         if s not in self._bands:
             st = self.plan.stages[s]
-            depth = max((self.placed[i].y_range[1] for i in self.record.stages[s].fill),
-                        default=0.0)
-            self._bands[s] = behind(st.points, st.front, depth)
+            self._bands[s] = behind(st.points, st.front, self._stage_depth(s))
         return self._bands[s]
 
     def _far_band(self, s: int) -> BaseGeometry:
@@ -450,6 +490,14 @@ class _Placer:
     def _medial(self, i: int, s: int, t: int, k: int | None = None) -> None:
         """Cut module i (of stage s) where it lies deeper behind its facade than behind
         stage t's facade segment k (by default the one nearest the module)."""
+        half = self._medial_half(i, s, t, k)
+        if half is not None:
+            self.placed[i].halves.append(half)
+
+    def _medial_half(self, i: int, s: int, t: int, k: int | None = None
+                     ) -> HalfPlane | None:
+        """The plane of :meth:`_medial` (None where there is none, or where it would
+        cut module i's facade)."""
         placed = self.placed[i]
         centre = placed.origin + placed.a @ np.array([placed.length / 2, 0.0])
         path_t = self.paths[t]
@@ -461,14 +509,14 @@ class _Placer:
         n = m_s - m_t
         norm = float(np.hypot(*n))
         if norm < 1e-6:
-            return
+            return None
         p_s, p_t = placed.origin, path_t.p[k]
         c = (float(p_s @ m_s) - float(p_t @ m_t)) / norm
         n = n / norm
         facade = self._facade(i)
         if (facade @ n > c - TOL).any():   # it would cut the facade itself: leave it
-            return
-        placed.halves.append(HalfPlane(tuple(n), tuple(n * c), extends=False))
+            return None
+        return HalfPlane(tuple(n), tuple(n * c), extends=False)
 
     # -- mitre joints ---------------------------------------------------------------------
 
@@ -515,11 +563,20 @@ class _Placer:
             self._cut_reaching(reversed(fill_in), half, s_in, s_out)
         for half in after:
             self._cut_reaching(fill_out, half, s_out, s_in)
+        if how == "mitre" and not is_convex(u_in, u_out, mass_left):
+            for s, u, half, incoming in ((s_in, u_in, before[0], True),
+                                         (s_out, u_out, after[0], False)):
+                k = len(self.paths[s].len) - 1 if incoming else 0
+                self._reach.setdefault(s, []).append((k, concave_reach(
+                    self.kxy[j], u, half, self.plan.stages[s].front, self._stage_depth(s),
+                    incoming)))
         self.record.joints[j] = how
         self.record.joint_ends[j] = (self.kxy[j] - u_in * trim, self.kxy[j] + u_out * trim)
 
 
 MEDIAL_MIN_AREA = 0.05   # m²: a module reaching less into another stage's mass is left
+REACH_SHARE = 0.5        # a medial plane against a concave extension must remove mostly
+                         # ground that extension (or its stage's band) covers
 
 
 def _fold_at_ends(pieces: list[Placed], path: _Path, runs: list[int],

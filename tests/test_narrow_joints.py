@@ -1,0 +1,55 @@
+"""Narrow wings meeting at a mitre joint: an L whose arms (15 m) are barely deeper than
+its modules (10-14 m). Behind the inner (concave) corner, the inner sides' end modules
+are extended up to the joint's bisector, past the square end of their stage's band;
+the outer side's modules near the corner square reach that far too. They must still
+meet on the plane of equal depth (export/place.py, ``_Placer._medial_reach``), not
+overlap (they did on 42 m², 3.6 % of the footprint), and the medial plane must not open
+the part of the corner square the inner sides never reach (a cut against the inner
+side's whole line did, on 17 m²). Both the L and its mirror image, built as a block,
+meet the 3D audit's bar."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+from citysynth.pipeline.cli import main
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_audit import LIB, _audit, _failures  # noqa: E402
+
+ORIGIN = (391000.0, 5820000.0)   # EPSG:25833 (UTM 33N), in Berlin
+# the L in metres: a 40 m arm and a 50 m arm, both 15 m wide, the concave corner at (15, 15)
+L_SHAPE = [(0, 0), (40, 0), (40, 15), (15, 15), (15, 50), (0, 50), (0, 0)]
+
+
+def _feature(name: str, ring: list[tuple[float, float]]) -> dict:
+    return {"type": "Feature", "properties": {"id": name},
+            "geometry": {"type": "Polygon", "coordinates": [
+                [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in ring]]}}
+
+
+@pytest.fixture(scope="module")
+def narrow_l(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("narrow_l")
+    mirrored = [(-x, y) for x, y in reversed(L_SHAPE)]
+    src = out / "narrow_l.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        _feature("narrow_l", L_SHAPE), _feature("narrow_l_mirrored", mirrored)]}))
+    assert main(["block", str(src), "--library", str(LIB), "--style", "classic",
+                 "--crs", "EPSG:25833", "-o", str(out), "--no-preview"]) == 0
+    return out
+
+
+def test_a_narrow_l_meets_the_audit_bar(narrow_l, sample_db):
+    paths = sorted(narrow_l.glob("*.layout.json"))
+    assert len(paths) == 2
+    failures = []
+    for p in paths:
+        name, a = _audit(p, sample_db)
+        assert a.footprint > 1000, f"{name}: {a.line()}"
+        failures += _failures(name, a)
+    assert not failures, "\n".join(failures)
