@@ -32,7 +32,7 @@ from pxr import Usd, UsdGeom
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
-from citysynth.export.joints import behind
+from citysynth.export.joints import behind, joint_halves
 
 ROOF_NZ = 0.2          # faces whose normal's z exceeds this are roof-like (looked at from above)
 FOOTPRINT_NZ = 0.05    # faces steeper than this project to nothing useful in plan
@@ -121,8 +121,36 @@ def outline_regions(structures: list[dict], depth: float) -> BaseGeometry:
     for st in structures:
         regions = shapely.union_all(_stage_regions(st["stages"], depth))
         ring = _ring_inside(st)
-        pieces.append(regions.intersection(ring) if ring is not None else regions)
+        regions = regions.intersection(ring) if ring is not None else regions
+        tips = _nose_tips(st)
+        pieces.append(regions.difference(shapely.union_all(tips)) if tips else regions)
     return shapely.union_all(pieces)
+
+
+def _nose_tips(st: dict) -> list[Polygon]:
+    """The tips cut off at a structure's acute corners: a nose joint (the layout's
+    ``joint``) ends both facades at a short end wall, and what lies past its plane is
+    street, not a gap in the roof."""
+    ins = {s["to"]: s for s in st["stages"]}
+    outs = {s["from"]: s for s in st["stages"]}
+    tips = []
+    for j, key in enumerate(st.get("keys", [])):
+        s_in, s_out = ins.get(j), outs.get(j)
+        if key.get("joint") != "nose" or s_in is None or s_out is None:
+            continue
+        p = np.asarray(key["xy"], dtype=float)
+        a, b = (np.asarray(q, dtype=float) for q in s_in["polyline"][-2:])
+        c, d = (np.asarray(q, dtype=float) for q in s_out["polyline"][:2])
+        u_in, u_out = (b - a) / np.hypot(*(b - a)), (d - c) / np.hypot(*(d - c))
+        before, _after, how, trim = joint_halves(p, u_in, u_out, s_in["front"] == "right")
+        if how != "nose":
+            continue
+        n, q = np.asarray(before[-1].normal), np.asarray(before[-1].point)
+        t = np.array([-n[1], n[0]])
+        size = 4.0 * (trim + 1.0)          # past the plane (X - q) . n >= 0, near the tip
+        tips.append(Polygon([q + t * size, q + t * size + n * size,
+                             q - t * size + n * size, q - t * size]))
+    return tips
 
 
 def _stage_regions(stages: list[dict], depth: float) -> list[BaseGeometry]:

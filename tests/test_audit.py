@@ -138,3 +138,26 @@ def test_a_round_block_builds_with_one_seam_and_meets_the_bar(tmp_path, sample_d
     name, a = _audit(tmp_path / "plaza.layout.json", sample_db)
     assert a.band > 2000, a.line()
     assert not _failures(name, a)
+
+
+def test_a_very_acute_wedge_ends_at_its_nose_and_meets_the_bar(tmp_path, sample_db):
+    """A 12° wedge: its tip is cut square by a nose (a 2 m end wall, 9.5 m back from the
+    tip); the audit's band stops at the nose plane (past it is street), so the wedge's
+    roof band has no gap (1.4 % was counted when the band ran on to the tip)."""
+    import math
+    lon0, lat0 = 13.405, 52.52
+
+    def ll(x, y):
+        return [lon0 + x / (111320 * math.cos(math.radians(lat0))), lat0 + y / 110540]
+    ring = [ll(*p) for p in ((0, 0), (80, 0), (0, 17), (0, 0))]
+    src = tmp_path / "wedge.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": "wedge"},
+         "geometry": {"type": "Polygon", "coordinates": [ring]}}]}))
+    assert main(["block", str(src), "--library", str(LIB), "--style", "classic", "-o",
+                 str(tmp_path), "--no-preview"]) == 0
+    lay = json.loads((tmp_path / "wedge.layout.json").read_text())
+    assert [k["joint"] for k in lay["structures"][0]["keys"]].count("nose") == 1
+    name, a = _audit(tmp_path / "wedge.layout.json", sample_db)
+    assert a.band > 300, a.line()
+    assert not _failures(name, a)
