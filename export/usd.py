@@ -24,6 +24,8 @@ matrices. All layers say ``upAxis = "Z"`` and ``metersPerUnit = 1`` and set a
 
 from __future__ import annotations
 
+import errno
+import os
 from pathlib import Path
 
 import numpy as np
@@ -83,8 +85,22 @@ def _export(layer: Sdf.Layer, path: Path) -> None:
     """Write ``layer`` to ``path`` atomically (a temporary file of the same format in
     the same folder, then a rename), so a killed run never leaves half a file."""
     with atomic_path(path) as tmp:
-        if not layer.Export(str(tmp)):
-            raise OSError(f"usd-core could not write {path}")
+        try:
+            ok = layer.Export(str(tmp))
+        except Tf.ErrorException as exc:   # a full disk, a vanished folder: the machine
+            raise _write_error(path, exc) from None
+        if not ok:
+            raise OSError(errno.EIO, "usd-core could not write the file", str(path))
+
+
+def _write_error(path: Path, exc: Exception) -> OSError:
+    """usd-core's failure to write as the OSError the command line reports in one line
+    (exit 2): its errno when the message names one (no space left, no permission)."""
+    text = str(exc)
+    for code in (errno.ENOSPC, errno.EACCES, errno.EROFS, errno.EDQUOT):
+        if os.strerror(code) in text:
+            return OSError(code, os.strerror(code), str(path))
+    return OSError(errno.EIO, "usd-core could not write the file", str(path))
 
 
 # --- parts ---------------------------------------------------------------------------

@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import traceback
 import warnings
 from importlib.metadata import PackageNotFoundError, version
 
@@ -123,11 +124,24 @@ def _run(argv: list[str] | None) -> int:
         print(f"citysynth: {'terminated' if stopped else 'interrupted'}", file=sys.stderr)
         return EXIT_TERMINATED if stopped else EXIT_INTERRUPTED
     except OSError as exc:
-        if exc.errno is None or isinstance(exc, BrokenPipeError):
+        if isinstance(exc, BrokenPipeError):
             raise
+        if exc.errno is None:
+            return _internal(args.command)
         print(f"citysynth {args.command}: error: {environment_message(exc)}",
               file=sys.stderr)
         return EXIT_BAD_INPUT
+    except Exception:   # a bug: its own exit code, so a pipeline never reads "infeasible"
+        return _internal(args.command)
+
+
+def _internal(command: str) -> int:
+    """A bug met: its traceback and a line saying so on stderr, exit 3 (never 1, which
+    means "no layout exists")."""
+    traceback.print_exc()
+    print(f"citysynth {command}: internal error (a bug, not your input); please report "
+          "it with the traceback above", file=sys.stderr)
+    return EXIT_INTERNAL
 
 
 def environment_message(exc: OSError) -> str:

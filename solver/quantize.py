@@ -102,8 +102,13 @@ def quantise_resource(
     return Quantisation(name, q, exact, max_err, qlo, qhi, (lo, hi)), ints
 
 
+QUANTA_CAP = 1 << 62   # quanta: the largest bound the int64 tables take
+
+
 def bounds_in_quanta(lo: float, hi: float, q: float) -> tuple[int, int]:
     """[lo, hi] in multiples of q, rounded inward (a quantised total inside them
-    never breaks the asked interval)."""
-    return (int(math.ceil(lo / q - TOL * max(1.0, lo / q))),
-            int(math.floor(hi / q + TOL * max(1.0, hi / q))))
+    never breaks the asked interval), within +-2**62 quanta: a bound past that (1e20
+    doors) is no bound at all, and the tables hold int64."""
+    a = math.ceil(lo / q - TOL * max(1.0, lo / q))
+    b = math.floor(hi / q + TOL * max(1.0, hi / q))
+    return max(-QUANTA_CAP, min(QUANTA_CAP, a)), max(-QUANTA_CAP, min(QUANTA_CAP, b))

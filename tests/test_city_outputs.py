@@ -143,3 +143,17 @@ def test_city_glb_on_request_from_the_command_line(tmp_path, capsys):
     built = [i for i, b in manifest["blocks"].items() if b["status"] == "built"]
     root = gltf["nodes"][gltf["scenes"][0]["nodes"][0]]
     assert len(root["children"]) == len(built) == 2
+
+
+def test_a_city_that_builds_nothing_is_not_a_success(tmp_path, capsys):
+    """Setbacks that leave nothing of any block: every piece skipped, 0 built. That is
+    exit 1 with a line saying so, not 0 ("built / attempted 100 %" read as a city)."""
+    cfg = tmp_path / "city.toml"
+    cfg.write_text(f'library = "{LIB}"\n[setback]\ndefault = 500.0\n')
+    code = main(["city", "--streets", str(DISTRICT), "--config", str(cfg), "-o",
+                 str(tmp_path / "run"), "--no-overview", "--workers", "1"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "nothing was built" in err and "Traceback" not in err
+    report = json.loads((tmp_path / "run" / "report.json").read_text())
+    assert report["counts"]["built"] == 0 and report["counts"]["skipped"] > 0

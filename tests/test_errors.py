@@ -63,6 +63,8 @@ def test_every_error_class_of_citysynth_is_a_listed_user_error():
     (["solve", str(EXAMPLES / "facade_small.json"), "--k", "0"],
      "--k must be a positive integer, got 0"),
     (["city", "--streets", str(DISTRICT), "--workers", "0"], "--workers must be at least 1"),
+    # a worker holds ~150 MB: 100,000 of them filled the machine until the OOM killer came
+    (["city", "--streets", str(DISTRICT), "--workers", "100000"], "GB in all"),
 ])
 def test_a_bad_option_exits_2_with_a_usage_message(capsys, argv, fragment):
     assert main(argv) == EXIT_BAD_INPUT
@@ -121,3 +123,52 @@ def test_a_city_run_reports_a_bug_with_its_traceback(tmp_path, capsys, monkeypat
     manifest = json.loads((out / "manifest.json").read_text())
     assert {b["status"] for b in manifest["blocks"].values()} == {"error"}
     assert not list((out / "blocks").glob("*.done.json"))
+
+
+def test_any_other_bug_exits_3_with_its_traceback_never_1(tmp_path, capsys, monkeypatch):
+    """Exit 1 means "no layout exists": a pipeline branching on it must never see a
+    crash there (a building whose solve raised a stray exception exited 1)."""
+    from citysynth.pipeline.commands import build
+    monkeypatch.setattr(build, "solve_layouts", _raises(ZeroDivisionError("oops")))
+    code = main(["building", str(ROOT / "examples" / "skeletons" / "t_building.geojson"),
+                 "--library", str(LIB), "-o", str(tmp_path), "--no-preview"])
+    assert code == EXIT_INTERNAL
+    err = capsys.readouterr().err
+    assert "Traceback" in err and "ZeroDivisionError: oops" in err
+    assert "internal error (a bug, not your input)" in err.strip().splitlines()[-1]
+
+
+def test_a_disk_that_fills_while_usd_is_written_is_one_line_exit_2(tmp_path, capsys,
+                                                                    monkeypatch):
+    """usd-core reports a full disk as its own exception, not an OSError: it is turned
+    into one, so the command says so in one line (exit 2) instead of a traceback."""
+    from pxr import Sdf, Tf
+
+    def export(self, path, *args, **kwargs):
+        raise Tf.ErrorException(f"Could not write {path}: No space left on device")
+    monkeypatch.setattr(Sdf.Layer, "Export", export)
+    code = main(["block", str(ROOT / "examples" / "blocks" / "block.geojson"), "--library",
+                 str(LIB), "-o", str(tmp_path), "--no-preview"])
+    assert code == EXIT_BAD_INPUT
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "No space left on device" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_a_bound_past_any_count_is_no_bound(tmp_path):
+    """doors = [0, 1e20] on a side: no int64 overflow (it crashed), the same layout as
+    no bound at all."""
+    line = {"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {
+        "constraints": {"doors": [0, 1e20]}}, "geometry": {"type": "LineString",
+        "coordinates": [[7.1, 50.73], [7.100566538, 50.729999999]]}}]}
+    src = tmp_path / "huge.geojson"
+    src.write_text(json.dumps(line))
+    free = tmp_path / "free.geojson"
+    del line["features"][0]["properties"]["constraints"]
+    free.write_text(json.dumps(line))
+    for f in (src, free):
+        assert main(["building", str(f), "--library", str(LIB), "-o", str(tmp_path / f.stem),
+                     "--no-preview"]) == 0
+    a, b = (json.loads((tmp_path / n / f"{n}.layout.json").read_text())
+            for n in ("huge", "free"))
+    assert a["cost"] == b["cost"] and a["parts_used"] == b["parts_used"]

@@ -127,3 +127,25 @@ def test_street_line_must_be_one_linestring(tmp_path, capsys):
     f = _line_file(tmp_path / "p.geojson", [ring], "Polygon")
     assert main(["street", "--line", str(f), "-o", str(tmp_path)]) == 2
     assert "Traceback" not in capsys.readouterr().err
+
+
+def test_repeated_vertices_change_nothing_and_a_crossing_line_is_refused(tmp_path, capsys):
+    """QGIS and OSM exports repeat vertices: they built 7 m of a 50 m line; now the line
+    is read as without them. A line that crosses itself would build rows through each
+    other: refused, exit 2."""
+    el = [[690000.0, 5335000.0], [690030.0, 5335000.0], [690030.0, 5335020.0]]
+    repeated = [el[0], el[0], el[1], el[1], el[1], el[2]]
+    for name, coords in (("plain", el), ("repeated", repeated)):
+        assert main(["street", "--line", str(_line_file(tmp_path / f"{name}.geojson", coords)),
+                     "--side", "right", "--no-preview", "-o", str(tmp_path / name)]) == 0
+    a, b = (json.loads((tmp_path / n / f"{n}.layout.json").read_text())
+            for n in ("plain", "repeated"))
+    assert a["parts_used"] == b["parts_used"] and a["cost"] == b["cost"]
+    assert sum(s["length"] for st in b["structures"] for s in st["stages"]) > 45
+    cross = [[690000.0, 5335000.0], [690040.0, 5335000.0], [690040.0, 5335030.0],
+             [690020.0, 5335030.0], [690020.0, 5334980.0]]
+    capsys.readouterr()
+    assert main(["street", "--line", str(_line_file(tmp_path / "x.geojson", cross)),
+                 "--side", "right", "--no-preview", "-o", str(tmp_path / "x")]) == 2
+    err = capsys.readouterr().err
+    assert "crosses itself" in err and "Traceback" not in err

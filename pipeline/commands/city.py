@@ -48,13 +48,25 @@ def register(sub) -> None:
     p.set_defaults(run=run)
 
 
+MAX_WORKERS_PER_CORE = 4   # local workers beyond this many per core are refused
+WORKER_MB = 150            # resident memory of one local worker, about (measured 115)
+
+
 def run(args) -> int:
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
+    if args.workers is not None and not args.scheduler and \
+            args.workers > MAX_WORKERS_PER_CORE * cpu_count():
+        raise UsageError(
+            f"--workers {args.workers} on {cpu_count()} cores: each local worker holds "
+            f"about {WORKER_MB} MB (the library and the kernels), "
+            f"{args.workers * WORKER_MB / 1024:,.1f} GB in all, and more than "
+            f"{MAX_WORKERS_PER_CORE} per core only wait for each other; use at most "
+            f"{MAX_WORKERS_PER_CORE * cpu_count()} (or --scheduler for a cluster)")
     t0 = time.perf_counter()
     cfg = load_config(args.config)
     inputs = prepare(args.streets, args.footprints, cfg, args.library, args.crs)
-    workers = args.workers or cpu_count()
+    workers = max(1, min(args.workers or cpu_count(), len(inputs.jobs)))   # none idle
     where = f"Dask at {args.scheduler}" if args.scheduler else f"{workers} worker(s)"
     print(f"citysynth city: {len(inputs.jobs)} blocks to build ({len(inputs.skipped)} "
           f"pieces skipped) on {where}, into {args.out}/")
@@ -83,10 +95,17 @@ def report_bugs(report: Report, who: str) -> int:
 
 def exit_code(report: Report, who: str) -> int:
     """A city's exit code: :data:`EXIT_INTERNAL` when a block met a bug (each printed
-    by :func:`report_bugs`), else :data:`EXIT_INFEASIBLE` when a block failed, else
-    :data:`EXIT_OK`."""
-    return report_bugs(report, who) or (EXIT_INFEASIBLE if report["counts"]["failed"]
-                                        else EXIT_OK)
+    by :func:`report_bugs`), else :data:`EXIT_INFEASIBLE` when a block failed or nothing
+    at all was built (every piece skipped: a pipeline must not read that as a city),
+    else :data:`EXIT_OK`."""
+    bugs = report_bugs(report, who)
+    if bugs:
+        return bugs
+    c = report["counts"]
+    if not c["built"] and not c["failed"]:
+        print(f"{who}: nothing was built: all {c['skipped']} pieces were skipped "
+              "(report.json and blocks.geojson say why)", file=sys.stderr)
+    return EXIT_INFEASIBLE if c["failed"] or not c["built"] else EXIT_OK
 
 
 def summary_table(report: Report) -> str:

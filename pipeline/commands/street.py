@@ -11,6 +11,8 @@ import math
 import sys
 from pathlib import Path
 
+import shapely
+
 from citysynth.examples import SAMPLE_LIBRARY
 from citysynth.export.writers import FORMATS
 from citysynth.parts_db import load_library
@@ -20,6 +22,7 @@ from citysynth.pipeline.layouts import Built, summary_line, write_outputs
 from citysynth.pipeline.streets import SIDES, StreetAsk, solve_street
 from citysynth.skeletons import read_geojson
 from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.from_geometry import DENSE, SNAP
 
 ATTRIBUTES = ("doors", "balconies", "windows")
 
@@ -84,7 +87,14 @@ def read_line(path: str, crs: str | None):
     if len(feats) != 1 or feats[0].geometry.geom_type != "LineString":
         raise SkeletonError(f"{path}: a street line is one LineString feature; the file has "
                             f"{len(feats)} feature(s) ({feats[0].geometry.geom_type} first)")
-    return feats[0].geometry, frame
+    # repeated vertices (QGIS and OSM exports have them) and dense sampling go
+    line = shapely.simplify(feats[0].geometry, DENSE)
+    if line.length < SNAP or len(line.coords) < 2:
+        raise SkeletonError(f"{path}: the street line has no length")
+    if not line.is_simple:
+        raise SkeletonError(f"{path}: the street line crosses itself; give it as lines that "
+                            "do not cross (one run each)")
+    return line, frame
 
 
 def run(args) -> int:
