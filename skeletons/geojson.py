@@ -144,9 +144,15 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
 
 # --- the FeatureCollection and its features ---------------------------------------------
 
+GEOMETRY_TYPES = ("Point", "MultiPoint", "LineString", "MultiLineString", "Polygon",
+                  "MultiPolygon", "GeometryCollection")
+
+
 def _raw_features(data: Any, source: str) -> list[Any]:
+    if isinstance(data, dict) and data.get("type") in GEOMETRY_TYPES:
+        data = {"type": "Feature", "properties": {}, "geometry": data}   # a bare geometry
     if not isinstance(data, dict) or data.get("type") not in ("FeatureCollection", "Feature"):
-        raise SkeletonError(f"{source}: not a GeoJSON FeatureCollection or Feature")
+        raise SkeletonError(f"{source}: not a GeoJSON FeatureCollection, Feature or geometry")
     raw = data.get("features") if data["type"] == "FeatureCollection" else [data]
     if not isinstance(raw, list) or not raw:
         raise SkeletonError(f"{source}: no features")

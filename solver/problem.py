@@ -126,7 +126,11 @@ def load_json(path: str | Path) -> Any:
     return read_json(path, "problem", ProblemError)   # encoding, depth, size: safe_read
 
 
-def _number(value: Any, where: str, *, minimum: float | None = 0.0) -> float:
+MAX_COST = 1e15   # a cost past this makes sums of a few thousand inexact, then infinite
+
+
+def _number(value: Any, where: str, *, minimum: float | None = 0.0,
+            maximum: float | None = None) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ProblemError(f"{where}: expected a number, got {value!r}")
     v = float(value)
@@ -134,6 +138,9 @@ def _number(value: Any, where: str, *, minimum: float | None = 0.0) -> float:
         raise ProblemError(f"{where}: expected a finite number, got {value!r}")
     if minimum is not None and v < minimum:
         raise ProblemError(f"{where}: must be >= {minimum:g}, got {value!r}")
+    if maximum is not None and v > maximum:
+        raise ProblemError(f"{where}: must be <= {maximum:g} (a cost this large sums to "
+                           f"infinity), got {value!r}; scale the costs down")
     return v
 
 
@@ -277,7 +284,7 @@ def _parse_element(e: Any, where: str, resources: list[str], seen: set[str], sou
             raise ProblemError(f"{source}: {where}.resources.{rname}: unknown resource; "
                                f"resources are {resources}")
         res[rname] = _number(val, f"{source}: {where}.resources.{rname}")
-    cost = _number(e.get("cost", 0.0), f"{source}: {where}.cost")
+    cost = _number(e.get("cost", 0.0), f"{source}: {where}.cost", maximum=MAX_COST)
     return Element(eid, {r: res.get(r, 0.0) for r in resources}, cost)
 
 
@@ -305,7 +312,7 @@ def _parse_transitions(tr_in: Any, index: dict[str, int], source: str
         if (a, b) in pairs:
             raise ProblemError(f"{source}: {where}: duplicate transition {a!r} -> {b!r}")
         pairs.add((a, b))
-        transitions.append((a, b, _number(c, f"{source}: {where} cost")))
+        transitions.append((a, b, _number(c, f"{source}: {where} cost", maximum=MAX_COST)))
     arrays = (np.array(ia, dtype=np.int64), np.array(ib, dtype=np.int64),
               np.array([t[2] for t in transitions], dtype=np.float64))
     return tuple(transitions), arrays

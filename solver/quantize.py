@@ -75,6 +75,10 @@ def is_multiple(v: float, q: float) -> bool:
     return abs(m - round(m)) <= TOL * max(1.0, abs(m))
 
 
+QUANTA_CAP = 1 << 62   # quanta: the largest bound the int64 tables take
+VALUE_QUANTA_MAX = 1e9   # quanta: an element's value past this is a quantum far too fine
+
+
 def quantise_resource(
     name: str, values: list[float], lo: float, hi: float, quantum: float | None
 ) -> tuple[Quantisation, list[int]]:
@@ -93,6 +97,12 @@ def quantise_resource(
     # hundreds): the same arithmetic as is_multiple and round, element by element
     v = np.asarray(values, dtype=np.float64)
     m = v / q
+    if len(m) and not np.all(np.abs(m) < VALUE_QUANTA_MAX):
+        worst = float(np.max(np.abs(v)))
+        raise ProblemError(
+            f'resource "{name}": with a quantum of {q:g}, its value {worst:g} is '
+            f"{worst / q:.3g} quanta (at most {VALUE_QUANTA_MAX:.0e}); give a coarser "
+            f'"quantum", e.g. "quantum": {{"{name}": {max(worst / 1e4, 1e-9):.2g}}}')
     near = np.rint(m)   # round half to even, as round() does
     ints = near.astype(np.int64).tolist()
     values_exact = bool(np.all(np.abs(m - near) <= TOL * np.maximum(1.0, np.abs(m))))
@@ -100,9 +110,6 @@ def quantise_resource(
     exact = values_exact and is_multiple(lo, q) and is_multiple(hi, q)
     qlo, qhi = bounds_in_quanta(lo, hi, q)
     return Quantisation(name, q, exact, max_err, qlo, qhi, (lo, hi)), ints
-
-
-QUANTA_CAP = 1 << 62   # quanta: the largest bound the int64 tables take
 
 
 def bounds_in_quanta(lo: float, hi: float, q: float) -> tuple[int, int]:

@@ -465,3 +465,13 @@ def test_zone_polygons_in_lon_lat_or_in_the_kept_crs(district_gdf, tmp_path):
         got = prepare(f, None, cfg, None)
         assert got.frame.source_crs == "EPSG:3067"
         assert len([j for j in got.jobs if j.zone == "east"]) == len(east)
+
+
+def test_a_bare_geometry_is_one_feature():
+    """RFC 7946 allows a GeoJSON text that is just a geometry: it reads as one feature."""
+    ring = [[24.94, 60.17], [24.941, 60.17], [24.941, 60.1705], [24.94, 60.17]]
+    bare, _ = parse_geojson({"type": "Polygon", "coordinates": [ring]})
+    wrapped, _ = parse_geojson({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon",
+                                                          "coordinates": [ring]}}]})
+    assert len(bare) == 1 and bare[0].geometry.equals(wrapped[0].geometry)

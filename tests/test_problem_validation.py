@@ -41,6 +41,10 @@ def with_(**kw):
     (with_(back=["Q"]), "back: unknown element 'Q'"),
     (with_(k=0), '"k" must be a positive integer'),
     (with_(quantum={"length": 0}), "quantum.length: must be > 0"),
+    # a cost of 1e308 summed to infinity; a 1e-18 quantum overflowed the tables
+    (with_(elements=[{"id": "A", "resources": {"length": 1}, "cost": 1e308}]),
+     "elements[0].cost: must be <= 1e+15"),
+    (with_(transitions=[["A", "B", 1e300]]), "transitions[0] cost: must be <= 1e+15"),
 ])
 def test_bad_input_names_the_place(data, fragment):
     with pytest.raises(ProblemError) as exc:
@@ -64,3 +68,12 @@ def test_load_reports_file_and_position(tmp_path):
     assert str(f) in str(exc.value) and "line 2" in str(exc.value)
     with pytest.raises(ProblemError, match="cannot read the problem file"):
         Problem.load(tmp_path / "missing.json")
+
+
+def test_a_quantum_far_too_fine_is_refused_with_a_coarser_one_to_try():
+    from citysynth.solver import solve
+    p = Problem.from_dict(with_(quantum={"length": 1e-18}))
+    with pytest.raises(ProblemError) as exc:
+        solve(p)
+    assert 'resource "length": with a quantum of 1e-18' in str(exc.value)
+    assert '"quantum": {"length":' in str(exc.value)

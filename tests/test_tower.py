@@ -124,3 +124,19 @@ def test_a_lot_too_small_for_any_ground_floor_is_one_clear_error(tmp_path, capsy
     assert "no ground floor of the library 'citysynth sample' fits the lot (100 m², 10.0 x " \
         "10.0 m): the smallest, tower_ground_square14, needs 16.0 x 16.0 m" in err
     assert "Traceback" not in err
+
+
+def test_a_one_part_multipolygon_lot_is_its_polygon(tmp_path):
+    """QGIS writes polygons as MultiPolygon: one part is a lot like a Polygon."""
+    lot = affinity.translate(shapely.box(0, 0, 30, 22), 690000, 5335000)
+    for name, geom in (("poly", shapely.geometry.mapping(lot)),
+                       ("multi", shapely.geometry.mapping(shapely.MultiPolygon([lot])))):
+        (tmp_path / f"{name}.geojson").write_text(json.dumps({
+            "type": "FeatureCollection", "crs": {"type": "name", "properties": {
+                "name": "urn:ogc:def:crs:EPSG::25832"}},
+            "features": [{"type": "Feature", "properties": {}, "geometry": geom}]}))
+        assert main(["tower", "--height", "60", "--far", "8", "12", "--lot",
+                     str(tmp_path / f"{name}.geojson"), "--no-preview",
+                     "-o", str(tmp_path / name), "--name", "t"]) == 0
+    a, b = ((tmp_path / n / "t.layout.json").read_text() for n in ("poly", "multi"))
+    assert json.loads(a)["structures"] == json.loads(b)["structures"]

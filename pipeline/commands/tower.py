@@ -60,10 +60,13 @@ def register(sub) -> None:
 def read_lot(path: str, crs: str | None) -> Lot:
     """The one polygon of a GeoJSON file, as a lot in its local metric frame."""
     feats, frame = read_geojson(path, crs=crs, accept="polygons")
-    if len(feats) != 1 or feats[0].geometry.geom_type != "Polygon":
+    geom = feats[0].geometry
+    if geom.geom_type == "MultiPolygon" and len(geom.geoms) == 1:   # as QGIS writes them
+        geom = geom.geoms[0]
+    if len(feats) != 1 or geom.geom_type != "Polygon":
         raise SkeletonError(f"{path}: a lot is one Polygon feature; the file has "
-                            f"{len(feats)} feature(s) ({feats[0].geometry.geom_type} first)")
-    return Lot.from_polygon(feats[0].geometry, frame.describe())
+                            f"{len(feats)} feature(s) ({geom.geom_type} first)")
+    return Lot.from_polygon(geom, frame.describe())
 
 
 def _name(args, far: tuple[float, float]) -> str:
