@@ -56,6 +56,8 @@ from citysynth.skeletons import Skeleton
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.solver.structures import Stage, Structure
 
+MAX_KEYS = 2_000    # key points of one structure: more is refused with an estimate
+KEY_MB = 0.55       # MB of solving a key point takes (500: 525 MB, 2,000: 1.1 GB)
 JOINT_COST = 10.0  # a mitre joint's cost (m² of section mismatch, the scale of the costs)
 JOINT_LEGS = 8     # a joint's legs are 1..JOINT_LEGS quanta on either side
 CORNER_FIT = 0.05     # m: how far a rigid corner part's leg end may miss its facade line
@@ -256,6 +258,12 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
     if parts is not None:
         db = cast(PartDB, _only(db, parts))
     keys, chains = _chains(sk)
+    if len(keys) > MAX_KEYS:
+        raise SkeletonError(
+            f"{sk.name}: {len(keys):,} corners, ends and T junctions; one building or "
+            f"block this large would take about {len(keys) * KEY_MB / 1024:,.1f} GB and "
+            f"minutes to solve (measured: 2,000 took 17 s and 1.1 GB); split it into "
+            f"buildings of at most {MAX_KEYS:,}, or simplify its outline")
     root, oriented = _orient(sk, keys, chains)
     # renumber so the root is key point 0
     order = [root] + [j for j in range(len(keys)) if j != root]

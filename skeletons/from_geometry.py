@@ -206,14 +206,22 @@ def _split_at_touching_ends(edges: list[Edge], xy: dict[int, np.ndarray]) -> lis
     """A line that ends on the inside of another (a wing drawn up to the main line)
     splits that line there, making the contact a key point."""
     out: list[Edge] = []
-    for e in edges:
+    ids = list(xy)
+    points = shapely.points(np.array([xy[v] for v in ids]).reshape(-1, 2))
+    near: dict[int, list[int]] = {}   # edge -> key points within SNAP of it (an STRtree:
+    segs = [LineString([xy[e.a], xy[e.b]]) for e in edges]   # 20,000 vertices took minutes)
+    for i, j in zip(*shapely.STRtree(points).query(segs, predicate="dwithin",
+                                                   distance=SNAP), strict=True):
+        near.setdefault(int(i), []).append(ids[int(j)])
+    for n, e in enumerate(edges):
         a, b = xy[e.a], xy[e.b]
         seg = b - a
         L2 = float(seg @ seg)
         inner = []
-        for v, p in xy.items():
+        for v in near.get(n, []):
             if v in (e.a, e.b):
                 continue
+            p = xy[v]
             t = float((p - a) @ seg) / L2
             if 0 < t < 1 and np.linalg.norm(a + t * seg - p) < SNAP:
                 inner.append((t, v))
