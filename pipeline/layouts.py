@@ -13,6 +13,8 @@ variants of one ``layout`` variantSet (a city block carries it too: see
 
 from __future__ import annotations
 
+import json
+import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -102,7 +104,42 @@ def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
             built.timings[key] = built.timings.get(key, 0.0) + time.perf_counter() - t
     if "usd" in formats and k > 1 and built.layouts:
         paths.append(write_variant_stage(built.layouts, out, k, selected))
+    if built.layouts:
+        _sweep_stale(out, built.layouts[0].name, formats, paths)
     return paths
+
+
+def _sweep_stale(out: Path, name: str, formats: Sequence[Format], written: list[Path]
+                 ) -> None:
+    """Remove what an earlier run of the same layout name left in ``out`` in these
+    formats and this run did not write (``name_3.*`` after k = 3 then k = 1, ``name.glb``
+    after k = 1 then k = 3), so a folder never holds results of two runs side by side.
+    A ``name_<r>`` file is this layout's only when ``name_<r>.layout.json`` says so (a
+    building may be called ``name_2`` itself)."""
+    keep = {p.resolve() for p in written}
+    suffixes = [SUFFIX[f] for f in formats]
+    ranked = re.compile(re.escape(name) + r"_(\d+)")
+    stale = []
+    for p in sorted(out.iterdir()):
+        suffix = next((x for x in suffixes if p.name.endswith(x)), None)
+        if suffix is None or not p.is_file() or p.resolve() in keep:
+            continue
+        stem = p.name[:-len(suffix)]
+        m = ranked.fullmatch(stem)
+        if stem == name or (m and _rank_of(out / f"{stem}{SUFFIX['json']}", name) == int(
+                m.group(1))):
+            stale.append(p)
+    for p in stale:   # after reading every layout JSON that tells whose a file is
+        p.unlink(missing_ok=True)
+
+
+def _rank_of(layout_json: Path, name: str) -> int | None:
+    """The rank a layout JSON holds when it is a layout named ``name``."""
+    try:
+        d = json.loads(layout_json.read_text())
+    except (OSError, ValueError):
+        return None
+    return d.get("rank") if isinstance(d, dict) and d.get("name") == name else None
 
 
 def write_variant_stage(layouts: Sequence[Layout], out: Path, k: int, selected: int = 1

@@ -75,3 +75,22 @@ def test_variant_file_is_deterministic(block_k3, tmp_path):
                  "--k", "3", "-o", str(tmp_path), "--no-preview"]) == 0
     for name in ("block.usda", "block_1.usda", "block_3.usda"):
         assert (tmp_path / name).read_bytes() == (block_k3 / name).read_bytes()
+
+
+def test_a_rerun_with_another_k_leaves_no_stale_results(tmp_path):
+    """k = 3, then k = 1, then k = 2 into one folder: each time only that run's files
+    (name_3.* stayed beside name.* before, and a tool globbing *.layout.json read both);
+    a building that is itself called name_7 is not touched."""
+    src = Path(__file__).resolve().parent.parent / "examples" / "blocks" / "block.geojson"
+    lib = Path(__file__).resolve().parent.parent / "examples" / "library"
+    other = tmp_path / "block_7.layout.json"
+    other.write_text(json.dumps({"name": "block_7", "rank": 1}))
+    for k, want in ((3, {"block.usda"} | {f"block_{r}{x}" for r in (1, 2, 3)
+                                          for x in (".usda", ".layout.json", ".glb")}),
+                    (1, {"block.usda", "block.layout.json", "block.glb"}),
+                    (2, {"block.usda"} | {f"block_{r}{x}" for r in (1, 2)
+                                          for x in (".usda", ".layout.json", ".glb")})):
+        assert main(["block", str(src), "--library", str(lib), "--k", str(k), "-o",
+                     str(tmp_path), "--no-preview"]) == 0
+        got = {p.name for p in tmp_path.iterdir() if p.is_file()}
+        assert got == want | {"block_7.layout.json"}, (k, sorted(got))
