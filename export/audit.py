@@ -32,7 +32,7 @@ from pxr import Usd, UsdGeom
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
-from citysynth.export.joints import behind, joint_halves
+from citysynth.export.joints import behind, half_polygon, joint_halves
 
 ROOF_NZ = 0.2          # faces whose normal's z exceeds this are roof-like (looked at from above)
 FOOTPRINT_NZ = 0.05    # faces steeper than this project to nothing useful in plan
@@ -145,11 +145,9 @@ def _nose_tips(st: dict) -> list[Polygon]:
         before, _after, how, trim = joint_halves(p, u_in, u_out, s_in["front"] == "right")
         if how != "nose":
             continue
-        n, q = np.asarray(before[-1].normal), np.asarray(before[-1].point)
-        t = np.array([-n[1], n[0]])
-        size = 4.0 * (trim + 1.0)          # past the plane (X - q) . n >= 0, near the tip
-        tips.append(Polygon([q + t * size, q + t * size + n * size,
-                             q - t * size + n * size, q - t * size]))
+        nose = before[-1]                   # past its plane, near the tip
+        tips.append(half_polygon(-np.asarray(nose.normal), np.asarray(nose.point),
+                                 4.0 * (trim + 1.0)))
     return tips
 
 

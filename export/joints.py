@@ -205,6 +205,13 @@ def joint_halves(p: np.ndarray, u_in: np.ndarray, u_out: np.ndarray, mass_left: 
     return before, after, "mitre", 0.0
 
 
+def half_polygon(n: np.ndarray, p: np.ndarray, size: float) -> Polygon:
+    """The plan of the half-plane (X - p) . n <= 0, as a square ``size`` across."""
+    t = np.array([-n[1], n[0]])
+    return Polygon([p + t * size, p + t * size - n * size, p - t * size - n * size,
+                    p - t * size])
+
+
 def behind(points: Any, front: str, depth: float) -> BaseGeometry:
     """The ground behind a facade polyline, ``depth`` deep, mitred at its bends (the
     mass lies left of travel where the facades face right). A polyline that ends where

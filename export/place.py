@@ -44,6 +44,7 @@ from citysynth.export.joints import (
     bisector,
     concave_reach,
     facade_span,
+    half_polygon,
     is_convex,
     joint_halves,
 )
@@ -467,7 +468,7 @@ class _Placer:
         placed = self.placed[i]
         foot = _clipped_footprint(placed, self.span[i])
         size = 10.0 * (placed.length + abs(placed.y_range[0]) + abs(placed.y_range[1]) + 1.0)
-        return foot.intersection(_half_polygon(-np.asarray(half.normal),
+        return foot.intersection(half_polygon(-np.asarray(half.normal),
                                                np.asarray(half.point), size))
 
     def _facade(self, i: int) -> np.ndarray:
@@ -613,16 +614,9 @@ def _clipped_footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometr
     foot = _footprint(placed, span)
     size = 10.0 * (placed.length + abs(placed.y_range[0]) + abs(placed.y_range[1]) + 1.0)
     for h in placed.halves:
-        foot = foot.intersection(_half_polygon(np.asarray(h.normal, dtype=float),
+        foot = foot.intersection(half_polygon(np.asarray(h.normal, dtype=float),
                                                np.asarray(h.point, dtype=float), size))
     return foot
-
-
-def _half_polygon(n: np.ndarray, p: np.ndarray, size: float) -> Polygon:
-    """The plan of the half-plane (X - p) . n <= 0, as a square ``size`` across."""
-    t = np.array([-n[1], n[0]])
-    return Polygon([p + t * size, p + t * size - n * size, p - t * size - n * size,
-                    p - t * size])
 
 
 def _seg_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:

@@ -17,11 +17,11 @@ from collections.abc import Iterable
 
 import numpy as np
 import shapely
-from shapely.geometry import Polygon
 
+from citysynth.export.joints import behind
 from citysynth.parts_db import Part
 from citysynth.skeletons import Skeleton
-from citysynth.skeletons.model import Edge
+from citysynth.skeletons.model import flip
 
 CLEARANCE = 0.3   # m: how far a corner part's mass may touch another side's ground
 
@@ -31,35 +31,14 @@ def mass_depth(part: Part) -> float:
     return max(-float(shapely.bounds(s)[0]) for s in (part.sec_in, part.sec_out))
 
 
-def _mass_normal_at(xy: dict[int, np.ndarray], e: Edge, start: int) -> np.ndarray:
-    """The unit normal into the mass of edge ``e`` walked from key point ``start``
-    (facades face the front side; the mass lies on the other)."""
-    other = e.b if start == e.a else e.a
-    t = xy[other] - xy[start]
-    t = t / np.hypot(*t)
-    front = e.front if start == e.a else ("left" if e.front == "right" else "right")
-    left = np.array([-t[1], t[0]])
-    return left if front == "right" else -left
-
-
-def _strip(a: np.ndarray, t: np.ndarray, n: np.ndarray, length: float, depth: float) -> Polygon:
-    return Polygon([a, a + t * length, a + t * length + n * depth, a + n * depth])
-
-
 class CornerRoom:
     """The mass strips of a skeleton's sides, to test corner parts against."""
 
     def __init__(self, sk: Skeleton, depth: float) -> None:
         self._edges = sk.edges
         self._xy = {k.id: np.asarray(k.xy, dtype=float) for k in sk.keypoints}
-        strips = []
-        for e in sk.edges:
-            a, b = self._xy[e.a], self._xy[e.b]
-            length = float(np.hypot(*(b - a)))
-            t = (b - a) / length
-            strips.append(_strip(a, t, _mass_normal_at(self._xy, e, e.a), length, depth))
-        self._strips = strips
-        self._tree = shapely.STRtree(strips)
+        self._tree = shapely.STRtree([behind([self._xy[e.a], self._xy[e.b]], e.front, depth)
+                                      for e in sk.edges])
 
     def fits(self, part: Part, at: int, own: Iterable[int]) -> bool:
         """Whether ``part``'s legs (the longer of them, its full depth, along both sides
@@ -69,10 +48,11 @@ class CornerRoom:
         reach, depth = max(part.legs), mass_depth(part)
         legs = []
         for i, e in enumerate(self._edges):
-            if at in (e.a, e.b):
+            if at in (e.a, e.b):   # the side walked away from the corner, its front with it
                 w = self._xy[e.b if at == e.a else e.a]
                 t = (w - v) / np.hypot(*(w - v))
-                legs.append(_strip(v, t, _mass_normal_at(self._xy, e, at), reach, depth))
+                legs.append(behind([v, v + t * reach], e.front if at == e.a else flip(e.front),
+                                   depth))
                 own.add(i)
         ground = shapely.union_all(legs).buffer(-CLEARANCE)
         if ground.is_empty:
