@@ -18,6 +18,7 @@ import pytest
 
 from citysynth.export.audit import audit_usd
 from citysynth.pipeline.cli import main
+from citysynth.skeletons.geojson import lonlat_from_local
 
 ROOT = Path(__file__).resolve().parent.parent
 LIB = ROOT / "examples" / "library"
@@ -119,23 +120,26 @@ def test_every_helsinki_block_meets_the_bar(helsinki_run, sample_db):
     assert not failures, "\n".join(failures)
 
 
+def _block(tmp_path: Path, name: str, ring: list[tuple[float, float]]) -> Path:
+    """``citysynth block`` (classic) on one outline given in metres; its layout JSON."""
+    src = tmp_path / f"{name}.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": name}, "geometry": {
+            "type": "Polygon", "coordinates": [lonlat_from_local(ring, (13.405, 52.52))]}}]}))
+    assert main(["block", str(src), "--library", str(LIB), "--style", "classic", "-o",
+                 str(tmp_path), "--no-preview"]) == 0
+    return tmp_path / f"{name}.layout.json"
+
+
 def test_a_round_block_builds_with_one_seam_and_meets_the_bar(tmp_path, sample_db):
     """A round block (a 64-gon of 48 m radius: a plaza, a roundabout's island) has no
     corner; it gets one seam, a mitre joint, and its one stage runs round the rest."""
     import math
-    lon0, lat0 = 8.4037, 49.0135
-    ring = [[lon0 + 48 * math.cos(2 * math.pi * i / 64) / (111320 * math.cos(math.radians(lat0))),
-             lat0 + 48 * math.sin(2 * math.pi * i / 64) / 110540] for i in range(65)]
-    src = tmp_path / "plaza.geojson"
-    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"id": "plaza"},
-         "geometry": {"type": "Polygon", "coordinates": [ring]}}]}))
-    assert main(["block", str(src), "--library", str(LIB), "--style", "classic", "-o",
-                 str(tmp_path), "--no-preview"]) == 0
-    lay = json.loads((tmp_path / "plaza.layout.json").read_text())
-    (st,) = lay["structures"]
+    path = _block(tmp_path, "plaza", [(48 * math.cos(2 * math.pi * i / 64),
+                                       48 * math.sin(2 * math.pi * i / 64)) for i in range(65)])
+    (st,) = json.loads(path.read_text())["structures"]
     assert len(st["keys"]) == 1 and len(st["stages"]) == 1 and st["keys"][0]["joint"] == "mitre"
-    name, a = _audit(tmp_path / "plaza.layout.json", sample_db)
+    name, a = _audit(path, sample_db)
     assert a.band > 2000, a.line()
     assert not _failures(name, a)
 
@@ -144,20 +148,9 @@ def test_a_very_acute_wedge_ends_at_its_nose_and_meets_the_bar(tmp_path, sample_
     """A 12° wedge: its tip is cut square by a nose (a 2 m end wall, 9.5 m back from the
     tip); the audit's band stops at the nose plane (past it is street), so the wedge's
     roof band has no gap (1.4 % was counted when the band ran on to the tip)."""
-    import math
-    lon0, lat0 = 13.405, 52.52
-
-    def ll(x, y):
-        return [lon0 + x / (111320 * math.cos(math.radians(lat0))), lat0 + y / 110540]
-    ring = [ll(*p) for p in ((0, 0), (80, 0), (0, 17), (0, 0))]
-    src = tmp_path / "wedge.geojson"
-    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"id": "wedge"},
-         "geometry": {"type": "Polygon", "coordinates": [ring]}}]}))
-    assert main(["block", str(src), "--library", str(LIB), "--style", "classic", "-o",
-                 str(tmp_path), "--no-preview"]) == 0
-    lay = json.loads((tmp_path / "wedge.layout.json").read_text())
-    assert [k["joint"] for k in lay["structures"][0]["keys"]].count("nose") == 1
-    name, a = _audit(tmp_path / "wedge.layout.json", sample_db)
+    path = _block(tmp_path, "wedge", [(0, 0), (80, 0), (0, 17), (0, 0)])
+    keys = json.loads(path.read_text())["structures"][0]["keys"]
+    assert [k["joint"] for k in keys].count("nose") == 1
+    name, a = _audit(path, sample_db)
     assert a.band > 300, a.line()
     assert not _failures(name, a)
