@@ -15,9 +15,8 @@ from citysynth.parts_db.geometry import Piece
 
 
 def instances_with_pieces(lay: Layout, db: PartDB) -> Iterator[tuple[Instance, tuple[Piece, ...]]]:
-    parts = {p.id: p for p in db.parts}
     for inst in lay.instances:
-        yield inst, prototype_pieces(db, inst, parts)
+        yield inst, prototype_pieces(db, inst)
 
 
 def place(piece: Piece, inst: Instance, offset=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:

@@ -6,14 +6,13 @@ from __future__ import annotations
 
 from citysynth.export.cuts import cut_pieces
 from citysynth.export.layout import Instance
-from citysynth.parts_db import Part, PartDB
+from citysynth.parts_db import PartDB
 from citysynth.parts_db.geometry import Piece, part_pieces
 
 
-def prototype_pieces(db: PartDB, inst: Instance, parts: dict[str, Part] | None = None
-                     ) -> tuple[Piece, ...]:
+def prototype_pieces(db: PartDB, inst: Instance) -> tuple[Piece, ...]:
     """The pieces ``inst`` shows, in its part's placement frame."""
-    part = (parts or {p.id: p for p in db.parts})[inst.part]
+    part = db.part(inst.part)
     if inst.cut is None:
         return part_pieces(db, part)
     return cut_pieces(db, part, inst.cut)

@@ -5,12 +5,15 @@ Layout of the files (all paths relative, so a run folder can be moved):
 - ``parts/<part>.usdc``: each part once, a ``component`` model with one Mesh per
   material (flat face normals, extent) and a ``UsdPreviewSurface`` material each, in
   the part's placement frame. Binary crate: these hold the triangles.
+- ``<name>.cuts.usdc``: beside a building's or block's layers (its k best), the
+  prototypes they cut at their own joints and folds (``/Cuts/<prototype>``,
+  components like the part files), one file for all its ranks.
 - ``<layout>.usda``: one layer per block or building. An ``assembly`` prim, a ``group``
   per structure and per stage, and one prim per part instance: ``instanceable`` and
-  referencing its part file, with its placement as one ``xformOp:transform`` (a stretch,
-  a mirror or a corner's shear are all just matrices). The layout's metadata (part
-  ids, cost, constraints asked and met, stretch) is ``customData``. Text, because it is
-  small and people diff it.
+  referencing its part file (or its cut prototype), with its placement as one
+  ``xformOp:transform`` (a stretch, a mirror or a corner's shear are all just
+  matrices). The layout's metadata (part ids, cost, constraints asked and met,
+  stretch) is ``customData``. Text, because it is small and people diff it.
 - ``city.usda``: an ``assembly`` that references layout layers, each under an Xform.
 
 Why scenegraph instancing rather than a PointInstancer: every instance stays a
@@ -26,6 +29,7 @@ from __future__ import annotations
 
 import errno
 import os
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +56,8 @@ from citysynth.parts_db.geometry import Piece
 
 PARTS_DIR = "parts"
 MATERIALS_DIR = "materials"   # in PARTS_DIR: one small layer per library material
+CUTS_SUFFIX = ".cuts.usdc"    # beside a layer <stem>.usda: the prototypes it cut
+CUTS_PRIM = "Cuts"            # their parent prim there
 USER = "userProperties:citysynth:"   # attributes Blender, Maya and Houdini show
 
 
@@ -114,21 +120,27 @@ def material_file(name: str) -> str:
     return f"{MATERIALS_DIR}/{name}.usda"
 
 
-def write_part(db: PartDB, inst: Instance, path: Path) -> None:
+def cuts_file(folder: Path, name: str) -> Path:
+    """The file in ``folder`` that holds the prototypes the layouts named ``name`` (a
+    building's or block's k best) cut at their own joints, ``<name>.cuts.usdc``."""
+    return folder / f"{name}{CUTS_SUFFIX}"
+
+
+def _prototype_spec(parent: Sdf.Layer | Sdf.PrimSpec, db: PartDB, inst: Instance,
+                    parts_dir: str) -> Sdf.PrimSpec:
     """The prototype ``inst`` shows (its part, or the part cut at a joint) as a
     component model with a mesh per piece, each bound to its library material: a
-    ``Looks/<material>`` prim referencing the shared material layer (a prototype
-    cannot see outside itself, so each holds a reference, and every one of them is the
-    same material). ``displayColor`` (linear) for viewers that skip materials.
+    ``Looks/<material>`` prim referencing the shared material layer in ``parts_dir``
+    (relative to the file holding the prototype; a prototype cannot see outside itself,
+    so each holds a reference, and every one of them is the same material).
+    ``displayColor`` (linear) for viewers that skip materials.
 
-    Written as layer specs (Sdf), not through a stage: a city writes one prototype per
-    cut joint, tens a block, and a stage (composing, then copying its layer so the
-    material references are added where nothing tries to resolve them) took 40 % more
-    time for the same composed result."""
-    part = next(p for p in db.parts if p.id == inst.part)
-    layer = Sdf.Layer.CreateAnonymous(".usdc")
-    name = prim_name(inst.proto)
-    root = Sdf.PrimSpec(layer, name, Sdf.SpecifierDef, "Xform")
+    Written as layer specs (Sdf), not through a stage: a city writes tens of cut
+    prototypes a block, and a stage (composing, then copying its layer so the material
+    references are added where nothing tries to resolve them) took 40 % more time for
+    the same composed result."""
+    part = db.part(inst.part)
+    root = Sdf.PrimSpec(parent, prim_name(inst.proto), Sdf.SpecifierDef, "Xform")
     root.kind = Kind.Tokens.component
     data = {"part": part.id, "class": part.cls, "library": db.library_hash}
     if inst.cut is not None:
@@ -137,8 +149,31 @@ def write_part(db: PartDB, inst: Instance, path: Path) -> None:
     looks = Sdf.PrimSpec(root, "Looks", Sdf.SpecifierDef, "Scope")
     for i, piece in enumerate(prototype_pieces(db, inst)):
         _mesh_spec(root, prim_name(f"{piece.name}_{i}"), piece,
-                   _material_spec(looks, material_name(piece)))
-    _stage_metadata(layer, name)
+                   _material_spec(looks, material_name(piece), parts_dir))
+    return root
+
+
+def write_part(db: PartDB, inst: Instance, path: Path) -> None:
+    """A library part's prototype file ``parts/<part>.usdc`` (shared by every layer)."""
+    layer = Sdf.Layer.CreateAnonymous(".usdc")
+    with Sdf.ChangeBlock():
+        root = _prototype_spec(layer, db, inst, ".")
+        _stage_metadata(layer, root.name)
+    _export(layer, path)
+
+
+def write_cuts(db: PartDB, prototypes: dict[str, Instance], path: Path) -> None:
+    """A building's or block's cut prototypes in one file: each ``/Cuts/<prototype>``
+    under a ``group`` model. A cut is made at one joint of one building, so no other
+    building shares it; one file a building instead of one a cut spares the file system
+    tens of thousands of files in a city, and a city a millisecond a cut."""
+    layer = Sdf.Layer.CreateAnonymous(".usdc")
+    with Sdf.ChangeBlock():
+        root = Sdf.PrimSpec(layer, CUTS_PRIM, Sdf.SpecifierDef, "Xform")
+        root.kind = Kind.Tokens.group
+        for _proto, inst in sorted(prototypes.items()):
+            _prototype_spec(root, db, inst, f"./{PARTS_DIR}")
+        _stage_metadata(layer, CUTS_PRIM)
     _export(layer, path)
 
 
@@ -178,11 +213,11 @@ def _mesh_spec(parent: Sdf.PrimSpec, label: str, piece: Piece, material: Sdf.Pat
     binding.targetPathList.Prepend(material)
 
 
-def _material_spec(looks: Sdf.PrimSpec, name: str) -> Sdf.Path:
+def _material_spec(looks: Sdf.PrimSpec, name: str, parts_dir: str) -> Sdf.Path:
     """``Looks/<name>``, a Material referencing the library's material layer (once)."""
     if name not in looks.nameChildren:
         spec = Sdf.PrimSpec(looks, name, Sdf.SpecifierDef, "Material")
-        spec.referenceList.Prepend(Sdf.Reference(f"./{material_file(name)}"))
+        spec.referenceList.Prepend(Sdf.Reference(f"{parts_dir}/{material_file(name)}"))
     return looks.path.AppendChild(name)
 
 
@@ -208,21 +243,24 @@ def write_material(piece: Piece, path: Path) -> None:
 
 
 def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path) -> list[Path]:
-    """Write the prototype files a layer references that are not there yet, and the
-    library materials they bind (a part file's name carries no library hash: a run
-    folder belongs to one library, see ``write_layout``; a cut prototype's name carries
-    its cut's)."""
+    """Write the library part files (``parts/<part>.usdc``) a layer references that
+    are not there yet, and the library materials its prototypes bind, cut or not (a
+    part file's name carries no library hash: a run folder belongs to one library, see
+    ``write_layout``). Cut prototypes go in the layer's own file, :func:`write_cuts`."""
     written = []
+    materials: dict[str, Piece] = {}
     for proto, inst in sorted(prototypes.items()):
+        for piece in prototype_pieces(db, inst):
+            materials.setdefault(material_name(piece), piece)
         path = out_dir / part_file(proto)
-        if not path.is_file():
-            for piece in prototype_pieces(db, inst):
-                mat = path.parent / material_file(material_name(piece))
-                if not mat.is_file():
-                    write_material(piece, mat)
-                    written.append(mat)
+        if inst.cut is None and not path.is_file():
             write_part(db, inst, path)
             written.append(path)
+    for name, piece in sorted(materials.items()):
+        mat = out_dir / PARTS_DIR / material_file(name)
+        if not mat.is_file():
+            write_material(piece, mat)
+            written.append(mat)
     return written
 
 
@@ -302,12 +340,53 @@ def _structure_groups(root: Sdf.PrimSpec, lay: Layout) -> dict[tuple, Sdf.PrimSp
     return groups
 
 
+def _prototype_reference(inst: Instance, cuts: str) -> Sdf.Reference:
+    """A library part's file, or the cut prototype's prim in the file ``cuts``."""
+    if inst.cut is None:
+        return Sdf.Reference(f"./{part_file(inst.proto)}")
+    return Sdf.Reference(f"./{cuts}",
+                         Sdf.Path.absoluteRootPath.AppendChild(CUTS_PRIM)
+                         .AppendChild(prim_name(inst.proto)))
+
+
+def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | Path]
+                  ) -> list[Path]:
+    """The layers of one building's or block's layouts (its k best: one name, one
+    folder), each at its path, with the library part files they share (``parts/``) and
+    one file of the prototypes any of them cut at its joints, ``<name>.cuts.usdc``
+    (ranks mostly cut the same corners the same way): the layers' paths, then the cuts
+    file's when there is one."""
+    files = [Path(p) for p in paths]
+    folders, names = {p.parent for p in files}, {lay.name for lay in layouts}
+    if len(folders) != 1 or len(names) != 1 or len(files) != len(layouts):
+        raise ValueError("write_layouts: one path per layout, layouts of one name, one folder")
+    folder, name = folders.pop(), names.pop()
+    prototypes: dict[str, Instance] = {}
+    for lay in layouts:
+        for proto, inst in lay.prototypes().items():
+            prototypes.setdefault(proto, inst)
+    ensure_parts(db, prototypes, folder)
+    cuts = {p: i for p, i in prototypes.items() if i.cut is not None}
+    cpath = cuts_file(folder, name)
+    if cuts:
+        write_cuts(db, cuts, cpath)
+    else:
+        cpath.unlink(missing_ok=True)   # an earlier run's, no longer referenced
+    written = [_write_layer(lay, path, cpath.name) for lay, path in zip(layouts, files,
+                                                                          strict=True)]
+    return written + ([cpath] if cuts else [])
+
+
 def write_layout(lay: Layout, db: PartDB, path: str | Path) -> Path:
-    """The layout's layer at ``path`` (and its part files beside it, in ``parts/``):
-    prims ``<layout>/structure_00/stage_03/<part>_07`` (see
-    :mod:`~citysynth.export.naming`), each instanceable and referencing its part."""
-    path = Path(path)
-    ensure_parts(db, lay.prototypes(), path.parent)
+    """One layout's layer at ``path`` (and the files it references beside it, see
+    :func:`write_layouts`)."""
+    return write_layouts([lay], db, [path])[0]
+
+
+def _write_layer(lay: Layout, path: Path, cuts: str) -> Path:
+    """The layout's layer: prims ``<layout>/structure_00/stage_03/<part>_07`` (see
+    :mod:`~citysynth.export.naming`), each instanceable and referencing its part's
+    file, or its cut prototype in ``cuts`` (a file name in the same folder)."""
     layer = Sdf.Layer.CreateAnonymous(".usda")
     root_name = prim_name(lay.name)
     with Sdf.ChangeBlock():
@@ -317,7 +396,7 @@ def write_layout(lay: Layout, db: PartDB, path: str | Path) -> Path:
             spec = Sdf.PrimSpec(groups[(inst.structure, stage_group(inst))],
                                 prim_name(label), Sdf.SpecifierDef, "Xform")
             spec.instanceable = True
-            spec.referenceList.Prepend(Sdf.Reference(f"./{part_file(inst.proto)}"))
+            spec.referenceList.Prepend(_prototype_reference(inst, cuts))
             spec.customData = _vt({"citysynth": {"part": inst.part}})
             _user(spec, "part", inst.part, Sdf.ValueTypeNames.String)
             m = inst.matrix().T   # USD multiplies row vectors: translation in the last row

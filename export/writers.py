@@ -9,12 +9,13 @@ about a second to import, which a city worker writing USD alone should not pay.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Literal
 
 from citysynth.export.gltf import write_glb
 from citysynth.export.layout import Layout
+from citysynth.export.usd import CUTS_SUFFIX, write_layouts
 from citysynth.export.usd import write_layout as write_usd
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.files import write_text
@@ -23,6 +24,9 @@ Format = Literal["json", "usd", "glb", "png"]
 FORMATS: tuple[Format, ...] = ("json", "usd", "glb", "png")
 SUFFIX: dict[Format, str] = {"json": ".layout.json", "usd": ".usda", "glb": ".glb",
                              "png": ".png"}
+BESIDE: dict[Format, tuple[str, ...]] = {"usd": (CUTS_SUFFIX,)}
+"""Suffixes of the files a format may write beside its main ones, under the layouts'
+name (a building's cut prototypes, ``<name>.cuts.usdc``)."""
 
 
 def write_json(lay: Layout, db: PartDB, path: Path) -> Path:
@@ -46,3 +50,14 @@ def write(lay: Layout, db: PartDB, stem: str | Path, fmt: Format) -> Path:
         raise ValueError(f"unknown output format {fmt!r}; formats are {', '.join(FORMATS)}")
     stem = Path(stem)
     return WRITERS[fmt](lay, db, stem.with_name(stem.name + SUFFIX[fmt]))
+
+
+def write_ranks(layouts: Sequence[Layout], db: PartDB, stems: Sequence[str | Path],
+                fmt: Format) -> list[Path]:
+    """Write a building's or block's layouts (its k best, one stem each) as ``fmt``;
+    the paths written. USD writes them together: their layers share one file of the
+    prototypes they cut (:func:`~citysynth.export.usd.write_layouts`)."""
+    if fmt == "usd":
+        return write_layouts(layouts, db, [Path(s).with_name(Path(s).name + SUFFIX[fmt])
+                                           for s in stems])
+    return [write(lay, db, stem, fmt) for lay, stem in zip(layouts, stems, strict=True)]

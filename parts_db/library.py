@@ -96,6 +96,14 @@ class PartDB:
     def index(self) -> dict[str, int]:
         return {p.id: i for i, p in enumerate(self.parts)}
 
+    def part(self, part_id: str) -> Part:
+        """The part of that id (a dict built on first use: writers look parts up per
+        instance, thousands of times a city block)."""
+        by_id = self.__dict__.get("_by_id")
+        if by_id is None or len(by_id) != len(self.parts):
+            by_id = self.__dict__["_by_id"] = {p.id: p for p in self.parts}
+        return by_id[part_id]
+
     def select(self, cls: PartClass | None = None, style: str | None = None) -> list[Part]:
         """The parts of class ``cls`` and style ``style`` (None: any), in library order."""
         return [p for p in self.parts if (cls is None or p.cls == cls)

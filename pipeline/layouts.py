@@ -23,7 +23,7 @@ from pathlib import Path
 from citysynth.export.layout import Layout
 from citysynth.export.place import layout, max_stretch
 from citysynth.export.usd import write_variants
-from citysynth.export.writers import FORMATS, SUFFIX, Format, write
+from citysynth.export.writers import BESIDE, FORMATS, SUFFIX, Format, write_ranks
 from citysynth.parts_db import PartDB
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
@@ -95,13 +95,12 @@ def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
     out = Path(out_dir)
     k = len(built.layouts) if k is None else k
     paths = []
-    for lay in built.layouts:
-        stem = out / output_stem(lay, k)
-        for fmt in formats:
-            t = time.perf_counter()
-            paths.append(write(lay, db, stem, fmt))
-            key = "preview_s" if fmt == "png" else "export_s"
-            built.timings[key] = built.timings.get(key, 0.0) + time.perf_counter() - t
+    stems = [out / output_stem(lay, k) for lay in built.layouts]
+    for fmt in formats:
+        t = time.perf_counter()
+        paths.extend(write_ranks(built.layouts, db, stems, fmt))
+        key = "preview_s" if fmt == "png" else "export_s"
+        built.timings[key] = built.timings.get(key, 0.0) + time.perf_counter() - t
     if "usd" in formats and k > 1 and built.layouts:
         paths.append(write_variant_stage(built.layouts, out, k, selected))
     if built.layouts:
@@ -117,7 +116,7 @@ def _sweep_stale(out: Path, name: str, formats: Sequence[Format], written: list[
     A ``name_<r>`` file is this layout's only when ``name_<r>.layout.json`` says so (a
     building may be called ``name_2`` itself)."""
     keep = {p.resolve() for p in written}
-    suffixes = [SUFFIX[f] for f in formats]
+    suffixes = [x for f in formats for x in (*BESIDE.get(f, ()), SUFFIX[f])]
     ranked = re.compile(re.escape(name) + r"_(\d+)")
     stale = []
     for p in sorted(out.iterdir()):

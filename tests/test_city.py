@@ -11,12 +11,16 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 from pxr import Usd
 
 from citysynth.export.usd import validate
+from citysynth.pipeline.city import jobs
+from citysynth.pipeline.city.config import load_config
+from citysynth.pipeline.city.run import prepare, warm_up
 from citysynth.pipeline.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -257,3 +261,17 @@ def test_a_dying_worker_fails_blocks_not_the_run(district, tmp_path, monkeypatch
     monkeypatch.undo()
     assert city(tmp_path, "--workers", "2", "--no-overview") == 0   # the rerun retries them
     assert layouts(tmp_path) == layouts(district)
+
+
+def test_the_parent_solves_one_block_before_the_workers_fork(tmp_path):
+    """The local pool's workers fork from a parent that has solved one block: they
+    inherit its compiled kernels and loaded library. Whatever goes wrong there is left
+    to the block's own worker, which records it."""
+    job = prepare(str(DISTRICT), None, load_config(None), str(LIB)).jobs[0]
+    jobs._LIBRARIES.pop(job.library, None)
+    warm_up(job)
+    assert job.library in jobs._LIBRARIES        # loaded here, so every fork has it
+    gone = replace(job, library=str(tmp_path / "no library"))
+    warm_up(gone)                                 # no exception: the worker meets it
+    rec = jobs.run_block(gone, str(tmp_path / "out"))
+    assert rec["status"] == "failed" and "no library" in rec["reason"]

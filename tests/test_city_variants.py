@@ -147,8 +147,10 @@ def test_a_k1_city_has_no_variant_set(k3, tmp_path, sample_db):
     cfg.write_text("k = 1\n")
     run_city(streets, cfg, run)
     blocks = _manifest(run)
+    cuts = {b for b in blocks if (run / "blocks" / f"{b}.cuts.usdc").is_file()}
+    assert cuts, "street blocks cut parts at their corners"
     assert all(r["of"] == 1 and r["files"] == [f"blocks/{b}.layout.json", f"blocks/{b}.usda"]
-               for b, r in blocks.items())
+               + ([f"blocks/{b}.cuts.usdc"] if b in cuts else []) for b, r in blocks.items())
     assert sorted(p.name for p in (run / "blocks").glob("*.usda")) == \
         sorted(f"{b}.usda" for b in blocks), "the k = 3 run's rank layers are gone"
     jobs = {j.id: j for j in prepare(streets, None, load_config(cfg), LIB).jobs}

@@ -20,7 +20,7 @@ from citysynth.export.gltf import sheared
 from citysynth.export.layout import VERSION, Layout
 from citysynth.export.place import layout, max_stretch
 from citysynth.export.prototypes import prototype_pieces
-from citysynth.export.usd import validate, write_city
+from citysynth.export.usd import prim_name, validate, write_city
 from citysynth.pipeline.cli import main
 from citysynth.pipeline.layouts import solve_layouts
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
@@ -71,7 +71,8 @@ def test_every_output_is_written(run_dir):
     stems = ["block", "t_building_1", "t_building_2", "t_building_3"]
     assert names == sorted([f"{s}{ext}" for s in stems
                             for ext in (".glb", ".layout.json", ".png", ".usda")]
-                           + ["t_building.usda"])   # the k = 3 layouts as variants
+                           + ["t_building.usda"]   # the k = 3 layouts as variants
+                           + ["block.cuts.usdc", "t_building.cuts.usdc"])   # cut at joints
     assert not [p for p in run_dir.rglob(".*")], "temporary files left behind"
     for png in run_dir.glob("*.png"):
         assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
@@ -98,6 +99,19 @@ def test_usd_matches_its_layout_and_validates(run_dir, db):
         np.testing.assert_allclose([got.min(axis=0), got.max(axis=0)], want, atol=2e-3)
     for part in (run_dir / "parts").glob("*.usdc"):
         assert validate(part) == []
+    # a cut prototype lives in its building's one cuts file, never in parts/
+    ids = {p.id for p in db.parts}
+    assert {part.stem for part in (run_dir / "parts").glob("*.usdc")} <= \
+        {prim_name(i) for i in ids}
+    cut_files = sorted(run_dir.glob("*.cuts.usdc"))
+    assert [f.name for f in cut_files] == ["block.cuts.usdc", "t_building.cuts.usdc"]
+    for f in cut_files:
+        assert validate(f) == []
+        cut_stage = Usd.Stage.Open(str(f))
+        cuts = cut_stage.GetDefaultPrim()
+        assert cuts.GetName() == "Cuts" and Usd.ModelAPI(cuts).GetKind() == "group"
+        assert all(Usd.ModelAPI(c).GetKind() == "component" and
+                   "cut" in c.GetCustomData()["citysynth"] for c in cuts.GetChildren())
 
 
 def test_city_stage_references_layers_and_validates(run_dir):

@@ -119,11 +119,11 @@ def helsinki():
     facades stand on is decided here; tests/test_city.py builds them): its distance to
     the input, or the message naming the side that stays too short."""
     from citysynth.pipeline.city.footprints import prepare as prepare_job
-    from citysynth.pipeline.city.jobs import _library
+    from citysynth.pipeline.city.jobs import worker_library
     from citysynth.skeletons.errors import SkeletonError
 
     inputs = prepare(None, HELSINKI, load_config(None), LIB)
-    db = _library(inputs.jobs[0].library)
+    db = worker_library(inputs.jobs[0].library)
     rows = []
     for job in inputs.jobs:
         poly = shapely.from_wkt(job.wkt)

@@ -130,6 +130,8 @@ def test_city_blocks_are_payloads_loaded_on_demand(run_dir, tmp_path):
     blocks.mkdir()
     for name in report["built"]:   # a city folder: blocks/<id>.usda beside blocks/parts
         (blocks / f"{name}.usda").write_bytes((run_dir / f"{name}.usda").read_bytes())
+    for cuts in run_dir.glob("*.cuts.usdc"):   # and the prototypes they cut
+        (blocks / cuts.name).write_bytes(cuts.read_bytes())
     (blocks / "parts").symlink_to(run_dir / "parts")
     frame = _layout(run_dir / "block.layout.json").frame
     city = write_city_stage(tmp_path, report, frame)

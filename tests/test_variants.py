@@ -41,9 +41,19 @@ def _composed(stage: Usd.Stage) -> list[tuple[str, str, tuple]]:
 
 
 def _prototypes(stage: Usd.Stage) -> set[str]:
-    """The part files the composed instances reference (one per prototype)."""
-    return {Path(spec.layer.realPath).stem for p in stage.Traverse() if p.IsInstance()
-            for spec in p.GetPrimStack() if Path(spec.layer.realPath).parent.name == "parts"}
+    """The prototypes the composed instances reference (one each): a library part's
+    file in parts/, or a cut prototype's prim in the block's cuts file."""
+    out = set()
+    for p in stage.Traverse():
+        if p.IsInstance():
+            for spec in p.GetPrimStack():
+                where = Path(spec.layer.realPath)
+                if where.parent.name == "parts":
+                    out.add(where.stem)
+                elif where.name.endswith(".cuts.usdc") and spec.path.GetParentPath().name == \
+                        "Cuts":
+                    out.add(spec.path.name)
+    return out
 
 
 def test_k3_block_switches_between_its_layouts(block_k3):
@@ -85,11 +95,13 @@ def test_a_rerun_with_another_k_leaves_no_stale_results(tmp_path):
     lib = Path(__file__).resolve().parent.parent / "examples" / "library"
     other = tmp_path / "block_7.layout.json"
     other.write_text(json.dumps({"name": "block_7", "rank": 1}))
-    for k, want in ((3, {"block.usda"} | {f"block_{r}{x}" for r in (1, 2, 3)
-                                          for x in (".usda", ".layout.json", ".glb")}),
-                    (1, {"block.usda", "block.layout.json", "block.glb"}),
-                    (2, {"block.usda"} | {f"block_{r}{x}" for r in (1, 2)
-                                          for x in (".usda", ".layout.json", ".glb")})):
+    for k, want in ((3, {"block.usda", "block.cuts.usdc"} | {
+                        f"block_{r}{x}" for r in (1, 2, 3)
+                        for x in (".usda", ".layout.json", ".glb")}),
+                    (1, {"block.usda", "block.cuts.usdc", "block.layout.json", "block.glb"}),
+                    (2, {"block.usda", "block.cuts.usdc"} | {
+                        f"block_{r}{x}" for r in (1, 2)
+                        for x in (".usda", ".layout.json", ".glb")})):
         assert main(["block", str(src), "--library", str(lib), "--k", str(k), "-o",
                      str(tmp_path), "--no-preview"]) == 0
         got = {p.name for p in tmp_path.iterdir() if p.is_file()}

@@ -31,6 +31,7 @@ import shapely
 
 from citysynth.export.layout import SCHEMA, VERSION
 from citysynth.export.place import max_stretch
+from citysynth.export.usd import CUTS_SUFFIX
 from citysynth.parts_db import LibraryError, PartDB, load_library
 from citysynth.parts_db.files import write_text
 from citysynth.pipeline.city.config import Pick, ZoneKind
@@ -194,7 +195,7 @@ def cached(out: Path, job: BlockJob) -> BlockRecord | None:
 _LIBRARIES: dict[str, PartDB] = {}
 
 
-def _library(path: str) -> PartDB:
+def worker_library(path: str) -> PartDB:
     """The part database, loaded once per worker process."""
     if path not in _LIBRARIES:
         _LIBRARIES[path] = load_library(path)
@@ -256,7 +257,7 @@ def _unrecorded(rec: BlockRecord, status: BlockStatus, t0: float,
 
 def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord:
     """Clean the outline, solve its layouts, keep the picked one and write it."""
-    db = _library(job.library)
+    db = worker_library(job.library)
     if db.library_hash != job.library_hash:
         raise LibraryError(f"{job.library}: the library changed during the run; run again "
                            "once it is as it should be")
@@ -304,9 +305,11 @@ def solve_block(job: BlockJob, db: PartDB) -> str | tuple[Prepared, Built]:
     return prep, built
 
 
-def rank_layers(blocks: Path, job_id: str) -> list[Path]:
-    """The per-rank layers (``<id>_<rank>.usda``) of a block in ``blocks``."""
-    return sorted(blocks.glob(f"{job_id}_*.usda"))
+def usd_files(blocks: Path, job_id: str) -> list[Path]:
+    """Every USD file of a block in ``blocks``: its layer (or variant stage), with
+    k > 1 each rank's layer ``<id>_<rank>.usda``, and its cut prototypes."""
+    return sorted({*blocks.glob(f"{job_id}.usda"), *blocks.glob(f"{job_id}{CUTS_SUFFIX}"),
+                   *blocks.glob(f"{job_id}_*.usda")})
 
 
 def write_block(built: Built, rank: int, db: PartDB, blocks: Path) -> list[Path]:
@@ -315,14 +318,14 @@ def write_block(built: Built, rank: int, db: PartDB, blocks: Path) -> list[Path]
     one layout, ``<id>.usda`` is that layout's layer (as it always was); with several,
     each rank's layer ``<id>_<rank>.usda`` and ``<id>.usda`` the ``layout`` variantSet
     over them with ``rank_<rank>`` selected (the same files ``building``/``block`` write,
-    by the same code). Rank layers an earlier run left beyond these go."""
+    by the same code). USD files of the block an earlier run left beyond these go."""
     kept = Built(built.name, "ok", [built.layouts[rank - 1]])
     if len(built.layouts) == 1:
         paths = write_outputs(kept, db, blocks, formats=("json", "usd"), k=1)
     else:
         paths = write_outputs(kept, db, blocks, formats=("json",), k=1) + write_outputs(
             built, db, blocks, formats=("usd",), selected=rank)
-    for stale in set(rank_layers(blocks, built.name)) - set(paths):
+    for stale in set(usd_files(blocks, built.name)) - set(paths):
         stale.unlink(missing_ok=True)
     return paths
 

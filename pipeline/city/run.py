@@ -10,7 +10,8 @@ The run folder::
     OUT/manifest.json        every block: input hash, status, files, cost (no timings,
                              so two runs of the same inputs write the same manifest)
     OUT/report.json          counts, reasons, bugs met (with tracebacks), time per stage
-    OUT/blocks/<id>.layout.json, <id>.usda, <id>.done.json, parts/<part>.usdc
+    OUT/blocks/<id>.layout.json, <id>.usda (its cut prototypes: <id>.cuts.usdc),
+                             <id>.done.json, parts/<part>.usdc (library parts)
                              (k > 1: <id>.usda switches between <id>_<rank>.usda)
 """
 
@@ -47,8 +48,10 @@ from citysynth.pipeline.city.jobs import (
     cached,
     frame_tuple,
     outline_wkt,
-    rank_layers,
     run_block,
+    solve_block,
+    usd_files,
+    worker_library,
 )
 from citysynth.pipeline.city.outputs import Report, write_summary
 from citysynth.pipeline.city.process import (
@@ -304,10 +307,11 @@ class _Finished(Protocol):
 
 
 def _local(jobs: list[BlockJob], out: Path, workers: int) -> Iterator[BlockRecord]:
-    if workers <= 1:
+    if workers <= 1 or len(jobs) <= 1:
         for job in jobs:
             yield run_block(job, str(out))
         return
+    warm_up(jobs[0])
     pool = ProcessPoolExecutor(workers, initializer=worker_init, initargs=(os.getpid(),))
     try:
         futures = {pool.submit(run_block, job, str(out)): job for job in jobs}
@@ -317,6 +321,17 @@ def _local(jobs: list[BlockJob], out: Path, workers: int) -> Iterator[BlockRecor
         stop_pool(pool)
         raise
     pool.shutdown(wait=True)
+
+
+def warm_up(job: BlockJob) -> None:
+    """Solve one block here before the local workers fork, discarding the answer: they
+    inherit its compiled solver kernels and the loaded library instead of each
+    compiling them (a minute of CPU each on a first run) or loading them. Whatever goes
+    wrong is left for the block's worker to meet and record."""
+    try:
+        solve_block(job, worker_library(job.library))
+    except Exception:   # noqa: BLE001 - recorded where it belongs, by the block's worker
+        return
 
 
 def connect(address: str):
@@ -397,9 +412,9 @@ def _remove_stale(out: Path, keep: set[str]) -> None:
     for marker in (out / BLOCKS_DIR).glob("*.done.json"):
         bid = marker.name[: -len(".done.json")]
         if bid not in keep:
-            for suffix in (".layout.json", ".usda", ".done.json"):
+            for suffix in (".layout.json", ".done.json"):
                 (out / BLOCKS_DIR / f"{bid}{suffix}").unlink(missing_ok=True)
-            for layer in rank_layers(out / BLOCKS_DIR, bid):   # k > 1: each rank's
+            for layer in usd_files(out / BLOCKS_DIR, bid):
                 layer.unlink(missing_ok=True)
 
 

@@ -31,6 +31,8 @@ from dataclasses import dataclass, field
 from numbers import Real
 from typing import Any
 
+import numpy as np
+
 from citysynth.solver.errors import ProblemError
 from citysynth.solver.problem import Problem, _number, check_object, parse_intervals, parse_k
 
@@ -388,6 +390,8 @@ def _parse_branch_transitions(d: dict, base: Problem, source: str,
 
 def _amount(v: Any, where: str, err: _Err) -> float:
     """A finite number >= 0, as a float."""
+    if (type(v) is float or type(v) is int) and 0 <= v < math.inf:   # the common case, fast
+        return float(v)
     if isinstance(v, bool) or not isinstance(v, Real) or not math.isfinite(v) or v < 0:
         raise err(f"{where}: must be a finite number >= 0, got {v!r}")
     return float(v)
@@ -447,13 +451,17 @@ def _checked_legs(legs: Mapping[str, Sequence[Mapping[str, float]]],
 def _checked_transitions(transitions: Mapping[tuple[str, str], float],
                          elements: Mapping[str, object], what: str, err: _Err
                          ) -> dict[tuple[str, str], float]:
-    out = {}
-    for (a, b), c in transitions.items():
+    for a, b in transitions:
         for side, x in (("from", a), ("to", b)):
             if x not in elements:
                 raise err(f"{what}: unknown {side} element {x!r}")
-        out[(a, b)] = _amount(c, f"{what}[{a!r}, {b!r}]", err)
-    return out
+    values = list(transitions.values())
+    if all(type(c) is float or type(c) is int for c in values):   # checked at once
+        arr = np.asarray(values, dtype=float)
+        if bool(np.all(arr >= 0)) and bool(np.all(np.isfinite(arr))):
+            return dict(zip(transitions, arr.tolist(), strict=True))
+    return {(a, b): _amount(c, f"{what}[{a!r}, {b!r}]", err)
+            for (a, b), c in transitions.items()}
 
 
 def _checked_keypoints(keypoints: Sequence[Sequence[str]],
