@@ -1,12 +1,17 @@
-"""City benchmark: synthetic irregular street networks of about 100 and 1,000 blocks,
+"""City benchmark: synthetic irregular street networks of about 100, 1,000 (and 10,000) blocks,
 built end to end (streets -> blocks -> solve -> layout JSON + USD layers + city stage,
 no overview PNG) by ``citysynth city`` in a fresh process and a fresh run folder each
 time; blocks/s with 1 and 2 workers, CPU time per stage, peak memory of the whole
 process tree (sampled every 0.1 s). One warm-up run first, then the median of --runs.
+With 2 workers, also the seconds a fresh process takes to open the run's city.usda
+(usd-core, every block loaded) and visit every prim through the instance proxies.
+--huge-runs adds a 10,000-block network on 2 workers.
 
-    python -m bench.city [--runs 3] [--large-runs 1]
+    python -m bench.city [--runs 3] [--large-runs 1] [--huge-runs 1]
 
-Target (issue 6): 1,000 blocks under 60 s on 2 cores, peak memory under 2 GB.
+Targets: (issue 6) 1,000 blocks under 60 s on 2 cores, peak memory under 2 GB; (issue
+15) 1,000 blocks under 12 s on 2 workers; 10,000 blocks under 2 minutes with peak
+memory under 2 GB, their city.usda opened and traversed in under 10 s.
 """
 
 from __future__ import annotations
@@ -55,7 +60,19 @@ def network(blocks: int, seed: int = 1, spacing: float = 95.0) -> dict:
     return {"type": "FeatureCollection", "features": feats}
 
 
-def run_once(streets: Path, workers: int) -> dict:
+def open_and_traverse(city: Path) -> tuple[float, int]:
+    """Seconds to open ``city.usda`` in a fresh process (usd-core, every block loaded)
+    and visit every prim, instance proxies included; how many prims it visited."""
+    code = ("import sys, time; from pxr import Usd; t = time.perf_counter(); "
+            "s = Usd.Stage.Open(sys.argv[1]); "
+            "n = sum(1 for _ in Usd.PrimRange.Stage(s, Usd.TraverseInstanceProxies())); "
+            "print(time.perf_counter() - t, n)")
+    out = subprocess.run([sys.executable, "-c", code, str(city)], check=True,
+                         capture_output=True, text=True).stdout.split()
+    return float(out[0]), int(out[1])
+
+
+def run_once(streets: Path, workers: int, stage: bool = False) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         cmd = [sys.executable, "-m", "citysynth.pipeline.cli", "city", "--streets", str(streets),
                "--library", str(ROOT / "examples" / "library"), "-o", tmp,
@@ -76,6 +93,8 @@ def run_once(streets: Path, workers: int) -> dict:
         if proc.returncode != 0:
             raise SystemExit(f"citysynth city failed ({proc.returncode}) on {streets}")
         report = json.loads((Path(tmp) / "report.json").read_text())
+        if stage:
+            report["open_s"], report["prims"] = open_and_traverse(Path(tmp) / "city.usda")
     report["wall"] = wall
     report["peak_mb"] = peak / 2 ** 20
     return report
@@ -85,15 +104,23 @@ def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=3, help="runs of the 100-block network")
     ap.add_argument("--large-runs", type=int, default=1, help="runs of the 1,000-block one")
+    ap.add_argument("--huge-runs", type=int, default=0,
+                    help="runs of a 10,000-block network on 2 workers (no warm-up of its "
+                         "own; about 20 minutes a run on 2 cores)")
     args = ap.parse_args(argv)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for size, runs in ((100, args.runs), (1000, args.large_runs)):
+        for size, runs, workers_list in ((100, args.runs, (1, 2)),
+                                         (1000, args.large_runs, (1, 2)),
+                                         (10000, args.huge_runs, (2,))):
+            if runs <= 0:
+                continue
             streets = Path(tmp) / f"net{size}.geojson"
             streets.write_text(json.dumps(network(size)))
-            run_once(streets, 2)                        # warm-up (numba cache, files)
-            for workers in (1, 2):
-                reps = [run_once(streets, workers) for _ in range(runs)]
+            if size < 10000:
+                run_once(streets, 2)                    # warm-up (numba cache, files)
+            for workers in workers_list:
+                reps = [run_once(streets, workers, stage=workers == 2) for _ in range(runs)]
                 wall = statistics.median(r["wall"] for r in reps)
                 rows.append((size, workers, reps[0], wall, max(r["peak_mb"] for r in reps),
                              runs))
@@ -101,14 +128,15 @@ def main(argv=None) -> None:
           "runs (no overview), median of N runs after a warm-up")
     head = (f"{'net':>5} {'wk':>3} {'N':>2} {'blocks':>6} {'built':>6} {'failed':>6} "
             f"{'wall s':>7} {'blocks/s':>8} {'peak MB':>8} | {'solve':>6} {'layout':>6} "
-            f"{'write':>6} {'inputs':>6}  (CPU s)")
+            f"{'write':>6} {'inputs':>6}  (CPU s) | {'open+traverse s':>15} {'prims':>8}")
     print(head + "\n" + "-" * len(head))
     for size, workers, r, wall, peak, runs in rows:
         c, t = r["counts"], r["timings"]
         print(f"{size:>5} {workers:>3} {runs:>2} {r['blocks']:>6} {c['built']:>6} "
               f"{c['failed']:>6} {wall:>7.1f} {r['blocks'] / wall:>8.1f} {peak:>8.0f} | "
               f"{t.get('solve_s', 0):>6.1f} {t.get('layout_s', 0):>6.1f} "
-              f"{t.get('write_s', 0):>6.1f} {t.get('inputs_s', 0):>6.1f}")
+              f"{t.get('write_s', 0):>6.1f} {t.get('inputs_s', 0):>6.1f}          | "
+              + (f"{r['open_s']:>15.1f} {r['prims']:>8}" if "open_s" in r else ""))
 
 
 if __name__ == "__main__":

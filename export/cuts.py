@@ -9,8 +9,9 @@ A :class:`~citysynth.export.layout.Cut` says how, in the part's own placement fr
    corner, or in front of a convex one, where a cornice overhangs), the part's end is
    first extended by stretching a thin band at that end (:data:`BAND` wide): a wall or
    cornice face that runs to the end runs on, with its profile, and nothing else moves.
-2. **Cut.** Every face is clipped to the kept side of each plane (trimesh's
-   ``slice_faces_plane``), piece by piece, so each keeps its material.
+2. **Cut.** Every face is clipped to the kept side of each plane (:func:`clip`, which
+   keeps what trimesh's ``slice_faces_plane`` keeps, all pieces in one pass), each
+   face staying in its piece, so each keeps its material.
 3. **Cap.** The part's solid cross-section on each plane (the even-odd section of its
    bodies, as ingest measures sections) is triangulated and added to the walls piece,
    facing out of the cut, so the cut part is closed again.
@@ -20,6 +21,8 @@ prototypes, are instanced by USD and glTF like any part.
 """
 
 from __future__ import annotations
+
+from collections import OrderedDict
 
 import numpy as np
 import shapely
@@ -32,21 +35,29 @@ from citysynth.parts_db.geometry import Piece, part_pieces
 from citysynth.parts_db.sections import body_labels, plane_section
 
 BAND = 0.02            # m at each end of a part: what an extension stretches
-_CACHE: dict[tuple[str, str, Cut], tuple[Piece, ...]] = {}
+CACHED_CUTS = 1024     # cut prototypes kept per process (a building has tens)
+_CACHE: OrderedDict[tuple[str, str, Cut], tuple[Piece, ...]] = OrderedDict()
 _LABELS: dict[tuple[str, str], np.ndarray] = {}
 CAP_PIECE = "walls"    # the material a cap takes (else the part's first piece's)
 
 
 def cut_pieces(db: PartDB, part: Part, cut: Cut) -> tuple[Piece, ...]:
-    """The pieces of ``part`` extended, cut and capped as ``cut`` says (cached)."""
+    """The pieces of ``part`` extended, cut and capped as ``cut`` says (cached: the k
+    layouts of a building mostly cut the same joints; a cut is seldom met again in
+    another building, so only the last :data:`CACHED_CUTS` are kept, and a worker
+    building thousands of blocks does not hold every cut it ever made)."""
     key = (db.library_hash, part.id, cut)
-    if key not in _CACHE:
-        pieces = part_pieces(db, part)
-        labels = _LABELS.get(key[:2])
-        if labels is None:   # which body each face belongs to: the same for every cut
-            labels = _LABELS[key[:2]] = body_labels(_whole(pieces, [p.vertices for p in pieces]))
-        _CACHE[key] = _cut(pieces, length(part), cut, labels)
-    return _CACHE[key]
+    if key in _CACHE:
+        _CACHE.move_to_end(key)
+        return _CACHE[key]
+    pieces = part_pieces(db, part)
+    labels = _LABELS.get(key[:2])
+    if labels is None:   # which body each face belongs to: the same for every cut
+        labels = _LABELS[key[:2]] = body_labels(_whole(pieces, [p.vertices for p in pieces]))
+    out = _CACHE[key] = _cut(pieces, length(part), cut, labels)
+    if len(_CACHE) > CACHED_CUTS:
+        _CACHE.popitem(last=False)
+    return out
 
 
 def length(part: Part) -> float:
@@ -79,26 +90,89 @@ def _whole(pieces: tuple[Piece, ...], vertices: list[np.ndarray]) -> trimesh.Tri
 
 def _cut(pieces: tuple[Piece, ...], length_: float, cut: Cut,
          labels: np.ndarray) -> tuple[Piece, ...]:
-    moved = [(p, extend(p.vertices, length_, cut.extend)) for p in pieces]
+    vertices = [extend(p.vertices, length_, cut.extend) for p in pieces]
+    whole = _whole(pieces, vertices)
+    verts, faces = np.asarray(whole.vertices), np.asarray(whole.faces)
+    owner = np.repeat(np.arange(len(pieces)), [len(p.faces) for p in pieces])
+    for plane in cut.planes:
+        verts, faces, source = clip(verts, faces, plane)
+        owner = owner[source]
     out: list[Piece] = []
-    for piece, v in moved:
-        verts, faces = v, piece.faces
-        for a, b, c in cut.planes:
-            if len(faces) == 0:
-                break
-            normal = np.array([-a, -b, 0.0])          # trimesh keeps the +normal side
-            verts, faces = trimesh.intersections.slice_faces_plane(
-                verts, faces, plane_normal=normal,
-                plane_origin=np.array([a * c, b * c, 0.0]))[:2]
-        if len(faces):
-            out.append(Piece(piece.name, piece.rgba, np.asarray(verts, dtype=float),
-                             np.asarray(faces, dtype=np.int64)))
-    whole = _whole(pieces, [v for _p, v in moved])
+    for i, piece in enumerate(pieces):
+        kept = faces[owner == i]
+        if len(kept):
+            used, inverse = np.unique(kept, return_inverse=True)
+            out.append(Piece(piece.name, piece.rgba, verts[used],
+                             inverse.reshape(-1, 3).astype(np.int64)))
     caps = [c for c in (_cap(whole, plane, cut.planes, labels) for plane in cut.planes)
             if c is not None]
     if not caps:
         return tuple(out)
     return _with_caps(out, pieces, caps)
+
+
+ON_PLANE = 1e-8        # m: a vertex this close to a plane is on it (trimesh's tol.merge)
+
+
+def clip(verts: np.ndarray, faces: np.ndarray, plane: tuple[float, float, float]
+         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Triangles clipped to the kept side of a cut's plane, as trimesh's
+    ``slice_faces_plane`` keeps them (a face lying on the plane stays when it faces out
+    of the kept side), for all pieces in one pass: (vertices, faces, the input face
+    each output face comes from). A face crossed by the plane keeps its winding; new
+    vertices are appended."""
+    a, b, c = plane
+    # the plane through (a c, b c) with normal (a, b), as the caps take it ((a, b) is
+    # rounded, so a*x + b*y = c would sit up to c * 1e-6 away from them)
+    d = (verts[:, 0] - a * c) * a + (verts[:, 1] - b * c) * b   # > 0: the side cut away
+    sign = np.where(d > ON_PLANE, 1, np.where(d < -ON_PLANE, -1, 0))[faces]
+    out_n, in_n = (sign > 0).sum(axis=1), (sign < 0).sum(axis=1)
+    keep = out_n == 0
+    flat = keep & (in_n == 0)                           # all three on the plane
+    if flat.any():
+        tri = verts[faces[flat]]
+        nz = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        keep[np.flatnonzero(flat)] = nz[:, 0] * a + nz[:, 1] * b > 0
+    one_out = (out_n == 1) & (in_n >= 1)                # a quad stays (or a triangle)
+    two_out = (out_n == 2) & (in_n == 1)                # a triangle stays
+    new_v, new_f, new_src = [verts], [faces[keep]], [np.flatnonzero(keep)]
+    n = len(verts)
+    for rows, pick in ((np.flatnonzero(one_out), 1), (np.flatnonzero(two_out), -1)):
+        if not len(rows):
+            continue
+        # rotate each face so the lone vertex (outside, or inside) comes first
+        k = np.argmax(sign[rows] == pick, axis=1)
+        f = faces[rows]
+        idx = np.arange(len(rows))
+        fk, fi, fj = f[idx, k], f[idx, (k + 1) % 3], f[idx, (k + 2) % 3]
+        p_ki = _cross_point(verts, d, fk, fi)            # on edge k -> i
+        p_jk = _cross_point(verts, d, fj, fk)            # on edge j -> k
+        m = len(rows)
+        ki, jk = n + np.arange(m), n + m + np.arange(m)
+        new_v += [p_ki, p_jk]
+        n += 2 * m
+        if pick == 1:          # k cut away: i, j, P_jk, P_ki (two triangles)
+            tris = np.concatenate([np.stack([fi, fj, jk], 1), np.stack([fi, jk, ki], 1)])
+            src = np.concatenate([rows, rows])
+        else:                  # only k kept: k, P_ki, P_jk
+            tris, src = np.stack([fk, ki, jk], 1), rows
+        new_f.append(tris)
+        new_src.append(src)
+    v = np.concatenate(new_v)
+    f = np.concatenate(new_f).astype(np.int64)
+    src = np.concatenate(new_src)
+    t = v[f]
+    area = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    ok = (area * area).sum(axis=1) > 1e-24              # no slivers where a vertex was on it
+    return v, f[ok], src[ok]
+
+
+def _cross_point(verts: np.ndarray, d: np.ndarray, p: np.ndarray, q: np.ndarray
+                 ) -> np.ndarray:
+    """Where each edge p -> q meets the plane (d: signed distances of the vertices)."""
+    dp, dq = d[p], d[q]
+    t = np.clip(dp / np.where(dp == dq, 1.0, dp - dq), 0.0, 1.0)
+    return verts[p] + t[:, None] * (verts[q] - verts[p])
 
 
 def _offset_faces(faces: list[np.ndarray], counts: list[int]) -> list[np.ndarray]:
