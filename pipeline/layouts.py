@@ -14,7 +14,6 @@ variants of one ``layout`` variantSet (a city block carries it too: see
 from __future__ import annotations
 
 import json
-import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -117,19 +116,29 @@ def _sweep_stale(out: Path, name: str, formats: Sequence[Format], written: list[
     building may be called ``name_2`` itself)."""
     keep = {p.resolve() for p in written}
     suffixes = [x for f in formats for x in (*BESIDE.get(f, ()), SUFFIX[f])]
-    ranked = re.compile(re.escape(name) + r"_(\d+)")
-    stale = []
-    for p in sorted(out.iterdir()):
-        suffix = next((x for x in suffixes if p.name.endswith(x)), None)
-        if suffix is None or not p.is_file() or p.resolve() in keep:
-            continue
-        stem = p.name[:-len(suffix)]
-        m = ranked.fullmatch(stem)
-        if stem == name or (m and _rank_of(out / f"{stem}{SUFFIX['json']}", name) == int(
-                m.group(1))):
-            stale.append(p)
+    stale = [p for p in (out / f"{name}{x}" for x in suffixes) if p.is_file()]
+    for rank, files in ranked_files(out, name, [*suffixes, SUFFIX["json"]]):
+        if _rank_of(out / f"{name}_{rank}{SUFFIX['json']}", name) == rank:
+            stale += [p for p in files if p.name.endswith(tuple(suffixes))]
+    stale = [p for p in stale if p.resolve() not in keep]
     for p in stale:   # after reading every layout JSON that tells whose a file is
         p.unlink(missing_ok=True)
+
+
+def ranked_files(out: Path, name: str, suffixes: Sequence[str]
+                 ) -> list[tuple[int, list[Path]]]:
+    """The files ``name_<rank><suffix>`` in ``out``, rank by rank from 1 while a rank has
+    any (ranks of one run are 1 to k). Names are tried, not listed: a city folder holds
+    tens of thousands of files, and listing it for each of its blocks was quadratic."""
+    out_ranks: list[tuple[int, list[Path]]] = []
+    rank = 1
+    while True:
+        files = [p for p in (out / f"{name}_{rank}{x}" for x in dict.fromkeys(suffixes))
+                 if p.is_file()]
+        if not files:
+            return out_ranks
+        out_ranks.append((rank, files))
+        rank += 1
 
 
 def _rank_of(layout_json: Path, name: str) -> int | None:

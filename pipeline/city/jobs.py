@@ -44,7 +44,7 @@ from citysynth.pipeline.city.footprints import (
 )
 from citysynth.pipeline.city.kinds import solve_kind
 from citysynth.pipeline.errors import USER_ERRORS
-from citysynth.pipeline.layouts import Built, solve_layouts, write_outputs
+from citysynth.pipeline.layouts import Built, ranked_files, solve_layouts, write_outputs
 from citysynth.skeletons import Frame
 
 JOB_VERSION = 4          # bump when a block's output changes for the same inputs
@@ -308,8 +308,10 @@ def solve_block(job: BlockJob, db: PartDB) -> str | tuple[Prepared, Built]:
 def usd_files(blocks: Path, job_id: str) -> list[Path]:
     """Every USD file of a block in ``blocks``: its layer (or variant stage), with
     k > 1 each rank's layer ``<id>_<rank>.usda``, and its cut prototypes."""
-    return sorted({*blocks.glob(f"{job_id}.usda"), *blocks.glob(f"{job_id}{CUTS_SUFFIX}"),
-                   *blocks.glob(f"{job_id}_*.usda")})
+    own = [p for p in (blocks / f"{job_id}.usda", blocks / f"{job_id}{CUTS_SUFFIX}")
+           if p.is_file()]
+    return own + [p for _rank, files in ranked_files(blocks, job_id, [".usda"])
+                  for p in files]
 
 
 def write_block(built: Built, rank: int, db: PartDB, blocks: Path) -> list[Path]:
