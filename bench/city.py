@@ -4,7 +4,8 @@ no overview PNG) by ``citysynth city`` in a fresh process and a fresh run folder
 time; blocks/s with 1 and 2 workers, CPU time per stage, peak memory of the whole
 process tree (sampled every 0.1 s). One warm-up run first, then the median of --runs.
 With 2 workers, also the seconds a fresh process takes to open the run's city.usda
-(usd-core, every block loaded) and visit every prim through the instance proxies.
+(usd-core, every block loaded) and visit every prim of the stage, and then to visit
+every prim again through the instance proxies (each instance's meshes).
 --huge-runs adds a 10,000-block network on 2 workers.
 
     python -m bench.city [--runs 3] [--large-runs 1] [--huge-runs 1]
@@ -60,16 +61,19 @@ def network(blocks: int, seed: int = 1, spacing: float = 95.0) -> dict:
     return {"type": "FeatureCollection", "features": feats}
 
 
-def open_and_traverse(city: Path) -> tuple[float, int]:
-    """Seconds to open ``city.usda`` in a fresh process (usd-core, every block loaded)
-    and visit every prim, instance proxies included; how many prims it visited."""
+def open_and_traverse(city: Path) -> tuple[float, int, float, int]:
+    """In a fresh process (usd-core): seconds to open ``city.usda`` with every block
+    loaded and visit every prim of the stage (instances' shared prototypes once), and
+    how many; then seconds to visit every prim again through the instance proxies (each
+    instance's meshes, as a renderer sees them), and how many."""
     code = ("import sys, time; from pxr import Usd; t = time.perf_counter(); "
-            "s = Usd.Stage.Open(sys.argv[1]); "
-            "n = sum(1 for _ in Usd.PrimRange.Stage(s, Usd.TraverseInstanceProxies())); "
-            "print(time.perf_counter() - t, n)")
+            "s = Usd.Stage.Open(sys.argv[1]); n = sum(1 for _ in s.Traverse()); "
+            "t1 = time.perf_counter(); "
+            "m = sum(1 for _ in Usd.PrimRange.Stage(s, Usd.TraverseInstanceProxies())); "
+            "print(t1 - t, n, time.perf_counter() - t1, m)")
     out = subprocess.run([sys.executable, "-c", code, str(city)], check=True,
                          capture_output=True, text=True).stdout.split()
-    return float(out[0]), int(out[1])
+    return float(out[0]), int(out[1]), float(out[2]), int(out[3])
 
 
 def run_once(streets: Path, workers: int, stage: bool = False) -> dict:
@@ -94,7 +98,8 @@ def run_once(streets: Path, workers: int, stage: bool = False) -> dict:
             raise SystemExit(f"citysynth city failed ({proc.returncode}) on {streets}")
         report = json.loads((Path(tmp) / "report.json").read_text())
         if stage:
-            report["open_s"], report["prims"] = open_and_traverse(Path(tmp) / "city.usda")
+            (report["open_s"], report["prims"], report["proxies_s"],
+             report["proxies"]) = open_and_traverse(Path(tmp) / "city.usda")
     report["wall"] = wall
     report["peak_mb"] = peak / 2 ** 20
     return report
@@ -128,7 +133,8 @@ def main(argv=None) -> None:
           "runs (no overview), median of N runs after a warm-up")
     head = (f"{'net':>5} {'wk':>3} {'N':>2} {'blocks':>6} {'built':>6} {'failed':>6} "
             f"{'wall s':>7} {'blocks/s':>8} {'peak MB':>8} | {'solve':>6} {'layout':>6} "
-            f"{'write':>6} {'inputs':>6}  (CPU s) | {'open+traverse s':>15} {'prims':>8}")
+            f"{'write':>6} {'inputs':>6}  (CPU s) | {'open s':>6} {'prims':>7} "
+            f"{'proxies s':>9} {'proxies':>8}")
     print(head + "\n" + "-" * len(head))
     for size, workers, r, wall, peak, runs in rows:
         c, t = r["counts"], r["timings"]
@@ -136,7 +142,8 @@ def main(argv=None) -> None:
               f"{c['failed']:>6} {wall:>7.1f} {r['blocks'] / wall:>8.1f} {peak:>8.0f} | "
               f"{t.get('solve_s', 0):>6.1f} {t.get('layout_s', 0):>6.1f} "
               f"{t.get('write_s', 0):>6.1f} {t.get('inputs_s', 0):>6.1f}          | "
-              + (f"{r['open_s']:>15.1f} {r['prims']:>8}" if "open_s" in r else ""))
+              + (f"{r['open_s']:>6.1f} {r['prims']:>7} {r['proxies_s']:>9.1f} "
+                 f"{r['proxies']:>8}" if "open_s" in r else ""))
 
 
 if __name__ == "__main__":
