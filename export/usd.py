@@ -355,7 +355,8 @@ def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | P
     folder), each at its path, with the library part files they share (``parts/``) and
     one file of the prototypes any of them cut at its joints, ``<name>.cuts.usdc``
     (ranks mostly cut the same corners the same way): the layers' paths, then the cuts
-    file's when there is one."""
+    file's when there is one. An earlier run's files these do not replace are left to
+    the caller's sweep (``pipeline.layouts``, a city block's own)."""
     files = [Path(p) for p in paths]
     folders, names = {p.parent for p in files}, {lay.name for lay in layouts}
     if len(folders) != 1 or len(names) != 1 or len(files) != len(layouts):
@@ -370,8 +371,6 @@ def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | P
     cpath = cuts_file(folder, name)
     if cuts:
         write_cuts(db, cuts, cpath)
-    else:
-        cpath.unlink(missing_ok=True)   # an earlier run's, no longer referenced
     written = [_write_layer(lay, path, cpath.name) for lay, path in zip(layouts, files,
                                                                           strict=True)]
     return written + ([cpath] if cuts else [])

@@ -106,3 +106,28 @@ def test_a_rerun_with_another_k_leaves_no_stale_results(tmp_path):
                      str(tmp_path), "--no-preview"]) == 0
         got = {p.name for p in tmp_path.iterdir() if p.is_file()}
         assert got == want | {"block_7.layout.json"}, (k, sorted(got))
+
+
+def test_a_rerun_that_cuts_nothing_leaves_no_cuts_file(tmp_path):
+    """The cuts file of an earlier run goes when the new layouts cut no part: in a
+    building's folder (the layouts' sweep) and in a city's blocks folder (the block's)."""
+    from dataclasses import replace
+
+    from citysynth.pipeline.city.config import load_config
+    from citysynth.pipeline.city.jobs import solve_block, worker_library, write_block
+    from citysynth.pipeline.city.run import prepare
+    from citysynth.pipeline.layouts import Built, write_outputs
+
+    streets = ROOT / "examples" / "city" / "district_streets.geojson"
+    job = next(j for j in prepare(str(streets), None, load_config(None), str(LIB)).jobs
+               if j.zone_kind is None)
+    db = worker_library(job.library)
+    built = solve_block(job, db)[1]
+    uncut = Built(built.name, "ok", [replace(lay, instances=[
+        replace(i, cut=None) for i in lay.instances]) for lay in built.layouts])
+    cuts = f"{built.name}.cuts.usdc"
+    for write in (lambda b: write_outputs(b, db, tmp_path, formats=("json", "usd")),
+                  lambda b: write_block(b, 1, db, tmp_path / "blocks")):
+        assert cuts in {p.name for p in write(built)}
+        assert cuts not in {p.name for p in write(uncut)}
+        assert not (tmp_path / cuts).exists() and not (tmp_path / "blocks" / cuts).exists()

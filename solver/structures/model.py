@@ -390,8 +390,6 @@ def _parse_branch_transitions(d: dict, base: Problem, source: str,
 
 def _amount(v: Any, where: str, err: _Err) -> float:
     """A finite number >= 0, as a float."""
-    if (type(v) is float or type(v) is int) and 0 <= v < math.inf:   # the common case, fast
-        return float(v)
     if isinstance(v, bool) or not isinstance(v, Real) or not math.isfinite(v) or v < 0:
         raise err(f"{where}: must be a finite number >= 0, got {v!r}")
     return float(v)
