@@ -127,7 +127,7 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
     ``accept`` names the geometries the caller can use ("lines", "polygons"); features
     with others, or with none, are left out with a warning (:class:`Features`)."""
     raw = _raw_features(data, source)
-    given = _input_crs(crs if crs is not None else _crs_member(data, source), source)
+    given = _input_crs(_chosen_crs(crs, _crs_member(data, source), source), source)
     kept, skipped = _usable(raw, source, accept)
     if not kept:
         raise SkeletonError(f"{source}: no usable features: all {len(raw)} left out ("
@@ -261,6 +261,22 @@ def _crs_member(data: dict[str, Any], source: str) -> str | None:
                         "or give the CRS with --crs")
 
 
+def _chosen_crs(option: str | None, member: str | None, source: str) -> str | None:
+    """``--crs`` wins over the file's ``"crs"`` member (a file can be mislabelled), but
+    when the two name different CRSs the user hears which one is used."""
+    if option is None or member is None:
+        return member if option is None else option
+    try:
+        same = pyproj.CRS.from_user_input(option).equals(
+            pyproj.CRS.from_user_input(member), ignore_axis_order=True)
+    except pyproj.exceptions.CRSError:
+        same = False
+    if not same:
+        warnings.warn(f"{source}: the file says its coordinates are in {member}, but "
+                      f"--crs says {option}; using {option}", InputWarning, stacklevel=4)
+    return option
+
+
 def _input_crs(crs: str | None, source: str) -> pyproj.CRS | None:
     """The input's CRS, or None for plain lon/lat on WGS 84 (CRS84 or EPSG:4326 in any
     spelling: both mean longitude, latitude in GeoJSON)."""
@@ -273,6 +289,12 @@ def _input_crs(crs: str | None, source: str) -> pyproj.CRS | None:
     except pyproj.exceptions.CRSError:
         raise SkeletonError(f"{source}: unknown CRS {crs!r}; give it as EPSG:<code>, e.g. "
                             "EPSG:25832") from None
+    if not (given.is_projected or given.is_geographic):
+        kind = "geocentric (earth-centred X, Y, Z)" if given.is_geocentric else \
+            given.type_name.lower()
+        raise SkeletonError(f"{source}: {crs} ({given.name}) is a {kind} CRS, not a map "
+                            "of the ground; give the projected or lon/lat CRS the "
+                            "coordinates are in, e.g. --crs EPSG:25832")
     flat = given.to_2d() if given.is_geographic else given
     if flat.equals(_CRS84, ignore_axis_order=True):
         return None
@@ -313,6 +335,8 @@ def _frame(geoms: list[BaseGeometry], given: pyproj.CRS | None, source: str,
            ) -> tuple[Project, Frame]:
     """How to project the input, and the frame it lands in."""
     allc = np.vstack([shapely.get_coordinates(g) for g in geoms])
+    if given is not None:
+        _check_area(given, _to_lonlat(given, source)(_extent(allc)), source)
     if given is not None and not given.is_geographic and \
             _scale_error(given, allc) <= TRUE_SCALE:
         return _kept_projected(allc, given, origin)
@@ -321,9 +345,7 @@ def _frame(geoms: list[BaseGeometry], given: pyproj.CRS | None, source: str,
         to_lonlat = _to_lonlat(given, source)
         allc = to_lonlat(allc)
     _check_lonlat(allc, source, given)
-    lo, hi = allc.min(axis=0), allc.max(axis=0)
-    centre = (float((lo[0] + hi[0]) / 2), float((lo[1] + hi[1]) / 2)) if origin is None \
-        else (float(origin[0]), float(origin[1]))
+    centre = _lonlat_centre(allc) if origin is None else (float(origin[0]), float(origin[1]))
     if origin is None and origin_digits is not None:
         centre = (round(centre[0], origin_digits), round(centre[1], origin_digits))
     to_local = _local_tmerc(centre)
@@ -332,6 +354,54 @@ def _frame(geoms: list[BaseGeometry], given: pyproj.CRS | None, source: str,
         return to_local, frame
     first = to_lonlat
     return (lambda c: to_local(first(c))), frame
+
+
+def _lonlat_centre(lonlat: Coords) -> tuple[float, float]:
+    """The centre of the data's lon/lat box; across the ±180° meridian (a box wider than
+    half the globe that is narrow when longitudes are taken in 0..360), the centre of
+    the narrow box, so the local frame sits on the data and not on the far side."""
+    lo, hi = lonlat.min(axis=0), lonlat.max(axis=0)
+    mid_lon = (lo[0] + hi[0]) / 2
+    if hi[0] - lo[0] > 180:
+        east = lonlat[:, 0] % 360
+        if east.max() - east.min() < hi[0] - lo[0]:
+            mid_lon = ((east.min() + east.max()) / 2 + 180) % 360 - 180
+    return float(mid_lon), float((lo[1] + hi[1]) / 2)
+
+
+def _extent(coords: Coords) -> Coords:
+    """The corners and centre of the coordinates' bounding box."""
+    (x0, y0), (x1, y1) = coords.min(axis=0), coords.max(axis=0)
+    return np.array([[x0, y0], [x0, y1], [x1, y0], [x1, y1], [(x0 + x1) / 2, (y0 + y1) / 2]])
+
+
+WORLD_MARGIN = 0.5     # degrees of latitude data may stray beyond a world map's limits
+
+
+def _check_area(given: pyproj.CRS, lonlat: Coords, source: str) -> None:
+    """Refuse data beyond the latitudes a world map (a CRS used over all longitudes, such
+    as Web Mercator, which stops at 85.06°) is made for: the mark of coordinates in
+    another unit (feet given as metres). Regional CRSs are often used well beyond their
+    area of use, and one far from the data is handled by reprojecting, so only world
+    maps are checked."""
+    area = given.area_of_use
+    if area is None or not np.isfinite(lonlat).all():
+        return
+    west, south, east, north = area.bounds
+    if west > -179 or east < 179:
+        return
+    lat = lonlat[:, 1]
+    if lat.min() < south - WORLD_MARGIN or lat.max() > north + WORLD_MARGIN:
+        at = lonlat[np.argmax(np.abs(lat))]
+        raise SkeletonError(
+            f"{source}: in {given.name} the data lands at longitude {at[0]:.2f}, latitude "
+            f"{at[1]:.2f}, beyond the latitudes that map is made for ({south:g} to "
+            f"{north:g}); is the CRS right, and are the coordinates in its unit "
+            f"({_unit_name(given)})?")
+
+
+def _unit_name(crs: pyproj.CRS) -> str:
+    return str(crs.axis_info[0].unit_name) if crs.axis_info else "metre"
 
 
 def _kept_projected(allc: Coords, given: pyproj.CRS, origin: tuple[float, float] | None

@@ -367,6 +367,65 @@ def test_crs_members_that_cannot_be_read():
         parse_geojson(dict(LINE, crs="EPSG:4326"), "s.geojson")
 
 
+def test_a_crs_that_is_not_a_map_is_refused():
+    with pytest.raises(SkeletonError, match=r"EPSG:4978 \(WGS 84\) is a geocentric"):
+        parse_geojson(LINE, "s.geojson", crs="EPSG:4978")
+
+
+def _projected(crs: str, scale: float = 1.0) -> dict:
+    tf = pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True)
+    line = copy.deepcopy(LINE)
+    geom = line["features"][0]["geometry"]
+    geom["coordinates"] = [[c * scale for c in tf.transform(*xy)] for xy in geom["coordinates"]]
+    line["crs"] = {"type": "name", "properties": {"name": crs}}
+    return line
+
+
+def test_coordinates_outside_the_area_of_their_crs_are_refused():
+    """Web Mercator metres given in feet put Helsinki beyond 85° N, outside the square
+    world of EPSG:3857: a wrong unit, refused with what to check."""
+    feats, frame = parse_geojson(_projected("EPSG:3857"))
+    assert frame.origin == pytest.approx((24.945, 60.1705))
+    with pytest.raises(SkeletonError, match=r"s.geojson: in WGS 84 / Pseudo-Mercator the "
+                       r"data lands at longitude 81.82, latitude 88.51, beyond the latitudes "
+                       r"that map is made for \(-85.06 to 85.06\); is the CRS right, and are "
+                       r"the coordinates in its unit \(metre\)\?"):
+        parse_geojson(_projected("EPSG:3857", 3.28084), "s.geojson")
+
+
+def test_a_utm_zone_used_beyond_its_band_is_accepted():
+    """Countries use one zone far beyond its 6° band (Norway: zone 33, 12-18° E, over all
+    its 4-31° E); Helsinki (24.9° E) in zone 32 (6-12° E) is read and true to length."""
+    ref, _ = parse_geojson(LINE)
+    feats, frame = parse_geojson(_projected("EPSG:25832"))
+    assert frame.source_crs == "EPSG:25832"
+    assert feats[0].geometry.length == pytest.approx(ref[0].geometry.length, rel=LENGTH_TOL)
+
+
+def test_crs_option_over_the_files_member_is_said():
+    member = _projected("EPSG:3857")
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        feats, frame = parse_geojson(member, "s.geojson", crs="EPSG:3857")
+    assert not got
+    with pytest.warns(InputWarning, match="s.geojson: the file says its coordinates are in "
+                      "EPSG:3857, but --crs says EPSG:3395; using EPSG:3395"):
+        parse_geojson(member, "s.geojson", crs="EPSG:3395")
+
+
+def test_a_block_across_the_date_line_is_framed_there():
+    """A block across ±180° is framed at 180°, not at 0° (where the transverse Mercator
+    would mirror it), and measures what the same block at 0° does."""
+    ring = [[179.999, 0], [-179.999, 0], [-179.999, 0.001], [179.999, 0.001], [179.999, 0]]
+    feats, frame = parse_geojson({"type": "Polygon", "coordinates": [ring]})
+    assert abs(frame.origin[0]) == 180 and frame.origin[1] == pytest.approx(0.0005)
+    same = [[x - 180 if x > 0 else x + 180, y] for x, y in ring]   # moved by 180°
+    ref, _ = parse_geojson({"type": "Polygon", "coordinates": [same]})
+    assert feats[0].geometry.length == pytest.approx(ref[0].geometry.length, rel=1e-9)
+    assert feats[0].geometry.area == pytest.approx(ref[0].geometry.area, rel=1e-9)
+    assert shapely.is_ccw(feats[0].geometry.exterior) == shapely.is_ccw(ref[0].geometry.exterior)
+
+
 def test_nothing_usable_is_refused_naming_the_file_and_feature(tmp_path):
     f = tmp_path / "nulls.geojson"
     f.write_text(json.dumps({"type": "FeatureCollection", "features": [
