@@ -54,8 +54,8 @@ Project = Callable[[Coords], Coords]
 
 
 class InputWarning(UserWarning):
-    """A feature of the input was left out; the message names the file, the feature and
-    why."""
+    """Something in the input was left out (a feature) or overridden (its CRS member);
+    the message names the file, what and why."""
 
 
 def feature_label(index: int, properties: dict[str, Any]) -> str:

@@ -30,7 +30,7 @@ from citysynth.solver.structures.combine import (
     paused_gc,
     root_of,
 )
-from citysynth.solver.structures.decompose import Grid, PairProblems
+from citysynth.solver.structures.decompose import Grid, PairProblems, stage_fillers
 from citysynth.solver.structures.model import Structure
 from citysynth.solver.structures.stage_graphs import NotExact, StageGraphs
 
@@ -67,9 +67,13 @@ def _global_grid(st: Structure) -> Grid:
     for r, (lo, hi) in st.global_constraints.items():
         values = [v[r] for v in st.elements.values()] + [leg[r] for legs in st.legs.values()
                                                          for leg in legs]
+        reach = _reach(st, r)
+        clipped = reach is not None and hi > max(reach, lo)   # beyond reach: no bound
+        if clipped:
+            hi = max(reach, lo)
         q = st.quantum.get(r)
         if q is None:
-            frac = exact_divisor(values + [lo, hi])
+            frac = exact_divisor(values + [lo] + ([] if clipped else [hi]))
             if frac is None:
                 raise ProblemError(f'structure-wide constraint on "{r}": its values have no '
                                    "common divisor; give a quantum")
@@ -84,6 +88,31 @@ def _global_grid(st: Structure) -> Grid:
         his.append(int(math.floor(hi / q + 1e-9)))
     _check_shares(names, his)
     return names, qs, los, his
+
+
+def _reach(st: Structure, r: str) -> float | None:
+    """An upper bound on the structure-wide total of ``r``, or None when nothing bounds
+    it: each stage's upper bound on a resource every filler has a positive amount of
+    (its length) caps the stage's ``r`` at that bound times the most ``r`` a filler has
+    per unit of it, and the key elements add their legs'. An interval reaching past it
+    ("doors = [0, 1e20]", meaning no limit) is clipped to it, so its shares stay few."""
+    total = 0.0
+    for i, stage in enumerate(st.stages):
+        amounts = [st.elements[e] for e in stage_fillers(st, i)]
+        if any(a[r] < 0 for a in amounts):
+            return None
+        caps = [hi * max((a[r] / a[s] for a in amounts), default=0.0)
+                for s, (_lo, hi) in stage.constraints.items()
+                if math.isfinite(hi) and all(a[s] > 0 for a in amounts)]
+        if not caps:
+            return None
+        total += min(caps)
+    for candidates in st.keypoints:
+        legs = [sum(leg[r] for leg in st.legs.get(e, ())) for e in candidates]
+        if any(x < 0 for x in legs):
+            return None
+        total += max(legs, default=0.0)
+    return total
 
 
 MAX_SHARES = 1_000_000   # ways to split the structure-wide totals, per stage
