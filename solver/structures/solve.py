@@ -69,7 +69,7 @@ def _global_grid(st: Structure) -> Grid:
                                                          for leg in legs]
         reach = _reach(st, r)
         clipped = reach is not None and hi > max(reach, lo)   # beyond reach: no bound
-        if clipped:
+        if reach is not None and clipped:
             hi = max(reach, lo)
         q = st.quantum.get(r)
         if q is None:
