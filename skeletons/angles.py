@@ -35,7 +35,7 @@ def match_corner_angles(skeleton: Skeleton, available: Iterable[tuple[float, boo
                 or "none"
             raise SkeletonError(
                 f"{skeleton.name}: the {kind} corner of {angle:.1f}° at "
-                f"({k.xy[0]:.2f}, {k.xy[1]:.2f}) has no part within {tol:g}°; the library "
+                f"{skeleton.frame.at(k.xy)} has no part within {tol:g}°; the library "
                 f"has corners of {have}")
         out[k.id] = best
     return out

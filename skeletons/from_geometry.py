@@ -11,6 +11,7 @@ geometry is refused with a message naming the feature and the place.
 from __future__ import annotations
 
 import dataclasses
+import re
 from collections.abc import Callable, Iterable
 from typing import Any, cast
 
@@ -130,20 +131,19 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
                 a, b = node(p), node(q)
                 length = float(np.linalg.norm(xy[b] - xy[a]))
                 if a == b or length < SNAP:
-                    raise SkeletonError(f"{f.where}: a zero-length edge at "
-                                        f"({p[0]:.2f}, {p[1]:.2f}); remove the repeated point")
+                    raise SkeletonError(f"{f.where}: a zero-length edge at {frame.at(p)}; "
+                                        "remove the repeated point")
                 edges.append(Edge(a, b, length, front, cons, f.where))
     if not edges:
         raise SkeletonError(f"{prefix}no skeleton edges in the input")
     edges = _split_at_touching_ends(edges, xy)
-    _check_crossings(edges, xy)
+    _check_crossings(edges, xy, frame)
     g = nx.Graph()
     g.add_nodes_from(xy)
     for i, e in enumerate(edges):
         if g.has_edge(e.a, e.b):
             raise SkeletonError(f"{e.source}: two edges join the same key points "
-                                f"({xy[e.a][0]:.2f}, {xy[e.a][1]:.2f}) and "
-                                f"({xy[e.b][0]:.2f}, {xy[e.b][1]:.2f})")
+                                f"{frame.at(xy[e.a])} and {frame.at(xy[e.b])}")
         g.add_edge(e.a, e.b, index=i)
     parts = list(nx.connected_components(g))
     if len(parts) > 1:
@@ -153,7 +153,7 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
                             "as separate buildings")
 
     def where(v: int) -> str:
-        return f"{prefix}key point at ({xy[v][0]:.2f}, {xy[v][1]:.2f})"
+        return f"{prefix}key point at {frame.at(xy[v])}"
 
     kps = _classify(sorted(xy), xy, g, edges, straight_tol, where)
     closed = all(k.degree == 2 for k in kps)
@@ -187,8 +187,8 @@ def _check_sides(sk: Skeleton, min_edge: float, where: str = "") -> None:
                 a, b = kp[start].xy, kp[v].xy
                 raise SkeletonError(
                     f"{where or sk.edges[first].source or sk.name}: the {length:.2f} m side from "
-                    f"({a[0]:.2f}, {a[1]:.2f}) to ({b[0]:.2f}, {b[1]:.2f}) is shorter than "
-                    f"the smallest part ({min_edge:.2f} m)")
+                    f"{sk.frame.at(a)} to {sk.frame.at(b)} is shorter than the smallest "
+                    f"part ({min_edge:.2f} m)")
 
 
 def seamed(kps: list[KeyPoint]) -> list[KeyPoint]:
@@ -232,7 +232,7 @@ def _split_at_touching_ends(edges: list[Edge], xy: dict[int, np.ndarray]) -> lis
     return out
 
 
-def _check_crossings(edges: list[Edge], xy: dict[int, np.ndarray]) -> None:
+def _check_crossings(edges: list[Edge], xy: dict[int, np.ndarray], frame: Frame) -> None:
     geoms = [LineString([xy[e.a], xy[e.b]]) for e in edges]
     tree = shapely.STRtree(geoms)
     left, right = tree.query(geoms, predicate="intersects")
@@ -245,8 +245,8 @@ def _check_crossings(edges: list[Edge], xy: dict[int, np.ndarray]) -> None:
             continue
         p = shapely.get_coordinates(inter)[0]
         raise SkeletonError(f"{edges[i].source} and {edges[j].source}: edges cross at "
-                            f"({p[0]:.2f}, {p[1]:.2f}) without a shared key point; split "
-                            "them there or move them apart")
+                            f"{frame.at(p)} without a shared key point; split them there "
+                            "or move them apart")
 
 
 def skeletons_from_polygons(features: Iterable[Feature], frame: Frame, *,
@@ -262,7 +262,7 @@ def skeletons_from_polygons(features: Iterable[Feature], frame: Frame, *,
             else [f.geometry]
         for k, poly in enumerate(polys):
             label = f.name + (f" part {k}" if len(polys) > 1 else "")
-            poly = _checked_polygon(poly, _in_file(f, label), min_area)
+            poly = _checked_polygon(poly, _in_file(f, label), min_area, frame)
             rings = [poly.exterior, *poly.interiors]
             for r, ring in enumerate(rings):
                 name = label + ("" if r == 0 else f" courtyard {r}")
@@ -274,17 +274,28 @@ def _in_file(f: Feature, label: str) -> str:
     return f"{f.source}: {label}" if f.source else label
 
 
-def _checked_polygon(poly: BaseGeometry, where: str, min_area: float) -> Polygon:
+def _checked_polygon(poly: BaseGeometry, where: str, min_area: float, frame: Frame
+                     ) -> Polygon:
     """A valid polygon of some area, oriented counter-clockwise (holes clockwise)."""
     if not isinstance(poly, Polygon):
         raise SkeletonError(f"{where}: expected a Polygon, got {poly.geom_type}")
     if not poly.is_valid:
-        raise SkeletonError(f"{where}: invalid polygon ({explain_validity(poly)}); "
+        raise SkeletonError(f"{where}: invalid polygon ({_invalid(poly, frame)}); "
                             "fix the outline so it does not cross itself")
     if poly.area < min_area:
         raise SkeletonError(f"{where}: degenerate polygon (area {poly.area:.2f} m²)")
     return shapely.orient_polygons(poly) if hasattr(shapely, "orient_polygons") \
         else shapely.geometry.polygon.orient(poly, 1.0)
+
+
+def _invalid(poly: Polygon, frame: Frame) -> str:
+    """What GEOS finds wrong with a polygon, its location in the input's coordinates
+    (GEOS gives it in local metres: "Self-intersection[4.6e-15 0]")."""
+    text = explain_validity(poly)
+    m = re.fullmatch(r"\s*([^\[]+)\[\s*(\S+)\s+(\S+)\s*\]\s*", text)
+    if m is None:
+        return text
+    return f"{m.group(1).strip().lower()} at {frame.at((float(m.group(2)), float(m.group(3))))}"
 
 
 def _ring_skeleton(ring: LinearRing, f: Feature, name: str, frame: Frame, min_edge: float,

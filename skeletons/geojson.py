@@ -100,6 +100,11 @@ class Frame:
     origin: tuple[float, float]   # input coordinates (or lon/lat) of the local (0, 0)
     source_crs: str = ""
 
+    def at(self, xy: Any) -> str:
+        """A local point as messages give it: in the input's own coordinates, so a user
+        finds it in their GIS."""
+        return format_xy(input_xy((self.crs, *self.origin), self.source_crs, xy))
+
     def describe(self) -> str:
         text = f"{self.crs}, origin {self.origin[0]:.6f}, {self.origin[1]:.6f}"
         if self.source_crs and self.crs == LONLAT_FRAME:
@@ -472,3 +477,22 @@ def lonlat_from_local(points: Any, origin: tuple[float, float]) -> list[list[flo
     xy = np.asarray(points, dtype=float)
     lon, lat = tf.transform(xy[:, 0], xy[:, 1])
     return [[round(float(a), 9), round(float(b), 9)] for a, b in zip(lon, lat, strict=True)]
+
+
+def input_xy(frame: tuple[str, float, float], source_crs: str, xy: Any) -> tuple[float, float]:
+    """A local point in the input's own coordinates (lon/lat, or the projected CRS)."""
+    if frame[0] != LONLAT_FRAME:   # kept projected: shifted, and in metres
+        unit = _unit(pyproj.CRS.from_user_input(source_crs)) if source_crs else 1.0
+        return float(xy[0]) / unit + frame[1], float(xy[1]) / unit + frame[2]
+    lon, lat = lonlat_from_local([xy], (frame[1], frame[2]))[0]
+    if source_crs:
+        tf = pyproj.Transformer.from_crs("EPSG:4326", source_crs, always_xy=True)
+        x, y = tf.transform(lon, lat)
+        return float(x), float(y)
+    return lon, lat
+
+
+def format_xy(p: tuple[float, float]) -> str:
+    """A point as messages give it: 6 decimals for lon/lat, 2 (cm) for metres."""
+    nd = 6 if abs(p[0]) <= 180 and abs(p[1]) <= 90 else 2
+    return f"({p[0]:.{nd}f}, {p[1]:.{nd}f})"

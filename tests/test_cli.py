@@ -86,3 +86,40 @@ def test_demo(capsys, tmp_path):
         assert (tmp_path / name).is_file(), name
     # every GLB the demo writes passes Khronos's glTF Validator (tests/test_gltf.py)
     assert_clean(sorted(tmp_path.rglob("*.glb")))
+
+
+SOLVER_WORDS = ("stage", "key element", "joint:", "constraint", "resource", "front", "back")
+
+
+def _geojson(tmp_path: Path, name: str, geometry: dict) -> Path:
+    f = tmp_path / f"{name}.geojson"
+    f.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {}, "geometry": geometry}]}))
+    return f
+
+
+@pytest.mark.parametrize("command, geometry, side", [
+    ("building", "LineString", "the 6.00 m side from (7.100000, 50.730000) to (7.100085, "
+     "50.730000): no row of the classic kit's parts fits it between the parts its ends "
+     "take (the nearest they make there is 7.80 m)"),
+    ("block", "Polygon", "the 2.50 m side from (7.100000, 50.730000) to (7.100035, "
+     "50.730000): the classic kit makes 2.8 m here; allow 12.0 % stretch"),
+])
+def test_a_building_or_block_that_cannot_be_built_is_told_in_sides_and_metres(
+        tmp_path, capsys, command, geometry, side):
+    """Exit 1, and the side named where it is in the input, how long, and what to change;
+    no solver words (stages, key elements, joints' ids, constraints)."""
+    from citysynth.skeletons.geojson import lonlat_from_local
+    origin = (7.1, 50.73)
+    if geometry == "LineString":   # a staircase: a 6 m first step between an end and a mitre
+        coords = lonlat_from_local([(0, 0), (6, 0), (6, 6), (12, 6), (12, 12)], origin)
+    else:                          # a 2.5 m deep block, shorter than any module
+        coords = [lonlat_from_local([(0, 0), (2.5, 0), (2.5, 30), (0, 30), (0, 0)], origin)]
+    f = _geojson(tmp_path, "x", {"type": geometry, "coordinates": coords})
+    code = main([command, str(f), "--library", str(EXAMPLES / "library"), "--style",
+                 "classic", "-o", str(tmp_path / "out"), "--no-preview"])
+    err = capsys.readouterr().err
+    assert code == 1 and err.startswith(f"citysynth {command}: cannot build x: {side}"), err
+    assert "stretch" in err
+    assert not any(w in err.lower() for w in SOLVER_WORDS), err
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

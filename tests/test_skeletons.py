@@ -256,3 +256,49 @@ def test_a_densely_drawn_curve_is_one_side():
     (sk,) = skeletons_from_polygons(*parse_geojson(fc(feat("Polygon", [circle]))), min_edge=2.4)
     assert sum(k.kind == "corner" for k in sk.keypoints) == 1
     assert 80 < len(sk.keypoints) < 150
+
+
+def _located(message: str) -> tuple[float, float]:
+    import re
+    m = re.search(r" at \((-?[\d.]+), (-?[\d.]+)\)", message)
+    assert m is not None, message
+    return float(m.group(1)), float(m.group(2))
+
+
+@pytest.mark.parametrize("features, kind, where", [
+    ([feat("Polygon", [metres([(0, 0), (10, 10), (10, 0), (0, 10), (0, 0)])], id="bow")],
+     "poly", (5, 5)),
+    ([feat("LineString", metres([(0, 0), (30, 0)])),
+      feat("LineString", metres([(15, -10), (15, 10)]))], "lines", (15, 0)),
+    ([feat("LineString", metres([(0, 0), (20, 0), (20, 0), (20, 20)]))], "lines", (20, 0)),
+])
+def test_a_bad_geometry_is_located_in_the_inputs_coordinates(features, kind, where):
+    """Where a skeleton error lies is given in lon/lat, as the file has it (to 1e-6°),
+    not in the local frame's metres, so a user finds it in their GIS."""
+    feats, frame = parse_geojson(fc(*features))
+    with pytest.raises(SkeletonError) as exc:
+        if kind == "poly":
+            skeletons_from_polygons(feats, frame)
+        else:
+            skeleton_from_lines(feats, frame, min_edge=3.0)
+    assert _located(str(exc.value)) == pytest.approx(metres([where])[0], abs=2e-6)
+
+
+def test_a_bad_geometry_is_located_in_a_kept_projected_crs_in_its_unit():
+    """In a CRS kept as it is (New York's Long Island plane, in US feet), the place is
+    given in that CRS's feet, not in the frame's metres."""
+    import pyproj
+    tf = pyproj.Transformer.from_crs("EPSG:4326", "EPSG:2263", always_xy=True)
+    ring = [list(tf.transform(-73.98 + x * 1e-4, 40.75 + y * 1e-4))   # crossing off centre
+            for x, y in ((0, 0), (1, 1), (1, 0), (0, 1), (-2, 1), (0, 0))]
+    data = dict(fc(feat("Polygon", [ring])),
+                crs={"type": "name", "properties": {"name": "EPSG:2263"}})
+    feats, frame = parse_geojson(data)
+    assert frame.crs.endswith("(projected)")
+    with pytest.raises(SkeletonError, match="self-intersection at") as exc:
+        skeletons_from_polygons(feats, frame)
+    import shapely
+    from shapely.validation import explain_validity
+    geos = _located(" at (" + explain_validity(shapely.Polygon(ring)).split("[")[1]
+                    .rstrip("]").replace(" ", ", ") + ")")   # GEOS, in the file's feet
+    assert _located(str(exc.value)) == pytest.approx(geos, abs=0.02)

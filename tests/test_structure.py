@@ -205,15 +205,21 @@ def test_structure_wide_intervals_match_enumeration(d, k, lo, width):
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(trees(), st.integers(1, 5), st.integers(0, 3), st.sampled_from([40.0, 1e20, 1e300]))
+@given(trees(), st.integers(1, 5), st.sampled_from([0, 1, 2, 3, 41, 10**6]),
+       st.sampled_from([40.0, 1e20, 1e300]))
 def test_an_upper_bound_past_reach_means_no_bound(d, k, lo, hi):
     """"doors = [lo, 1e20]" (no limit, as a user writes it) is clipped to what the
     stages can reach: exact as enumeration, and its shares stay few (it was refused as
-    10^20 ways to share the total)."""
+    10^20 ways to share the total); a minimum past reach is infeasible at once."""
     from citysynth.solver.structures.solve import _global_grid
+    hi = max(hi, 1e20) if lo > hi else hi
     d = {**d, "constraints": {"doors": [lo, hi]}}
     expected = enumerate_structure(d, k)
     st_ = Structure.from_dict(d)
+    if lo > 40:   # at most 5 stages of at most 8 m, a door a metre
+        r = solve_structure(st_, k)
+        assert expected == [] and r.status == "infeasible" and r.solutions == []
+        return
     names, qs, los, his = _global_grid(st_)
     assert his[0] * qs[0] <= 40   # at most 5 stages of at most 8 m, a door a metre
     r = solve_structure(st_, k)

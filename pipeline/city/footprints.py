@@ -20,7 +20,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pyproj
 import shapely
 
 from citysynth.parts_db import Part, PartDB
@@ -29,7 +28,7 @@ from citysynth.skeletons import Feature, Frame, Skeleton, skeletons_from_polygon
 from citysynth.skeletons.clean import absorb_short_edges, clean_footprint
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.from_geometry import STRAIGHT_TOL
-from citysynth.skeletons.geojson import LONLAT_FRAME, lonlat_from_local
+from citysynth.skeletons.geojson import format_xy, input_xy
 
 if TYPE_CHECKING:   # the job module imports this one
     from citysynth.pipeline.city.jobs import BlockJob
@@ -160,23 +159,6 @@ def choose_family(spec: FootprintSpec, db: PartDB, style: str
 
 # --- messages --------------------------------------------------------------------------
 
-def input_xy(frame: tuple[str, float, float], source_crs: str, xy: Any) -> tuple[float, float]:
-    """A local point in the input's own coordinates (lon/lat, or the projected CRS)."""
-    if frame[0] != LONLAT_FRAME:
-        return float(xy[0]) + frame[1], float(xy[1]) + frame[2]
-    lon, lat = lonlat_from_local([xy], (frame[1], frame[2]))[0]
-    if source_crs:
-        tf = pyproj.Transformer.from_crs("EPSG:4326", source_crs, always_xy=True)
-        x, y = tf.transform(lon, lat)
-        return float(x), float(y)
-    return lon, lat
-
-
-def _fmt(p: tuple[float, float]) -> str:
-    nd = 6 if abs(p[0]) <= 180 and abs(p[1]) <= 90 else 2
-    return f"({p[0]:.{nd}f}, {p[1]:.{nd}f})"
-
-
 def makeable(fillers: list[Part], quantum: float, top: float) -> np.ndarray:
     """Lengths (in quanta) a side between two mitre joints can take: some run of the
     kit's modules, plus a joint leg of 1-8 quanta at each end (transitions ignored)."""
@@ -241,7 +223,7 @@ def short_side(rings: list[Skeleton], min_side: float):
     return None
 
 
-def _stage_side(rings: list[Skeleton], reason: str | None):
+def stage_side(rings: list[Skeleton], reason: str | None):
     """The side a solver's reason names (``<ring>: ... stage <i> ...``): its ring's
     chain i, as (from, to, length); None when the reason names none."""
     m = re.search(r"stage (\d+)", reason or "")
@@ -259,6 +241,13 @@ def _stage_side(rings: list[Skeleton], reason: str | None):
     return xy[c.a], xy[c.b], c.length
 
 
+def describe_side(frame: tuple[str, float, float], source_crs: str, a: Any, b: Any,
+                  length: float) -> str:
+    """'the 6.00 m side from (x, y) to (x, y)', in the input's coordinates."""
+    return (f"the {length:.2f} m side from {format_xy(input_xy(frame, source_crs, a))} to "
+            f"{format_xy(input_xy(frame, source_crs, b))}")
+
+
 def explain(where: str, frame: tuple[str, float, float], source_crs: str,
             rings: list[Skeleton], db: PartDB, style: str, allowed: frozenset[str] | None,
             tol: Any, asked: str, reason: str | None = None) -> str:
@@ -268,8 +257,7 @@ def explain(where: str, frame: tuple[str, float, float], source_crs: str,
     fillers = [p for p in db.select("middle", style) if allowed is None or p.id in allowed]
 
     def side_text(a: Any, b: Any, length: float) -> str:
-        return (f"the {length:.2f} m side from {_fmt(input_xy(frame, source_crs, a))} to "
-                f"{_fmt(input_xy(frame, source_crs, b))}")
+        return describe_side(frame, source_crs, a, b, length)
 
     for sk in rings:
         for a, b, length in stage_sides(sk):
@@ -278,25 +266,25 @@ def explain(where: str, frame: tuple[str, float, float], source_crs: str,
             if advice:
                 return f"{where}: {side_text(a, b, length)}: {advice}"
     more = f" with {asked}" if asked else ""
-    side = _stage_side(rings, reason)
+    loosen = "allow more stretch" + (", or loosen the per-side and per-block ranges in "
+                                     "city.toml" if asked else "")
+    side = stage_side(rings, reason)
     if side is not None:
         return (f"{where}: {side_text(*side)}: no row of the {style} kit's parts fits "
-                f"it{more} beside the corners it can take; allow more stretch, or loosen "
-                "the per-side and per-block ranges in city.toml")
+                f"it{more} beside the corners it can take; {loosen}")
     sides = [s for sk in rings for s in stage_sides(sk)]
     shortest = f" (the shortest is {side_text(*min(sides, key=lambda s: s[2]))})" \
         if sides else ""
     return (f"{where}: its sides can each be made from the {style} kit, but not all of "
-            f"them at once{more}{shortest}; allow more stretch, or loosen the per-side "
-            "and per-block ranges in city.toml")
+            f"them at once{more}{shortest}; {loosen}")
 
 
 def too_short(where: str, frame: tuple[str, float, float], source_crs: str, side: Any,
               min_side: float, style: str) -> str:
     """A side left shorter than any facade between two corners."""
     a, b, length = side
-    return (f"{where}: the {length:.2f} m side from {_fmt(input_xy(frame, source_crs, a))} "
-            f"to {_fmt(input_xy(frame, source_crs, b))} is shorter than the {min_side:.1f} m "
+    return (f"{where}: the {length:.2f} m side from {format_xy(input_xy(frame, source_crs, a))} "
+            f"to {format_xy(input_xy(frame, source_crs, b))} is shorter than the {min_side:.1f} m "
             f"the {style} kit needs between two corners, and absorbing it would move the "
             "outline by more than the cleaning tolerance (raise footprints.tolerance)")
 

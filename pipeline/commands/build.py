@@ -15,6 +15,8 @@ from pathlib import Path
 
 from citysynth.export.writers import FORMATS
 from citysynth.parts_db import load_library
+from citysynth.pipeline.city.footprints import describe_side, explain, stage_side
+from citysynth.pipeline.city.jobs import frame_tuple
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import (
     Built,
@@ -23,7 +25,13 @@ from citysynth.pipeline.layouts import (
     summary_line,
     write_outputs,
 )
-from citysynth.skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
+from citysynth.skeletons import (
+    Frame,
+    Skeleton,
+    read_geojson,
+    skeleton_from_lines,
+    skeletons_from_polygons,
+)
 from citysynth.skeletons.errors import SkeletonError
 
 MAX_STRETCH = 0.05   # as city.toml: more would stretch parts visibly
@@ -87,17 +95,37 @@ def _prepare(args):
     return db, style, feats, frame
 
 
-def _finish(args, db, built_all: list[Built]) -> int:
+def _why(args, db, style: str, frame: Frame, rings: list[Skeleton], built: Built) -> str:
+    """Why a building or block has no layout, in its user's words: which side, how long,
+    where (in the input's coordinates), and what to change; never stages or keys."""
+    at = frame_tuple(frame)
+    if args.command == "block":   # rings: what a city says of a footprint it cannot build
+        return explain(built.name, at, frame.source_crs, rings, db, style, None,
+                       lambda length: max(db.quantum / 2, args.slack, args.stretch * length),
+                       "", built.reason)
+    side = stage_side(rings, built.reason)
+    if side is None:
+        return (f"{built.name}: the {style} kit's parts cannot fill every side of the "
+                "skeleton at once; allow more stretch (--stretch, --slack)")
+    near = re.search(r"nearest achievable: (-?[\d.]+)", built.reason or "")
+    nearest = f" (the nearest they make there is {float(near.group(1)):.2f} m)" if near else ""
+    return (f"{built.name}: {describe_side(at, frame.source_crs, *side)}: no row of the "
+            f"{style} kit's parts fits it between the parts its ends take{nearest}; allow "
+            "more stretch (--stretch, --slack), or move the skeleton's points")
+
+
+def _finish(args, db, style: str, frame: Frame,
+            built_all: list[tuple[Built, list[Skeleton]]]) -> int:
     """Write every layout (after all were solved and checked: a bad one writes
     nothing), report, and choose the exit code."""
     formats = [f for f in FORMATS if f != "png" or not args.no_preview]
     status = 0
-    for built in built_all:
+    for built, rings in built_all:
         if built.status != "ok":
-            print(f"citysynth {args.command}: {built.name}: infeasible: {built.reason}",
-                  file=sys.stderr)
+            print(f"citysynth {args.command}: cannot build "
+                  f"{_why(args, db, style, frame, rings, built)}", file=sys.stderr)
             status = 1
-    for built in built_all:
+    for built, _rings in built_all:
         if built.status != "ok":
             continue
         paths = write_outputs(built, db, args.out, formats=formats, k=args.k)
@@ -115,7 +143,8 @@ def run_building(args) -> int:
     db, style, feats, frame = _prepare(args)
     name = safe_name(Path(args.file).stem)
     sk = skeleton_from_lines(feats, frame, name=name, min_edge=_smallest(db, style))
-    return _finish(args, db, [solve_layouts(name, [sk], db, style, args.k, **_options(args))])
+    built = solve_layouts(name, [sk], db, style, args.k, **_options(args))
+    return _finish(args, db, style, frame, [(built, [sk])])
 
 
 def run_block(args) -> int:
@@ -127,11 +156,11 @@ def run_block(args) -> int:
         name = safe_name(str(fid)) if fid is not None else \
             (stem if len(feats) == 1 else f"{stem}_{f.index}")
         rings = skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
-        built.append(solve_layouts(name, rings, db, style, args.k, **_options(args)))
-    if len({b.name for b in built}) != len(built):
+        built.append((solve_layouts(name, rings, db, style, args.k, **_options(args)), rings))
+    if len({b.name for b, _ in built}) != len(built):
         raise SkeletonError(f"{args.file}: two blocks share a name (their \"id\"); give each "
                             "feature a distinct id")
-    return _finish(args, db, built)
+    return _finish(args, db, style, frame, built)
 
 
 def _smallest(db, style: str) -> float:

@@ -115,6 +115,17 @@ def _reach(st: Structure, r: str) -> float | None:
     return total
 
 
+def _out_of_reach(st: Structure) -> str | None:
+    """Why no filling can meet a structure-wide minimum past what the stages can reach
+    (said at once: its shares would be refused as too many), or None."""
+    for r, (lo, _hi) in st.global_constraints.items():
+        reach = _reach(st, r)
+        if reach is not None and lo > reach + 1e-9 * max(1.0, reach):
+            return (f'the structure-wide interval on "{r}" asks for at least {lo:g}, more '
+                    f"than the stages can reach (at most {reach:.4g})")
+    return None
+
+
 MAX_SHARES = 1_000_000   # ways to split the structure-wide totals, per stage
 
 
@@ -182,6 +193,10 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
     k = st.k if k is None else int(k)
     check_k(k, max_memory_mb)
     t0 = time.perf_counter()
+    short = _out_of_reach(st)
+    if short is not None:
+        return StructureResult("infeasible", [], {"method": method, "stages_by": "none",
+                                                  "solve_s": time.perf_counter() - t0}, short)
     grid = _global_grid(st)
     gnames, _gq, glo, ghi = grid
     with paused_gc():
