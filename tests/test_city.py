@@ -162,6 +162,29 @@ def test_diff_reports_changed_added_and_removed_blocks(district, tmp_path, capsy
     assert main(["diff", str(district), str(tmp_path)]) == 2
 
 
+def test_diff_says_when_the_runs_used_different_libraries(district, tmp_path, capsys):
+    """Blocks of two libraries can cost the same and share nothing: the diff says the
+    libraries differ, in a line of its own and on each changed block."""
+    import shutil
+
+    other = tmp_path / "other"
+    shutil.copytree(district, other)
+    for f in (other / "blocks").glob("*.layout.json"):
+        lay = json.loads(f.read_text())
+        lay["library"] = {**lay["library"], "name": "other kit", "hash": "ab" * 32}
+        f.write_text(json.dumps(lay))
+    capsys.readouterr()
+    assert main(["diff", str(district), str(other)]) == 1
+    out = capsys.readouterr().out
+    assert "the runs used different part libraries: citysynth sample (" in out
+    assert "-> other kit (abababab); blocks differ in their parts" in out
+    assert out.count(", library citysynth sample (") == len(layouts(district))
+    assert main(["diff", str(district), str(other), "--json"]) == 1
+    d = json.loads(capsys.readouterr().out)
+    assert d["libraries"]["b"] == ["other kit (abababab)"]
+    assert all(c["library"][1] == "other kit (abababab)" for c in d["changed"])
+
+
 def test_zones_and_constraints_from_the_config(tmp_path, capsys):
     cfg = tmp_path / "city.toml"
     cfg.write_text("""

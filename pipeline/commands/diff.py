@@ -89,6 +89,7 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
     status: list[dict[str, Any]] = []
     changed: list[dict[str, Any]] = []
     same = 0
+    libraries: dict[str, set[str]] = {"a": set(), "b": set()}
     for bid in sorted(set(ba) & set(bb)):
         ra, rb = ba[bid], bb[bid]
         if ra.get("status") != rb.get("status"):
@@ -97,18 +98,30 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
                            or rb.get("error") or ra.get("error")})
             continue
         la, lb = _layout(a, bid, ra), _layout(b, bid, rb)
+        for side, lay in (("a", la), ("b", lb)):
+            if lay is not None:
+                libraries[side].add(_library(lay[1]))
         if la is None or lb is None or la[0] == lb[0]:
             same += 1
             continue
         changed.append(_block_change(bid, la[1], lb[1]))
     return {"added": added, "removed": removed, "status": status, "changed": changed,
-            "same": same, "identical": not (added or removed or status or changed)}
+            "same": same, "identical": not (added or removed or status or changed),
+            "libraries": {k: sorted(v) for k, v in libraries.items()}}
+
+
+def _library(lay: dict) -> str:
+    """The part library a layout was built with: its name and the start of its hash."""
+    lib = lay.get("library") or {}
+    return f"{lib.get('name', '?')} ({str(lib.get('hash', ''))[:8]})"
 
 
 def _block_change(bid: str, la: dict, lb: dict) -> dict:
     change = {"id": bid, "cost_a": la["cost"], "cost_b": lb["cost"],
               "cost_delta": round(lb["cost"] - la["cost"], 6), "rank_a": la["rank"],
               "rank_b": lb["rank"], "met": [], "parts": {}}
+    if _library(la) != _library(lb):
+        change["library"] = [_library(la), _library(lb)]
     for si, (sa, sb) in enumerate(zip(la["structures"], lb["structures"], strict=False)):
         for s, (ta, tb) in enumerate(zip(sa["stages"], sb["stages"], strict=False)):
             for name in sorted(set(ta["met"]) | set(tb["met"])):
@@ -139,11 +152,16 @@ def run(args) -> int:
     print(f"{args.run_a} -> {args.run_b}: {d['same']} blocks the same, "
           f"{len(d['changed'])} changed, {len(d['added'])} added, {len(d['removed'])} "
           f"removed, {len(d['status'])} changed status")
+    if d["libraries"]["a"] != d["libraries"]["b"]:
+        print(f"  the runs used different part libraries: {', '.join(d['libraries']['a'])} "
+              f"-> {', '.join(d['libraries']['b'])}; blocks differ in their parts even where "
+              "their costs agree")
     for c in d["changed"]:
         print(f"  changed {c['id']}: cost {c['cost_a']:g} -> {c['cost_b']:g} "
-              f"({c['cost_delta']:+g}), layout #{c['rank_a']} -> #{c['rank_b']}")
+              f"({c['cost_delta']:+g}), layout #{c['rank_a']} -> #{c['rank_b']}" +
+              (f", library {c['library'][0]} -> {c['library'][1]}" if "library" in c else ""))
         for m in c["met"][:8]:
-            print(f"      structure {m['structure']} stage {m['stage']}: {m['resource']} "
+            print(f"      ring {m['structure'] + 1}, side {m['stage'] + 1}: {m['resource']} "
                   f"{m['a']} -> {m['b']}")
         if c["parts"]:
             moved = ", ".join(f"{p} {n:+d}" for p, n in c["parts"].items())
