@@ -14,6 +14,7 @@ variants of one ``layout`` variantSet (a city block carries it too: see
 from __future__ import annotations
 
 import json
+import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ from citysynth.parts_db import PartDB
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
 from citysynth.skeletons import Skeleton
+from citysynth.solver.errors import TooLargeError
 from citysynth.solver.structures import solve_structure
 
 
@@ -55,6 +57,26 @@ def check_style(db: PartDB, style: str) -> None:
                             f"{', '.join(styles)}")
 
 
+def too_large(name: str, skeletons: list[Skeleton], solver_text: str) -> str:
+    """A building or block too large to solve, in its user's words: how much facade,
+    its longest side, what solving it would take against the budget, what to do (the
+    solver's own text speaks of stage graphs, states and quanta)."""
+    shares = re.search(r"constraints on (.+?): ([\d,]+) ways to share", solver_text)
+    if shares:
+        return (f"{name}: its per-block intervals on {shares.group(1)} leave "
+                f"{shares.group(2)} ways to share the totals between its sides, too many "
+                "to solve; narrow them")
+    total = sum(e.length for sk in skeletons for e in sk.edges)
+    longest = max((e.length for sk in skeletons for e in sk.edges), default=0.0)
+    need = re.search(r"~([\d,]+) MB", solver_text)
+    budget = re.search(r"budget of ([\d,]+) MB", solver_text)
+    cost = (f" would take about {need.group(1)} MB to solve" if need else
+            " would take too much memory to solve") + \
+        (f", over the {budget.group(1)} MB budget" if budget else "")
+    return (f"{name}: too large to lay out: {total:,.0f} m of facade (its longest side "
+            f"{longest:,.0f} m){cost}; split it into smaller blocks or buildings")
+
+
 def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
                   k: int = 1, **options) -> Built:
     """The k best layouts of one building or block (checked; see module docstring).
@@ -65,7 +87,10 @@ def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
     t0 = time.perf_counter()
     plans = [skeleton_structure(sk, db, style, k=k, **options) for sk in skeletons]
     t1 = time.perf_counter()
-    results = [solve_structure(p.structure, k) for p in plans]
+    try:
+        results = [solve_structure(p.structure, k) for p in plans]
+    except TooLargeError as exc:
+        raise TooLargeError(too_large(name, skeletons, str(exc))) from None
     t2 = time.perf_counter()
     timings = {"structure_s": t1 - t0, "solve_s": t2 - t1}
     for sk, r in zip(skeletons, results, strict=True):

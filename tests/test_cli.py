@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -123,3 +124,20 @@ def test_a_building_or_block_that_cannot_be_built_is_told_in_sides_and_metres(
     assert "stretch" in err
     assert not any(w in err.lower() for w in SOLVER_WORDS), err
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_a_block_too_large_to_solve_is_told_in_metres_and_megabytes(tmp_path, capsys):
+    """A continent-sized block: exit 2, its facade length, what it would take against the
+    budget, and to split it; not the solver's stage graphs, states and quanta."""
+    f = _geojson(tmp_path, "x", {"type": "Polygon", "coordinates": [
+        [[-10, 35], [40, 35], [40, 70], [-10, 70], [-10, 35]]]})
+    code = main(["block", str(f), "--library", str(EXAMPLES / "library"), "-o",
+                 str(tmp_path / "out"), "--no-preview"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert re.fullmatch(r"citysynth block: error: x: too large to lay out: [\d,]+ m of facade "
+                        r"\(its longest side [\d,]+ m\) would take about [\d,]+ MB to solve, "
+                        r"over the [\d,]+ MB budget; split it into smaller blocks or "
+                        r"buildings\n", err), err
+    assert not any(w in err.lower() for w in SOLVER_WORDS + ("quantum", "states")), err
+    assert not (tmp_path / "out").exists()
