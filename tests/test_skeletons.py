@@ -172,13 +172,18 @@ def test_street_setbacks_follow_width_lanes_and_class():
       feat("LineString", metres([(29, 0), (29, 20)]))], "lines", "shorter than the smallest"),
 ])
 def test_bad_geometry_is_one_message(features, kind, fragment):
+    assert fragment in skeleton_error(features, kind)
+
+
+def skeleton_error(features: list, kind: str) -> str:
+    """The message reading ``features`` as polygons ("poly") or skeleton lines raises."""
     feats, frame = parse_geojson(fc(*features))
     with pytest.raises(SkeletonError) as exc:
         if kind == "poly":
             skeletons_from_polygons(feats, frame)
         else:
             skeleton_from_lines(feats, frame, min_edge=3.0)
-    assert fragment in str(exc.value)
+    return str(exc.value)
 
 
 def test_malformed_geojson(tmp_path):
@@ -275,13 +280,8 @@ def _located(message: str) -> tuple[float, float]:
 def test_a_bad_geometry_is_located_in_the_inputs_coordinates(features, kind, where):
     """Where a skeleton error lies is given in lon/lat, as the file has it (to 1e-6°),
     not in the local frame's metres, so a user finds it in their GIS."""
-    feats, frame = parse_geojson(fc(*features))
-    with pytest.raises(SkeletonError) as exc:
-        if kind == "poly":
-            skeletons_from_polygons(feats, frame)
-        else:
-            skeleton_from_lines(feats, frame, min_edge=3.0)
-    assert _located(str(exc.value)) == pytest.approx(metres([where])[0], abs=2e-6)
+    assert _located(skeleton_error(features, kind)) == pytest.approx(metres([where])[0],
+                                                                     abs=2e-6)
 
 
 def test_a_bad_geometry_is_located_in_a_kept_projected_crs_in_its_unit():
