@@ -128,7 +128,7 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
            solutions: Sequence[StructureSolution], db: PartDB) -> Layout:
     """The layout of ``solutions[i]`` (the solver's answer for a structure: the part at
     each key point and the fillers of each stage) on ``plans[i]``, checked."""
-    parts = {p.id: p for p in db.parts}
+    parts = db.by_id
     out = Layout(name, rank, {"name": db.name, "hash": db.library_hash,
                               "quantum": db.quantum},
                  plans[0].style if plans else "", plans[0].frame if plans else "", [])

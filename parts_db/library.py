@@ -96,13 +96,18 @@ class PartDB:
     def index(self) -> dict[str, int]:
         return {p.id: i for i, p in enumerate(self.parts)}
 
-    def part(self, part_id: str) -> Part:
-        """The part of that id (a dict built on first use: writers look parts up per
-        instance, thousands of times a city block)."""
+    @property
+    def by_id(self) -> dict[str, Part]:
+        """Every part by id (built on first use and kept: writers and placers look parts
+        up per instance, thousands of times a city block). Read it, do not change it."""
         by_id = self.__dict__.get("_by_id")
         if by_id is None or len(by_id) != len(self.parts):
             by_id = self.__dict__["_by_id"] = {p.id: p for p in self.parts}
-        return by_id[part_id]
+        return by_id
+
+    def part(self, part_id: str) -> Part:
+        """The part of that id."""
+        return self.by_id[part_id]
 
     def select(self, cls: PartClass | None = None, style: str | None = None) -> list[Part]:
         """The parts of class ``cls`` and style ``style`` (None: any), in library order."""

@@ -31,6 +31,7 @@ import numpy as np
 import shapely
 import shapely.affinity
 
+from citysynth.export.joints import ACUTE_DEG, NOSE
 from citysynth.export.plan import (
     JOINT,
     Front,
@@ -163,7 +164,7 @@ def _orient(sk: Skeleton, keys: list[int], chains: list[_Chain]) -> tuple[int, d
     if root is None:
         kp_of = {k.id: k for k in sk.keypoints}
         xy = kp_of[keys[0]].xy
-        raise SkeletonError(f"{sk.name}: its cycle (near ({xy[0]:.1f}, {xy[1]:.1f})) has "
+        raise SkeletonError(f"{sk.name}: its cycle (near {sk.frame.at(xy)}) has "
                             "no key point where it could be cut: every one is also entered "
                             "by a T junction's branch; draw one wing the other way")
     return root, oriented
@@ -238,6 +239,24 @@ class _KeyParts:
     joint: bool                               # some key point may be a mitre joint
 
 
+def _check_noses(sk: Skeleton, chains: list[_Chain]) -> None:
+    """Refuse a convex corner so sharp that its nose (the end wall squaring off an acute
+    corner, :data:`~citysynth.export.joints.NOSE` wide, set back NOSE / (2 sin(angle/2))
+    along each facade) lies past the end of a side it joins: the facades there would
+    end before they start (a hairpin of a skeleton line)."""
+    for k in sk.keypoints:
+        if k.kind != "corner" or not k.convex or k.angle is None or k.angle >= ACUTE_DEG:
+            continue
+        back = NOSE / (2 * math.sin(math.radians(max(k.angle, 1e-9)) / 2))
+        sides = [c.length for c in chains if k.id in (c.a, c.b)]
+        if sides and back >= min(sides):
+            raise SkeletonError(
+                f"{sk.name}: the convex corner of {k.angle:.1f}° at {sk.frame.at(k.xy)} is "
+                f"too sharp for its sides: its tip is squared off by a {NOSE:g} m end wall "
+                f"{back:.1f} m back along each facade, past the end of its "
+                f"{min(sides):.1f} m side; open the corner up or lengthen its sides")
+
+
 def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                        angle_tol: float = 7.5, joint_cost: float = JOINT_COST,
                        stretch: float = 0.0, slack: float = 0.0,
@@ -264,6 +283,7 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
             f"block this large would take about {len(keys) * KEY_MB / 1024:,.1f} GB and "
             f"minutes to solve (measured: 2,000 took 17 s and 1.1 GB); split it into "
             f"buildings of at most {MAX_KEYS:,}, or simplify its outline")
+    _check_noses(sk, chains)
     root, oriented = _orient(sk, keys, chains)
     # renumber so the root is key point 0
     order = [root] + [j for j in range(len(keys)) if j != root]
@@ -354,8 +374,7 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
             opts = db.select("end_left" if starts else "end_right", style)
         if not opts and not extra:
             raise SkeletonError(f"{sk.name}: the library has no {kp.kind} part of style "
-                                f"{style!r} for the key point at ({kp.xy[0]:.1f}, "
-                                f"{kp.xy[1]:.1f})")
+                                f"{style!r} for the key point at {sk.frame.at(kp.xy)}")
         options.append(tuple([p.id for p in opts] + extra))
         parts.update((p.id, p) for p in opts)
     return _KeyParts(tuple(options), branch, {**parts, **poses},
@@ -374,8 +393,8 @@ def _t_pose(sk: Skeleton, j: int, b: int, oriented: dict[int, tuple[int, int]],
     if placed[s_out][1] != front_in:
         xy = pts_in[-1]
         raise SkeletonError(f"{sk.name}: the main line through the T junction at "
-                            f"({xy[0]:.1f}, {xy[1]:.1f}) changes its front there; give "
-                            "both its edges the same front")
+                            f"{sk.frame.at(xy)} changes its front there; give both its "
+                            "edges the same front")
     pts_b, front_b, _ = placed[b]
     leaves = oriented[b][0] == j
     u = np.subtract(pts_in[-1], pts_in[-2])
@@ -532,7 +551,7 @@ def _section_costs(db: PartDB, ids: list[str], base: dict[str, str], posed: set[
     into a T's branch leg: the database's section disagreement between what meets (a
     turned T's out-leg is its part's in-leg; a T turned over shows its main sections
     mirrored about the middle of their depth; the branch leg its branch section)."""
-    parts = {p.id: p for p in db.parts}
+    parts = db.by_id
     ts = [y for y in ids if parts[base[y]].cls == "t_junction"]
     if not ts:
         return {}, {}

@@ -218,7 +218,7 @@ def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
                          f"{r.reason}", timings={"solve_s": time.perf_counter() - t0})
         solved.append(r.solutions)
     t1 = time.perf_counter()
-    index = {p.id: p for p in db.parts}
+    index = db.by_id
     count = max(len(s) for s in solved)
     layouts = [street_layout(name, i + 1, all_runs, [s[min(i, len(s) - 1)] for s in solved],
                              index, db, ask, frame)

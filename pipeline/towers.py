@@ -154,7 +154,7 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
         return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
                      f"{at} m on a {lot.area:g} m² lot: {result.reason}",
                      timings=timings)
-    parts = {p.id: p for p in db.parts}
+    parts = db.by_id
     layouts = [tower_layout(name, rank, sol.sequence, sol.cost, parts, db, lot,
                             {"height": [lo, hi], "floor_area": list(area)}, far)
                for rank, sol in enumerate(result.solutions, start=1)]

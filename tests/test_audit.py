@@ -33,7 +33,7 @@ MAX_COPLANAR_M2 = 0.5    # per layout
 def _depths(layout: dict, db) -> tuple[float, float]:
     """The shallowest and the deepest facade module's depth: the roof band every layout
     must fill, and how deep its mass may reach behind the facade line."""
-    parts = {p.id: p for p in db.parts}
+    parts = db.by_id
     depths = [-parts[i["part"]].sec_in.bounds[0] for i in layout["instances"]
               if i["class"] in ("middle", "building")]   # building: a row zone's block
     return min(depths), max(depths)

@@ -141,3 +141,31 @@ def test_a_block_too_large_to_solve_is_told_in_metres_and_megabytes(tmp_path, ca
                         r"buildings\n", err), err
     assert not any(w in err.lower() for w in SOLVER_WORDS + ("quantum", "states")), err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("degrees, code", [(0.7, 2), (1.0, 2), (5.0, 0)])
+def test_a_hairpin_too_sharp_for_its_sides_is_refused_where_it_is(tmp_path, capsys, degrees,
+                                                                   code):
+    """A skeleton line doubling back on itself: the nose squaring off its tip would sit
+    NOSE / (2 sin(angle / 2)) back along each facade, past the end of its 40 m sides
+    below about 2.9°; refused naming the corner and where it is (it failed as "stage 0:
+    parts do not meet ..., 125197.4 mm apart"). At 5° the nose fits, and it builds."""
+    import math
+
+    from citysynth.skeletons.geojson import lonlat_from_local
+    a = math.radians(degrees)
+    coords = lonlat_from_local([(0, 0), (40, 0), (40 - 40 * math.cos(a), 40 * math.sin(a))],
+                               (7.1, 50.73))
+    f = _geojson(tmp_path, "pin", {"type": "LineString", "coordinates": coords})
+    got = main(["building", str(f), "--library", str(EXAMPLES / "library"), "-o",
+                str(tmp_path / "out"), "--no-preview"])
+    err = capsys.readouterr().err
+    assert got == code, err
+    if code:
+        back = 2.0 / (2 * math.sin(a / 2))
+        assert err == (f"citysynth building: error: pin: the convex corner of {degrees:.1f}° "
+                       "at (7.100567, 50.730000) is too sharp for its sides: its tip is "
+                       f"squared off by a 2 m end wall {back:.1f} m back along each facade, "
+                       "past the end of its 40.0 m side; open the corner up or lengthen its "
+                       "sides\n")
+        assert not (tmp_path / "out").exists()

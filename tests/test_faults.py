@@ -237,6 +237,50 @@ def test_a_full_disk_is_never_cached_and_the_rerun_recovers(clean, tmp_path, cap
         subprocess.run(["umount", "-l", str(disk)], check=False)
 
 
+def test_a_full_disk_in_block_names_the_file_and_leaves_only_whole_files(tmp_path, capsys):
+    """``block`` on a disk that fills up while it writes: exit 2, one line naming the file
+    it could not write (Python's full-disk error on flush names none), and every file
+    left is whole: no temporary, each layout JSON parses."""
+    from citysynth.skeletons.geojson import lonlat_from_local
+    ring = lonlat_from_local([(0, 0), (30, 0), (30, 20), (0, 20), (0, 0)], (24.94, 60.17))
+    f = tmp_path / "x.geojson"
+    f.write_text(json.dumps({"type": "Feature", "properties": {"id": "x"},
+                             "geometry": {"type": "Polygon", "coordinates": [ring]}}))
+    disk = tmp_path / "disk"
+    _mount_tmpfs(disk, "60k")
+    try:
+        code = main(["block", str(f), "--library", str(LIB), "-o", str(disk / "b"),
+                     "--k", "3"])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+        assert err.startswith(f"citysynth block: error: {disk / 'b'}/") and \
+            ": No space left on device; free space" in err, err
+        left = [p for p in disk.rglob("*") if p.is_file()]
+        assert not [p for p in left if ".tmp-" in p.name]
+        for p in left:
+            if p.name.endswith(".json"):
+                json.loads(p.read_text())
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], check=False)
+
+
+def test_a_write_the_disk_refuses_names_its_file(tmp_path, monkeypatch):
+    """Python's full-disk error on flush names no file: the atomic writer names the one
+    it was writing (not its temporary), and leaves no temporary behind."""
+    import errno
+
+    from citysynth.parts_db import files
+
+    def full(self, data):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    monkeypatch.setattr(Path, "write_bytes", full)
+    target = tmp_path / "out" / "x.layout.json"
+    with pytest.raises(OSError) as exc:
+        files.write_bytes(target, b"{}")
+    assert (exc.value.errno, exc.value.filename) == (errno.ENOSPC, str(target))
+    assert list((tmp_path / "out").iterdir()) == []
+
+
 def test_a_damaged_part_database_cache_heals(tmp_path, monkeypatch):
     from citysynth.parts_db import load_library
     from citysynth.parts_db.library import DB_JSON, DB_NPZ, cache_dir

@@ -49,7 +49,7 @@ def _check_layout(tmp_path: Path, lay: dict, sample_db, name: str) -> None:
     # the audit's bar (tests/test_audit.py), the mass allowed as deep as the deepest
     # profile a module has at either end: a module between families (classic_mid_10.0_
     # a0_b3) ends in the deeper one
-    parts = {p.id: p for p in sample_db.parts}
+    parts = sample_db.by_id
     mids = [parts[i["part"]] for i in lay["instances"] if i["class"] == "middle"]
     shallow = min(-p.sec_in.bounds[0] for p in mids)
     deep = max(-sec.bounds[0] for p in mids for sec in (p.sec_in, p.sec_out))

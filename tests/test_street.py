@@ -45,7 +45,7 @@ def street(tmp_path_factory) -> Path:
 @pytest.mark.parametrize("rank", [1, 2])
 def test_street_fills_its_line_with_varied_buildings(street, rank):
     db = load_library(SAMPLE_LIBRARY)
-    parts = {p.id: p for p in db.parts}
+    parts = db.by_id
     stem = street / f"main_{rank}"
     for suffix in (".layout.json", ".usda", ".glb", ".png"):
         assert Path(f"{stem}{suffix}").is_file()

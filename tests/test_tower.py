@@ -37,7 +37,7 @@ def _layout(path: Path) -> Layout:
 @pytest.mark.parametrize("far", FARS)
 def test_tower_meets_height_and_far(towers, far):
     db = load_library(SAMPLE_LIBRARY)
-    parts = {p.id: p for p in db.parts}
+    parts = db.by_id
     stem = towers / f"tower_120m_far{far}"
     for suffix in (".layout.json", ".usda", ".glb", ".png"):
         assert Path(f"{stem}{suffix}").is_file()
@@ -61,7 +61,7 @@ def test_tower_meets_height_and_far(towers, far):
 def test_towers_grow_stouter_with_far(towers):
     """The paper's observation: the same height, more floor area per floor."""
     db = load_library(SAMPLE_LIBRARY)
-    parts = {p.id: p for p in db.parts}
+    parts = db.by_id
     mean = []
     for far in FARS:
         lay = _layout(towers / f"tower_120m_far{far}.layout.json")
@@ -83,7 +83,7 @@ def test_tower_on_a_drawn_lot_is_centred_and_turned(tmp_path):
                  str(tmp_path / "lot.geojson"), "--k", "2", "--no-preview",
                  "-o", str(out), "--name", "t"]) == 0
     db = load_library(SAMPLE_LIBRARY)
-    parts = {p.id: p for p in db.parts}
+    parts = db.by_id
     for rank in (1, 2):
         lay = _layout(out / f"t_{rank}.layout.json")
         st = lay.structures[0]
