@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -197,11 +198,33 @@ def _geometry(g: Any, where: str) -> BaseGeometry | None:
     try:
         geom = shape(g)
     except Exception as exc:  # shapely raises several kinds for malformed geometry
-        raise SkeletonError(f"{where}: malformed geometry ({exc})") from None
+        raise SkeletonError(f"{where}: malformed {g.get('type', 'geometry')} "
+                            f"({_geos_words(exc)})") from None
     coords = shapely.get_coordinates(geom)
     if not np.isfinite(coords).all():
         raise SkeletonError(f"{where}: non-finite coordinates")
     return geom
+
+
+def _geos_words(exc: Exception) -> str:
+    """shapely's or GEOS's complaint without the exception class GEOS prefixes and the
+    line break it ends with ("IllegalArgumentException: point array must contain 0 or >1
+    elements\n"): "a line needs at least 2 points" where that is what it means."""
+    text = str(exc).strip()
+    text = re.sub(r"^[A-Za-z]*Exception:\s*", "", text)
+    if "point array must contain 0 or >1 elements" in text:
+        return "a line needs at least 2 points"
+    dims = re.search(r"dimension should be 2 or 3, got (\d+)", text)
+    if dims:
+        n = int(dims.group(1))
+        return (f"a position has {n} number{'s' if n != 1 else ''}; GeoJSON gives [x, y] "
+                "or [x, y, z]")
+    return text
+
+
+def _num(x: float) -> str:
+    """A coordinate as a message gives it: to 0.1 unit, or in 3 figures when huge."""
+    return f"{x:.1f}" if abs(x) < 1e12 else f"{x:.3g}"
 
 
 MAX_VERTICES = 50_000    # per feature: a street, block or building outline has far fewer
@@ -430,7 +453,7 @@ def _to_lonlat(given: pyproj.CRS, source: str) -> Project:
         out = np.column_stack([lon, lat])
         if not np.isfinite(out).all():
             bad = c[~np.isfinite(out).all(axis=1)][0]
-            raise SkeletonError(f"{source}: coordinates such as {bad[0]:.1f}, {bad[1]:.1f} "
+            raise SkeletonError(f"{source}: coordinates such as {_num(bad[0])}, {_num(bad[1])} "
                                 f"lie outside {given.name}; is the CRS right?")
         return out
     return to_lonlat
@@ -444,7 +467,7 @@ def _check_lonlat(allc: Coords, source: str, given: pyproj.CRS | None) -> None:
         raise SkeletonError(f"{source}: coordinates in {given.name} land outside "
                             "longitude/latitude; is the CRS right?")
     raise SkeletonError(
-        f"{source}: coordinates such as {allc[0, 0]:.1f}, {allc[0, 1]:.1f} are not "
+        f"{source}: coordinates such as {_num(allc[0, 0])}, {_num(allc[0, 1])} are not "
         "longitude/latitude (RFC 7946); give the CRS of projected input, e.g. "
         "--crs EPSG:25832")
 

@@ -448,7 +448,8 @@ def test_bad_features_name_the_file_and_index():
     bad = copy.deepcopy(LINE)
     bad["features"].append({"type": "Feature", "properties": {},
                             "geometry": {"type": "LineString", "coordinates": [[1]]}})
-    with pytest.raises(SkeletonError, match="s.geojson: feature 1: malformed geometry"):
+    with pytest.raises(SkeletonError, match=r"s.geojson: feature 1: malformed LineString "
+                       r"\(a position has 1 number; GeoJSON gives \[x, y\] or \[x, y, z\]\)"):
         parse_geojson(bad, "s.geojson")
     bad["features"][1] = {"type": "Feature", "properties": ["x"], "geometry": None}
     with pytest.raises(SkeletonError, match="s.geojson: feature 1: properties must be"):
@@ -487,6 +488,16 @@ def test_the_skeleton_command_warns_and_goes_on(tmp_path, capsys):
         assert main(["skeleton", str(f), "--kind", "streets"]) == 0
     out = capsys.readouterr().out
     assert f"skipped {f}: feature 5: a Point is no street centre line" in out
+
+
+def test_the_skeleton_command_reads_highway_lines_as_streets(capsys):
+    """Without --kind, lines with a highway tag are a street network (read as building
+    skeleton lines they would cross each other and be refused)."""
+    from citysynth.pipeline.cli import main
+    assert main(["skeleton", str(DISTRICT)]) == 0
+    auto = capsys.readouterr().out
+    assert main(["skeleton", str(DISTRICT), "--kind", "streets"]) == 0
+    assert auto == capsys.readouterr().out and "(block 0): cycle" in auto
 
 
 def test_zone_polygons_stay_lon_lat_when_the_streets_are_reprojected(district_gdf, tmp_path):
@@ -534,3 +545,23 @@ def test_a_bare_geometry_is_one_feature():
         {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon",
                                                           "coordinates": [ring]}}]})
     assert len(bare) == 1 and bare[0].geometry.equals(wrapped[0].geometry)
+
+
+@pytest.mark.parametrize("coords, says", [
+    ([[24.94, 60.17]], "malformed LineString (a line needs at least 2 points)"),
+    ([[24.94, 60.17, 0, 1], [24.95, 60.17, 0, 1]],
+     "malformed LineString (a position has 4 numbers; GeoJSON gives [x, y] or [x, y, z])"),
+])
+def test_malformed_geometry_is_said_without_geos_words(coords, says):
+    """GEOS's own text ("IllegalArgumentException: point array must contain 0 or >1
+    elements", with its line break) is put in GeoJSON's words."""
+    with pytest.raises(SkeletonError) as exc:
+        parse_geojson({"type": "LineString", "coordinates": coords}, "s.geojson")
+    assert str(exc.value) == f"s.geojson: feature 0: {says}"
+
+
+def test_huge_coordinates_are_said_in_three_figures():
+    with pytest.raises(SkeletonError, match=r"^s.geojson: coordinates such as 1e\+300, "
+                       r"2e\+300 are not longitude/latitude"):
+        parse_geojson({"type": "LineString", "coordinates": [[1e300, 2e300], [1, 2]]},
+                      "s.geojson")

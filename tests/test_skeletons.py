@@ -193,7 +193,7 @@ def test_malformed_geojson(tmp_path):
         read_geojson(f)
     with pytest.raises(SkeletonError, match="not a GeoJSON FeatureCollection"):
         parse_geojson({"type": "Topology"})
-    with pytest.raises(SkeletonError, match="feature 0: malformed geometry"):
+    with pytest.raises(SkeletonError, match="feature 0: malformed LineString"):
         parse_geojson(fc({"type": "Feature", "properties": {},
                           "geometry": {"type": "LineString", "coordinates": [[1]]}}))
 

@@ -27,7 +27,8 @@ def register(sub) -> None:
     p.add_argument("file", help="GeoJSON FeatureCollection")
     p.add_argument("--kind", choices=KINDS, default="auto",
                    help="lines: one building skeleton; polygons: footprints/blocks; "
-                        "streets: centre lines -> blocks (auto: lines or polygons by geometry)")
+                        "streets: centre lines -> blocks (auto: polygons by geometry, streets when "
+                        "lines carry a highway tag, else lines)")
     p.add_argument("--crs", default=None, help="CRS of projected input, e.g. EPSG:25832")
     p.add_argument("--setback", type=float, default=6.0, help="streets: inset in metres")
     p.add_argument("--json", action="store_true", help="print the skeletons as JSON")
@@ -40,9 +41,10 @@ def run(args) -> int:
                          f"{args.setback:g}")
     feats, frame = read_geojson(args.file, crs=args.crs)
     kind = args.kind
-    if kind == "auto":
+    if kind == "auto":   # OSM-style street lines carry "highway"; a skeleton never does
         polygonal = all(f.geometry.geom_type in ("Polygon", "MultiPolygon") for f in feats)
-        kind = "polygons" if polygonal else "lines"
+        streets = any("highway" in f.properties for f in feats)
+        kind = "polygons" if polygonal else "streets" if streets else "lines"
     skipped: list[str] = []
     if kind == "lines":
         skels = [skeleton_from_lines(feats, frame, name=str(args.file))]
