@@ -280,22 +280,34 @@ def _checked_polygon(poly: BaseGeometry, where: str, min_area: float, frame: Fra
     if not isinstance(poly, Polygon):
         raise SkeletonError(f"{where}: expected a Polygon, got {poly.geom_type}")
     if not poly.is_valid:
-        raise SkeletonError(f"{where}: invalid polygon ({_invalid(poly, frame)}); "
-                            "fix the outline so it does not cross itself")
+        what, fix = _invalid(poly, frame)
+        raise SkeletonError(f"{where}: invalid polygon ({what}); {fix}")
     if poly.area < min_area:
         raise SkeletonError(f"{where}: degenerate polygon (area {poly.area:.2f} m²)")
     return shapely.orient_polygons(poly) if hasattr(shapely, "orient_polygons") \
         else shapely.geometry.polygon.orient(poly, 1.0)
 
 
-def _invalid(poly: Polygon, frame: Frame) -> str:
+def _invalid(poly: Polygon, frame: Frame) -> tuple[str, str]:
     """What GEOS finds wrong with a polygon, its location in the input's coordinates
-    (GEOS gives it in local metres: "Self-intersection[4.6e-15 0]")."""
+    (GEOS gives it in local metres: "Self-intersection[4.6e-15 0]"), and what to do."""
     text = explain_validity(poly)
     m = re.fullmatch(r"\s*([^\[]+)\[\s*(\S+)\s+(\S+)\s*\]\s*", text)
     if m is None:
-        return text
-    return f"{m.group(1).strip().lower()} at {frame.at((float(m.group(2)), float(m.group(3))))}"
+        return text, "fix the outline"
+    what = m.group(1).strip().lower()
+    return (f"{what} at {frame.at((float(m.group(2)), float(m.group(3))))}",
+            _FIXES.get(what, "fix the outline so it does not cross itself"))
+
+
+_FIXES = {   # what to do about each of GEOS's validity complaints
+    "hole lies outside shell": "move the courtyard inside the outline, or drop it",
+    "holes are nested": "a courtyard lies inside another: drop the inner one",
+    "interior is disconnected": "a courtyard cuts the block in two: give each part as "
+                                "its own polygon",
+    "nested shells": "give each building its own polygon",
+    "too few points": "a ring needs at least 3 distinct corners",
+}
 
 
 def _ring_skeleton(ring: LinearRing, f: Feature, name: str, frame: Frame, min_edge: float,

@@ -126,6 +126,21 @@ def test_a_building_or_block_that_cannot_be_built_is_told_in_sides_and_metres(
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 
+def test_a_sides_own_interval_no_parts_meet_is_told_with_what_they_make(tmp_path, capsys):
+    from citysynth.skeletons.geojson import lonlat_from_local
+    f = tmp_path / "x.geojson"
+    f.write_text(json.dumps({"type": "Feature", "properties": {
+        "constraints": {"doors": [0.5, 0.7]}}, "geometry": {"type": "LineString",
+        "coordinates": lonlat_from_local([(0, 0), (40, 0)], (7.1, 50.73))}}))
+    code = main(["building", str(f), "--library", str(EXAMPLES / "library"), "-o",
+                 str(tmp_path / "out"), "--no-preview"])
+    err = capsys.readouterr().err
+    assert code == 1 and err == (
+        "citysynth building: cannot build x: the 40.00 m side from (7.100000, 50.730000) to "
+        "(7.100567, 50.730000): its doors in [0.5, 0.7] cannot be met by the classic kit's "
+        "parts, which make 0 or 1 there; widen the interval\n"), err
+
+
 def test_a_block_too_large_to_solve_is_told_in_metres_and_megabytes(tmp_path, capsys):
     """A continent-sized block: exit 2, its facade length, what it would take against the
     budget, and to split it; not the solver's stage graphs, states and quanta."""

@@ -152,6 +152,12 @@ def test_street_setbacks_follow_width_lanes_and_class():
     ([feat("Polygon", [metres([(0, 0), (10, 10), (10, 0), (0, 10), (0, 0)])], id="bow")],
      "poly", "invalid polygon"),
     ([feat("Polygon", [metres([(0, 0), (10, 0), (20, 0), (0, 0)])])], "poly", "degenerate"),
+    ([feat("Polygon", [metres([(0, 0), (20, 0), (20, 20), (0, 20), (0, 0)]),
+                       metres([(30, 0), (35, 0), (35, 5), (30, 5), (30, 0)])])], "poly",
+     "(hole lies outside shell at ("),
+    ([feat("Polygon", [metres([(0, 0), (20, 0), (20, 20), (0, 20), (0, 0)]),
+                       metres([(30, 0), (35, 0), (35, 5), (30, 5), (30, 0)])])], "poly",
+     "); move the courtyard inside the outline, or drop it"),
     ([feat("LineString", metres([(0, 0), (2, 0), (2, 30)]))], "lines", "shorter than the "
      "smallest part"),
     ([feat("LineString", metres([(0, 0), (30, 0)])),

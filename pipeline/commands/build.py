@@ -107,8 +107,16 @@ def _why(args, db, style: str, frame: Frame, rings: list[Skeleton], built: Built
     if side is None:
         return (f"{built.name}: the {style} kit's parts cannot fill every side of the "
                 "skeleton at once; allow more stretch (--stretch, --slack)")
-    near = re.search(r"nearest achievable: (-?[\d.]+)", built.reason or "")
-    nearest = f" (the nearest they make there is {float(near.group(1)):.2f} m)" if near else ""
+    near = re.search(r"(\w+) in \[(-?[\d.e+]+), (-?[\d.e+]+)\] is out of reach[^;]*; "
+                     r"nearest achievable: ([^;]+)$", built.reason or "")
+    if near is not None and near.group(1) != "length":   # a side's own interval
+        name, lo, hi, got = near.groups()
+        made = " or ".join(f"{float(x):g}" for x in re.findall(r"(-?[\d.]+) \(", got))
+        return (f"{built.name}: {describe_side(at, frame.source_crs, *side)}: its {name} "
+                f"in [{float(lo):g}, {float(hi):g}] cannot be met by the {style} kit's "
+                f"parts, which make {made or got} there; widen the interval")
+    nearest = "" if near is None else \
+        f" (the nearest they make there is {float(near.group(4).split()[0]):.2f} m)"
     return (f"{built.name}: {describe_side(at, frame.source_crs, *side)}: no row of the "
             f"{style} kit's parts fits it between the parts its ends take{nearest}; allow "
             "more stretch (--stretch, --slack), or move the skeleton's points")
