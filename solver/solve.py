@@ -142,8 +142,11 @@ def check_k(k: int, max_memory_mb: float) -> None:
         raise ProblemError(f"k must be a positive integer, got {k}")
     need = k * SOLUTION_BYTES
     if need > max_memory_mb * 2**20:
-        raise TooLargeError(f"k = {k:,}: keeping that many solutions takes at least "
-                            f"{need / 2**30:,.1f} GB, over the memory budget of "
+        big = k >= 1e12   # said in three figures, not in 31 digits
+        size = f"{k:.3g}" if big else f"{k:,}"
+        gb = f"{need / 2**30:.3g}" if big else f"{need / 2**30:,.1f}"
+        raise TooLargeError(f"k = {size}: keeping that many solutions takes at least "
+                            f"{gb} GB, over the memory budget of "
                             f"{max_memory_mb:,.0f} MB; ask for fewer (k), or raise the "
                             "budget (--max-memory MB)")
 

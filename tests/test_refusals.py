@@ -119,3 +119,12 @@ def test_many_elements_with_few_transitions_need_no_dense_table():
     assert cp.sparse
     with pytest.raises(ProblemError, match="dense transition table"):
         cp.W  # noqa: B018  (only a kernel that insists on the matrix is refused)
+
+
+def test_an_absurd_k_is_said_in_three_figures():
+    from citysynth.solver.solve import check_k
+    with pytest.raises(TooLargeError, match=r"^k = 1e\+30: keeping that many solutions takes "
+                       r"at least 2\.38e\+23 GB, over the memory budget of 2,048 MB"):
+        check_k(10**30, 2048)
+    with pytest.raises(TooLargeError, match=r"^k = 1,000,000,000: .* at least 238\.4 GB"):
+        check_k(10**9, 2048)
