@@ -172,6 +172,9 @@ def test_lots_are_roughly_square_and_inside_the_ground():
     ('kind = "row"\nheight = [40, 90]', "zone[0].height: zone 'z': only a zone of kind"),
     ('kind = "towers"\nheight = [40, 90]\nfar = [200, 300]', "zone 'z': far: [200, 300] "
                                                              "cannot be met"),
+    ('kind = "towers"\nlot = 1e9\nheight = [40, 90]\nfar = [2, 6]', "on lots of about 1e+09 "
+                                                                   "m have a floor-area "
+                                                                   "ratio between 3.89e-16"),
     ('kind = "towers"\nstyle = "classic"\nheight = [40, 90]\nfar = [2, 6]',
      "zone 'z': style: the library 'citysynth sample' has no towers of style 'classic'"),
     ('kind = "row"\n[zone.per_block]\ndoors = [0, 9]', "zone 'z': per_block: a row is"),

@@ -251,9 +251,14 @@ def _kind_style(db: PartDB, s: BuildSettings, kind: ZoneKind, where: str) -> str
             raise ConfigError(
                 f"{where}far: [{kind.far[0]:g}, {kind.far[1]:g}] cannot be met: towers of "
                 f"{kind.height[0]:g}-{kind.height[1]:g} m of the {style} parts on lots of "
-                f"about {kind.lot:g} m have a floor-area ratio between {lo:.2f} and "
-                f"{hi:.2f}; ask within that, or change height or lot")
+                f"about {kind.lot:g} m have a floor-area ratio between {_ratio(lo)} and "
+                f"{_ratio(hi)}; ask within that, or change height or lot")
     return style
+
+
+def _ratio(x: float) -> str:
+    """A floor-area ratio as a message gives it: 0.30, or 2.5e-08 for an absurd lot."""
+    return f"{x:.2f}" if 0.01 <= x < 1e4 else f"{x:.3g}"
 
 
 def _highways(b: Block, feats: list[Feature]) -> tuple[str, ...]:
