@@ -131,6 +131,24 @@ def far_interval(values: list[float], tolerance: float) -> tuple[float, float]:
     return lo, hi
 
 
+def _why(details: list[dict], lot: Lot) -> str:
+    """Why no tower fits, in heights and floor-area ratios (the solver's details name
+    its resources: height, floor_area)."""
+    said = []
+    for d in details:
+        near = [x for x in (d.get("nearest_below"), d.get("nearest_above")) if x is not None]
+        if d["constraint"] == "height":
+            tall = " or ".join(f"{x:g} m" for x in near)
+            said.append("no stack of the tower parts has that height" +
+                        (f"; the nearest are {tall} tall" if tall else ""))
+        elif d["constraint"] == "floor_area":
+            ratios = " or ".join(f"{x / lot.area:.3g}" for x in near)
+            said.append("no stack of the tower parts of that height has that floor-area "
+                        "ratio" + (f"; the nearest reach {ratios}" if ratios else ""))
+    return "; ".join(said) or ("the tower parts meet the height and the floor-area ratio "
+                               "each alone but not together; relax one")
+
+
 def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, float],
                 far: tuple[float, float], *, style: str | None = None, k: int = 1) -> Built:
     """The k best towers of exactly ``height`` metres (or of any height in the interval
@@ -152,7 +170,7 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
     at = f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
     if result.status != "ok":
         return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
-                     f"{at} m on a {lot.area:g} m² lot: {result.reason}",
+                     f"{at} m on a {lot.area:g} m² lot: {_why(result.details, lot)}",
                      timings=timings)
     parts = db.by_id
     layouts = [tower_layout(name, rank, sol.sequence, sol.cost, parts, db, lot,

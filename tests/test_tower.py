@@ -106,7 +106,11 @@ def test_tower_on_a_drawn_lot_is_centred_and_turned(tmp_path):
 @pytest.mark.parametrize("args, code, text", [
     (["--far", "0"], 2, "--far takes one positive ratio"),
     (["--far", "12", "8"], 2, "LO (12) is above HI (8)"),
-    (["--far", "60"], 1, "infeasible"),
+    (["--far", "60"], 1, "infeasible: floor-area ratio 58.8-61.2 at 120 m on a 400 m² lot: "
+                          "no stack of the tower parts of that height has that floor-area "
+                          "ratio; the nearest reach "),
+    (["--far", "10", "--height", "120.1"], 1, "at 120.1 m on a 400 m² lot: no stack of the "
+                                              "tower parts has that height; the nearest are "),
 ])
 def test_tower_bad_or_impossible_asks(tmp_path, capsys, args, code, text):
     argv = ["tower", "--height", "120", "--lot-area", "400", "--no-preview",

@@ -44,6 +44,7 @@ from citysynth.pipeline.streets import (
 )
 from citysynth.pipeline.towers import Lot, cut_lots, fits_a_tower, solve_tower, towers_layout
 from citysynth.skeletons import Frame
+from citysynth.skeletons.geojson import format_xy, input_xy
 
 if TYPE_CHECKING:   # the job module imports this one
     from citysynth.pipeline.city.jobs import BlockJob
@@ -112,9 +113,9 @@ def _towers(job: BlockJob, db: PartDB, ground: shapely.Geometry, frame: str,
         for key, v in b.timings.items():
             timings[key] = timings.get(key, 0.0) + v
         if b.status != "ok":
-            x, y = lot.centre
+            at = format_xy(input_xy(job.frame, "", lot.centre))   # lon/lat or the kept CRS
             return Built(job.id, "infeasible", timings=timings, reason=(
-                f"{where}: lot {i} at ({x:.1f}, {y:.1f}): no tower of the {job.style} "
+                f"{where}: lot {i} at {at}: no tower of the {job.style} "
                 f"parts that fit it meets {b.reason}; widen the zone's height or far"))
         towers.append(b.layouts)
     count = max(len(t) for t in towers)
