@@ -200,6 +200,27 @@ def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
     return solve_runs(name, all_runs, db, ask, frame)
 
 
+def _why(run: Run, details: list[dict]) -> str:
+    """Why a run takes no row of buildings, in metres and the asked intervals (the
+    solver's details: each blocking constraint and the nearest totals it reaches)."""
+    where = f"the {run.side} side's run {run.index + 1} ({run.line.length:.1f} m)"
+    said = []
+    for d in details:
+        near = " or ".join(f"{x:g}" for x in (d.get("nearest_below"), d.get("nearest_above"))
+                           if x is not None)
+        if d["constraint"] == "length":
+            said.append("no row of the buildings fits its length" +
+                        (f" (the nearest rows measure {near} m); allow more --stretch or "
+                         "--slack" if near else ""))
+        else:
+            lo, hi = d["asked"]
+            said.append(f"its {d['constraint']} in [{lo:g}, {hi:g}] cannot be met by the "
+                        f"buildings" + (f", which make {near} there" if near else "") +
+                        "; widen the interval")
+    return f"{where}: " + ("; ".join(said) or "the buildings meet its length and the asked "
+                           "intervals each alone but not together; relax one")
+
+
 def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
                frame: str = "local") -> Built:
     """The k best rows of buildings on ``all_runs`` (each run solved on its own; see
@@ -214,8 +235,8 @@ def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
         problem["constraints"] = cons
         r = solve(Problem.from_dict(problem))
         if r.status != "ok":
-            return Built(name, "infeasible", reason=f"{run.name} ({run.line.length:.1f} m): "
-                         f"{r.reason}", timings={"solve_s": time.perf_counter() - t0})
+            return Built(name, "infeasible", reason=_why(run, r.details),
+                         timings={"solve_s": time.perf_counter() - t0})
         solved.append(r.solutions)
     t1 = time.perf_counter()
     index = db.by_id

@@ -111,7 +111,11 @@ def test_runs_split_at_bends_and_stop_short_of_inner_corners():
 @pytest.mark.parametrize("args, code, text", [
     (["--side", "both", "--offset", "0"], 2, "--offset must be a positive number"),
     (["--doors", "5", "2"], 2, "--doors LO HI needs 0 <= LO <= HI"),
-    (["--doors", "60", "70"], 1, "infeasible"),
+    (["--doors", "60", "70"], 1, "infeasible: the left side's run 1 ("),
+    (["--doors", "60", "70"], 1, " m): its doors in [60, 70] cannot be met by the buildings, "
+                                 "which make "),
+    (["--windows", "0", "0"], 1, "m): the buildings meet its length and the asked intervals "
+                                 "each alone but not together; relax one"),
 ])
 def test_street_bad_or_impossible_asks(tmp_path, capsys, args, code, text):
     argv = ["street", "--line", str(_line_file(tmp_path / "s.geojson")), "--no-preview",

@@ -116,7 +116,8 @@ def _write(args, db, built: Built) -> int:
         print("  " + summary_line(lay))
         for st in lay.structures:
             met = st["resources"]
-            print(f"    {st['name']}: {len(st['stages'][0]['parts'])} buildings "
+            side, run = st["name"].rsplit("_", 1)   # a run's name: <side>_<index>
+            print(f"    {side} side, run {int(run) + 1}: {len(st['stages'][0]['parts'])} buildings "
                   f"({len(set(st['stages'][0]['parts']))} distinct), "
                   f"{met['length']:.1f} m for {st['stages'][0]['length']:.1f} m, "
                   + ", ".join(f"{met.get(a, 0):g} {a}" for a in ATTRIBUTES if a in met))
