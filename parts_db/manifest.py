@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Literal, cast, get_args
 
 from citysynth.parts_db.errors import LibraryError
@@ -106,6 +106,9 @@ def _part(p: dict, i: int, path: Path, seen: set[str]) -> PartSpec:
     f = p.get("file")
     if not isinstance(f, str) or not f:
         raise LibraryError(f"{where}: needs a file (path of its mesh, relative to the library)")
+    if PurePosixPath(f).is_absolute() or PureWindowsPath(f).is_absolute():
+        raise LibraryError(f"{where}: file {f!r} must be a path relative to the library "
+                           "folder (so the library can be moved and shared)")
     cls = p.get("class")
     if cls not in CLASSES:
         raise LibraryError(f"{where}: unknown class {cls!r}; classes are {', '.join(CLASSES)}")

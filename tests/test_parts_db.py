@@ -193,6 +193,8 @@ GOOD = _box(0, 3, 0, 10, 0, 6)
     ([("A", "a.stl", GOOD, 'class = "middle"'), ("A", "b.stl", GOOD, 'class = "middle"')],
      "", 'duplicate id "A"'),
     ([("A", "a.stl", GOOD, 'class = "window"')], "", "unknown class 'window'"),
+    ([("A", "/etc/passwd", None, 'class = "middle"')], "",
+     "file '/etc/passwd' must be a path relative to the library folder"),
     ([("A", "a.stl", GOOD, 'class = "corner"')], "", "a corner needs an angle"),
     ([("A", "a.stl", GOOD, 'class = "middle"')], 'units = "furlong"', "units 'furlong'"),
 ])
