@@ -14,6 +14,7 @@ variants of one ``layout`` variantSet (a city block carries it too: see
 from __future__ import annotations
 
 import json
+import os
 import re
 import time
 from collections.abc import Sequence
@@ -152,18 +153,23 @@ def _sweep_stale(out: Path, name: str, formats: Sequence[Format], written: list[
 
 def ranked_files(out: Path, name: str, suffixes: Sequence[str]
                  ) -> list[tuple[int, list[Path]]]:
-    """The files ``name_<rank><suffix>`` in ``out``, rank by rank from 1 while a rank has
-    any (ranks of one run are 1 to k). Names are tried, not listed: a city folder holds
-    tens of thousands of files, and listing it for each of its blocks was quadratic."""
+    """The files ``name_<rank><suffix>`` in ``out``, by rank: every rank up to
+    :data:`PROBED_RANKS` (so a rank deleted by hand hides none after it), then on while
+    a rank has any. Names are tried, not listed: a city folder holds tens of thousands
+    of files, and listing it for each of its blocks was quadratic."""
     out_ranks: list[tuple[int, list[Path]]] = []
+    base, kinds = os.path.join(out, f"{name}_"), list(dict.fromkeys(suffixes))
     rank = 1
     while True:
-        files = [p for p in (out / f"{name}_{rank}{x}" for x in dict.fromkeys(suffixes))
-                 if p.is_file()]
-        if not files:
+        files = [Path(f) for f in (f"{base}{rank}{x}" for x in kinds) if os.path.isfile(f)]
+        if files:
+            out_ranks.append((rank, files))
+        elif rank >= PROBED_RANKS:
             return out_ranks
-        out_ranks.append((rank, files))
         rank += 1
+
+
+PROBED_RANKS = 100   # a city's largest k; about 0.2 ms of file checks a block
 
 
 def _rank_of(layout_json: Path, name: str) -> int | None:

@@ -108,6 +108,19 @@ def test_a_rerun_with_another_k_leaves_no_stale_results(tmp_path):
         assert got == want | {"block_7.layout.json"}, (k, sorted(got))
 
 
+def test_a_rank_deleted_by_hand_hides_no_stale_rank_after_it(tmp_path):
+    """k = 3, rank 2's files deleted by hand, then k = 1: rank 3's files go too (the
+    sweep tried rank 1, 2, ... and stopped at the first missing one)."""
+    src = Path(__file__).resolve().parent.parent / "examples" / "blocks" / "block.geojson"
+    lib = Path(__file__).resolve().parent.parent / "examples" / "library"
+    argv = ["block", str(src), "--library", str(lib), "-o", str(tmp_path), "--no-preview"]
+    assert main([*argv, "--k", "3"]) == 0
+    for p in tmp_path.glob("block_2.*"):
+        p.unlink()
+    assert main([*argv, "--k", "1"]) == 0
+    assert not list(tmp_path.glob("block_3.*"))
+
+
 def test_a_rerun_that_cuts_nothing_leaves_no_cuts_file(tmp_path):
     """The cuts file of an earlier run goes when the new layouts cut no part: in a
     building's folder (the layouts' sweep) and in a city's blocks folder (the block's)."""
