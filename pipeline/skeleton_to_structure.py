@@ -15,9 +15,9 @@ front is still on its left is mirrored by the export. :class:`StructurePlan` kee
 what the export needs to put the solution back on the ground: each structure key point's
 skeleton key point and each stage's polyline and front.
 
-Key parts contribute their legs' lengths to the stages they touch; their attributes
-(windows, doors) are not split between legs and so do not count toward per-edge
-attribute constraints (only the middle parts' do).
+Key parts contribute their legs' lengths to the stages they touch, and their attributes
+(windows, doors) split between their legs in whole numbers (:func:`_shares`), so they
+count toward each side's intervals and, in full, toward the structure-wide ones.
 """
 
 from __future__ import annotations
@@ -490,6 +490,23 @@ def _legs(p: Part, element: str, quantum: float) -> tuple[float, ...]:
     return tuple(legs)
 
 
+def _shares(attributes: dict[str, float], n: int) -> list[dict[str, float]]:
+    """A key part's doors, windows ... split between the ``n`` sides it joins (its legs:
+    a corner's two, a T's three; an end has one side), so they count toward each side's
+    intervals and, in full, toward the whole block's: whole numbers stay whole (95
+    windows over a T's three legs: 32, 32, 31)."""
+    out: list[dict[str, float]] = [{} for _ in range(n)]
+    for a, v in attributes.items():
+        if v.is_integer():
+            base, extra = divmod(int(v), n)
+            for i in range(n):
+                out[i][a] = float(base + (i < extra))
+        else:
+            for i in range(n):
+                out[i][a] = v / n
+    return out
+
+
 def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
               joint_cost: float, quantum: float) -> dict:
     """Fillers with their length and attributes; key parts with their legs; mitre
@@ -505,7 +522,11 @@ def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
         costs[p.id] = 0.0
     for pid, p in kp.parts.items():
         elements[pid], costs[pid] = dict(zero), 0.0
-        legs[pid] = tuple({**zero, "length": x} for x in _legs(p, pid, quantum))
+        lengths = _legs(p, pid, quantum)
+        shares = _shares({a: float(v) for a, v in p.attributes.items() if a in zero},
+                         1 if p.cls in ("end_left", "end_right") else len(lengths))
+        legs[pid] = tuple({**zero, "length": x, **shares[min(i, len(shares) - 1)]}
+                          for i, x in enumerate(lengths))
     if kp.joint:
         for jid, (a, b) in _joint_variants(quantum).items():
             elements[jid] = dict(zero)

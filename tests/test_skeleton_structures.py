@@ -101,3 +101,43 @@ def test_a_corner_part_needs_room_behind_its_corner(db):
     assert any("concave" in x for x in at["slot west"]), at["slot west"]
     assert at["slot east"] == []
     assert any("convex" in x for x in at["south-west"])
+
+
+def _attributes_placed(db, st: dict) -> dict[str, float]:
+    """The doors, windows ... of every part a layout structure places: its fillers and
+    its key parts (a T in a pose is its part; a mitre joint has none), each once."""
+    from collections import Counter
+
+    from citysynth.export.t_poses import SEP
+    total: Counter = Counter()
+    ids = [p for stage in st["stages"] for p in stage["parts"]
+           if not p.startswith("joint:") and db.part(p.split(SEP)[0]).cls == "middle"]
+    ids += [k["part"].split(SEP)[0] for k in st["keys"] if not k["part"].startswith("joint:")]
+    for pid in ids:
+        total.update(db.part(pid).attributes)
+    return dict(total)
+
+
+@pytest.mark.parametrize("source", ["examples/blocks/block.geojson",
+                                    "examples/skeletons/t_building.geojson"])
+def test_a_layouts_totals_count_every_part_key_parts_too(db, tmp_path, source):
+    """The doors and windows a structure meets (and per_block intervals bound) are those
+    of every part it places, its corners' and T's too; each side's share of a key part
+    is a whole number (it was the fillers' alone: a block's corners, 40-96 windows
+    each, went uncounted)."""
+    import json
+
+    from citysynth.pipeline.cli import main
+    root = Path(__file__).resolve().parent.parent
+    command = "block" if "blocks" in source else "building"
+    assert main([command, str(root / source), "--library", str(root / "examples" / "library"),
+                 "--k", "2", "-o", str(tmp_path), "--no-preview"]) == 0
+    layouts = sorted(tmp_path.glob("*.layout.json"))
+    assert layouts
+    for f in layouts:
+        for st in json.loads(f.read_text())["structures"]:
+            placed = _attributes_placed(db, st)
+            assert placed and any(k["joint"] == "part" for k in st["keys"])
+            for a, v in placed.items():
+                assert st["resources"][a] == pytest.approx(v), (f.name, a)
+                assert all(float(s["met"][a]).is_integer() for s in st["stages"])

@@ -99,27 +99,39 @@ def _why(args, db, style: str, frame: Frame, rings: list[Skeleton], built: Built
     """Why a building or block has no layout, in its user's words: which side, how long,
     where (in the input's coordinates), and what to change; never stages or keys."""
     at = frame_tuple(frame)
+    side = stage_side(rings, built.reason)
+    unmet = _unmet(built.reason or "")
+    if side is not None and unmet is not None and unmet[0] != "length":
+        name, lo, hi, near = unmet   # a side's own interval (the feature's constraints)
+        made = " or ".join(f"{x:g}" for x in near)
+        return (f"{built.name}: {describe_side(at, frame.source_crs, *side)}: its {name} "
+                f"in [{lo:g}, {hi:g}] cannot be met by the {style} kit's parts"
+                + (f", which make {made} there" if made else "") + "; widen the interval")
     if args.command == "block":   # rings: what a city says of a footprint it cannot build
         return explain(built.name, at, frame.source_crs, rings, db, style, None,
                        lambda length: max(db.quantum / 2, args.slack, args.stretch * length),
                        "", built.reason)
-    side = stage_side(rings, built.reason)
     if side is None:
         return (f"{built.name}: the {style} kit's parts cannot fill every side of the "
                 "skeleton at once; allow more stretch (--stretch, --slack)")
-    near = re.search(r"(\w+) in \[(-?[\d.e+]+), (-?[\d.e+]+)\] is out of reach[^;]*; "
-                     r"nearest achievable: ([^;]+)$", built.reason or "")
-    if near is not None and near.group(1) != "length":   # a side's own interval
-        name, lo, hi, got = near.groups()
-        made = " or ".join(f"{float(x):g}" for x in re.findall(r"(-?[\d.]+) \(", got))
-        return (f"{built.name}: {describe_side(at, frame.source_crs, *side)}: its {name} "
-                f"in [{float(lo):g}, {float(hi):g}] cannot be met by the {style} kit's "
-                f"parts, which make {made or got} there; widen the interval")
-    nearest = "" if near is None else \
-        f" (the nearest they make there is {float(near.group(4).split()[0]):.2f} m)"
+    nearest = "" if not unmet or not unmet[3] else \
+        f" (the nearest they make there is {' or '.join(f'{x:.2f}' for x in unmet[3])} m)"
     return (f"{built.name}: {describe_side(at, frame.source_crs, *side)}: no row of the "
             f"{style} kit's parts fits it between the parts its ends take{nearest}; allow "
             "more stretch (--stretch, --slack), or move the skeleton's points")
+
+
+def _unmet(reason: str) -> tuple[str, float, float, list[float]] | None:
+    """The interval a solver's reason says is out of reach, and what the parts make
+    nearest it ("doors = 60 is out of reach ...; nearest achievable: 12 (below)" ->
+    ("doors", 60, 60, [12])), or None."""
+    m = re.search(r"(\w+) (?:in \[(-?[\d.e+]+), (-?[\d.e+]+)\]|= (-?[\d.e+]+)) is out of "
+                  r"reach[^;]*; nearest achievable: ([^;]+)$", reason)
+    if m is None:
+        return None
+    name, lo, hi, eq, got = m.groups()
+    lo, hi = (lo, hi) if eq is None else (eq, eq)
+    return name, float(lo), float(hi), [float(x) for x in re.findall(r"(-?[\d.]+) \(", got)]
 
 
 def _finish(args, db, style: str, frame: Frame,
