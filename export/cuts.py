@@ -13,8 +13,10 @@ A :class:`~citysynth.export.layout.Cut` says how, in the part's own placement fr
    keeps what trimesh's ``slice_faces_plane`` keeps, all pieces in one pass), each
    face staying in its piece, so each keeps its material.
 3. **Cap.** The part's solid cross-section on each plane (the even-odd section of its
-   bodies, as ingest measures sections) is triangulated and added to the walls piece,
-   facing out of the cut, so the cut part is closed again.
+   bodies, as ingest measures sections; taken from the section's segments chained
+   into loops where they chain simply, the same polygons without noding them) is
+   triangulated and added to the walls piece, facing out of the cut, so the cut part
+   is closed again.
 
 The cut pieces of a (part, cut) pair are computed once per process and, being plain
 prototypes, are instanced by USD and glTF like any part.
@@ -32,7 +34,7 @@ from shapely.geometry import box
 from citysynth.export.layout import Cut
 from citysynth.parts_db import Part, PartDB
 from citysynth.parts_db.geometry import Piece, part_pieces
-from citysynth.parts_db.sections import body_labels, plane_section
+from citysynth.parts_db.sections import body_labels, loop_section, plane_section
 
 BAND = 0.02            # m at each end of a part: what an extension stretches
 CACHED_CUTS = 1024     # cut prototypes kept per process (a building has tens)
@@ -82,17 +84,22 @@ def extend(v: np.ndarray, length: float, ext: tuple[float, float]) -> np.ndarray
 
 def _whole(pieces: tuple[Piece, ...], vertices: list[np.ndarray]) -> trimesh.Trimesh:
     """All pieces as one mesh (vertices given per piece, e.g. extended)."""
-    return trimesh.Trimesh(np.concatenate(vertices),
-                           np.concatenate(_offset_faces([p.faces for p in pieces],
-                                                        [len(v) for v in vertices])),
-                           process=False)
+    return trimesh.Trimesh(*_joined(pieces, vertices), process=False)
+
+
+def _joined(pieces: tuple[Piece, ...], vertices: list[np.ndarray]
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """All pieces' vertices and faces as one mesh's arrays (no trimesh object: a cut
+    only needs one where its cap falls back to plane_section)."""
+    return (np.concatenate(vertices),
+            np.concatenate(_offset_faces([p.faces for p in pieces], [len(v) for v in vertices])))
 
 
 def _cut(pieces: tuple[Piece, ...], length_: float, cut: Cut,
          labels: np.ndarray) -> tuple[Piece, ...]:
     vertices = [extend(p.vertices, length_, cut.extend) for p in pieces]
-    whole = _whole(pieces, vertices)
-    verts, faces = np.asarray(whole.vertices), np.asarray(whole.faces)
+    whole_v, whole_f = _joined(pieces, vertices)
+    verts, faces = whole_v, whole_f
     owner = np.repeat(np.arange(len(pieces)), [len(p.faces) for p in pieces])
     for plane in cut.planes:
         verts, faces, source = clip(verts, faces, plane)
@@ -101,11 +108,12 @@ def _cut(pieces: tuple[Piece, ...], length_: float, cut: Cut,
     for i, piece in enumerate(pieces):
         kept = faces[owner == i]
         if len(kept):
-            used, inverse = np.unique(kept, return_inverse=True)
+            used = np.zeros(len(verts), dtype=bool)    # the vertices it uses, renumbered
+            used[kept] = True
             out.append(Piece(piece.name, piece.rgba, verts[used],
-                             inverse.reshape(-1, 3).astype(np.int64)))
-    caps = [c for c in (_cap(whole, plane, cut.planes, labels) for plane in cut.planes)
-            if c is not None]
+                             (np.cumsum(used, dtype=np.int64) - 1)[kept]))
+    caps = [c for c in (_cap(whole_v, whole_f, plane, cut.planes, labels)
+                        for plane in cut.planes) if c is not None]
     if not caps:
         return tuple(out)
     return _with_caps(out, pieces, caps)
@@ -125,8 +133,11 @@ def clip(verts: np.ndarray, faces: np.ndarray, plane: tuple[float, float, float]
     # the plane through (a c, b c) with normal (a, b), as the caps take it ((a, b) is
     # rounded, so a*x + b*y = c would sit up to c * 1e-6 away from them)
     d = (verts[:, 0] - a * c) * a + (verts[:, 1] - b * c) * b   # > 0: the side cut away
-    sign = np.where(d > ON_PLANE, 1, np.where(d < -ON_PLANE, -1, 0))[faces]
-    out_n, in_n = (sign > 0).sum(axis=1), (sign < 0).sum(axis=1)
+    side = np.ones(len(verts), dtype=np.int64)          # 0 kept, 1 on the plane, 2 cut
+    side[d < -ON_PLANE] = 0
+    side[d > ON_PLANE] = 2
+    code = side[faces] @ _CODE
+    out_n, in_n, lone = _OUT_N[code], _IN_N[code], _LONE[code]
     keep = out_n == 0
     flat = keep & (in_n == 0)                           # all three on the plane
     if flat.any():
@@ -141,7 +152,7 @@ def clip(verts: np.ndarray, faces: np.ndarray, plane: tuple[float, float, float]
         if not len(rows):
             continue
         # rotate each face so the lone vertex (outside, or inside) comes first
-        k = np.argmax(sign[rows] == pick, axis=1)
+        k = lone[rows]
         f = faces[rows]
         idx = np.arange(len(rows))
         fk, fi, fj = f[idx, k], f[idx, (k + 1) % 3], f[idx, (k + 2) % 3]
@@ -161,10 +172,32 @@ def clip(verts: np.ndarray, faces: np.ndarray, plane: tuple[float, float, float]
     v = np.concatenate(new_v)
     f = np.concatenate(new_f).astype(np.int64)
     src = np.concatenate(new_src)
-    t = v[f]
-    area = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-    ok = (area * area).sum(axis=1) > 1e-24              # no slivers where a vertex was on it
+    ok = _area2(v[f]) > 1e-24                            # no slivers where a vertex was on it
     return v, f[ok], src[ok]
+
+
+def _sides() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each face's sides (0 kept, 1 on the plane, 2 cut; code 9 s0 + 3 s1 + s2):
+    how many of its vertices are cut away, how many kept, and which one is alone on
+    its side (the one cut away, or the one kept)."""
+    sides = np.array([[c // 9, c // 3 % 3, c % 3] for c in range(27)])
+    out_n, in_n = (sides == 2).sum(axis=1), (sides == 0).sum(axis=1)
+    lone = np.argmax(sides == np.where(out_n == 1, 2, 0)[:, None], axis=1)
+    return out_n, in_n, lone
+
+
+_CODE = np.array([9, 3, 1])
+_OUT_N, _IN_N, _LONE = _sides()
+
+
+def _area2(t: np.ndarray) -> np.ndarray:
+    """Twice each triangle's area, squared (t: [m, 3, 3]); the sums of ``np.cross``,
+    written out: numpy's cross costs more in its axis handling than in arithmetic."""
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    x = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+    y = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+    z = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    return x * x + y * y + z * z
 
 
 def _cross_point(verts: np.ndarray, d: np.ndarray, p: np.ndarray, q: np.ndarray
@@ -180,17 +213,23 @@ def _offset_faces(faces: list[np.ndarray], counts: list[int]) -> list[np.ndarray
     return [f + o for f, o in zip(faces, offsets, strict=True)]
 
 
-def _cap(whole: trimesh.Trimesh, plane: tuple[float, float, float],
+def _cap(mesh_v: np.ndarray, mesh_f: np.ndarray, plane: tuple[float, float, float],
          planes: tuple[tuple[float, float, float], ...], labels: np.ndarray
          ) -> tuple[np.ndarray, np.ndarray] | None:
-    """The triangulated cross-section of the part on ``plane`` (within the other
-    planes), facing out of the kept side: (vertices, faces), or None when empty."""
+    """The triangulated cross-section of the part (its extended mesh: mesh_v, mesh_f)
+    on ``plane`` (within the other planes), facing out of the kept side: (vertices,
+    faces), or None when empty. The section is ingest's :func:`plane_section`, taken
+    by :func:`loop_section` where the segments chain simply (the same polygons, without
+    noding them: that was most of a cut's time)."""
     a, b, c = plane
     origin = np.array([a * c, b * c, 0.0])
     normal = np.array([a, b, 0.0])
     u = np.array([-b, a, 0.0])                 # horizontal, in the plane
     w = np.array([0.0, 0.0, 1.0])
-    section = plane_section(whole, origin, normal, u, w, labels)
+    section = loop_section(mesh_v, mesh_f, labels, origin, normal, u, w)
+    if section is None:
+        whole = trimesh.Trimesh(mesh_v, mesh_f, process=False)
+        section = plane_section(whole, origin, normal, u, w, labels)
     for a2, b2, c2 in planes:                  # the other planes bound it along u
         if (a2, b2, c2) == plane:
             continue

@@ -1,0 +1,213 @@
+"""A cut's cap section, taken by ``sections.loop_section`` (chaining the segments into
+loops in numpy), is ingest's ``plane_section`` exactly, or ``None`` so the cap falls
+back to it: on boxes apart, touching and overlapping, boxes merged into one body
+(whose segments overlap), hollow tubes (a hole in a body's section) and tubes in tubes,
+cut by random vertical planes (also through vertices and along faces); on real parts.
+Loops of a body that touch decline, whichever of their segments touch; the grid
+snapping is GEOS's to the last bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from citysynth.export import cuts
+from citysynth.parts_db.geometry import part_pieces
+from citysynth.parts_db.sections import GRID, body_labels, loop_section, plane_section
+
+STEP = 0.25     # m: box corners on this grid, so boxes often touch and planes hit corners
+
+
+def _box(lo, hi) -> trimesh.Trimesh:
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    return trimesh.creation.box(extents=hi - lo).apply_translation((lo + hi) / 2)
+
+
+def _tube(lo, hi, wall: float, axis: int) -> trimesh.Trimesh:
+    """A square tube (one body) along X (axis 0) or Y (axis 1): a vertical plane across
+    it cuts a ring, whose inner loop is a hole of the body."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    a, b = (1, 2) if axis == 0 else (0, 2)      # the tube's cross-section axes
+    outer = shapely.box(lo[a], lo[b], hi[a], hi[b])
+    ring = outer.difference(outer.buffer(-wall, join_style="mitre"))
+    m = trimesh.creation.extrude_polygon(ring, hi[axis] - lo[axis])   # along +Z from 0
+    # the extrusion's (x, y, z) are the tube's (a, b, axis)
+    to = np.zeros((4, 4))
+    to[a, 0] = to[b, 1] = to[axis, 2] = to[3, 3] = 1.0
+    m.apply_transform(to)
+    m.apply_translation(np.eye(3)[axis] * lo[axis])
+    return m
+
+
+def _mesh(parts: list[trimesh.Trimesh]) -> trimesh.Trimesh:
+    """Parts as one mesh, as a cut sees a part (each its own vertices)."""
+    whole = trimesh.util.concatenate(parts)
+    return trimesh.Trimesh(np.asarray(whole.vertices), np.asarray(whole.faces), process=False)
+
+
+def _frame(plane):
+    a, b, c = plane
+    return (np.array([a * c, b * c, 0.0]), np.array([a, b, 0.0]),
+            np.array([-b, a, 0.0]), np.array([0.0, 0.0, 1.0]))
+
+
+def _both(mesh: trimesh.Trimesh, plane, one_body: bool = False):
+    """(fast section or None, plane_section), in the cap's frame. one_body: every face
+    in one body, as a part authored as one mesh has it (its boxes' loops then touch,
+    overlap or nest within the body)."""
+    labels = np.zeros(len(mesh.faces), dtype=np.int64) if one_body else body_labels(mesh)
+    frame = _frame(plane)
+    fast = loop_section(np.asarray(mesh.vertices), np.asarray(mesh.faces), labels, *frame)
+    return fast, plane_section(mesh, *frame, labels)
+
+
+def _assert_same(fast, robust) -> None:
+    assert float(shapely.area(shapely.symmetric_difference(fast, robust))) < 1e-9
+    assert abs(fast.area - robust.area) < 1e-9
+    if not robust.is_empty:
+        np.testing.assert_allclose(fast.bounds, robust.bounds, atol=1e-9)
+
+
+def _grid(draw, n: int) -> list[float]:
+    return [draw(st.integers(-8, 8)) * STEP for _ in range(n)]
+
+
+@st.composite
+def scenes(draw):
+    """Boxes and tubes on a coarse grid (touching, overlapping, nested: a tube in a
+    tube, a box in a tube), as bodies apart or as one body, and a vertical plane."""
+    parts = []
+    for _ in range(draw(st.integers(1, 4))):
+        lo = np.array(_grid(draw, 3))
+        size = np.array([draw(st.integers(1, 8)) * STEP for _ in range(3)])
+        if draw(st.booleans()):
+            parts.append(_box(lo, lo + size))
+        else:
+            size[[1, 2] if draw(st.booleans()) else [0, 2]] += 2 * STEP
+            axis = int(size[1] > size[0]) if size[0] != size[1] else draw(st.integers(0, 1))
+            wall = STEP * draw(st.sampled_from([0.5, 1.0]))
+            parts.append(_tube(lo, lo + size, wall, axis))
+            if draw(st.booleans()):        # something inside the tube
+                inner = lo + size / 2
+                parts.append(_tube(inner - size / 4, inner + size / 4, wall / 2, axis)
+                             if draw(st.booleans()) else _box(inner - STEP / 4, inner + STEP / 4))
+    mesh = _mesh(parts)
+    angle = draw(st.one_of(st.sampled_from([0.0, 0.5, 1.0, 1.5]), st.floats(0, 2))) * np.pi
+    a, b = round(float(np.cos(angle)), 6), round(float(np.sin(angle)), 6)
+    # through a vertex (on a grid angle: along faces too), or near one
+    v = np.asarray(mesh.vertices)[draw(st.integers(0, len(mesh.vertices) - 1))]
+    c = float(v[0] * a + v[1] * b) + draw(st.one_of(st.just(0.0), st.floats(-0.6, 0.6)))
+    return mesh, (a, b, c), draw(st.booleans())
+
+
+@settings(max_examples=300, deadline=None)
+@given(scenes())
+def test_loop_section_is_plane_section_or_declines(scene):
+    mesh, plane, one_body = scene
+    fast, robust = _both(mesh, plane, one_body)
+    if fast is not None:
+        _assert_same(fast, robust)
+
+
+def test_the_fast_path_takes_apart_boxes_tubes_and_nested_tubes():
+    """The common linework, simple loops (holes, islands in holes), is taken fast."""
+    cases = [
+        ([_box((0, 0, 0), (1, 1, 1)), _box((2, 0, 0), (3, 1, 2))], 1.0),
+        ([_box((0, 0, 0), (2, 1, 1)), _box((1, 0, 0), (3, 2, 3))], None),   # overlapping
+        ([_tube((0, 0, 0), (4, 2, 2), 0.5, 0)], 2 * 2 - 1 * 1),               # a ring
+        ([_tube((0, 0, 0), (4, 2, 2), 0.5, 0), _tube((0, 0.75, 0.75), (4, 1.25, 1.25), 0.1, 0)],
+         None),                                                               # tube in tube
+    ]
+    for parts, area in cases:
+        mesh = _mesh(parts)
+        for plane in [(1.0, 0.0, 0.5), (0.6, 0.8, 0.9), (0.0, 1.0, 0.5)]:
+            fast, robust = _both(mesh, plane)
+            assert fast is not None, (parts, plane)
+            _assert_same(fast, robust)
+            if area is not None and plane == (1.0, 0.0, 0.5):
+                assert abs(fast.area - area) < 1e-9
+
+
+def test_a_hole_is_a_hole():
+    """A tube's section is the ring (the inner loop subtracted), not the square."""
+    fast, _robust = _both(_mesh([_tube((0, 0, 0), (4, 2, 2), 0.5, 0)]),
+                          (1.0, 0.0, 1.0))
+    assert fast is not None and len(fast.interiors) == 1
+    assert abs(fast.area - 3.0) < 1e-9
+
+
+def test_touching_loops_fall_back_and_the_cap_is_plane_sections():
+    """Boxes sharing a face, in one body: their loops share an edge (segments on one
+    line, which only noding resolves), so the cap takes plane_section; a tube in a
+    tube in one body nests loops three deep, taken fast."""
+    mesh = _mesh([_box((0, 0, 0), (2, 1, 1)), _box((0, 0, 1), (1, 1, 2))])
+    labels = np.zeros(len(mesh.faces), dtype=np.int64)
+    plane = (0.6, 0.8, 0.7)
+    fast, robust = _both(mesh, plane, one_body=True)
+    assert fast is None and robust.area > 1
+    v, f = cuts._cap(np.asarray(mesh.vertices), np.asarray(mesh.faces), plane, (plane,), labels)
+    t = v[f]
+    area = 0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]), axis=1).sum()
+    assert abs(area - robust.area) < 1e-9
+    nested = _mesh([_tube((0, 0, 0), (4, 2, 2), 0.5, 0),
+                    _tube((0, 0.6, 0.6), (4, 1.4, 1.4), 0.1, 0)])
+    fast, robust = _both(nested, (1.0, 0.0, 1.0), one_body=True)
+    assert fast is not None
+    _assert_same(fast, robust)
+    assert abs(fast.area - 3.0) < 1e-9    # the inner tube lies in the hole: even-odd drops it
+
+
+def test_loops_of_a_body_touching_along_any_segment_decline():
+    """Two loops of one body sharing part of an edge decline, whichever segments touch:
+    here the ones closing each loop's walk (segment ends in grid units)."""
+    from citysynth.parts_db.sections import SCALE, _loops_material
+    a = [(0, 0), (10, 0), (10, 10), (0, 10)]
+    b = [(0, 2), (-5, 2), (-5, 8), (0, 8)]          # its last side lies on a's last side
+    grid = np.array([[p, loop[(k + 1) % 4]] for loop in (a, b) for k, p in enumerate(loop)],
+                    dtype=np.int64)
+    lab = np.zeros(len(grid), dtype=np.int64)
+    assert _loops_material(grid, lab) is None
+    grid[4:, :, 0] -= 1                              # one grid step apart: taken
+    apart = _loops_material(grid, lab)
+    assert apart is not None and abs(apart.area * SCALE**2 - (100 + 30)) < 1e-6
+
+
+def test_real_parts(sample_db):
+    """Every sample part, extended like a joint extends it, cut at angles across it:
+    the fast path is taken and gives plane_section's polygons."""
+    taken = 0
+    for part in sample_db.parts[::3]:
+        pieces = part_pieces(sample_db, part)
+        length = cuts.length(part)
+        vertices = [cuts.extend(p.vertices, length, (0.3, 0.1)) for p in pieces]
+        mesh = cuts._whole(pieces, vertices)
+        labels = body_labels(mesh)
+        for angle in (0.3, 0.5, 0.8):
+            a, b = round(np.cos(angle * np.pi), 6), round(np.sin(angle * np.pi), 6)
+            for x in (0.0, length / 2, length):
+                plane = (a, b, x * a)
+                frame = _frame(plane)
+                fast = loop_section(np.asarray(mesh.vertices), np.asarray(mesh.faces),
+                                    labels, *frame)
+                robust = plane_section(mesh, *frame, labels)
+                if fast is not None:
+                    taken += 1
+                    _assert_same(fast, robust)
+    assert taken > 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.one_of(
+    st.floats(-1e8, 1e8), st.integers(-10**8, 10**8).map(lambda k: (k + 0.5) * GRID),
+    st.sampled_from([0.49999999999999994e-6, -0.49999999999999994e-6, 0.5e-6, -0.5e-6,
+                     2.5e-6, -2.5e-6])), min_size=1, max_size=50))
+def test_snapping_is_geos_snapping(xs):
+    """The snapped ends meet exactly where set_precision puts them (ties included)."""
+    from citysynth.parts_db.sections import SCALE, _snap
+    x = np.array([*xs, 0.0])
+    line = shapely.linestrings(np.stack([x, np.zeros_like(x)], axis=1))
+    geos = shapely.get_coordinates(shapely.set_precision(line, GRID, mode="pointwise"))[:, 0]
+    np.testing.assert_array_equal(_snap(x * SCALE) / SCALE, geos)
