@@ -55,11 +55,21 @@ def cut_pieces(db: PartDB, part: Part, cut: Cut) -> tuple[Piece, ...]:
     pieces = part_pieces(db, part)
     labels = _LABELS.get(key[:2])
     if labels is None:   # which body each face belongs to: the same for every cut
-        labels = _LABELS[key[:2]] = body_labels(_whole(pieces, [p.vertices for p in pieces]))
+        labels = _LABELS[key[:2]] = _body_labels(pieces)
     out = _CACHE[key] = _cut(pieces, length(part), cut, labels)
     if len(_CACHE) > CACHED_CUTS:
         _CACHE.popitem(last=False)
     return out
+
+
+def _body_labels(pieces: tuple[Piece, ...]) -> np.ndarray:
+    """The closed body each face of the part belongs to, as ingest sees it: on the
+    vertex-merged mesh (the pieces repeat a vertex where two materials meet, so on the
+    pieces as given a closed body falls apart into open patches, whose sections are
+    dropped, and the cut was left uncapped)."""
+    whole = _whole(pieces, [p.vertices for p in pieces])
+    whole.merge_vertices()
+    return body_labels(whole)
 
 
 def length(part: Part) -> float:

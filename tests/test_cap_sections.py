@@ -9,6 +9,7 @@ snapping is GEOS's to the last bit."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import shapely
 import trimesh
 from hypothesis import given, settings
@@ -211,3 +212,75 @@ def test_snapping_is_geos_snapping(xs):
     line = shapely.linestrings(np.stack([x, np.zeros_like(x)], axis=1))
     geos = shapely.get_coordinates(shapely.set_precision(line, GRID, mode="pointwise"))[:, 0]
     np.testing.assert_array_equal(_snap(x * SCALE) / SCALE, geos)
+
+
+def _plane_faces_area(pieces, plane) -> float:
+    """The area of the faces lying on a cut's plane and facing out of the kept side:
+    its cap (where no face of the part lay on the plane before)."""
+    a, b, c = plane
+    total = 0.0
+    for p in pieces:
+        t = p.vertices[p.faces]
+        d = (t[:, :, 0] - a * c) * a + (t[:, :, 1] - b * c) * b
+        n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+        on = (np.abs(d) < 1e-6).all(axis=1) & (n[:, 0] * a + n[:, 1] * b > 0)
+        total += 0.5 * float(np.linalg.norm(n[on], axis=1).sum())
+    return total
+
+
+def _ingest_section_area(mesh: trimesh.Trimesh, plane, planes) -> float:
+    """The part's solid section on ``plane`` as ingest measures one (bodies of the
+    vertex-merged mesh, even-odd), within the cut's other planes."""
+    a, b, c = plane
+    merged = trimesh.Trimesh(mesh.vertices, mesh.faces, process=True)
+    sec = plane_section(merged, [a * c, b * c, 0.0], [a, b, 0.0], [-b, a, 0.0],
+                        [0.0, 0.0, 1.0], body_labels(merged))
+    for a2, b2, c2 in planes:
+        if (a2, b2, c2) == (a, b, c):
+            continue
+        k = a2 * -b + b2 * a
+        if abs(k) < 1e-9:
+            continue
+        limit = (c2 - (a2 * a * c + b2 * b * c)) / k
+        sec = sec.intersection(shapely.box(-1e6, -1e6, limit, 1e6) if k > 0 else
+                               shapely.box(limit, -1e6, 1e6, 1e6))
+    return float(sec.area)
+
+
+def test_every_cut_is_capped_with_the_parts_section(sample_db):
+    """Each cut plane of real joints (the demo district's first blocks) is closed by a
+    cap of exactly the part's solid section there, as ingest measures sections: on the
+    vertex-merged mesh. On the pieces as given (a vertex repeated where two materials
+    meet) the bodies fell apart into open patches and 5 caps in 6 were left out, which
+    showed as dark gaps at gables and cornices."""
+    from pathlib import Path
+
+    from citysynth.pipeline.city.config import load_config
+    from citysynth.pipeline.city.jobs import solve_block, worker_library
+    from citysynth.pipeline.city.run import prepare
+    root = Path(__file__).resolve().parent.parent
+    jobs = [j for j in prepare(str(root / "examples" / "city" / "district_streets.geojson"),
+                               None, load_config(None), str(root / "examples" / "library")).jobs
+            if j.zone_kind is None][:3]
+    db = worker_library(jobs[0].library)
+    cuts_seen = {}
+    for job in jobs:
+        for lay in solve_block(job, db)[1].layouts:
+            cuts_seen.update({(i.part, i.cut): i for i in lay.instances if i.cut is not None})
+    checked = capped = 0
+    for (pid, cut), _inst in sorted(cuts_seen.items(), key=lambda kv: repr(kv[0]))[:60]:
+        part = db.part(pid)
+        pieces = part_pieces(db, part)
+        ext = cuts._whole(pieces, [cuts.extend(p.vertices, cuts.length(part), cut.extend)
+                                   for p in pieces])
+        got = cuts.cut_pieces(db, part, cut)
+        for plane in cut.planes:
+            a, b, c = plane
+            d = (ext.vertices[:, 0] - a * c) * a + (ext.vertices[:, 1] - b * c) * b
+            if (np.abs(d[ext.faces]) < 1e-6).all(axis=1).any():
+                continue          # a face of the part lies on the plane: not a cap alone
+            want = _ingest_section_area(ext, plane, cut.planes)
+            assert _plane_faces_area(got, plane) == pytest.approx(want, abs=1e-6, rel=1e-6)
+            checked += 1
+            capped += want > 0
+    assert checked >= 40 and capped >= 0.8 * checked, (checked, capped)
