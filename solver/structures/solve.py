@@ -116,8 +116,9 @@ def _reach(st: Structure, r: str) -> float | None:
 
 
 def _out_of_reach(st: Structure) -> str | None:
-    """Why no filling can meet a structure-wide minimum past what the stages can reach
-    (said at once: its shares would be refused as too many), or None."""
+    """Why no filling can meet a structure-wide minimum past what the stages can reach,
+    or None (asked when its shares would be refused as too many: a small one is found
+    infeasible by the solve itself)."""
     for r, (lo, _hi) in st.global_constraints.items():
         reach = _reach(st, r)
         if reach is not None and lo > reach + 1e-9 * max(1.0, reach):
@@ -193,11 +194,14 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
     k = st.k if k is None else int(k)
     check_k(k, max_memory_mb)
     t0 = time.perf_counter()
-    short = _out_of_reach(st)
-    if short is not None:
+    try:
+        grid = _global_grid(st)
+    except TooLargeError:   # a minimum past reach: infeasible, said without its shares
+        short = _out_of_reach(st)
+        if short is None:
+            raise
         return StructureResult("infeasible", [], {"method": method, "stages_by": "none",
                                                   "solve_s": time.perf_counter() - t0}, short)
-    grid = _global_grid(st)
     gnames, _gq, glo, ghi = grid
     with paused_gc():
         provider = _provider(st, k, method, grid, max_memory_mb, table, solve_kw)
