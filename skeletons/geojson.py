@@ -363,14 +363,11 @@ def _frame(geoms: list[BaseGeometry], given: pyproj.CRS | None, source: str,
            ) -> tuple[Project, Frame]:
     """How to project the input, and the frame it lands in."""
     allc = np.vstack([shapely.get_coordinates(g) for g in geoms])
-    if given is not None:
-        _check_area(given, _to_lonlat(given, source)(_extent(allc)), source)
-    if given is not None and not given.is_geographic and \
-            _scale_error(given, allc) <= TRUE_SCALE:
-        return _kept_projected(allc, given, origin)
-    to_lonlat: Project | None = None
-    if given is not None:
-        to_lonlat = _to_lonlat(given, source)
+    to_lonlat = _to_lonlat(given, source) if given is not None else None
+    if given is not None and to_lonlat is not None:
+        _check_area(given, to_lonlat(_extent(allc)), source)
+        if not given.is_geographic and _scale_error(given, allc) <= TRUE_SCALE:
+            return _kept_projected(allc, given, origin)
         allc = to_lonlat(allc)
     _check_lonlat(allc, source, given)
     centre = _lonlat_centre(allc) if origin is None else (float(origin[0]), float(origin[1]))

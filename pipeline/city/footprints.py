@@ -282,11 +282,10 @@ def explain(where: str, frame: tuple[str, float, float], source_crs: str,
 def too_short(where: str, frame: tuple[str, float, float], source_crs: str, side: Any,
               min_side: float, style: str) -> str:
     """A side left shorter than any facade between two corners."""
-    a, b, length = side
-    return (f"{where}: the {length:.2f} m side from {format_xy(input_xy(frame, source_crs, a))} "
-            f"to {format_xy(input_xy(frame, source_crs, b))} is shorter than the {min_side:.1f} m "
-            f"the {style} kit needs between two corners, and absorbing it would move the "
-            "outline by more than the cleaning tolerance (raise footprints.tolerance)")
+    return (f"{where}: {describe_side(frame, source_crs, *side)} is shorter than the "
+            f"{min_side:.1f} m the {style} kit needs between two corners, and absorbing it "
+            "would move the outline by more than the cleaning tolerance (raise "
+            "footprints.tolerance)")
 
 
 # --- a block job's outline, ready to solve ---------------------------------------------

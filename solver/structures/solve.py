@@ -67,10 +67,9 @@ def _global_grid(st: Structure) -> Grid:
     for r, (lo, hi) in st.global_constraints.items():
         values = [v[r] for v in st.elements.values()] + [leg[r] for legs in st.legs.values()
                                                          for leg in legs]
-        reach = _reach(st, r)
-        clipped = reach is not None and hi > max(reach, lo)   # beyond reach: no bound
-        if reach is not None and clipped:
-            hi = max(reach, lo)
+        reach, clipped = _reach(st, r), False
+        if reach is not None and hi > max(reach, lo):   # beyond reach: no bound
+            hi, clipped = max(reach, lo), True
         q = st.quantum.get(r)
         if q is None:
             frac = exact_divisor(values + [lo] + ([] if clipped else [hi]))
