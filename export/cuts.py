@@ -9,9 +9,10 @@ A :class:`~citysynth.export.layout.Cut` says how, in the part's own placement fr
    corner, or in front of a convex one, where a cornice overhangs), the part's end is
    first extended by stretching a thin band at that end (:data:`BAND` wide): a wall or
    cornice face that runs to the end runs on, with its profile, and nothing else moves.
-2. **Cut.** Every face is clipped to the kept side of each plane (:func:`clip`, which
-   keeps what trimesh's ``slice_faces_plane`` keeps, all pieces in one pass), each
-   face staying in its piece, so each keeps its material.
+2. **Cut.** Every face is clipped to the kept side of each plane
+   (:func:`~citysynth.export.clip.clip`, compiled, which keeps what trimesh's
+   ``slice_faces_plane`` keeps, all pieces in one pass), each face staying in its
+   piece, so each keeps its material.
 3. **Cap.** The part's solid cross-section on each plane (the even-odd section of its
    bodies, as ingest measures sections; taken from the section's segments chained
    into loops where they chain simply, the same polygons without noding them) is
@@ -31,6 +32,7 @@ import shapely
 import trimesh
 from shapely.geometry import box
 
+from citysynth.export.clip import clip
 from citysynth.export.layout import Cut
 from citysynth.parts_db import Part, PartDB
 from citysynth.parts_db.geometry import Piece, part_pieces
@@ -127,95 +129,6 @@ def _cut(pieces: tuple[Piece, ...], length_: float, cut: Cut,
     if not caps:
         return tuple(out)
     return _with_caps(out, pieces, caps)
-
-
-ON_PLANE = 1e-8        # m: a vertex this close to a plane is on it (trimesh's tol.merge)
-
-
-def clip(verts: np.ndarray, faces: np.ndarray, plane: tuple[float, float, float]
-         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Triangles clipped to the kept side of a cut's plane, as trimesh's
-    ``slice_faces_plane`` keeps them (a face lying on the plane stays when it faces out
-    of the kept side), for all pieces in one pass: (vertices, faces, the input face
-    each output face comes from). A face crossed by the plane keeps its winding; new
-    vertices are appended."""
-    a, b, c = plane
-    # the plane through (a c, b c) with normal (a, b), as the caps take it ((a, b) is
-    # rounded, so a*x + b*y = c would sit up to c * 1e-6 away from them)
-    d = (verts[:, 0] - a * c) * a + (verts[:, 1] - b * c) * b   # > 0: the side cut away
-    side = np.ones(len(verts), dtype=np.int64)          # 0 kept, 1 on the plane, 2 cut
-    side[d < -ON_PLANE] = 0
-    side[d > ON_PLANE] = 2
-    code = side[faces] @ _CODE
-    out_n, in_n, lone = _OUT_N[code], _IN_N[code], _LONE[code]
-    keep = out_n == 0
-    flat = keep & (in_n == 0)                           # all three on the plane
-    if flat.any():
-        tri = verts[faces[flat]]
-        nz = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        keep[np.flatnonzero(flat)] = nz[:, 0] * a + nz[:, 1] * b > 0
-    one_out = (out_n == 1) & (in_n >= 1)                # a quad stays (or a triangle)
-    two_out = (out_n == 2) & (in_n == 1)                # a triangle stays
-    new_v, new_f, new_src = [verts], [faces[keep]], [np.flatnonzero(keep)]
-    n = len(verts)
-    for rows, pick in ((np.flatnonzero(one_out), 1), (np.flatnonzero(two_out), -1)):
-        if not len(rows):
-            continue
-        # rotate each face so the lone vertex (outside, or inside) comes first
-        k = lone[rows]
-        f = faces[rows]
-        idx = np.arange(len(rows))
-        fk, fi, fj = f[idx, k], f[idx, (k + 1) % 3], f[idx, (k + 2) % 3]
-        p_ki = _cross_point(verts, d, fk, fi)            # on edge k -> i
-        p_jk = _cross_point(verts, d, fj, fk)            # on edge j -> k
-        m = len(rows)
-        ki, jk = n + np.arange(m), n + m + np.arange(m)
-        new_v += [p_ki, p_jk]
-        n += 2 * m
-        if pick == 1:          # k cut away: i, j, P_jk, P_ki (two triangles)
-            tris = np.concatenate([np.stack([fi, fj, jk], 1), np.stack([fi, jk, ki], 1)])
-            src = np.concatenate([rows, rows])
-        else:                  # only k kept: k, P_ki, P_jk
-            tris, src = np.stack([fk, ki, jk], 1), rows
-        new_f.append(tris)
-        new_src.append(src)
-    v = np.concatenate(new_v)
-    f = np.concatenate(new_f).astype(np.int64)
-    src = np.concatenate(new_src)
-    ok = _area2(v[f]) > 1e-24                            # no slivers where a vertex was on it
-    return v, f[ok], src[ok]
-
-
-def _sides() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """For each face's sides (0 kept, 1 on the plane, 2 cut; code 9 s0 + 3 s1 + s2):
-    how many of its vertices are cut away, how many kept, and which one is alone on
-    its side (the one cut away, or the one kept)."""
-    sides = np.array([[c // 9, c // 3 % 3, c % 3] for c in range(27)])
-    out_n, in_n = (sides == 2).sum(axis=1), (sides == 0).sum(axis=1)
-    lone = np.argmax(sides == np.where(out_n == 1, 2, 0)[:, None], axis=1)
-    return out_n, in_n, lone
-
-
-_CODE = np.array([9, 3, 1])
-_OUT_N, _IN_N, _LONE = _sides()
-
-
-def _area2(t: np.ndarray) -> np.ndarray:
-    """Twice each triangle's area, squared (t: [m, 3, 3]); the sums of ``np.cross``,
-    written out: numpy's cross costs more in its axis handling than in arithmetic."""
-    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
-    x = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
-    y = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
-    z = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    return x * x + y * y + z * z
-
-
-def _cross_point(verts: np.ndarray, d: np.ndarray, p: np.ndarray, q: np.ndarray
-                 ) -> np.ndarray:
-    """Where each edge p -> q meets the plane (d: signed distances of the vertices)."""
-    dp, dq = d[p], d[q]
-    t = np.clip(dp / np.where(dp == dq, 1.0, dp - dq), 0.0, 1.0)
-    return verts[p] + t[:, None] * (verts[q] - verts[p])
 
 
 def _offset_faces(faces: list[np.ndarray], counts: list[int]) -> list[np.ndarray]:

@@ -21,6 +21,7 @@ from functools import lru_cache
 
 import numpy as np
 import trimesh
+from numba import njit
 
 from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.library import Part, PartDB
@@ -39,18 +40,31 @@ class Piece:
     @property
     def normals(self) -> np.ndarray:
         """Unit face normals (flat shading suits these boxy parts); zero for a face of
-        no area. Plain arithmetic: a city writes hundreds of pieces a block, and a
-        trimesh object cost ten times the sums."""
-        v = self.vertices[self.faces]
-        e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
-        n = np.stack([e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1],
-                      e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
-                      e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]], axis=1)
-        norm = np.sqrt((n * n).sum(axis=1))
-        ok = norm > 1e-13
-        n[~ok] = 0.0
-        n[ok] /= norm[ok, None]
-        return n
+        no area. Compiled: a city writes hundreds of pieces a block (a trimesh object
+        cost ten times the sums, numpy's passes over small arrays three times more)."""
+        return _face_normals(np.ascontiguousarray(self.vertices, dtype=np.float64),
+                             np.ascontiguousarray(self.faces, dtype=np.int64))
+
+
+@njit(cache=True)
+def _face_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:  # pragma: no cover (compiled)
+    """Each face's unit normal, with numpy's arithmetic in numpy's order (``cross``
+    written out, the norm summed left to right), so the bits are those of the numpy
+    version; zero where the cross product's norm is 1e-13 or less."""
+    n = np.empty((f.shape[0], 3))
+    for r in range(f.shape[0]):
+        i, j, k = f[r, 0], f[r, 1], f[r, 2]
+        e1x, e1y, e1z = v[j, 0] - v[i, 0], v[j, 1] - v[i, 1], v[j, 2] - v[i, 2]
+        e2x, e2y, e2z = v[k, 0] - v[i, 0], v[k, 1] - v[i, 1], v[k, 2] - v[i, 2]
+        x = e1y * e2z - e1z * e2y
+        y = e1z * e2x - e1x * e2z
+        z = e1x * e2y - e1y * e2x
+        norm = np.sqrt(x * x + y * y + z * z)
+        if norm > 1e-13:
+            n[r, 0], n[r, 1], n[r, 2] = x / norm, y / norm, z / norm
+        else:
+            n[r, 0] = n[r, 1] = n[r, 2] = 0.0
+    return n
 
 
 def part_pieces(db: PartDB, part: Part) -> tuple[Piece, ...]:
