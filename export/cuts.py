@@ -30,6 +30,7 @@ from collections import OrderedDict
 import numpy as np
 import shapely
 import trimesh
+from mapbox_earcut import triangulate_float64
 from shapely.geometry import box
 
 from citysynth.export.clip import clip
@@ -43,6 +44,7 @@ CACHED_CUTS = 1024     # cut prototypes kept per process (a building has tens)
 _CACHE: OrderedDict[tuple[str, str, Cut], tuple[Piece, ...]] = OrderedDict()
 _LABELS: dict[tuple[str, str], np.ndarray] = {}
 CAP_PIECE = "walls"    # the material a cap takes (else the part's first piece's)
+POLYGON = shapely.GeometryType.POLYGON
 
 
 def cut_pieces(db: PartDB, part: Part, cut: Cut) -> tuple[Piece, ...]:
@@ -163,21 +165,28 @@ def _cap(mesh_v: np.ndarray, mesh_f: np.ndarray, plane: tuple[float, float, floa
         limit = (c2 - base) / k
         half = box(-1e6, -1e6, limit, 1e6) if k > 0 else box(limit, -1e6, 1e6, 1e6)
         section = section.intersection(half)
-    polys = [g for g in shapely.get_parts(section) if g.geom_type == "Polygon" and g.area > 1e-8]
-    if not polys:
+    parts = shapely.get_parts(section)
+    polys = parts[(shapely.get_type_id(parts) == POLYGON) & (shapely.area(parts) > 1e-8)]
+    if not len(polys):
         return None
-    verts, faces = [], []
-    n = 0
-    for poly in polys:
-        v2, f = trimesh.creation.triangulate_polygon(poly)
-        v3 = origin + np.outer(v2[:, 0], u) + np.outer(v2[:, 1], w)
-        tri = v3[f]
-        facing = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]) @ normal
-        f = np.where((facing < 0)[:, None], f[:, ::-1], f)   # out of the kept side
-        verts.append(v3)
-        faces.append(f + n)
-        n += len(v3)
-    return np.concatenate(verts), np.concatenate(faces)
+    # earcut on each polygon's rings (closing points kept, as trimesh passes them)
+    rings, owner = shapely.get_rings(polys, return_index=True)   # shell, then holes
+    xy, at = shapely.get_coordinates(rings, return_index=True)
+    ring_ends = np.r_[0, np.cumsum(np.bincount(at, minlength=len(rings)))]
+    poly_ends = np.r_[0, np.cumsum(np.bincount(owner, minlength=len(polys)))]
+    verts = origin + np.outer(xy[:, 0], u) + np.outer(xy[:, 1], w)
+    faces = []
+    for k in range(len(polys)):
+        r0, r1 = poly_ends[k], poly_ends[k + 1]
+        start = ring_ends[r0]
+        f = triangulate_float64(xy[start:ring_ends[r1]], ring_ends[r0 + 1:r1 + 1] - start
+                                ).reshape(-1, 3).astype(np.int64) + start
+        e1, e2 = verts[f[:, 1]] - verts[f[:, 0]], verts[f[:, 2]] - verts[f[:, 0]]
+        facing = np.stack([e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1],
+                           e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
+                           e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]], axis=1) @ normal
+        faces.append(np.where((facing < 0)[:, None], f[:, ::-1], f))   # out of the kept side
+    return verts, np.concatenate(faces)
 
 
 def _with_caps(out: list[Piece], original: tuple[Piece, ...],

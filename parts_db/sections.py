@@ -20,6 +20,8 @@ import trimesh
 from shapely.geometry.base import BaseGeometry
 from trimesh.constants import tol
 
+from citysynth.parts_db.section_loops import chain, segments
+
 EMPTY = shapely.Polygon()
 GRID = 1e-6  # metres: segment ends computed from both sides of an edge meet on it
 
@@ -101,31 +103,14 @@ def loop_section(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, or
     back) returns None."""
     origin = np.asarray(origin, dtype=float)
     dots = np.dot(vertices - origin, np.asarray(normal, dtype=float))
-    side = np.ones(len(vertices), dtype=np.int64)          # 0, 1, 2: below, on, above
-    side[dots < -MERGE] = 0
-    side[dots > MERGE] = 2
-    code = side[faces] @ _CODE
-    hit = np.flatnonzero(_CASE[code])
-    if not len(hit):
+    grid, lab = segments(np.ascontiguousarray(vertices, dtype=np.float64),
+                         np.ascontiguousarray(faces, dtype=np.int64),
+                         np.ascontiguousarray(labels, dtype=np.int64), dots, origin,
+                         np.asarray(u, dtype=float), np.asarray(v, dtype=float), MERGE,
+                         float(SCALE), _CASE, _TURN, _FROM, _TO)
+    if not len(grid):
         return EMPTY
-    code = code[hit]
-    f = np.take_along_axis(faces[hit], _TURN[code], axis=1)    # the lone vertex first
-    # each end is p + t (q - p): where edge p -> q crosses, or a vertex (p = q, t = 0)
-    p = np.take_along_axis(f, _FROM[code], axis=1)              # [S, 2]
-    q = np.take_along_axis(f, _TO[code], axis=1)
-    dp = dots[p]
-    den = dp - dots[q]
-    t = np.where(den != 0, dp / np.where(den != 0, den, 1.0), 0.0)
-    vp = vertices[p]
-    rel = vp + t[..., None] * (vertices[q] - vp) - origin       # [S, 2, 3]
-    at = np.empty(rel.shape[:2] + (2,))
-    at[..., 0] = rel @ np.asarray(u, dtype=float)
-    at[..., 1] = rel @ np.asarray(v, dtype=float)
-    grid = _snap(at * SCALE)
-    keep = (grid[:, 0] != grid[:, 1]).any(axis=1)   # set_precision drops collapsed ones
-    if not keep.any():
-        return EMPTY
-    return _loops_material(grid[keep].astype(np.int64), labels[hit[keep]].astype(np.int64))
+    return _loops_material(grid, lab)
 
 
 def _cases() -> tuple[np.ndarray, ...]:
@@ -153,16 +138,7 @@ def _cases() -> tuple[np.ndarray, ...]:
     return case, turn, ends_from, ends_to
 
 
-_CODE = np.array([9, 3, 1])
 _CASE, _TURN, _FROM, _TO = _cases()
-
-
-def _snap(x: np.ndarray) -> np.ndarray:
-    """x rounded as GEOS rounds to a grid (half up, Java's Math.round: the integer r
-    with r - x in (-0.5, 0.5]); x + 0.5 can round up across an integer, then undone."""
-    r = np.floor(x + 0.5)
-    r[r - x > 0.5] -= 1.0
-    return r
 
 
 def _loops_material(grid: np.ndarray, lab: np.ndarray) -> BaseGeometry | None:
@@ -177,26 +153,22 @@ def _loops_material(grid: np.ndarray, lab: np.ndarray) -> BaseGeometry | None:
     if (int(lab.max()) + 1) * int(span[0]) * int(span[1]) >= 1 << 62:
         return None    # keys would overflow (a part kilometres long)
     key = (np.repeat(lab, 2) * span[1] + (flat[:, 1] - lo[1])) * span[0] + (flat[:, 0] - lo[0])
-    order = np.argsort(key, kind="stable")
-    same = np.diff(key[order]) == 0
-    if (same[1:] & same[:-1]).any():
+    slots, starts, closed_walk = chain(key)
+    if not len(starts):
         return None    # three ends or more at a point
-    pair = np.flatnonzero(same)
-    partner = np.full(len(key), -1, dtype=np.int64)
-    partner[order[pair]], partner[order[pair + 1]] = order[pair + 1], order[pair]
-    paths, rings = _chain(partner.tolist(), np.flatnonzero(partner < 0).tolist())
-    if any(len(r) < 4 for r in rings):
+    sizes = np.diff(starts)
+    if (sizes[closed_walk] < 4).any():
         return None    # a segment doubling back on the one before
-    walks = sorted(paths + rings, key=lambda w: lab[w[0] >> 1])    # by body (stable)
-    body = lab[[w[0] >> 1 for w in walks]]
-    sizes = [len(w) for w in walks]
-    xy = flat[np.concatenate(walks)] / SCALE
-    ends = np.cumsum([0, *sizes])
-    bodies = np.r_[0, np.flatnonzero(np.diff(body)) + 1, len(walks)]
+    by_body = np.argsort(lab[slots[starts[:-1]] >> 1], kind="stable")
+    body = lab[slots[starts[by_body]] >> 1]
+    closed_walk, sizes = closed_walk[by_body], sizes[by_body]
+    xy = flat[np.concatenate([slots[starts[w]:starts[w + 1]] for w in by_body])] / SCALE
+    ends = np.r_[0, np.cumsum(sizes)]
+    bodies = np.r_[0, np.flatnonzero(np.diff(body)) + 1, len(by_body)]
     lines = shapely.from_ragged_array(shapely.GeometryType.MULTILINESTRING, xy, (ends, bodies))
     if not shapely.is_simple(lines).all():
         return None
-    closed = np.flatnonzero([w[0] == w[-1] for w in walks])
+    closed = np.flatnonzero(closed_walk)
     if not len(closed):
         return EMPTY
     return _even_odd_loops(xy, ends, closed, body[closed])
@@ -228,34 +200,3 @@ def _polygons(rings: list[np.ndarray], starts: np.ndarray) -> np.ndarray:
     shell) to starts[k + 1] (its holes before that), built in one call."""
     return shapely.from_ragged_array(shapely.GeometryType.POLYGON, np.concatenate(rings),
                                      (np.cumsum([0, *map(len, rings)]), starts))
-
-
-def _chain(partner: list[int], free: list[int]) -> tuple[list[list[int]], list[list[int]]]:
-    """Segments chained end to end (slots 2i and 2i + 1 are the ends of segment i;
-    partner: the slot meeting each, -1 at a free end): the open chains from their free
-    ends, then the closed loops (their first slot repeated last), each as the slots of
-    its points in order."""
-    seen = [False] * (len(partner) // 2)
-    paths = []
-    for slot in free:
-        if seen[slot >> 1]:
-            continue
-        walk = [slot]
-        while slot >= 0:
-            seen[slot >> 1] = True
-            slot ^= 1                  # the segment's other end
-            walk.append(slot)
-            slot = partner[slot]
-        paths.append(walk)
-    rings = []
-    for start in range(len(seen)):
-        if seen[start]:
-            continue
-        ring = []
-        slot = 2 * start
-        while not seen[slot >> 1]:
-            seen[slot >> 1] = True
-            ring.append(slot)
-            slot = partner[slot ^ 1]
-        rings.append([*ring, ring[0]])
-    return paths, rings

@@ -207,11 +207,12 @@ def test_real_parts(sample_db):
                      2.5e-6, -2.5e-6])), min_size=1, max_size=50))
 def test_snapping_is_geos_snapping(xs):
     """The snapped ends meet exactly where set_precision puts them (ties included)."""
-    from citysynth.parts_db.sections import SCALE, _snap
+    from citysynth.parts_db.section_loops import snap
+    from citysynth.parts_db.sections import SCALE
     x = np.array([*xs, 0.0])
     line = shapely.linestrings(np.stack([x, np.zeros_like(x)], axis=1))
     geos = shapely.get_coordinates(shapely.set_precision(line, GRID, mode="pointwise"))[:, 0]
-    np.testing.assert_array_equal(_snap(x * SCALE) / SCALE, geos)
+    np.testing.assert_array_equal(np.array([snap(s) for s in x * SCALE]) / SCALE, geos)
 
 
 def _plane_faces_area(pieces, plane) -> float:
