@@ -75,36 +75,44 @@ class Placed:
         """The instance at the precision the layout JSON keeps (so JSON, USD and glTF
         carry the same numbers and the checks test what is written)."""
         def r(v, nd):
-            return tuple(0.0 if x == 0 else x for x in (round(float(c), nd) for c in v))
-        cut = self.cut()
+            return tuple(0.0 if x == 0 else x for x in (round(c, nd) for c in v))
+        a = self.a.tolist()
         return Instance(self.part, self.cls, self.structure, self.stage, self.key,
-                        r(self.a[:, 0], AXIS_DIGITS), r(self.a[:, 1], AXIS_DIGITS),
-                        r(self.origin, COORD_DIGITS), cut)
+                        r((a[0][0], a[1][0]), AXIS_DIGITS), r((a[0][1], a[1][1]), AXIS_DIGITS),
+                        r(self.origin.tolist(), COORD_DIGITS), self.cut())
 
     def local_planes(self, extending: bool = False) -> list[tuple[float, float, float]]:
         """The half-planes in the part's frame: keep a*x + b*y <= c, (a, b) unit (only
         those the part is extended to, with ``extending``)."""
-        out = set()
+        return sorted({p for p, ext in self._local() if ext or not extending})
+
+    def _local(self) -> list[tuple[tuple[float, float, float], bool]]:
+        """Each half-plane in the part's frame (None-free), with whether the part is
+        extended to it. Plain floats: a city places hundreds of parts a block."""
+        if not self.halves:
+            return []
+        (a00, a01), (a10, a11) = self.a.tolist()
+        ox, oy = self.origin.tolist()
+        out = []
         for h in self.halves:
-            if extending and not h.extends:
-                continue
-            n = np.asarray(h.normal, dtype=float)
-            g = self.a.T @ n
-            norm = float(np.hypot(*g))
+            nx, ny = float(h.normal[0]), float(h.normal[1])
+            gx, gy = a00 * nx + a10 * ny, a01 * nx + a11 * ny      # a.T @ n
+            norm = math.hypot(gx, gy)
             if norm < 1e-12:
                 continue
-            c = float((np.asarray(h.point) - self.origin) @ n) / norm
-            a_, b_ = (round(float(x) / norm, PLANE_DIGITS) for x in g)
-            out.add((a_ + 0.0, b_ + 0.0, round(c, COORD_DIGITS) + 0.0))
-        return sorted(out)
+            c = ((float(h.point[0]) - ox) * nx + (float(h.point[1]) - oy) * ny) / norm
+            out.append(((round(gx / norm, PLANE_DIGITS) + 0.0,
+                         round(gy / norm, PLANE_DIGITS) + 0.0,
+                         round(c, COORD_DIGITS) + 0.0), h.extends))
+        return out
 
     def cut(self) -> Cut | None:
-        planes = self.local_planes()
-        if not planes:
+        local = self._local()
+        if not local:
             return None
-        return Cut(_extension(self.local_planes(extending=True), self.length, self.y_range),
-                   tuple(planes))
-
+        planes = sorted({p for p, _ext in local})
+        extending = sorted({p for p, ext in local if ext})
+        return Cut(_extension(extending, self.length, self.y_range), tuple(planes))
 
 
 def facade_span(cut: Cut | None, length: float) -> tuple[float, float]:

@@ -28,7 +28,13 @@ def srgb_to_linear(byte: int) -> float:
 
 def linear_rgb(piece: Piece) -> tuple[float, float, float]:
     """The piece's colour in linear space, rounded so files stay byte-stable."""
-    r, g, b = (round(srgb_to_linear(c), 6) for c in piece.rgba[:3])
+    return rgba_linear(piece.rgba)
+
+
+def rgba_linear(rgba: tuple[int, ...]) -> tuple[float, float, float]:
+    """An sRGB colour's (bytes) red, green and blue in linear space, rounded so files
+    stay byte-stable."""
+    r, g, b = (round(srgb_to_linear(c), 6) for c in rgba[:3])
     return r, g, b
 
 

@@ -33,7 +33,6 @@ from typing import Any, Protocol
 
 import numpy as np
 import shapely
-from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
 from citysynth.export.errors import ExportError
@@ -83,12 +82,12 @@ class _Path:
         return [i for i in range(1, len(self.p) - 1)
                 if s0 + TOL < self.cum[i] < s1 - TOL]
 
-    def distance(self, q) -> float:
-        """Distance from point q to the polyline."""
-        q = np.asarray(q, dtype=float)
-        t = np.clip(((q - self.p[:-1]) * self.dir).sum(axis=1), 0, self.len)
-        near = self.p[:-1] + self.dir * t[:, None]
-        return float(np.min(np.hypot(*(q - near).T)))
+    def distances(self, q: np.ndarray) -> np.ndarray:
+        """Distance from each point q [m, 2] to the polyline, in one pass."""
+        rel = q[:, None, :] - self.p[None, :-1]                      # [m, segments, 2]
+        t = np.clip((rel * self.dir).sum(axis=2), 0, self.len)
+        off = rel - self.dir * t[..., None]
+        return np.hypot(off[..., 0], off[..., 1]).min(axis=1)
 
 
 def _left(u) -> np.ndarray:
@@ -365,8 +364,9 @@ class _Placer:
         tree = shapely.STRtree(bands)
         for s in range(len(stages)):
             apart = set(self._apart(s))
-            for i in self.record.stages[s].fill:
-                foot = _footprint(self.placed[i], self.span[i])
+            fill = self.record.stages[s].fill
+            feet = _footprints([self.placed[i] for i in fill], [self.span[i] for i in fill])
+            for i, foot in zip(fill, feet, strict=True):
                 met = set()
                 for t in tree.query(foot, predicate="intersects"):
                     if int(t) not in apart:
@@ -604,9 +604,20 @@ def _mass_normal(direction: np.ndarray, front: Front) -> np.ndarray:
 
 def _footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
     """A module's plan rectangle (over its span, front overhang to depth)."""
-    (x0, x1), (y0, y1) = span, placed.y_range
-    pts = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) @ placed.a.T + placed.origin
-    return Polygon(pts)
+    return _footprints([placed], [span])[0]
+
+
+def _footprints(placed: Sequence[Placed], spans: Sequence[tuple[float, float]]
+                ) -> np.ndarray:
+    """Modules' plan rectangles (each over its span, front overhang to depth), built
+    in one call (a block has hundreds)."""
+    if not placed:
+        return np.empty(0, dtype=object)
+    pts = np.empty((len(placed), 4, 2))
+    for k, (p, (x0, x1)) in enumerate(zip(placed, spans, strict=True)):
+        y0, y1 = p.y_range
+        pts[k] = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) @ p.a.T + p.origin
+    return shapely.polygons(pts)
 
 
 def _clipped_footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
@@ -668,12 +679,14 @@ def _check(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
         segs.append(_key_segment(plan, record, parts, inst, keys, st.end, r.end_leg,
                                  outgoing=False))
         _check_joined(where, [(a, b) for a, b, _i, _leg in segs], bool(r.fill))
+        ends = np.array([(a, b) for a, b, _i, _leg in segs], dtype=float)
+        offs = r.path.distances(ends.reshape(-1, 2)).reshape(-1, 2)
         for n, (a, b, idx, leg) in enumerate(segs):
             if idx is None:     # a mitre joint: a point, and no part of its own
                 continue
             i = idx
             p = parts[inst[i].part]
-            _check_on_path(where, r.path, (a, b), inst[i].part,
+            _check_on_path(where, (a, b), offs[n], inst[i].part,
                            "leg of the key part" if leg is not None else "part")
             element = keys[st.start] if n == 0 else keys[st.end]
             _check_facing(where, (a, b), _facade_normal(inst[i], p, element, leg), st.front,
@@ -723,10 +736,10 @@ def _check_joined(where: str, segs: list[tuple[np.ndarray, np.ndarray]],
                               f"{at[1]:.2f}), {1e3 * gap:.1f} mm apart{hint}")
 
 
-def _check_on_path(where: str, path: _Path, seg: tuple[np.ndarray, np.ndarray],
+def _check_on_path(where: str, seg: tuple[np.ndarray, np.ndarray], offs: np.ndarray,
                    part: str, what: str) -> None:
-    for q in seg:
-        off = path.distance(q)
+    """A facade segment's ends (``offs``: their distances to the skeleton) lie on it."""
+    for q, off in zip(seg, offs.tolist(), strict=True):
         if off > TOL:
             raise ExportError(f"{where}: a {what} {part} ends {1e3 * off:.1f} mm off the "
                               f"skeleton at ({q[0]:.2f}, {q[1]:.2f})")

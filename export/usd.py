@@ -30,6 +30,7 @@ from __future__ import annotations
 import errno
 import os
 from collections.abc import Sequence
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +42,7 @@ from citysynth.export.materials import (
     linear_rgb,
     material_name,
     opacity,
+    rgba_linear,
     roughness,
 )
 from citysynth.export.naming import (
@@ -201,16 +203,26 @@ def _mesh_spec(parent: Sdf.PrimSpec, label: str, piece: Piece, material: Sdf.Pat
           Vt.Vec3fArray.FromNumpy(piece.normals.astype(np.float32)), UsdGeom.Tokens.uniform)
     _spec(mesh, "subdivisionScheme", t.Token, UsdGeom.Tokens.none,
           variability=Sdf.VariabilityUniform)
-    _spec(mesh, "extent", t.Float3Array, Vt.Vec3fArray(
-        [Gf.Vec3f(*pts.min(axis=0).tolist()), Gf.Vec3f(*pts.max(axis=0).tolist())]))
-    _spec(mesh, "primvars:displayColor", t.Color3fArray,
-          Vt.Vec3fArray([Gf.Vec3f(*linear_rgb(piece))]), UsdGeom.Tokens.constant)
+    _spec(mesh, "extent", t.Float3Array,
+          Vt.Vec3fArray.FromNumpy(np.stack([pts.min(axis=0), pts.max(axis=0)])))
+    _spec(mesh, "primvars:displayColor", t.Color3fArray, _display_color(piece.rgba),
+          UsdGeom.Tokens.constant)
     if piece.rgba[3] < 255:
         _spec(mesh, "primvars:displayOpacity", t.FloatArray,
               Vt.FloatArray([opacity(piece)]), UsdGeom.Tokens.constant)
-    mesh.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["MaterialBindingAPI"]))
+    mesh.SetInfo("apiSchemas", _BINDING_API)
     binding = Sdf.RelationshipSpec(mesh, "material:binding", False)
     binding.targetPathList.Prepend(material)
+
+
+_BINDING_API = Sdf.TokenListOp.Create(prependedItems=["MaterialBindingAPI"])
+
+
+@lru_cache(maxsize=256)
+def _display_color(rgba: tuple[int, int, int, int]) -> Vt.Vec3fArray:
+    """A piece colour's ``displayColor`` (linear), made once per colour: a city writes
+    hundreds of meshes a block in a few dozen colours."""
+    return Vt.Vec3fArray([Gf.Vec3f(*rgba_linear(rgba))])
 
 
 def _material_spec(looks: Sdf.PrimSpec, name: str, parts_dir: str) -> Sdf.Path:
