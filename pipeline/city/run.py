@@ -29,6 +29,7 @@ from typing import Protocol, TextIO
 import pyproj
 import shapely
 
+from citysynth.export.cuts import load_kernels
 from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.files import sweep_temporaries
 from citysynth.pipeline.city.config import BuildSettings, CityConfig, ZoneKind
@@ -329,12 +330,14 @@ def _local(jobs: list[BlockJob], out: Path, workers: int) -> Iterator[BlockRecor
 
 
 def warm_up(job: BlockJob) -> None:
-    """Solve one block here before the local workers fork, discarding the answer: they
-    inherit its compiled solver kernels and the loaded library instead of each
-    compiling them (a minute of CPU each on a first run) or loading them. Whatever goes
+    """Solve one block here before the local workers fork, discarding the answer, and
+    run the cut kernels once: the workers inherit the compiled solver and cut kernels
+    and the loaded library instead of each compiling them (a minute of CPU each on a
+    first run) or loading them. Whatever goes
     wrong is left for the block's worker to meet and record."""
     try:
         solve_block(job, worker_library(job.library))
+        load_kernels()
     except Exception:   # noqa: BLE001 - recorded where it belongs, by the block's worker
         return
 
