@@ -291,7 +291,13 @@ def _xform(spec: Sdf.PrimSpec, name: str, type_name, value) -> None:
     op.default = value
     order = Sdf.AttributeSpec(spec, "xformOpOrder", Sdf.ValueTypeNames.TokenArray,
                               Sdf.VariabilityUniform)
-    order.default = Vt.TokenArray([name])
+    order.default = _op_order(name)
+
+
+@lru_cache(maxsize=8)
+def _op_order(name: str) -> Vt.TokenArray:
+    """``xformOpOrder`` naming one op (made once per op name)."""
+    return Vt.TokenArray([name])
 
 
 def _georeference(spec: Sdf.PrimSpec, frame: str) -> dict:
@@ -408,15 +414,22 @@ def _write_layer(lay: Layout, path: Path, cuts: str) -> Path:
                                 prim_name(label), Sdf.SpecifierDef, "Xform")
             spec.instanceable = True
             spec.referenceList.Prepend(_prototype_reference(inst, cuts))
-            spec.customData = _vt({"citysynth": {"part": inst.part}})
+            spec.customData = {"citysynth": {"part": inst.part}}
             _user(spec, "part", inst.part, Sdf.ValueTypeNames.String)
-            m = inst.matrix().T   # USD multiplies row vectors: translation in the last row
-            _xform(spec, "xformOp:transform", Sdf.ValueTypeNames.Matrix4d,
-                   Gf.Matrix4d(*m.ravel().tolist()))
+            _xform(spec, "xformOp:transform", Sdf.ValueTypeNames.Matrix4d, _usd_matrix(inst))
         _stage_metadata(layer, root_name)
         layer.customLayerData = {"generator": "citysynth"}
     _export(layer, path)
     return path
+
+
+def _usd_matrix(inst: Instance) -> Gf.Matrix4d:
+    """The instance's placement as USD's matrix: USD multiplies row vectors, so its rows
+    are the columns of :meth:`~citysynth.export.layout.Instance.matrix` (the images of
+    X, Y and Z, then the translation). Plain floats: a block writes hundreds."""
+    (xx, xy), (yx, yy), (ox, oy) = inst.x_axis, inst.y_axis, inst.origin
+    return Gf.Matrix4d(xx, xy, 0.0, 0.0, yx, yy, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+                       ox, oy, inst.z, 1.0)
 
 
 def write_variants(path: str | Path, name: str, ranks: list[tuple[int, str]],

@@ -23,7 +23,7 @@ count toward each side's intervals and, in full, toward the structure-wide ones.
 from __future__ import annotations
 
 import math
-from collections import defaultdict
+from collections import OrderedDict, defaultdict
 from dataclasses import dataclass
 from typing import cast
 
@@ -536,6 +536,23 @@ def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
 
 
 def _transitions(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
+    """:func:`_transition_tables`, made once per process for each set of parts (every
+    block of a style asks for the same tables, which took milliseconds of Python a
+    block to build); each caller gets its own copies."""
+    key = (db.library_hash, tuple(p.id for p in fillers), tuple(kp.parts), kp.joint)
+    tables = _TABLES.get(key)
+    if tables is None:
+        tables = _TABLES[key] = _transition_tables(db, fillers, kp)
+        if len(_TABLES) > CACHED_TABLES:
+            _TABLES.popitem(last=False)
+    return {name: dict(table) for name, table in tables.items()}
+
+
+CACHED_TABLES = 64    # sets of parts whose transition tables a process keeps
+_TABLES: OrderedDict[tuple, dict[str, dict[tuple[str, str], float]]] = OrderedDict()
+
+
+def _transition_tables(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
     """The database's costs between every pair of parts; from a T's branch leg, the
     branch costs; into a T's branch leg (an H's bar ending at its T), the disagreement
     with the branch section. A T part in another pose than its own
