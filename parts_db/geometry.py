@@ -25,6 +25,7 @@ from numba import njit
 
 from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.library import Part, PartDB
+from citysynth.parts_db.meshes import unreadable
 
 DEFAULT_RGBA = (200, 200, 200, 255)   # meshes without colours
 _KIND = re.compile(r"^[A-Za-z]+")
@@ -83,8 +84,8 @@ def _pieces(path: str, part_id: str, meters_per_unit: float,
     try:
         loaded = trimesh.load(path, force=None, process=False)
     except Exception as exc:  # trimesh raises many kinds for unreadable files
-        raise LibraryError(f'part "{part_id}" ({path}): cannot read the mesh '
-                           f"({type(exc).__name__}: {exc}); ingest the library again") from None
+        raise LibraryError(f'part "{part_id}" ({path}): {unreadable(exc, path)} (it changed '
+                           "since the library was ingested); ingest the library again") from None
     groups: dict[tuple[str, RGBA], Group] = {}
     if isinstance(loaded, trimesh.Scene):
         for node in sorted(loaded.graph.nodes_geometry):

@@ -7,7 +7,9 @@ names are counted so a manifest need not repeat what the model already says.
 
 from __future__ import annotations
 
+import json
 import re
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -30,10 +32,11 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
     if not path.is_file():
         raise LibraryError(f"{where}: mesh file not found")
     try:
+        _check_gltf(path)
         loaded = trimesh.load(str(path), force=None, process=False)
     except Exception as exc:  # trimesh raises many kinds for unreadable files
-        raise LibraryError(f"{where}: cannot read the mesh ({type(exc).__name__}: {exc})") \
-            from None
+        raise LibraryError(f"{where}: {unreadable(exc, path)}; export the mesh again from "
+                           "its modelling tool, or drop the part from the manifest") from None
     counts = {k: 0 for k in COUNTED}
     if isinstance(loaded, trimesh.Scene):
         for node in loaded.graph.nodes_geometry:
@@ -53,6 +56,49 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
         mesh = mesh.copy()
         mesh.apply_scale(meters_per_unit)
     return mesh, counts
+
+
+class _Damaged(ValueError):
+    """A mesh file's own structure says it is damaged (what, in the format's terms)."""
+
+
+def _check_gltf(path: Path) -> None:
+    """What a glTF file's own structure tells before trimesh parses it: a GLB's header
+    (magic, version 2, its declared length against the file's), a .gltf's JSON. trimesh
+    reads past a short GLB into its JSON, and a damaged .gltf as a missing file."""
+    kind = path.suffix.lower()
+    if kind == ".glb":
+        head = path.read_bytes()[:12]
+        size = path.stat().st_size
+        if len(head) < 12 or head[:4] != b"glTF":
+            raise _Damaged("the file has no glTF header (it is not a GLB, or is cut short "
+                           "within its first 12 bytes)")
+        version, length = struct.unpack("<II", head[4:12])
+        if version != 2:
+            raise _Damaged(f"its header gives glTF version {version}; only glTF 2 is read")
+        if length > size:
+            raise _Damaged(f"the file is cut short: its header gives {length:,} bytes, the "
+                           f"file has {size:,}")
+    elif kind == ".gltf":
+        json.loads(path.read_bytes().decode("utf-8"))
+
+
+def unreadable(exc: Exception, path: Path | str) -> str:
+    """Why a mesh file could not be read, in the file's terms (where its format says
+    what went wrong), not the parser's exception text alone."""
+    kind = Path(path).suffix.lower()
+    name = kind.lstrip(".").upper()
+    if isinstance(exc, _Damaged):
+        return f"the mesh cannot be read: {exc}"
+    if isinstance(exc, json.JSONDecodeError):
+        where = "its glTF JSON chunk" if kind == ".glb" else "its JSON"
+        return f"the mesh cannot be read: {where} is damaged at character {exc.pos} ({exc.msg})"
+    if isinstance(exc, UnicodeDecodeError):
+        return f"the mesh cannot be read: byte {exc.start} is not text where {name} needs text"
+    if isinstance(exc, struct.error | EOFError | ValueError | KeyError | IndexError):
+        return (f"the mesh cannot be read: the file is cut short or not a valid {name} file "
+                f"({type(exc).__name__}: {exc})")
+    return f"the mesh cannot be read ({type(exc).__name__}: {exc})"
 
 
 def _flatten(scene: trimesh.Scene):

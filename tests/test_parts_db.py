@@ -177,12 +177,22 @@ def test_cache_folder_policy(tmp_path, monkeypatch):
 
 
 GOOD = _box(0, 3, 0, 10, 0, 6)
+GLB = GOOD.export(file_type="glb")
 
 
 @pytest.mark.parametrize("parts, extra_lib, fragment", [
     ([("A", "missing.stl", None, 'class = "middle"')], "", "mesh file not found"),
     ([("A", "bad.glb", b"glTF this is not a binary gltf", 'class = "middle"')], "",
-     "cannot read the mesh"),
+     "the mesh cannot be read: its header gives glTF version"),
+    ([("A", "json.glb", GLB[:20] + GLB[20:].replace(b'":', b'";', 1), 'class = "middle"')],
+     "", "its glTF JSON chunk is damaged at character"),
+    ([("A", "short.glb", GLB[:len(GLB) // 2], 'class = "middle"')], "",
+     f"the file is cut short: its header gives {len(GLB):,} bytes"),
+    ([("A", "head.glb", GLB[:9], 'class = "middle"')], "", "the file has no glTF header"),
+    ([("A", "a.gltf", b'{"asset": {"version": "2.0"}, "meshes": [', 'class = "middle"')],
+     "", "its JSON is damaged at character 41"),
+    ([("A", "a.ply", GOOD.export(file_type="ply")[:200], 'class = "middle"')], "",
+     "the file is cut short or not a valid PLY file"),
     ([("A", "empty.obj", b"# no geometry\n", 'class = "middle"')], "", "empty"),
     ([("A", "nan.obj", b"v 0 0 0\nv 1 0 0\nv nan 1 0\nf 1 2 3\n", 'class = "middle"')], "",
      "non-finite"),
