@@ -115,35 +115,30 @@ def _clip(verts, faces, a, b, c, out_n_t, in_n_t, lone_t):  # noqa: C901 (one pa
             out_f[r, 0], out_f[r, 1], out_f[r, 2] = faces[f, 0], faces[f, 1], faces[f, 2]
             src[r] = f
             r += 1
-    # one vertex cut away: i, j, P_jk, P_ki as two triangles (all firsts, then seconds)
-    q1, q2 = n_keep, n_keep + m1
-    base_ki, base_jk = nv, nv + m1
-    t = 0
+    # a crossed face adds P_ki (on edge k -> i) and P_jk (on edge j -> k); with its one
+    # vertex k cut away it keeps i, j, P_jk, P_ki as two triangles (all firsts, then all
+    # seconds), with only k kept the triangle k, P_ki, P_jk (after those)
+    t1 = t2 = 0
     for f in range(nf):
-        if kind[f] != 2:
+        if kind[f] < 2:
             continue
         k = lone[f]
         fk, fi, fj = faces[f, k], faces[f, (k + 1) % 3], faces[f, (k + 2) % 3]
-        _cross_point(verts, d, fk, fi, v, base_ki + t)
-        _cross_point(verts, d, fj, fk, v, base_jk + t)
-        out_f[q1 + t, 0], out_f[q1 + t, 1], out_f[q1 + t, 2] = fi, fj, base_jk + t
-        out_f[q2 + t, 0], out_f[q2 + t, 1], out_f[q2 + t, 2] = fi, base_jk + t, base_ki + t
-        src[q1 + t] = src[q2 + t] = f
-        t += 1
-    # one vertex kept: k, P_ki, P_jk
-    q3 = n_keep + 2 * m1
-    base_ki, base_jk = nv + 2 * m1, nv + 2 * m1 + m2
-    t = 0
-    for f in range(nf):
-        if kind[f] != 3:
-            continue
-        k = lone[f]
-        fk, fi, fj = faces[f, k], faces[f, (k + 1) % 3], faces[f, (k + 2) % 3]
-        _cross_point(verts, d, fk, fi, v, base_ki + t)
-        _cross_point(verts, d, fj, fk, v, base_jk + t)
-        out_f[q3 + t, 0], out_f[q3 + t, 1], out_f[q3 + t, 2] = fk, base_ki + t, base_jk + t
-        src[q3 + t] = f
-        t += 1
+        if kind[f] == 2:
+            ki, jk = nv + t1, nv + m1 + t1
+            r1, r2 = n_keep + t1, n_keep + m1 + t1
+            out_f[r1, 0], out_f[r1, 1], out_f[r1, 2] = fi, fj, jk
+            out_f[r2, 0], out_f[r2, 1], out_f[r2, 2] = fi, jk, ki
+            src[r1] = src[r2] = f
+            t1 += 1
+        else:
+            ki, jk = nv + 2 * m1 + t2, nv + 2 * m1 + m2 + t2
+            r1 = n_keep + 2 * m1 + t2
+            out_f[r1, 0], out_f[r1, 1], out_f[r1, 2] = fk, ki, jk
+            src[r1] = f
+            t2 += 1
+        _cross_point(verts, d, fk, fi, v, ki)
+        _cross_point(verts, d, fj, fk, v, jk)
     ok = np.empty(total, dtype=np.bool_)
     n_ok = 0
     for r in range(total):

@@ -31,6 +31,7 @@ from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import street_front_problem
 from citysynth.solver import Problem, solve
+from citysynth.solver.diagnose import nearest
 
 BEND = 5.0           # degrees: a facade line turning more than this starts a new run
 MIN_RUN = 6.0        # metres: shorter runs (between close bends) stay empty
@@ -206,8 +207,7 @@ def _why(run: Run, details: list[dict]) -> str:
     where = f"the {run.side} side's run {run.index + 1} ({run.line.length:.1f} m)"
     said = []
     for d in details:
-        near = " or ".join(f"{x:g}" for x in (d.get("nearest_below"), d.get("nearest_above"))
-                           if x is not None)
+        near = " or ".join(f"{x:g}" for x in nearest(d))
         if d["constraint"] == "length":
             said.append("no row of the buildings fits its length" +
                         (f" (the nearest rows measure {near} m); allow more --stretch or "

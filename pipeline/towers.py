@@ -30,6 +30,7 @@ from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import tower_problem
 from citysynth.solver import Problem, solve
+from citysynth.solver.diagnose import nearest
 
 FIT_TOL = 0.01        # metres a part may reach past its lot (the lot's own rounding)
 AREA_QUANTUM = 1.0    # m² of floor area the solver counts in (its rounding error is
@@ -136,7 +137,7 @@ def _why(details: list[dict], lot: Lot) -> str:
     its resources: height, floor_area)."""
     said = []
     for d in details:
-        near = [x for x in (d.get("nearest_below"), d.get("nearest_above")) if x is not None]
+        near = nearest(d)
         if d["constraint"] == "height":
             tall = " or ".join(f"{x:g} m" for x in near)
             said.append("no stack of the tower parts has that height" +

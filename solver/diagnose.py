@@ -17,6 +17,13 @@ from citysynth.solver.estimate import dense_rows
 from citysynth.solver.graph import grow
 
 
+def nearest(detail: dict) -> list[float]:
+    """A blocking constraint's nearest achievable totals (below, then above; those
+    that exist), from an entry of :func:`diagnose`'s details."""
+    return [x for x in (detail.get("nearest_below"), detail.get("nearest_above"))
+            if x is not None]
+
+
 def _fmt(x: float) -> str:
     return f"{round(x, 9):g}"
 
