@@ -31,12 +31,16 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
                            f"{', '.join(sorted(FORMATS))}")
     if not path.is_file():
         raise LibraryError(f"{where}: mesh file not found")
+    fix = "export the mesh again from its modelling tool, or drop the part from the manifest"
     try:
-        _check_gltf(path)
-        loaded = trimesh.load(str(path), force=None, process=False)
+        damage = glb_damage(path)
+        if damage is None and path.suffix.lower() == ".gltf":   # trimesh would read
+            json.loads(path.read_bytes().decode("utf-8"))        # damaged JSON as a missing file
+        loaded = None if damage else trimesh.load(str(path), force=None, process=False)
     except Exception as exc:  # trimesh raises many kinds for unreadable files
-        raise LibraryError(f"{where}: {unreadable(exc, path)}; export the mesh again from "
-                           "its modelling tool, or drop the part from the manifest") from None
+        raise LibraryError(f"{where}: {unreadable(exc, path)}; {fix}") from None
+    if damage:
+        raise LibraryError(f"{where}: the mesh cannot be read: {damage}; {fix}")
     counts = {k: 0 for k in COUNTED}
     if isinstance(loaded, trimesh.Scene):
         for node in loaded.graph.nodes_geometry:
@@ -58,29 +62,24 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
     return mesh, counts
 
 
-class _Damaged(ValueError):
-    """A mesh file's own structure says it is damaged (what, in the format's terms)."""
-
-
-def _check_gltf(path: Path) -> None:
-    """What a glTF file's own structure tells before trimesh parses it: a GLB's header
-    (magic, version 2, its declared length against the file's), a .gltf's JSON. trimesh
-    reads past a short GLB into its JSON, and a damaged .gltf as a missing file."""
-    kind = path.suffix.lower()
-    if kind == ".glb":
-        head = path.read_bytes()[:12]
-        size = path.stat().st_size
-        if len(head) < 12 or head[:4] != b"glTF":
-            raise _Damaged("the file has no glTF header (it is not a GLB, or is cut short "
-                           "within its first 12 bytes)")
-        version, length = struct.unpack("<II", head[4:12])
-        if version != 2:
-            raise _Damaged(f"its header gives glTF version {version}; only glTF 2 is read")
-        if length > size:
-            raise _Damaged(f"the file is cut short: its header gives {length:,} bytes, the "
-                           f"file has {size:,}")
-    elif kind == ".gltf":
-        json.loads(path.read_bytes().decode("utf-8"))
+def glb_damage(path: Path) -> str | None:
+    """What a GLB's own header says is wrong with it (no glTF header, a version other
+    than 2, fewer bytes than it declares), or None (and None for other formats).
+    trimesh reads on past a short GLB into its JSON and reports that instead."""
+    if path.suffix.lower() != ".glb":
+        return None
+    with path.open("rb") as f:
+        head = f.read(12)
+    size = path.stat().st_size
+    if len(head) < 12 or head[:4] != b"glTF":
+        return "the file has no glTF header (it is not a GLB, or is cut short within its " \
+            "first 12 bytes)"
+    version, length = struct.unpack("<II", head[4:12])
+    if version != 2:
+        return f"its header gives glTF version {version}; only glTF 2 is read"
+    if length > size:
+        return f"the file is cut short: its header gives {length:,} bytes, the file has {size:,}"
+    return None
 
 
 def unreadable(exc: Exception, path: Path | str) -> str:
@@ -88,8 +87,6 @@ def unreadable(exc: Exception, path: Path | str) -> str:
     what went wrong), not the parser's exception text alone."""
     kind = Path(path).suffix.lower()
     name = kind.lstrip(".").upper()
-    if isinstance(exc, _Damaged):
-        return f"the mesh cannot be read: {exc}"
     if isinstance(exc, json.JSONDecodeError):
         where = "its glTF JSON chunk" if kind == ".glb" else "its JSON"
         return f"the mesh cannot be read: {where} is damaged at character {exc.pos} ({exc.msg})"

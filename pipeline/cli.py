@@ -18,7 +18,11 @@ import warnings
 from importlib.metadata import PackageNotFoundError, version
 
 from citysynth.parts_db.library import CACHE_ENV
-from citysynth.pipeline.city.process import EXIT_TERMINATED, Terminated
+from citysynth.pipeline.city.process import (
+    EXIT_TERMINATED,
+    Terminated,
+    terminate_as_interrupt,
+)
 from citysynth.pipeline.commands import (
     build,
     city,
@@ -115,7 +119,8 @@ def _run(argv: list[str] | None) -> int:
             check_out_dir(args.out)
         if args.command in SOLVING:
             announce_compile()
-        return int(args.run(args))
+        with terminate_as_interrupt():   # SIGTERM anywhere in a command: exit 143
+            return int(args.run(args))
     except USER_ERRORS as exc:
         print(f"citysynth {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

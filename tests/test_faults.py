@@ -54,12 +54,13 @@ def snapshot(out: Path) -> dict[str, bytes]:
 
 
 @pytest.fixture(scope="module")
-def clean_twelve(tmp_path_factory):
-    """A twelve-block city, its clean run: enough work that the workers are still
+def clean_busy(tmp_path_factory):
+    """A 48-block city, its clean run: enough work that the workers are still
     building blocks half a second after they start (the parent solves one block
-    before they fork, so the three-block city can be done by then)."""
-    base = tmp_path_factory.mktemp("faults12")
-    streets = grid_streets(base / "streets.geojson", blocks=12)
+    before they fork, so the three-block city can be done by then, and two workers
+    build about 19 blocks a second since 2026-11-26, so twelve were too)."""
+    base = tmp_path_factory.mktemp("faults48")
+    streets = grid_streets(base / "streets.geojson", blocks=48)
     out = base / "clean"
     assert main(city_args(streets, out, "--workers", "2")) == 0
     return streets, out, snapshot(out)
@@ -112,9 +113,9 @@ def start_and_wait_for_workers(streets: Path, out: Path) -> tuple[subprocess.Pop
 
 @pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130),
                                        (signal.SIGKILL, -9)])
-def test_a_signal_stops_the_workers_and_the_rerun_repairs(clean_twelve, tmp_path, sig,
+def test_a_signal_stops_the_workers_and_the_rerun_repairs(clean_busy, tmp_path, sig,
                                                           code):
-    streets, _, snap = clean_twelve
+    streets, _, snap = clean_busy
     out = tmp_path / "run"
     proc, workers = start_and_wait_for_workers(streets, out)
     os.kill(proc.pid, sig)
@@ -378,3 +379,21 @@ def test_a_cold_kernel_cache_is_announced(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(compile_notice, "kernels_cold", lambda: True)
     assert cli.main(["solve", str(ROOT / "examples" / "facade_small.json")]) == 0
     assert compile_notice.NOTICE in capsys.readouterr().err
+
+
+def test_sigterm_after_the_blocks_still_exits_143(clean, tmp_path, monkeypatch, capsys):
+    """SIGTERM while the city stage is written (every block built, the workers gone)
+    stops the command as Ctrl-C does, exit 143, not a kill by the signal's default
+    action (it was, once two workers built a small city in under half a second)."""
+    import citysynth.pipeline.commands.city as city_cmd
+
+    def finish(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(5)            # the handler raises before this ends
+        raise AssertionError("SIGTERM was not handled")
+
+    monkeypatch.setattr(city_cmd, "finish_city", finish)
+    streets, _ref, _snap = clean
+    assert main(city_args(streets, tmp_path / "run", "--workers", "1")) == 143
+    assert "terminated" in capsys.readouterr().err
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
