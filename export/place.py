@@ -278,6 +278,7 @@ class _Placer:
         if p.cls in ("end_left", "end_right"):   # one straight instance realises its leg
             (leg, v), = legs.items()
             i = self._add(_straight_key(p, self.si, j, self.kxy[j], v, leg == 0, front))
+            self.span[i] = (0.0, self.placed[i].length)
             for leg in (0, 1, 2):
                 self.record.keys[(j, leg)] = i
             return
@@ -542,6 +543,15 @@ class _Placer:
                 continue
             placed.halves.append(half if n == 0 else replace(half, extends=False))
 
+    def _end_part(self, s: int, start: bool) -> list[int]:
+        """The end part closing stage s at its start (or end), as a list: none where that
+        end is a corner, a T or a joint. Beside a sharp corner a short wing reaches past
+        the joint's plane with its end part too, into the other wing's end part (two
+        60 m wings at 15 degrees overlapped on 39 m² there), so it is cut like a module."""
+        st = self.plan.stages[s]
+        i = self.record.keys.get((st.start, st.start_leg) if start else (st.end, st.end_leg))
+        return [i] if i is not None and self.placed[i].cls in ("end_left", "end_right") else []
+
     def _joint(self, j: int) -> None:
         """Cut the modules meeting at joint j on its bisector plane."""
         s_in = self.ins[j]
@@ -561,9 +571,11 @@ class _Placer:
         # every module near the corner whose mass reaches past a plane is cut by it (at
         # a right angle, the modules within a building depth of the corner)
         for half in before:
-            self._cut_reaching(reversed(fill_in), half, s_in, s_out)
+            self._cut_reaching([*reversed(fill_in), *self._end_part(s_in, start=True)], half,
+                               s_in, s_out)
         for half in after:
-            self._cut_reaching(fill_out, half, s_out, s_in)
+            self._cut_reaching([*fill_out, *self._end_part(s_out, start=False)], half, s_out,
+                               s_in)
         if how == "mitre" and not is_convex(u_in, u_out, mass_left):
             for s, u, half, incoming in ((s_in, u_in, before[0], True),
                                          (s_out, u_out, after[0], False)):
