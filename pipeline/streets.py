@@ -18,7 +18,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import shapely
@@ -36,6 +38,9 @@ from citysynth.solver.diagnose import nearest
 BEND = 5.0           # degrees: a facade line turning more than this starts a new run
 MIN_RUN = 6.0        # metres: shorter runs (between close bends) stay empty
 SIDES = ("left", "right")
+
+
+Locate = Callable[[Any], str]   # a local point in the input's coordinates, as text
 
 
 @dataclass(frozen=True)
@@ -186,9 +191,10 @@ class StreetAsk:
 
 
 def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
-                 frame: str = "local") -> Built:
+                 frame: str = "local", locate: Locate | None = None) -> Built:
     """The k best rows of buildings along ``street`` (each run's i-th best, or its last
-    when it has fewer), or infeasible with the first run that has none."""
+    when it has fewer), or infeasible with the first run that has none (``locate``: a
+    local point in the input's coordinates, as text, to say where that run lies)."""
     parts = db.select("building", ask.style)
     if not parts:
         raise UsageError(f"the library {db.name!r} has no complete buildings"
@@ -198,13 +204,16 @@ def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
     if not all_runs:
         raise UsageError(f"{name}: the street line has no straight run of at least "
                          f"{MIN_RUN:g} m to build on")
-    return solve_runs(name, all_runs, db, ask, frame)
+    return solve_runs(name, all_runs, db, ask, frame, locate)
 
 
-def _why(run: Run, details: list[dict]) -> str:
+def _why(run: Run, details: list[dict], locate: Locate | None = None) -> str:
     """Why a run takes no row of buildings, in metres and the asked intervals (the
-    solver's details: each blocking constraint and the nearest totals it reaches)."""
-    where = f"the {run.side} side's run {run.index + 1} ({run.line.length:.1f} m)"
+    solver's details: each blocking constraint and the nearest totals it reaches), and
+    where the run lies when ``locate`` can say it in the input's coordinates."""
+    ends = "" if locate is None else (f", from {locate(run.line.coords[0])} to "
+                                      f"{locate(run.line.coords[-1])}")
+    where = f"the {run.side} side's run {run.index + 1} ({run.line.length:.1f} m{ends})"
     said = []
     for d in details:
         near = " or ".join(f"{x:g}" for x in nearest(d))
@@ -222,7 +231,7 @@ def _why(run: Run, details: list[dict]) -> str:
 
 
 def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
-               frame: str = "local") -> Built:
+               frame: str = "local", locate: Locate | None = None) -> Built:
     """The k best rows of buildings on ``all_runs`` (each run solved on its own; see
     :func:`solve_street`)."""
     t0 = time.perf_counter()
@@ -235,7 +244,7 @@ def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
         problem["constraints"] = cons
         r = solve(Problem.from_dict(problem))
         if r.status != "ok":
-            return Built(name, "infeasible", reason=_why(run, r.details),
+            return Built(name, "infeasible", reason=_why(run, r.details, locate),
                          timings={"solve_s": time.perf_counter() - t0})
         solved.append(r.solutions)
     t1 = time.perf_counter()

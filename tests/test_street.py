@@ -112,9 +112,11 @@ def test_runs_split_at_bends_and_stop_short_of_inner_corners():
     (["--side", "both", "--offset", "0"], 2, "--offset must be a positive number"),
     (["--doors", "5", "2"], 2, "--doors LO HI needs 0 <= LO <= HI"),
     (["--doors", "60", "70"], 1, "infeasible: the left side's run 1 ("),
-    (["--doors", "60", "70"], 1, " m): its doors in [60, 70] cannot be met by the buildings, "
+    # located in the file's own CRS (EPSG:25832 metres), not the local frame
+    (["--doors", "60", "70"], 1, " m, from (690000.00, 5335006.00) to (690199.55, "),
+    (["--doors", "60", "70"], 1, ")): its doors in [60, 70] cannot be met by the buildings, "
                                  "which make "),
-    (["--windows", "0", "0"], 1, "m): the buildings meet its length and the asked intervals "
+    (["--windows", "0", "0"], 1, ")): the buildings meet its length and the asked intervals "
                                  "each alone but not together; relax one"),
 ])
 def test_street_bad_or_impossible_asks(tmp_path, capsys, args, code, text):

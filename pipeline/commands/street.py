@@ -101,7 +101,8 @@ def run(args) -> int:
     ask = _ask(args)
     line, frame = read_line(args.line, args.crs)
     db = load_library(args.library)
-    built = solve_street(safe_name(Path(args.line).stem), line, db, ask, frame.describe())
+    built = solve_street(safe_name(Path(args.line).stem), line, db, ask, frame.describe(),
+                         frame.at)
     if built.status != "ok":
         print(f"citysynth street: {built.name}: infeasible: {built.reason}", file=sys.stderr)
         return 1
