@@ -87,8 +87,9 @@ class Placed:
         return sorted({p for p, ext in self._local() if ext or not extending})
 
     def _local(self) -> list[tuple[tuple[float, float, float], bool]]:
-        """Each half-plane in the part's frame (None-free), with whether the part is
-        extended to it. Plain floats: a city places hundreds of parts a block."""
+        """Each half-plane in the part's frame (those whose normal the placement does not
+        collapse), with whether the part is extended to it. Plain floats: a city places
+        hundreds of parts a block."""
         if not self.halves:
             return []
         (a00, a01), (a10, a11) = self.a.tolist()

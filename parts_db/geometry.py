@@ -18,14 +18,14 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 import trimesh
 from numba import njit
 
-from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.library import Part, PartDB
-from citysynth.parts_db.meshes import unreadable
+from citysynth.parts_db.meshes import read_mesh
 
 DEFAULT_RGBA = (200, 200, 200, 255)   # meshes without colours
 _KIND = re.compile(r"^[A-Za-z]+")
@@ -81,11 +81,8 @@ Group = list[tuple[np.ndarray, np.ndarray]]   # (vertices, faces) of the sub-mes
 @lru_cache(maxsize=1024)
 def _pieces(path: str, part_id: str, meters_per_unit: float,
             origin: tuple[float, float, float], scale: float) -> tuple[Piece, ...]:
-    try:
-        loaded = trimesh.load(path, force=None, process=False)
-    except Exception as exc:  # trimesh raises many kinds for unreadable files
-        raise LibraryError(f'part "{part_id}" ({path}): {unreadable(exc, path)} (it changed '
-                           "since the library was ingested); ingest the library again") from None
+    loaded = read_mesh(Path(path), f'part "{part_id}" ({path})',
+                       "it changed since the library was ingested; ingest the library again")
     groups: dict[tuple[str, RGBA], Group] = {}
     if isinstance(loaded, trimesh.Scene):
         for node in sorted(loaded.graph.nodes_geometry):

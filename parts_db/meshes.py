@@ -31,16 +31,8 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
                            f"{', '.join(sorted(FORMATS))}")
     if not path.is_file():
         raise LibraryError(f"{where}: mesh file not found")
-    fix = "export the mesh again from its modelling tool, or drop the part from the manifest"
-    try:
-        damage = glb_damage(path)
-        if damage is None and path.suffix.lower() == ".gltf":   # trimesh would read
-            json.loads(path.read_bytes().decode("utf-8"))        # damaged JSON as a missing file
-        loaded = None if damage else trimesh.load(str(path), force=None, process=False)
-    except Exception as exc:  # trimesh raises many kinds for unreadable files
-        raise LibraryError(f"{where}: {unreadable(exc, path)}; {fix}") from None
-    if damage:
-        raise LibraryError(f"{where}: the mesh cannot be read: {damage}; {fix}")
+    loaded = read_mesh(path, where, "export the mesh again from its modelling tool, or "
+                       "drop the part from the manifest")
     counts = {k: 0 for k in COUNTED}
     if isinstance(loaded, trimesh.Scene):
         for node in loaded.graph.nodes_geometry:
@@ -60,6 +52,23 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
         mesh = mesh.copy()
         mesh.apply_scale(meters_per_unit)
     return mesh, counts
+
+
+def read_mesh(path: Path, where: str, fix: str):
+    """The file loaded by trimesh (a Scene or a Trimesh, unprocessed), or a LibraryError
+    ``where: why; fix`` saying in the format's terms what is wrong with it: what a GLB's
+    header says first (:func:`glb_damage`), a .gltf's JSON checked before trimesh reads
+    it (trimesh takes damaged JSON for a missing file), else :func:`unreadable`."""
+    try:
+        damage = glb_damage(path)
+        if damage is None and path.suffix.lower() == ".gltf":
+            json.loads(path.read_bytes().decode("utf-8"))
+        loaded = None if damage else trimesh.load(str(path), force=None, process=False)
+    except Exception as exc:  # trimesh raises many kinds for unreadable files
+        raise LibraryError(f"{where}: {unreadable(exc, path)}; {fix}") from None
+    if damage:
+        raise LibraryError(f"{where}: the mesh cannot be read: {damage}; {fix}")
+    return loaded
 
 
 def glb_damage(path: Path) -> str | None:

@@ -270,3 +270,18 @@ def test_parallel_cost_table_matches_serial(monkeypatch):
     serial = costs.cost_matrix(secs, secs[::-1], allowed)
     monkeypatch.setattr(costs, "PAIRS_PER_WORKER", 100)  # a real process pool
     assert np.array_equal(costs.cost_matrix(secs, secs[::-1], allowed), serial)
+
+
+def test_a_mesh_damaged_after_ingest_is_told_when_it_is_exported(tmp_path):
+    """Export reads part meshes again (their colours); one cut short since the library
+    was ingested is told in the GLB's terms, as ingest tells it, with the fix."""
+    from citysynth.parts_db.geometry import part_pieces
+
+    lib = _library(tmp_path, [("A", "a.glb", GLB, 'class = "middle"')])
+    db = ingest(lib, tmp_path / "db")
+    (lib / "a.glb").write_bytes(GLB[:len(GLB) // 2])
+    with pytest.raises(LibraryError) as exc:
+        part_pieces(db, db.part("A"))
+    msg = str(exc.value)
+    assert f"the file is cut short: its header gives {len(GLB):,} bytes" in msg
+    assert msg.endswith("it changed since the library was ingested; ingest the library again")

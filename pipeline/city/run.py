@@ -333,8 +333,8 @@ def warm_up(job: BlockJob) -> None:
     """Solve one block here before the local workers fork, discarding the answer, and
     run the cut kernels once: the workers inherit the compiled solver and cut kernels
     and the loaded library instead of each compiling them (a minute of CPU each on a
-    first run) or loading them. Whatever goes
-    wrong is left for the block's worker to meet and record."""
+    first run) or loading them. Whatever goes wrong is left for the block's worker to
+    meet and record."""
     try:
         solve_block(job, worker_library(job.library))
         load_kernels()
