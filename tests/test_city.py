@@ -286,6 +286,40 @@ def test_a_dying_worker_fails_blocks_not_the_run(district, tmp_path, monkeypatch
     assert layouts(tmp_path) == layouts(district)
 
 
+def _notes_its_worker(job, out_dir):
+    with open(_notes_its_worker.log, "a") as f:
+        f.write(f"{os.getpid()}\n")
+    return jobs.run_block(job, out_dir)
+
+
+def test_local_workers_are_replaced_as_the_city_goes(district, tmp_path, monkeypatch):
+    """A local worker builds at most RECYCLE_BLOCKS blocks, then a fresh fork takes
+    over (usd-core's tables grow with every block a process writes); the city is the
+    same."""
+    from citysynth.pipeline.city import run as city_run
+
+    _notes_its_worker.log = str(tmp_path / "pids.txt")
+    monkeypatch.setattr(city_run, "run_block", _notes_its_worker)
+    monkeypatch.setattr(city_run, "RECYCLE_BLOCKS", 3)
+    assert city(tmp_path / "run", "--workers", "2", "--no-overview") == 0
+    pids = (tmp_path / "pids.txt").read_text().split()
+    per_worker = {p: pids.count(p) for p in set(pids)}
+    assert len(pids) == len(layouts(district)) and max(per_worker.values()) <= 3 * 2
+    assert len(per_worker) >= len(pids) // 6          # a pool of two for every six blocks
+    assert layouts(tmp_path / "run") == layouts(district)
+
+
+def test_pool_batches_keep_order_and_take_a_short_tail_along():
+    from citysynth.pipeline.city.run import pool_batches
+
+    todo = list(range(21))
+    assert pool_batches(todo, 2, 5) == [todo[0:10], todo[10:21]]      # 1 left: taken along
+    assert pool_batches(todo, 2, 4) == [todo[0:8], todo[8:16], todo[16:21]]
+    assert pool_batches(todo, 4, 100) == [todo]
+    assert pool_batches([], 2, 5) == []
+    assert [j for b in pool_batches(todo, 3, 1) for j in b] == todo
+
+
 def test_the_parent_solves_one_block_before_the_workers_fork(tmp_path):
     """The local pool's workers fork from a parent that has solved one block: they
     inherit its compiled kernels and loaded library. Whatever goes wrong there is left
