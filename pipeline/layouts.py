@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -31,6 +30,11 @@ from citysynth.pipeline.skeleton_to_structure import skeleton_structure
 from citysynth.skeletons import Skeleton
 from citysynth.solver.errors import TooLargeError
 from citysynth.solver.structures import solve_structure
+from citysynth.solver.structures.blocked import Blocked
+
+BlockedAt = tuple[str, Blocked]
+"""The skeleton (by name) a failed building or block is blocked on, and the stage there
+its reason names: what messages locate as a side, in the input's coordinates."""
 
 
 @dataclass
@@ -42,6 +46,7 @@ class Built:
     layouts: list[Layout] = field(default_factory=list)
     reason: str | None = None
     timings: dict[str, float] = field(default_factory=dict)
+    blocked_at: BlockedAt | None = None   # when the reason names a stage of a skeleton
 
 
 def default_style(db: PartDB) -> str:
@@ -58,22 +63,20 @@ def check_style(db: PartDB, style: str) -> None:
                             f"{', '.join(styles)}")
 
 
-def too_large(name: str, skeletons: list[Skeleton], solver_text: str) -> str:
+def too_large(name: str, skeletons: list[Skeleton], exc: TooLargeError) -> str:
     """A building or block too large to solve, in its user's words: how much facade,
     its longest side, what solving it would take against the budget, what to do (the
-    solver's own text speaks of stage graphs, states and quanta)."""
-    shares = re.search(r"constraints on (.+?): ([\d,]+) ways to share", solver_text)
-    if shares:
-        return (f"{name}: its per-block intervals on {shares.group(1)} leave "
-                f"{shares.group(2)} ways to share the totals between its sides, too many "
+    solver's own text speaks of stage graphs, states and quanta; its figures ride on
+    the error)."""
+    if exc.shares is not None:
+        return (f"{name}: its per-block intervals on {', '.join(exc.resources)} leave "
+                f"{exc.shares:,} ways to share the totals between its sides, too many "
                 "to solve; narrow them")
     total = sum(e.length for sk in skeletons for e in sk.edges)
     longest = max((e.length for sk in skeletons for e in sk.edges), default=0.0)
-    need = re.search(r"~([\d,]+) MB", solver_text)
-    budget = re.search(r"budget of ([\d,]+) MB", solver_text)
-    cost = (f" would take about {need.group(1)} MB to solve" if need else
-            " would take too much memory to solve") + \
-        (f", over the {budget.group(1)} MB budget" if budget else "")
+    cost = (f" would take about {exc.need_mb:,.0f} MB to solve" if exc.need_mb is not None
+            else " would take too much memory to solve") + \
+        (f", over the {exc.budget_mb:,.0f} MB budget" if exc.budget_mb is not None else "")
     return (f"{name}: too large to lay out: {total:,.0f} m of facade (its longest side "
             f"{longest:,.0f} m){cost}; split it into smaller blocks or buildings")
 
@@ -91,12 +94,15 @@ def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
     try:
         results = [solve_structure(p.structure, k) for p in plans]
     except TooLargeError as exc:
-        raise TooLargeError(too_large(name, skeletons, str(exc))) from None
+        raise TooLargeError(too_large(name, skeletons, exc), need_mb=exc.need_mb,
+                            budget_mb=exc.budget_mb, shares=exc.shares,
+                            resources=exc.resources) from None
     t2 = time.perf_counter()
     timings = {"structure_s": t1 - t0, "solve_s": t2 - t1}
     for sk, r in zip(skeletons, results, strict=True):
         if r.status != "ok":
-            return Built(name, "infeasible", reason=f"{sk.name}: {r.reason}", timings=timings)
+            return Built(name, "infeasible", reason=f"{sk.name}: {r.reason}", timings=timings,
+                         blocked_at=(sk.name, r.blocked) if r.blocked else None)
     count = max(len(r.solutions) for r in results)
     placements = [p.placement for p in plans]
     layouts = [layout(name, i + 1, placements,

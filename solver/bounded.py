@@ -61,7 +61,8 @@ def _refusal(cp: Compiled, labels: int, budget_bytes: int) -> TooLargeError:
         f"the memory budget of {budget_bytes / 2**20:,.0f} MB (the graph states within "
         f'reach of the k-th cost do not fit). The widest resource is "{name}": use a '
         f'coarser quantum for it (e.g. "quantum": {{"{name}": {2 * q:g}}}), tighten the '
-        "bounds, ask for a smaller k, or raise the budget (--max-memory MB)")
+        "bounds, ask for a smaller k, or raise the budget (--max-memory MB)",
+        budget_mb=budget_bytes / 2**20)
 
 
 def bounded_k_best(cp: Compiled, k: int, budget_bytes: int, bounds: Bounds | None = None,

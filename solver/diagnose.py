@@ -57,7 +57,11 @@ def _alone_blocks(cp: Compiled, i: int, no_minimums: np.ndarray | None) -> bool:
 
 
 def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
-    """A one-line reason and per-constraint details for an infeasible problem."""
+    """A one-line reason and per-constraint details for an infeasible problem: for each
+    blocking constraint its name, the interval asked, the nearest totals below and above
+    it that complete sequences reach, and what blocks it (``blocks``: "alone", out of
+    reach even with the other minimums dropped; "together", only with the others;
+    "quantum", its interval holds no multiple of its quantum), in the reason's order."""
     asked = [tuple(q.asked) for q in cp.quant]
     details: list[dict] = []
     blocking: list[str] = []
@@ -90,8 +94,10 @@ def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
         above = vals[vals > cp.hi[i]]
         nearest_below = round(float(below.max()) * q, 9) if len(below) else None
         nearest_above = round(float(above.min()) * q, 9) if len(above) else None
-        details.append({"constraint": name, "asked": [asked[i][0], asked[i][1]],
-                        "nearest_below": nearest_below, "nearest_above": nearest_above})
+        detail = {"constraint": name, "asked": [asked[i][0], asked[i][1]],
+                  "nearest_below": nearest_below, "nearest_above": nearest_above,
+                  "blocks": "together"}
+        details.append(detail)
         near = []
         if nearest_below is not None:
             near.append(f"{_fmt(nearest_below)} (below)")
@@ -103,9 +109,9 @@ def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
                 with_bounds(cp, np.zeros_like(cp.lo), cp.hi.copy()), max_rows)
             grown = True
         if _alone_blocks(cp, i, no_minimums):
-            why = "is out of reach even ignoring the other minimums"
+            why, detail["blocks"] = "is out of reach even ignoring the other minimums", "alone"
         if cp.lo[i] > cp.hi[i]:
-            why = f"holds no multiple of its quantum {q:g}"
+            why, detail["blocks"] = f"holds no multiple of its quantum {q:g}", "quantum"
         blocking.append(f"{_interval_text(name, *asked[i])} {why}; nearest achievable: "
                         f"{', '.join(near) or 'none'}")
     if blocking:

@@ -10,4 +10,23 @@ class ProblemError(ValueError):
 
 
 class TooLargeError(ProblemError):
-    """The state-space estimate exceeds the memory budget; nothing was allocated."""
+    """The state-space estimate exceeds the memory budget; nothing was allocated.
+
+    Its figures ride along as attributes, so a caller that speaks to its user in other
+    terms (a city speaks of facades and sides, not of stage graphs and states) words its
+    own message from them instead of reading the solver's text:
+
+    - ``need_mb``: what solving would take, when it is known before starting;
+    - ``budget_mb``: the memory budget it was measured against;
+    - ``shares`` and ``resources``: for structure-wide intervals, the ways of sharing
+      their totals between stages and the resources they are on.
+    """
+
+    def __init__(self, message: str, *, need_mb: float | None = None,
+                 budget_mb: float | None = None, shares: int | None = None,
+                 resources: tuple[str, ...] = ()) -> None:
+        super().__init__(message)
+        self.need_mb = need_mb
+        self.budget_mb = budget_mb
+        self.shares = shares
+        self.resources = resources

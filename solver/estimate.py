@@ -53,19 +53,20 @@ def estimate(cp: Compiled, max_memory_mb: float = DEFAULT_MAX_MEMORY_MB) -> Esti
     max_rows = max((budget - fixed) // row_bytes(cp.n, dense), 1)
     est = Estimate(int(nodes), int(need), dense, int(max_rows))
     if need > budget:
-        raise TooLargeError(too_large_message(cp, est.nodes, need, budget))
+        raise too_large(cp, est.nodes, need, budget)
     return est
 
 
-def too_large_message(cp: Compiled, nodes: int, need: int, budget: int) -> str:
+def too_large(cp: Compiled, nodes: int, need: int, budget: int) -> TooLargeError:
+    """The refusal of a problem whose graph would take ``need`` bytes, over ``budget``."""
     widest = int(np.argmax(cp.cap))
     name = cp.bounded[widest]
     q = cp.quant[widest]
     values = int(cp.cap[widest]) + 1
-    return (
+    return TooLargeError(
         f"problem too large: up to {nodes:,} graph states (~{need / 2**20:,.0f} MB) "
         f"exceed the memory budget of {budget / 2**20:,.0f} MB. "
         f'The widest resource is "{name}" ({values:,} values at quantum {q.quantum:g}): '
         f'use a coarser quantum for it (e.g. "quantum": {{"{name}": {2 * q.quantum:g}}}), '
-        "tighten its bounds, or raise the budget (--max-memory MB)"
-    )
+        "tighten its bounds, or raise the budget (--max-memory MB)",
+        need_mb=need / 2**20, budget_mb=budget / 2**20)

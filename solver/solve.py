@@ -26,7 +26,7 @@ from citysynth.solver.estimate import (
     dense_rows,
     estimate,
     row_bytes,
-    too_large_message,
+    too_large,
 )
 from citysynth.solver.fgs import fgs
 from citysynth.solver.graph import build_graph
@@ -148,7 +148,8 @@ def check_k(k: int, max_memory_mb: float) -> None:
         raise TooLargeError(f"k = {size}: keeping that many solutions takes at least "
                             f"{gb} GB, over the memory budget of "
                             f"{max_memory_mb:,.0f} MB; ask for fewer (k), or raise the "
-                            "budget (--max-memory MB)")
+                            "budget (--max-memory MB)", need_mb=need / 2**20,
+                            budget_mb=max_memory_mb)
 
 
 def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
@@ -236,8 +237,8 @@ def _row_table(cp: Compiled, max_memory_mb: float, table: str, stats: dict):
     est = estimate(cp, max_memory_mb)
     dense = est.dense if table == "auto" else table == "dense"
     if dense and cp.S * row_bytes(cp.n, True) > max_memory_mb * 2**20:
-        raise TooLargeError(too_large_message(cp, est.nodes, cp.S * row_bytes(cp.n, True),
-                                              int(max_memory_mb * 2**20)))
+        raise too_large(cp, est.nodes, cp.S * row_bytes(cp.n, True),
+                        int(max_memory_mb * 2**20))
     stats["estimate"] = est.to_dict()
     stats["estimate"]["table"] = "dense" if dense else "hash"
     return est, dense
@@ -250,8 +251,7 @@ def _rcksp(problem: Problem, cp: Compiled, k: int, max_memory_mb: float, table: 
     graph = build_graph(cp, dense=dense, rows_hint=min(cp.S, 1 << 12),
                         max_rows=est.max_rows)
     if graph is None:
-        raise TooLargeError(too_large_message(cp, est.nodes, est.bytes,
-                                              int(max_memory_mb * 2**20)))
+        raise too_large(cp, est.nodes, est.bytes, int(max_memory_mb * 2**20))
     t1 = time.perf_counter()
     touched = 0
 
@@ -283,7 +283,8 @@ def _fgs(problem: Problem, cp: Compiled, k: int, max_memory_mb: float, table: st
         if status != 0:
             raise TooLargeError(
                 f"FGS stopped after {labels:,} labels: the search exceeds the memory "
-                f"budget of {max_memory_mb:,.0f} MB; use method bounded or a smaller k")
+                f"budget of {max_memory_mb:,.0f} MB; use method bounded or a smaller k",
+                budget_mb=max_memory_mb)
         counters.update(nodes=settled, labels=labels)
         return seqs
 

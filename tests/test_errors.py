@@ -194,3 +194,25 @@ def test_a_building_too_large_to_solve_is_refused_with_an_estimate(tmp_path, cap
     assert "corners, ends and T junctions" in err and "GB" in err and "split it" in err
     assert len(err.strip().splitlines()) == 1
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_a_block_too_large_is_worded_from_the_refusals_figures():
+    """``too_large`` words a city's message from the figures the solver's refusal
+    carries (its text speaks of stage graphs; it is never parsed)."""
+    from types import SimpleNamespace
+
+    from citysynth.pipeline.layouts import too_large
+    from citysynth.solver import TooLargeError
+
+    sk = SimpleNamespace(edges=[SimpleNamespace(length=25.0), SimpleNamespace(length=15.0)])
+    shares = TooLargeError("structure-wide constraints on doors, windows: 2,000,000 ways "
+                           "to share ...", shares=2_000_000, resources=("doors", "windows"))
+    assert too_large("b", [sk], shares) == (
+        "b: its per-block intervals on doors, windows leave 2,000,000 ways to share the "
+        "totals between its sides, too many to solve; narrow them")
+    big = TooLargeError("the graph of stage 3 ...", need_mb=3072.4, budget_mb=2048)
+    assert too_large("b", [sk], big) == (
+        "b: too large to lay out: 40 m of facade (its longest side 25 m) would take about "
+        "3,072 MB to solve, over the 2,048 MB budget; split it into smaller blocks or "
+        "buildings")
+    assert "too much memory" in too_large("b", [sk], TooLargeError("grew past the budget"))

@@ -39,6 +39,13 @@ def test_too_large_is_refused_with_estimate_and_advice():
     msg = str(exc.value)
     assert "graph states" in msg and "512 MB" in msg
     assert "coarser quantum" in msg and "--max-memory" in msg
+    # the figures ride on the error (a city words its own message from them), and
+    # survive the trip from a worker process
+    import pickle
+    back = pickle.loads(pickle.dumps(exc.value))
+    for err in (exc.value, back):
+        assert err.budget_mb == 512 and err.need_mb is not None and err.need_mb > 512
+        assert f"~{err.need_mb:,.0f} MB" in msg and err.shares is None
 
 
 def test_growth_stops_at_the_row_budget():

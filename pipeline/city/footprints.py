@@ -23,6 +23,7 @@ import numpy as np
 import shapely
 
 from citysynth.parts_db import Part, PartDB
+from citysynth.pipeline.layouts import BlockedAt
 from citysynth.pipeline.skeleton_to_structure import _chains, shortest_stage
 from citysynth.skeletons import Feature, Frame, Skeleton, skeletons_from_polygons
 from citysynth.skeletons.clean import absorb_short_edges, clean_footprint
@@ -223,18 +224,18 @@ def short_side(rings: list[Skeleton], min_side: float):
     return None
 
 
-def stage_side(rings: list[Skeleton], reason: str | None):
-    """The side a solver's reason names (``<ring>: ... stage <i> ...``): its ring's
-    chain i, as (from, to, length); None when the reason names none."""
-    m = re.search(r"stage (\d+)", reason or "")
-    if m is None:
+def stage_side(rings: list[Skeleton], blocked_at: BlockedAt | None):
+    """The side a failed solve is blocked on (its ring's chain at the blocked stage),
+    as (from, to, length); None when it names none."""
+    if blocked_at is None:
         return None
-    sk = next((r for r in rings if (reason or "").startswith(f"{r.name}:")), None)
+    ring, blocked = blocked_at
+    sk = next((r for r in rings if r.name == ring), None)
     if sk is None:
         return None
     keys, chains = _chains(sk)
     xy = {k.id: k.xy for k in sk.keypoints}
-    i = int(m.group(1))
+    i = blocked.stage
     if i >= len(chains):
         return None
     c = chains[i]
@@ -250,7 +251,7 @@ def describe_side(frame: tuple[str, float, float], source_crs: str, a: Any, b: A
 
 def explain(where: str, frame: tuple[str, float, float], source_crs: str,
             rings: list[Skeleton], db: PartDB, style: str, allowed: frozenset[str] | None,
-            tol: Any, asked: str, reason: str | None = None) -> str:
+            tol: Any, asked: str, blocked_at: BlockedAt | None = None) -> str:
     """A failed block or footprint in its user's words: the first side the kit cannot
     make on its own, with what it makes near that length; else the side the solver
     found no filling for with the asked ranges (or, naming none, all sides at once)."""
@@ -268,7 +269,7 @@ def explain(where: str, frame: tuple[str, float, float], source_crs: str,
     more = f" with {asked}" if asked else ""
     loosen = "allow more stretch" + (", or loosen the per-side and per-block ranges in "
                                      "city.toml" if asked else "")
-    side = stage_side(rings, reason)
+    side = stage_side(rings, blocked_at)
     if side is not None:
         return (f"{where}: {side_text(*side)}: no row of the {style} kit's parts fits "
                 f"it{more} beside the corners it can take; {loosen}")
@@ -386,14 +387,14 @@ def _courtyard(ring_name: str) -> int | None:
     return int(m.group(1)) - 1 if m else None
 
 
-def failure(prep: Prepared, job: BlockJob, db: PartDB, reason: str | None) -> str:
+def failure(prep: Prepared, job: BlockJob, db: PartDB, blocked_at: BlockedAt | None) -> str:
     """Why a prepared block has no layout, in its user's words."""
     asked = ", ".join(f"{kind} {n} = [{lo:g}, {hi:g}]" for kind, rows in
                       (("per_side", job.per_side), ("per_block", job.per_block))
                       for n, lo, hi in rows)
     return explain(prep.where, job.frame,
                    job.footprint.source_crs if job.footprint else "", prep.rings, db,
-                   job.style, prep.parts, prep.tol(db.quantum), asked, reason)
+                   job.style, prep.parts, prep.tol(db.quantum), asked, blocked_at)
 
 
 # --- streets and footprints together ---------------------------------------------------

@@ -270,7 +270,7 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
     rec["timings"] = dict(built.timings)
     if built.status != "ok":
         return _finish(out, rec, "failed", t0, reason=built.reason if job.zone_kind
-                       else failure(prep, job, db, built.reason))
+                       else failure(prep, job, db, built.blocked_at))
     if prep.storeys is not None:
         rec["storeys"] = prep.storeys
     if prep.note:

@@ -19,6 +19,7 @@ from citysynth.pipeline.city.footprints import describe_side, explain, stage_sid
 from citysynth.pipeline.city.jobs import frame_tuple
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import (
+    BlockedAt,
     Built,
     default_style,
     solve_layouts,
@@ -33,6 +34,7 @@ from citysynth.skeletons import (
     skeletons_from_polygons,
 )
 from citysynth.skeletons.errors import SkeletonError
+from citysynth.solver.diagnose import nearest
 
 MAX_STRETCH = 0.05   # as city.toml: more would stretch parts visibly
 MAX_SLACK = 2.0      # metres
@@ -99,8 +101,8 @@ def _why(args, db, style: str, frame: Frame, rings: list[Skeleton], built: Built
     """Why a building or block has no layout, in its user's words: which side, how long,
     where (in the input's coordinates), and what to change; never stages or keys."""
     at = frame_tuple(frame)
-    side = stage_side(rings, built.reason)
-    unmet = _unmet(built.reason or "")
+    side = stage_side(rings, built.blocked_at)
+    unmet = _unmet(built.blocked_at)
     if side is not None and unmet is not None and unmet[0] != "length":
         name, lo, hi, near = unmet   # a side's own interval (the feature's constraints)
         made = " or ".join(f"{x:g}" for x in near)
@@ -110,7 +112,7 @@ def _why(args, db, style: str, frame: Frame, rings: list[Skeleton], built: Built
     if args.command == "block":   # rings: what a city says of a footprint it cannot build
         return explain(built.name, at, frame.source_crs, rings, db, style, None,
                        lambda length: max(db.quantum / 2, args.slack, args.stretch * length),
-                       "", built.reason)
+                       "", built.blocked_at)
     if side is None:
         return (f"{built.name}: the {style} kit's parts cannot fill every side of the "
                 "skeleton at once; allow more stretch (--stretch, --slack)")
@@ -121,17 +123,17 @@ def _why(args, db, style: str, frame: Frame, rings: list[Skeleton], built: Built
             "more stretch (--stretch, --slack), or move the skeleton's points")
 
 
-def _unmet(reason: str) -> tuple[str, float, float, list[float]] | None:
-    """The interval a solver's reason says is out of reach, and what the parts make
-    nearest it ("doors = 60 is out of reach ...; nearest achievable: 12 (below)" ->
-    ("doors", 60, 60, [12])), or None."""
-    m = re.search(r"(\w+) (?:in \[(-?[\d.e+]+), (-?[\d.e+]+)\]|= (-?[\d.e+]+)) is out of "
-                  r"reach[^;]*; nearest achievable: ([^;]+)$", reason)
-    if m is None:
+def _unmet(blocked_at: BlockedAt | None) -> tuple[str, float, float, list[float]] | None:
+    """The interval the blocked stage's diagnosis finds out of reach on its own (its last
+    blocking constraint, when nothing else is to blame), and what the parts make nearest
+    it: ("doors", 60, 60, [12]); or None."""
+    if blocked_at is None or not blocked_at[1].details:
         return None
-    name, lo, hi, eq, got = m.groups()
-    lo, hi = (lo, hi) if eq is None else (eq, eq)
-    return name, float(lo), float(hi), [float(x) for x in re.findall(r"(-?[\d.]+) \(", got)]
+    d = blocked_at[1].details[-1]
+    if d.get("blocks") != "alone":
+        return None
+    lo, hi = d["asked"]
+    return d["constraint"], float(lo), float(hi), nearest(d)
 
 
 def _finish(args, db, style: str, frame: Frame,

@@ -18,6 +18,7 @@ from typing import Any
 
 from citysynth.solver.problem import Element, Problem
 from citysynth.solver.solve import solve
+from citysynth.solver.structures.blocked import Blocked
 from citysynth.solver.structures.combine import Share, StageList
 from citysynth.solver.structures.model import Interval, Stage, Structure
 
@@ -104,7 +105,7 @@ class PairProblems:
         self.solve_kw = solve_kw
         self.builder = StageBuilder(st, k)
         self.cache: dict[tuple[int, str, str], dict[Share, StageList]] = {}
-        self.why: list[str] = []
+        self.why: list[Blocked] = []
 
     def lists(self, i: int, a: str, b: str) -> dict[Share, StageList]:
         """share of the structure-wide resources -> k best fillings of stage i"""
@@ -121,7 +122,8 @@ class PairProblems:
                     lists[g] = [(x.cost, (x.sequence[1:-1], x.resources))
                                 for x in r.solutions]
                 elif r.reason and not gnames:
-                    self.why.append(f"stage {i} between {a} and {b}: {r.reason}")
+                    self.why.append(Blocked(i, f"stage {i} between {a} and {b}: {r.reason}",
+                                            r.details))
             self.cache[(i, a, b)] = lists
         return self.cache[(i, a, b)]
 
@@ -131,7 +133,7 @@ class PairProblems:
         fill, res = payload
         return list(fill), res
 
-    def reason(self) -> str | None:
+    def reason(self) -> Blocked | None:
         return self.why[0] if self.why else None
 
     def stats(self) -> dict[str, Any]:

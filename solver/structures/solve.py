@@ -21,6 +21,7 @@ from citysynth.solver.errors import ProblemError, TooLargeError
 from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.quantize import exact_divisor, is_multiple
 from citysynth.solver.solve import Status, check_k
+from citysynth.solver.structures.blocked import Blocked
 from citysynth.solver.structures.chain_kbest import Read, Rows
 from citysynth.solver.structures.combine import (
     Payload,
@@ -56,6 +57,7 @@ class StructureResult:
     solutions: list[StructureSolution]
     stats: dict[str, Any] = field(default_factory=dict)
     reason: str | None = None
+    blocked: Blocked | None = None   # the stage the reason names, when it names one
 
 
 def _global_grid(st: Structure) -> Grid:
@@ -138,7 +140,8 @@ def _check_shares(names: list[str], his: list[int]) -> None:
             f"structure-wide constraints on {', '.join(names)}: {shares:,} ways to share "
             f"the totals between stages (each stage's solutions are kept per share; about "
             f"{shares * 64 / 2**30:,.0f} GB before any is solved), more than {MAX_SHARES:,}; "
-            "narrow the interval to what the structure can reach")
+            "narrow the interval to what the structure can reach",
+            shares=shares, resources=tuple(names))
 
 
 def solve_structure(st: Structure, k: int | None = None, method: StructureMethod = "auto",
@@ -213,7 +216,7 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
         stats = {"method": method, **provider.stats(),
                  "program": "lazy chain" if lazy_chain(st, ghi) else "general",
                  "solve_s": time.perf_counter() - t0}
-        why = None if sols else provider.reason()
+        blocked = None if sols else provider.reason()
         if isinstance(provider, StageGraphs):
             provider.release()   # its tables serve the next solve (nothing reads them now)
         # dropped while the collector still sleeps: reference counts free them at once,
@@ -221,11 +224,11 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
         # since it paused, would scan them all first (and again as solutions are read)
         del provider, results, read
     if not sols:
-        detail = f"; e.g. {why}" if why else ""
+        detail = f"; e.g. {blocked.text}" if blocked else ""
         wide = " and the structure-wide intervals" if gnames else ""
         return StructureResult("infeasible", [], stats,
                                f"no choice of key elements lets every stage meet its "
-                               f"constraints{wide}{detail}")
+                               f"constraints{wide}{detail}", blocked)
     return StructureResult("ok", sols, stats)
 
 

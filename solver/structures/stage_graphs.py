@@ -36,6 +36,7 @@ from citysynth.solver.graph import STATUS_OK, _grow_graph
 from citysynth.solver.quantize import bounds_in_quanta, exact_divisor, is_multiple
 from citysynth.solver.solve import solve
 from citysynth.solver.structures import stage_kbest
+from citysynth.solver.structures.blocked import Blocked
 from citysynth.solver.structures.buffers import give_back, take
 from citysynth.solver.structures.combine import Share, StageList
 from citysynth.solver.structures.decompose import (
@@ -277,7 +278,7 @@ class StageGraphs:
                 f"({int(grp.cap[widest]) + 1:,} values at quantum {self.q[name]:g}): use "
                 f'a coarser quantum for it (e.g. "quantum": {{"{name}": '
                 f"{2 * self.q[name]:g}}}), tighten its bounds, or raise the budget "
-                "(--max-memory MB)")
+                "(--max-memory MB)", need_mb=need / 2**20, budget_mb=self.budget / 2**20)
         grp.W = np.full((n, n), np.inf)
         for j, f in enumerate(grp.fillers, 1):
             for t, e in enumerate(grp.fillers, 1):
@@ -454,7 +455,7 @@ class StageGraphs:
                 f"structure too large: the graph of stage {grp.stages[0]} grew past "
                 f"{max_rows:,} state rows, the memory budget of "
                 f"{self.budget / 2**20:,.0f} MB; use a coarser quantum, tighter bounds "
-                "or raise the budget (--max-memory MB)")
+                "or raise the budget (--max-memory MB)", budget_mb=self.budget / 2**20)
         return StageGraph(int(nrows) * n, n, W, g, row_state, off, cap, stride, dense, keys,
                           vals, int(shift), qs.qlo, qs.qhi, wq), int(nrows)
 
@@ -595,7 +596,7 @@ class StageGraphs:
     def stats(self) -> dict[str, Any]:
         return {"stages_by": "graphs", **self.counts}
 
-    def reason(self) -> str | None:
+    def reason(self) -> Blocked | None:
         """Why no structure fits, from the one-stage diagnosis of a stage that no pair
         of key elements can fill (else of the first pair that cannot)."""
         if self.gnames:
@@ -612,4 +613,5 @@ class StageGraphs:
             return None
         i, a, b = (blocked or empty)[0]
         r = solve(StageBuilder(st, 1).problem(i, a, b), 1)
-        return f"stage {i} between {a} and {b}: {r.reason}" if r.reason else None
+        return Blocked(i, f"stage {i} between {a} and {b}: {r.reason}", r.details) \
+            if r.reason else None
