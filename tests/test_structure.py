@@ -226,3 +226,24 @@ def test_an_upper_bound_past_reach_means_no_bound(d, k, lo, hi):
     assert [s.cost for s in r.solutions] == pytest.approx(expected[:k])
     for s in r.solutions:
         assert sum(res["doors"] for res in s.resources) >= lo
+
+
+@pytest.mark.parametrize("method", ["auto", "decompose"])
+def test_an_infeasible_structure_names_its_blocked_stage_as_data(method):
+    """The stage no filling fits is named as data (index, text, the stage diagnosis's
+    details), the same stage and constraint the reason's text names."""
+    d = {"resources": ["length", "doors"],
+         "elements": [{"id": "w", "resources": {"length": 2.0, "doors": 0}},
+                      {"id": "d", "resources": {"length": 2.0, "doors": 1}},
+                      {"id": "k", "resources": {}, "legs": [{"length": 1.0}, {"length": 1.0}]}],
+         "transitions": [[a, b, 1.0] for a in "wdk" for b in "wdk"],
+         "keypoints": [{"elements": ["k"]}] * 3,
+         "stages": [{"constraints": {"length": [6, 6]}},
+                    {"constraints": {"length": [6, 6], "doors": [5, 5]}}],
+         "closed": False}
+    r = solve_structure(Structure.from_dict(d), 2, method=method)
+    assert r.status == "infeasible" and r.blocked is not None
+    assert r.blocked.stage == 1 and r.blocked.text in (r.reason or "")
+    (detail,) = r.blocked.details
+    assert detail["constraint"] == "doors" and detail["asked"] == [5, 5]
+    assert detail["blocks"] == "alone" and detail["nearest_below"] == 2
