@@ -23,6 +23,7 @@ from shapely import affinity
 from shapely.geometry import Polygon, box
 from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
+from shapely.ops import polylabel
 
 from citysynth.export.layout import Instance, Layout
 from citysynth.parts_db import Part, PartDB
@@ -66,7 +67,7 @@ class Lot:
         side of its minimum rotated rectangle (of two equal sides, the one nearer +X)."""
         c = poly.centroid
         if not poly.contains(c):
-            c = shapely.polylabel(poly, tolerance=0.01)
+            c = polylabel(poly, tolerance=0.01)
         return cls(poly, (round(c.x, 6), round(c.y, 6)), _long_side_angle(poly), frame)
 
 

@@ -280,7 +280,7 @@ def _checked_polygon(poly: BaseGeometry, where: str, min_area: float, frame: Fra
     if not isinstance(poly, Polygon):
         raise SkeletonError(f"{where}: expected a Polygon, got {poly.geom_type}")
     if not poly.is_valid:
-        what, fix = _invalid(poly, frame)
+        what, fix = why_invalid(poly, frame)
         raise SkeletonError(f"{where}: invalid polygon ({what}); {fix}")
     if poly.area < min_area:
         raise SkeletonError(f"{where}: degenerate polygon (area {poly.area:.2f} m²)")
@@ -288,7 +288,7 @@ def _checked_polygon(poly: BaseGeometry, where: str, min_area: float, frame: Fra
         else shapely.geometry.polygon.orient(poly, 1.0)
 
 
-def _invalid(poly: Polygon, frame: Frame) -> tuple[str, str]:
+def why_invalid(poly: Polygon, frame: Frame) -> tuple[str, str]:
     """What GEOS finds wrong with a polygon, its location in the input's coordinates
     (GEOS gives it in local metres: "Self-intersection[4.6e-15 0]"), and what to do."""
     text = explain_validity(poly)

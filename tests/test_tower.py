@@ -144,3 +144,47 @@ def test_a_one_part_multipolygon_lot_is_its_polygon(tmp_path):
                      "-o", str(tmp_path / name), "--name", "t"]) == 0
     a, b = ((tmp_path / n / "t.layout.json").read_text() for n in ("poly", "multi"))
     assert json.loads(a)["structures"] == json.loads(b)["structures"]
+
+
+def _lot_file(tmp_path: Path, name: str, poly) -> Path:
+    path = tmp_path / f"{name}.geojson"
+    path.write_text(json.dumps({
+        "type": "FeatureCollection", "crs": {"type": "name", "properties": {
+            "name": "urn:ogc:def:crs:EPSG::25832"}},
+        "features": [{"type": "Feature", "properties": {},
+                      "geometry": shapely.geometry.mapping(
+                          affinity.translate(poly, 690000, 5335000))}]}))
+    return path
+
+
+def test_a_lot_whose_centroid_lies_outside_it_takes_its_most_inland_point(tmp_path):
+    """An L-shaped lot: its centroid is outside, so the tower stands on the lot's pole of
+    inaccessibility, wholly on the lot (it crashed: shapely has no top-level polylabel)."""
+    ell = shapely.Polygon([(0, 0), (60, 0), (60, 22), (22, 22), (22, 60), (0, 60)])
+    assert not ell.contains(ell.centroid)
+    out = tmp_path / "out"
+    assert main(["tower", "--height", "60", "--far", "1", "3", "--lot",
+                 str(_lot_file(tmp_path, "ell", ell)), "--no-preview", "-o", str(out),
+                 "--name", "t"]) == 0
+    lay = _layout(out / "t.layout.json")
+    st = lay.structures[0]
+    poly = shapely.Polygon(st["lot"]["polygon"])
+    assert poly.contains(shapely.Point(st["lot"]["centre"]))
+    parts = load_library(SAMPLE_LIBRARY).by_id
+    for i in lay.instances:
+        p = parts[i.part]
+        fp = affinity.rotate(shapely.union(p.sec_in, p.sec_out), st["lot"]["angle"],
+                             origin=(0, 0))
+        assert poly.buffer(0.01).covers(affinity.translate(fp, *i.origin))
+
+
+def test_a_lot_that_crosses_itself_is_refused_where_it_does(tmp_path, capsys):
+    bowtie = shapely.Polygon([(0, 0), (30, 30), (30, 0), (0, 30)])
+    code = main(["tower", "--height", "60", "--far", "4", "--lot",
+                 str(_lot_file(tmp_path, "bowtie", bowtie)), "--no-preview",
+                 "-o", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert "the lot is not a valid polygon (self-intersection at (690015.00, 5335015.00))" \
+        in err and "does not cross itself" in err
+    assert not (tmp_path / "out").exists()

@@ -22,6 +22,7 @@ from citysynth.pipeline.layouts import Built, summary_line, write_outputs
 from citysynth.pipeline.towers import Lot, far_interval, solve_tower
 from citysynth.skeletons import read_geojson
 from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.from_geometry import why_invalid
 
 FAR_TOLERANCE = 0.02   # --far X: within 2 % of X either side
 
@@ -66,6 +67,9 @@ def read_lot(path: str, crs: str | None) -> Lot:
     if len(feats) != 1 or geom.geom_type != "Polygon":
         raise SkeletonError(f"{path}: a lot is one Polygon feature; the file has "
                             f"{len(feats)} feature(s) ({geom.geom_type} first)")
+    if not geom.is_valid:
+        what, fix = why_invalid(geom, frame)
+        raise SkeletonError(f"{path}: the lot is not a valid polygon ({what}); {fix}")
     return Lot.from_polygon(geom, frame.describe())
 
 
