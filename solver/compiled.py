@@ -17,11 +17,12 @@ Kernels walk the lists instead when the table is sparse (:attr:`Compiled.sparse`
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from citysynth.solver.errors import ProblemError
+from citysynth.solver.errors import ProblemError, TooLargeError
 from citysynth.solver.problem import Problem
 from citysynth.solver.quantize import Quantisation, quantise_resource
 
@@ -174,12 +175,30 @@ def _box(r: np.ndarray, lev: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> dict
         if m > 0:
             max_len = min(max_len, int(hi_pos[i]) // m)
     cap = np.minimum(hi_pos, max_len * r.max(axis=0)).astype(np.int64)
+    states = math.prod(int(c) + 1 for c in cap)   # Python integers: no overflow
+    if states > MAX_STATES:
+        raise _box_too_large(cap, states)
     stride = np.ones(R, dtype=np.int64)
     for i in range(1, R):
         stride[i] = stride[i - 1] * (cap[i - 1] + 1)
     S = int(stride[-1] * (cap[-1] + 1))
     off = (r * stride).sum(axis=1).astype(np.int64)
     return dict(cap=cap, stride=stride, S=S, off=off, top=int(cap.sum()), max_len=max_len)
+
+
+MAX_STATES = 1 << 62
+"""The largest state box a state index (int64) can number. A box past it (intervals of
+about 10^18 quanta and more) is refused before anything is allocated: it used to
+overflow into negative sizes."""
+
+
+def _box_too_large(cap: np.ndarray, states: int) -> TooLargeError:
+    widest = int(np.argmax(cap))
+    return TooLargeError(
+        f"problem too large: its intervals span about {states:.3g} states (resource "
+        f"totals up to {int(cap[widest]):.3g} quanta of resource {widest + 1}), more than "
+        f"any table can number ({MAX_STATES:.3g}); tighten the bounds or give a coarser "
+        "quantum")
 
 
 def with_bounds(cp: Compiled, lo: np.ndarray, hi: np.ndarray) -> Compiled:

@@ -116,6 +116,9 @@ def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
     except json.JSONDecodeError as exc:
         raise error(f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
                     f"{exc.msg}") from None
+    except ValueError:   # Python's guard against integers of over 4,300 digits
+        raise error(f"{p}: a number of thousands of digits; no {what} needs one: write it "
+                    "with an exponent (1e300) or check that it is the right file") from None
     except RecursionError:
         data = None
         deep = True
@@ -124,7 +127,30 @@ def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
     if deep:
         raise error(f"{p}: JSON nested more than {max_depth} levels deep; a {what} file "
                     "never is: check that it is the right file")
+    if "\\u" in text and _lone_surrogate(data):
+        raise error(f"{p}: a string holds half of a UTF-16 surrogate pair (a \\udXXX "
+                    "escape without its partner), which is no character: fix the escape")
     return data
+
+
+def _lone_surrogate(data: Any) -> bool:
+    """Whether a string or key of ``data`` holds a lone surrogate (only a \\u escape
+    makes one; it cannot be written out as UTF-8, so a name holding one crashed output)."""
+    stack: list[Any] = [data]
+    while stack:
+        value = stack.pop()
+        if isinstance(value, str):
+            if not value.isascii():
+                try:
+                    value.encode("utf-8")
+                except UnicodeEncodeError:
+                    return True
+        elif isinstance(value, dict):
+            stack.extend(value.keys())
+            stack.extend(value.values())
+        elif isinstance(value, list):
+            stack.extend(value)
+    return False
 
 
 def read_json(path: str | Path, what: str, error: type[Exception], *,

@@ -18,7 +18,7 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from citysynth.solver.bounded import bounded_k_best, bounds_for
-from citysynth.solver.compiled import Compiled, compile_problem
+from citysynth.solver.compiled import HI_CAP, Compiled, compile_problem
 from citysynth.solver.diagnose import diagnose
 from citysynth.solver.errors import ProblemError, TooLargeError
 from citysynth.solver.estimate import (
@@ -132,7 +132,20 @@ def choose_method(cp: Compiled, k: int, max_memory_mb: float) -> Method:
     return "rcksp"
 
 
-SOLUTION_BYTES = 256     # the least a kept solution takes (its sequence, cost, totals)
+SOLUTION_BYTES = 2048    # what a kept solution takes (its sequence, cost, totals, and
+                         # its result object): 1,000,000 solutions of the sample street
+                         # took 1.3 GB (3.3 GB printed as JSON); 256 let 5 M reach 15 GB
+BUDGET_MB = (1.0, float(1 << 30))   # a memory budget below 1 MB or past 1 PB is a typo
+
+
+def check_budget(max_memory_mb: float) -> None:
+    """The memory budget is a number of megabytes a machine can have (a budget of 1e30
+    overflowed the kernels' integers; 0 or less refused everything as over it)."""
+    lo, hi = BUDGET_MB
+    if not (lo <= max_memory_mb <= hi):   # NaN too
+        raise ProblemError(f"the memory budget must be between {lo:g} and {hi:,.0f} MB, "
+                           f"got {max_memory_mb:g} MB; give it in megabytes "
+                           "(--max-memory MB)")
 
 
 def check_k(k: int, max_memory_mb: float) -> None:
@@ -150,6 +163,30 @@ def check_k(k: int, max_memory_mb: float) -> None:
                             f"{max_memory_mb:,.0f} MB; ask for fewer (k), or raise the "
                             "budget (--max-memory MB)", need_mb=need / 2**20,
                             budget_mb=max_memory_mb)
+
+
+def check_length(cp: Compiled, max_memory_mb: float) -> None:
+    """Refuse at once a minimum past what can be counted (1e300 m at 0.2 m), and one that
+    only a solution too long for any search within the budget can reach: every element
+    of a solution is a node or label of the search, 16 bytes at the very least. Both
+    searched (until the budget or for ever) before."""
+    shortest = 0
+    for i, q in enumerate(cp.quant):
+        if q.lo > HI_CAP:
+            raise TooLargeError(
+                f'resource "{q.resource}": its minimum {q.asked[0]:g} is '
+                f"{q.asked[0] / q.quantum:.3g} quanta of {q.quantum:g}, more than can be "
+                f"counted ({HI_CAP:.3g}); ask for less, or give a coarser quantum",
+                budget_mb=max_memory_mb)
+        most = int(cp.r[:, i].max(initial=0))
+        if cp.lo[i] > 0 and most > 0:
+            shortest = max(shortest, -(-int(cp.lo[i]) // most))
+    if shortest * 16 > max_memory_mb * 2**20:
+        raise TooLargeError(
+            f"problem too large: a solution needs at least {shortest:,} elements to reach "
+            f"its minimums, more than a search within the memory budget of "
+            f"{max_memory_mb:,.0f} MB can hold; ask for less, or raise the budget "
+            "(--max-memory MB)", need_mb=shortest * 16 / 2**20, budget_mb=max_memory_mb)
 
 
 def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
@@ -191,9 +228,11 @@ def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
     if table not in ("auto", "dense", "hash"):
         raise ProblemError(f'table must be "auto", "dense" or "hash", got {table!r}')
     k = problem.k if k is None else int(k)
+    check_budget(max_memory_mb)
     check_k(k, max_memory_mb)
     t0 = time.perf_counter()
     cp = compile_problem(problem)
+    check_length(cp, max_memory_mb)
     if method == "auto":
         method = choose_method(cp, k, max_memory_mb)
     stats: dict[str, Any] = {

@@ -77,6 +77,8 @@ BROKEN_JSON: dict[str, Callable[[bytes], bytes | None]] = {
     "top-number": lambda good: b"42",
     "top-string": lambda good: b'"FeatureCollection"',
     "trailing-garbage": lambda good: good + b"}}",
+    "integer-of-5000-digits": lambda good: b'{"a": ' + b"9" * 5000 + b"}",
+    "lone-surrogate": lambda good: b'{"type": "\\ud800"}',
 }
 SPECIAL = ("folder", "fifo", "symlink-loop", "too-large")
 
@@ -248,6 +250,8 @@ PROBLEM_SHAPES: dict[str, Callable[[dict], object]] = {
     "quantum-negative": _set(("quantum", "length"), -0.2),
     "resources-string": _set(("resources",), "length"),
     "unknown-key": _set(("colour",), "red"),
+    "minimum-1e300": _set(("constraints", "length"), [1e300, 1e300]),
+    "minimum-1e15": _set(("constraints", "length"), [1e15, 1e15]),
 }
 case("problem-bound-1e300", lambda t: ["solve", str(_write(t / "problem.json", edited(
     PROBLEM, _set(("constraints", "length"), [0, 1e300]))))], names="", code=0)
@@ -475,6 +479,10 @@ OPTIONS = {
                        "--max-memory"),
     "max-memory-negative": (lambda t: ["solve", str(_problem(t)), "--max-memory", "-5"],
                             "--max-memory"),
+    "max-memory-1e30": (lambda t: ["solve", str(_problem(t)), "--max-memory", "1e30"],
+                        "--max-memory"),
+    "max-memory-zero": (lambda t: ["solve", str(_problem(t)), "--max-memory", "0"],
+                        "--max-memory"),
     "solve-k-huge": (lambda t: ["solve", str(_problem(t)), "--k", "1000000000"], "k"),
     "solve-k-zero": (lambda t: ["solve", str(_problem(t)), "--k", "0"], "--k"),
     "setback-nan": (lambda t: ["skeleton", str(_lines(t)), "--kind", "streets", "--setback",

@@ -20,7 +20,7 @@ from typing import Any, Literal, get_args
 from citysynth.solver.errors import ProblemError, TooLargeError
 from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.quantize import exact_divisor, is_multiple
-from citysynth.solver.solve import Status, check_k
+from citysynth.solver.solve import Status, check_budget, check_k
 from citysynth.solver.structures.blocked import Blocked
 from citysynth.solver.structures.chain_kbest import Read, Rows
 from citysynth.solver.structures.combine import (
@@ -194,6 +194,7 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
         raise ProblemError(f"unknown structure method {method!r}; choose one of "
                            f"{', '.join(METHODS)}")
     k = st.k if k is None else int(k)
+    check_budget(max_memory_mb)
     check_k(k, max_memory_mb)
     t0 = time.perf_counter()
     try:
