@@ -8,6 +8,7 @@ the file. The format is documented in the README ("Part libraries").
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Literal, cast, get_args
@@ -75,7 +76,7 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     if not isinstance(parts_in, list) or not parts_in:
         raise LibraryError(f"{path}: no parts; add [[part]] tables")
     parts: list[PartSpec] = []
-    seen: set[str] = set()
+    seen: dict[str, str] = {}   # id_key -> id
     for i, p in enumerate(parts_in):
         parts.append(_part(p, i, path, seen))
     rescale = lib.get("rescale", True)
@@ -92,14 +93,43 @@ def _positive(v: object, where: str) -> float:
     return float(v)
 
 
-def _part(p: dict, i: int, path: Path, seen: set[str]) -> PartSpec:
-    pid = p.get("id")
-    where = f"{path}: part #{i + 1}" + (f' "{pid}"' if isinstance(pid, str) else "")
+MAX_ID = 200   # characters: a part's id names its files (parts/<id>.usdc), and file
+               # systems take 255 bytes a name
+
+
+def id_key(pid: str) -> str:
+    """What a part id becomes as a USD prim and file name (every character but ASCII
+    letters, digits and ``_`` made ``_``, as usd-core's ``Tf.MakeValidIdentifier``
+    does), case-folded as Windows and macOS compare file names: two ids with one key
+    would share one prototype file, and one of them would show the other's mesh."""
+    key = re.sub(r"[^A-Za-z0-9_]", "_", pid)
+    return ("_" + key if key[:1].isdigit() else key).casefold()
+
+
+def _check_id(pid: object, where: str, seen: dict[str, str]) -> str:
+    """A part's id: a printable string, as unique as the file names it becomes."""
     if not isinstance(pid, str) or not pid:
         raise LibraryError(f"{where}: needs an id (a non-empty string)")
-    if pid in seen:
+    if len(pid) > MAX_ID or not pid.isprintable():
+        raise LibraryError(f"{where}: an id is at most {MAX_ID} printable characters (it "
+                           "names the part's files); shorten it or drop its control "
+                           "characters")
+    other = seen.get(id_key(pid))
+    if other == pid:
         raise LibraryError(f'{where}: duplicate id "{pid}"')
-    seen.add(pid)
+    if other is not None:
+        raise LibraryError(f'{where}: its id and "{other}" differ only in case or in '
+                           "characters other than letters, digits and _, so both would "
+                           "be written as one USD prototype file; rename one of them")
+    seen[id_key(pid)] = pid
+    return pid
+
+
+def _part(p: dict, i: int, path: Path, seen: dict[str, str]) -> PartSpec:
+    pid = p.get("id")
+    named = isinstance(pid, str) and pid.isprintable()
+    where = f"{path}: part #{i + 1}" + (f' "{pid}"' if named else "")
+    pid = _check_id(pid, where, seen)
     unknown = sorted(set(p) - _PART_KEYS)
     if unknown:
         raise LibraryError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(_PART_KEYS)}")

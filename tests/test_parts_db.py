@@ -202,6 +202,11 @@ GLB = GOOD.export(file_type="glb")
      "centimetres"),
     ([("A", "a.stl", GOOD, 'class = "middle"'), ("A", "b.stl", GOOD, 'class = "middle"')],
      "", 'duplicate id "A"'),
+    ([("wall.2", "a.stl", GOOD, 'class = "middle"'), ("Wall_2", "b.stl", GOOD,
+                                                         'class = "middle"')],
+     "", 'its id and "wall.2" differ only in case or in characters other than letters'),
+    ([("A\\nB", "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
+    ([("x" * 201, "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
     ([("A", "a.stl", GOOD, 'class = "window"')], "", "unknown class 'window'"),
     ([("A", "/etc/passwd", None, 'class = "middle"')], "",
      "file '/etc/passwd' must be a path relative to the library folder"),
@@ -216,7 +221,7 @@ def test_bad_input_is_one_message_exit_2_nothing_written(tmp_path, capsys, parts
         ingest(lib, out)
     msg = str(exc.value)
     assert fragment in msg
-    if "duplicate" not in fragment and "units" not in fragment:
+    if not any(w in fragment for w in ("duplicate", "units", "differ", "printable")):
         assert '"A"' in msg
     assert main(["ingest", str(lib), "-o", str(out)]) == 2
     err = capsys.readouterr().err
