@@ -68,8 +68,36 @@ def read_bytes(path: str | Path, what: str, error: type[Exception]) -> bytes:
                     "it exists and that you may read it") from None
 
 
+BINARY_FORMATS = (   # the signatures of files GIS and other tools write instead of text
+    (b"SQLite format 3\x00", "a GeoPackage or SQLite database"),
+    (b"\x00\x00\x27\x0a", "an ESRI Shapefile"),
+    (b"fgb\x03", "a FlatGeobuf file"),
+    (b"\x1f\x8b", "gzip-compressed"),
+    (b"PK\x03\x04", "a ZIP archive (a zipped Shapefile, KMZ or similar)"),
+    (b"glTF", "a binary glTF (GLB) model"),
+    (b"\x89PNG", "a PNG image"),
+    (b"PAR1", "a (Geo)Parquet file"),
+)
+
+
+def _binary_format(data: bytes, p: Path | str, what: str) -> str | None:
+    """What a binary file given for a text file is, and how to get the text, if known."""
+    for magic, name in BINARY_FORMATS:
+        if data.startswith(magic):
+            how = (f"convert it, e.g. ogr2ogr -f GeoJSON out.geojson {p}"
+                   if what == "GeoJSON" and "image" not in name and "model" not in name
+                   else f"give the {what} file instead")
+            if name == "gzip-compressed":
+                how = f"uncompress it first (gunzip), then give the {what} file"
+            return f"{p}: {name}, not a {what} file; {how}"
+    return None
+
+
 def decode(data: bytes, p: Path | str, what: str, error: type[Exception]) -> str:
     """``data`` as UTF-8 text (a UTF-8 byte-order mark dropped)."""
+    binary = _binary_format(data, p, what)
+    if binary:
+        raise error(binary)
     if data.startswith(UTF16_BOMS):
         raise error(f"{p}: UTF-16 text; {what} files are UTF-8: save it as UTF-8")
     if data.startswith(UTF8_BOM):
@@ -114,8 +142,12 @@ def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
     try:
         data = json.loads(text, parse_constant=constant)
     except json.JSONDecodeError as exc:
+        seq = (exc.msg == "Extra data" and exc.colno == 1 and what == "GeoJSON")
+        hint = ("; it looks like GeoJSON Text Sequence (a feature per line): give one "
+                "FeatureCollection, e.g. ogr2ogr -f GeoJSON out.geojson " + str(p)) if seq \
+            else ""
         raise error(f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
-                    f"{exc.msg}") from None
+                    f"{exc.msg}{hint}") from None
     except ValueError:   # Python's guard against integers of over 4,300 digits
         raise error(f"{p}: a number of thousands of digits; no {what} needs one: write it "
                     "with an exponent (1e300) or check that it is the right file") from None

@@ -79,6 +79,8 @@ BROKEN_JSON: dict[str, Callable[[bytes], bytes | None]] = {
     "trailing-garbage": lambda good: good + b"}}",
     "integer-of-5000-digits": lambda good: b'{"a": ' + b"9" * 5000 + b"}",
     "lone-surrogate": lambda good: b'{"type": "\\ud800"}',
+    "geopackage": lambda good: b"SQLite format 3\x00" + bytes(200),
+    "gzip": lambda good: __import__("gzip").compress(good, mtime=0),
 }
 SPECIAL = ("folder", "fifo", "symlink-loop", "too-large")
 
@@ -673,3 +675,25 @@ def test_bad_input_end_to_end(name, tmp_path, good_db, good_run):
     assert res.returncode == c.code, res.stderr
     assert "Traceback" not in res.stderr and "MemoryError" not in res.stderr
     assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("data, text", [
+    (b"SQLite format 3\x00" + bytes(200), "a GeoPackage or SQLite database, not a GeoJSON "
+                                          "file; convert it, e.g. ogr2ogr -f GeoJSON"),
+    (b"\x00\x00\x27\x0a" + bytes(96), "an ESRI Shapefile, not a GeoJSON file"),
+    (b"fgb\x03fgb\x00" + bytes(64), "a FlatGeobuf file, not a GeoJSON file"),
+    (b"PK\x03\x04" + bytes(64), "a ZIP archive"),
+    (b'{"type": "Feature", "properties": {}, "geometry": null}\n'
+     b'{"type": "Feature", "properties": {}, "geometry": null}\n',
+     "it looks like GeoJSON Text Sequence (a feature per line): give one FeatureCollection"),
+])
+def test_files_of_other_gis_formats_are_named_with_the_conversion(tmp_path, capsys, data,
+                                                                   text):
+    """What QGIS or ogr2ogr write besides GeoJSON is named for what it is, with the
+    conversion (a GeoPackage was "not UTF-8 text ... perhaps UTF-16")."""
+    f = tmp_path / "input.data"
+    f.write_bytes(data)
+    assert main(["block", str(f), "--library", str(LIB), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert text in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "out").exists()
