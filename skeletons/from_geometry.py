@@ -117,6 +117,7 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
             xy[keys[k]] = np.array([float(p[0]), float(p[1])])
         return keys[k]
 
+    drawn: list[tuple[Feature, np.ndarray]] = []
     for f in features:
         lines = list(f.geometry.geoms) if isinstance(f.geometry, MultiLineString) \
             else [f.geometry]
@@ -124,16 +125,20 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
             if not isinstance(line, LineString):
                 raise SkeletonError(f"{f.where}: a skeleton is made of LineStrings, got "
                                     f"{f.geometry.geom_type}")
-            front = _front(f.properties, f.where)
-            cons = _constraints(f.properties, f.where)
-            pts = np.asarray(line.coords)[:, :2]
-            for p, q in zip(pts[:-1], pts[1:], strict=True):
-                a, b = node(p), node(q)
-                length = float(np.linalg.norm(xy[b] - xy[a]))
-                if a == b or length < SNAP:
-                    raise SkeletonError(f"{f.where}: a zero-length edge at {frame.at(p)}; "
-                                        "remove the repeated point")
-                edges.append(Edge(a, b, length, front, cons, f.where))
+            drawn.append((f, np.asarray(line.coords)[:, :2]))
+    for (f, raw), pts in zip(drawn, _undensified([pts for _f, pts in drawn]), strict=True):
+        front = _front(f.properties, f.where)
+        cons = _constraints(f.properties, f.where)
+        for p, q in zip(raw[:-1], raw[1:], strict=True):   # as drawn (no key points)
+            if float(np.linalg.norm(q - p)) < SNAP or \
+                    (round(p[0] / SNAP), round(p[1] / SNAP)) == (round(q[0] / SNAP),
+                                                                 round(q[1] / SNAP)):
+                raise SkeletonError(f"{f.where}: a zero-length edge at {frame.at(p)}; "
+                                    "remove the repeated point")
+        for p, q in zip(pts[:-1], pts[1:], strict=True):
+            a, b = node(p), node(q)
+            edges.append(Edge(a, b, float(np.linalg.norm(xy[b] - xy[a])), front, cons,
+                              f.where))
     if not edges:
         raise SkeletonError(f"{prefix}no skeleton edges in the input")
     edges = _split_at_touching_ends(edges, xy)
@@ -160,6 +165,32 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
     sk = Skeleton(name, seamed(kps) if closed else kps, edges, closed, frame)
     _check_sides(sk, min_edge)   # after splitting: a wing drawn to a line can cut it short
     return sk
+
+
+def _undensified(lines: list[np.ndarray]) -> list[np.ndarray]:
+    """Each line with the vertices of a densely drawn run dropped, as an outline's are
+    (within :data:`DENSE`): a straight side drawn with a point every few metres, or a
+    curve densified by a GIS, would otherwise make every vertex a bend that cuts the
+    parts across it (66 part pieces on a 150 m line of 50 points, 950 with 1,000 points,
+    and minutes of solving). A vertex where lines meet (an end of any line, or a vertex
+    two lines share) is kept, so T junctions and crossings stay where they were drawn."""
+    def key(p: np.ndarray) -> tuple[int, int]:
+        return round(p[0] / SNAP), round(p[1] / SNAP)
+
+    seen: dict[tuple[int, int], int] = {}
+    for pts in lines:
+        for p in pts:
+            seen[key(p)] = seen.get(key(p), 0) + 1
+    ends = {key(pts[i]) for pts in lines for i in (0, -1) if len(pts)}
+    out = []
+    for pts in lines:
+        cut = [0] + [i for i in range(1, len(pts) - 1)
+                     if key(pts[i]) in ends or seen[key(pts[i])] > 1] + [len(pts) - 1]
+        runs = [np.asarray(shapely.simplify(LineString(pts[a:b + 1]), DENSE,
+                                            preserve_topology=False).coords)[:, :2]
+                if b - a > 1 else pts[a:b + 1] for a, b in zip(cut[:-1], cut[1:], strict=True)]
+        out.append(np.concatenate([runs[0]] + [r[1:] for r in runs[1:]]) if runs else pts)
+    return out
 
 
 def _check_sides(sk: Skeleton, min_edge: float, where: str = "") -> None:

@@ -308,3 +308,55 @@ def test_a_bad_geometry_is_located_in_a_kept_projected_crs_in_its_unit():
     geos = _located(" at (" + explain_validity(shapely.Polygon(ring)).split("[")[1]
                     .rstrip("]").replace(" ", ", ") + ")")   # GEOS, in the file's feet
     assert _located(str(exc.value)) == pytest.approx(geos, abs=0.02)
+
+
+def _utm(*features):
+    return parse_geojson(fc(*features), crs="EPSG:25832")
+
+
+def test_a_densely_drawn_line_is_its_shape_not_its_vertices():
+    """A straight 150 m side drawn with 1,000 points is one edge (each vertex was a bend
+    cutting the parts across it: 950 part pieces instead of 20, and 48 s instead of 3);
+    a quarter circle densified every 2 cm keeps its shape within 2 cm with few bends."""
+    import math
+
+    import numpy as np
+    import shapely
+    x0, y0 = 366000.0, 5622000.0
+    line = [[x0 + 150 * i / 999, y0] for i in range(1000)]
+    feats, frame = _utm(feat("LineString", line))
+    sk = skeleton_from_lines(feats, frame)
+    assert len(sk.edges) == 1 and sk.edges[0].length == pytest.approx(150.0)
+    arc = [[x0 + 40 * math.cos(t), y0 + 40 * math.sin(t)]
+           for t in np.linspace(0, math.pi / 2, 3142)]
+    feats, frame = _utm(feat("LineString", arc))
+    sk = skeleton_from_lines(feats, frame)
+    drawn = feats[0].geometry
+    kept = shapely.LineString([k.xy for k in sorted(sk.keypoints, key=lambda k: k.id)])
+    assert 3 < len(sk.edges) < 200
+    assert shapely.hausdorff_distance(kept, drawn) <= 0.02 + 1e-9
+
+
+def test_dense_lines_keep_the_vertices_where_lines_meet():
+    """A wing ending on an inner vertex of a densely drawn main line stays joined there
+    (a T junction); a dense closed line keeps its four corners and stays closed."""
+    x0, y0 = 366000.0, 5622000.0
+    main = [[x0 + i * 0.5, y0] for i in range(121)]                  # 60 m, a point a 0.5 m
+    wing = [[x0 + 30.0, y0 + j * 0.5] for j in range(61)]            # from (30, 0) north
+    feats, frame = _utm(feat("LineString", main), feat("LineString", wing))
+    sk = skeleton_from_lines(feats, frame)
+    assert sorted(k.degree for k in sk.keypoints) == [1, 1, 1, 3]
+    square = [[x0 + i, y0] for i in range(40)] + [[x0 + 40, y0 + i] for i in range(40)] + \
+        [[x0 + 40 - i, y0 + 40] for i in range(40)] + [[x0, y0 + 40 - i] for i in range(41)]
+    feats, frame = _utm(feat("LineString", square))                   # drawn closed
+    sk = skeleton_from_lines(feats, frame)
+    assert sk.closed and sorted(k.kind for k in sk.keypoints) == ["corner"] * 4
+
+
+def test_a_repeated_point_of_a_dense_line_is_still_told():
+    x0, y0 = 366000.0, 5622000.0
+    line = [[x0 + i, y0] for i in range(30)]
+    line.insert(10, list(line[10]))
+    feats, frame = _utm(feat("LineString", line))
+    with pytest.raises(SkeletonError, match="a zero-length edge at .*remove the repeated"):
+        skeleton_from_lines(feats, frame)
