@@ -27,6 +27,7 @@ from shapely.ops import polylabel
 
 from citysynth.export.layout import Instance, Layout
 from citysynth.parts_db import Part, PartDB
+from citysynth.pipeline.city.config import MAX_TOWER_HEIGHT
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import tower_problem
@@ -160,6 +161,10 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
         raise UsageError(f"--height must be a positive number of metres, got {lo:g}"
                          + (f"-{hi:g}" if hi != lo else ""))
+    if hi > MAX_TOWER_HEIGHT:
+        raise UsageError(f"a tower of {hi:g} m: citysynth stacks towers of at most "
+                         f"{MAX_TOWER_HEIGHT:,.0f} m (the tallest building stands 828 m); "
+                         "ask for a lower one")
     check_lot(db, lot, style)
     t0 = time.perf_counter()
     area = (far[0] * lot.area, far[1] * lot.area)

@@ -308,6 +308,9 @@ CITY_TOML_SHAPES = {
     "zone-polygon-string": "[[zone]]\nname = 'a'\npolygon = 'here'\n",
     "library-missing": "library = 'no/such/library'\n",
     "origin-huge": "origin = [1e300, 1e300]\n",
+    "slack-huge": "slack = 1e9\n",
+    "towers-height-huge": "[[zone]]\nname = 'z'\nkind = 'towers'\nhighway = ['primary']\n"
+                          "height = [40, 1e300]\nfar = [2, 4]\n",
 }
 for shape, text in CITY_TOML_SHAPES.items():
     def make_cfg(tmp: Path, text=text) -> list[str]:
@@ -501,6 +504,14 @@ OPTIONS = {
                                      str(LIB), "--workers", "0", "-o", str(t / "out")],
                           "--workers"),
     "crs-garbage": (lambda t: ["skeleton", str(_lines(t)), "--crs", "EPSG:nope"], "nope"),
+    "street-slack-huge": (lambda t: ["street", "--line", str(_lines(t)), "--slack", "1e9",
+                                     "-o", str(t / "out")], "--slack"),
+    "street-windows-inf": (lambda t: ["street", "--line", str(_lines(t)), "--windows", "0",
+                                      "inf", "-o", str(t / "out")], "--windows"),
+    "tower-height-huge": (lambda t: ["tower", "--height", "1e6", "--far", "4", "--lot-area",
+                                     "900", "-o", str(t / "out")], "at most 1,000 m"),
+    "tower-height-1e300": (lambda t: ["tower", "--height", "1e300", "--far", "4",
+                                      "--lot-area", "900", "-o", str(t / "out")], "1e+300"),
     "scheduler-malformed": (lambda t: ["city", "--streets", str(EX / "city" /
                                                                 "district_streets.geojson"),
                                        "--library", str(LIB), "--scheduler", "::::",

@@ -195,7 +195,15 @@ def parse_config(data: dict, path: Path | None = None) -> CityConfig:
                       _pos(data, "min_width", 8.0, "", err, zero=True),
                       _pos(data, "min_area", 50.0, "", err, zero=True),
                       origin, setbacks, zones, path,
-                      _pos(data, "slack", 0.3, "", err, zero=True), _footprints(data, err))
+                      _slack(data, err), _footprints(data, err))
+
+
+def _slack(data: dict, err: _Err) -> float:
+    slack = _pos(data, "slack", 0.3, "", err, zero=True)
+    if slack > MAX_SLACK:
+        raise err("slack", f"{slack:g} m would let a side be missed by more than "
+                           f"{MAX_SLACK:g} m; use at most {MAX_SLACK:g}")
+    return slack
 
 
 def _footprints(data: dict, err: _Err) -> FootprintSettings:
@@ -327,9 +335,12 @@ def _zone_kind(z: dict, name: str, where: str, err: _Err) -> ZoneKind:
             raise err(where + key, f"zone {name!r}: a towers zone needs {key} = [min, max], "
                                    f"{what}")
     style = z.get("style")
+    height = _positive_interval(z, "height", where, name, err)
+    if height[1] > MAX_TOWER_HEIGHT:
+        raise err(where + "height", f"zone {name!r}: towers of up to {height[1]:g} m; "
+                  f"citysynth stacks towers of at most {MAX_TOWER_HEIGHT:,.0f} m")
     return ZoneKind(kind, _pos(z, "setback", 0.0, where, err, zero=True),
-                    _pos(z, "lot", LOT, where, err), _positive_interval(z, "height", where,
-                                                                        name, err),
+                    _pos(z, "lot", LOT, where, err), height,
                     _positive_interval(z, "far", where, name, err),
                     style if isinstance(style, str) else None)
 
@@ -362,6 +373,11 @@ def _known(d: dict, allowed: set[str], prefix: str, err: _Err) -> None:
     for k in d:
         if k not in allowed:
             raise err(prefix + k, f"unknown key (known: {', '.join(sorted(allowed))})")
+
+
+MAX_SLACK = 2.0            # metres a side may be missed by: more would leave gaps visibly
+MAX_TOWER_HEIGHT = 1000.0  # metres: the tallest building stands 828 m; a tower of a km
+                           # or more is a typo, and its search would run for minutes
 
 
 def _pos(d: dict, key: str, default: float, prefix: str, err: _Err, *,

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from citysynth.export.writers import FORMATS
 from citysynth.parts_db import load_library
+from citysynth.pipeline.city.config import MAX_SLACK
 from citysynth.pipeline.city.footprints import describe_side, explain, stage_side
 from citysynth.pipeline.city.jobs import frame_tuple
 from citysynth.pipeline.errors import UsageError
@@ -37,7 +38,6 @@ from citysynth.skeletons.errors import SkeletonError
 from citysynth.solver.diagnose import nearest
 
 MAX_STRETCH = 0.05   # as city.toml: more would stretch parts visibly
-MAX_SLACK = 2.0      # metres
 
 
 def _options(args) -> dict[str, float]:

@@ -16,6 +16,7 @@ import shapely
 from citysynth.examples import SAMPLE_LIBRARY
 from citysynth.export.writers import FORMATS
 from citysynth.parts_db import load_library
+from citysynth.pipeline.city.config import MAX_SLACK
 from citysynth.pipeline.commands.build import safe_name
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built, summary_line, write_outputs
@@ -67,16 +68,17 @@ def _ask(args) -> StreetAsk:
     if not math.isfinite(offset) or offset < 0 or (args.side == "both" and offset == 0):
         raise UsageError(f"--offset must be a positive number of metres (both sides need "
                          f"room between their facades), got {offset:g}")
-    if not (0 <= args.stretch <= 0.05 and args.slack >= 0):
-        raise UsageError("--stretch is a share in [0, 0.05] and --slack a number of metres "
-                         f">= 0; got {args.stretch:g} and {args.slack:g}")
+    if not (0 <= args.stretch <= 0.05 and 0 <= args.slack <= MAX_SLACK):
+        raise UsageError(f"--stretch is a share in [0, 0.05] and --slack a number of metres "
+                         f"in [0, {MAX_SLACK:g}]; got {args.stretch:g} and {args.slack:g}")
     cons = []
     for a in ATTRIBUTES:
         iv = getattr(args, a)
         if iv is None:
             continue
-        if not (0 <= iv[0] <= iv[1]):
-            raise UsageError(f"--{a} LO HI needs 0 <= LO <= HI, got {iv[0]:g} {iv[1]:g}")
+        if not (0 <= iv[0] <= iv[1] and math.isfinite(iv[1])):
+            raise UsageError(f"--{a} LO HI needs 0 <= LO <= HI, both finite, got {iv[0]:g} "
+                             f"{iv[1]:g}")
         cons.append((a, float(iv[0]), float(iv[1])))
     return StreetAsk(sides, offset, args.stretch, args.slack, tuple(cons), args.style, args.k)
 
