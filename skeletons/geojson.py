@@ -194,22 +194,40 @@ def _geometry(g: Any, where: str) -> BaseGeometry | None:
         return None
     if not isinstance(g, dict):
         raise SkeletonError(f"{where}: malformed geometry (not an object)")
+    kind = g.get("type")
+    if kind not in GEOMETRY_TYPES:
+        raise SkeletonError(f"{where}: unknown geometry type {kind!r}; GeoJSON has "
+                            f"{', '.join(GEOMETRY_TYPES)}")
+    if kind != "GeometryCollection" and not isinstance(g.get("coordinates"), list):
+        raise SkeletonError(f"{where}: malformed {kind} (its coordinates must be an array: "
+                            f"{NESTING[kind]})")
     _check_coordinates(g, where)
     try:
         geom = shape(g)
     except Exception as exc:  # shapely raises several kinds for malformed geometry
-        raise SkeletonError(f"{where}: malformed {g.get('type', 'geometry')} "
-                            f"({_geos_words(exc)})") from None
+        raise SkeletonError(f"{where}: malformed {kind} ({_geos_words(exc, kind)})") from None
     coords = shapely.get_coordinates(geom)
     if not np.isfinite(coords).all():
         raise SkeletonError(f"{where}: non-finite coordinates")
     return geom
 
 
-def _geos_words(exc: Exception) -> str:
+NESTING = {   # how each geometry's coordinates nest, as messages show it
+    "Point": "[x, y]", "MultiPoint": "[[x, y], ...]", "LineString": "[[x, y], [x, y], ...]",
+    "MultiLineString": "[[[x, y], [x, y], ...], ...]",
+    "Polygon": "[[[x, y], [x, y], [x, y], [x, y]], ...] (rings, each closed)",
+    "MultiPolygon": "[[[[x, y], ...]], ...] (polygons of rings)"}
+
+
+def _geos_words(exc: Exception, kind: str = "") -> str:
     """shapely's or GEOS's complaint without the exception class GEOS prefixes and the
     line break it ends with ("IllegalArgumentException: point array must contain 0 or >1
-    elements\n"): "a line needs at least 2 points" where that is what it means."""
+    elements\n"): "a line needs at least 2 points" where that is what it means; numpy's
+    and Python's complaints about the nesting as how the coordinates should nest."""
+    if isinstance(exc, TypeError | KeyError | IndexError) or "inhomogeneous" in str(exc) \
+            or "setting an array element" in str(exc):
+        return (f"its coordinates do not nest as a {kind}'s do, {NESTING.get(kind, '')}, "
+                "every position with the same count of numbers")
     text = str(exc).strip()
     text = re.sub(r"^[A-Za-z]*Exception:\s*", "", text)
     if "point array must contain 0 or >1 elements" in text:

@@ -360,3 +360,22 @@ def test_a_repeated_point_of_a_dense_line_is_still_told():
     feats, frame = _utm(feat("LineString", line))
     with pytest.raises(SkeletonError, match="a zero-length edge at .*remove the repeated"):
         skeleton_from_lines(feats, frame)
+
+
+@pytest.mark.parametrize("geometry, text", [
+    ({"type": "Circle", "coordinates": [0, 0]}, "unknown geometry type 'Circle'; GeoJSON has"),
+    ({"type": "Polygon"}, "malformed Polygon (its coordinates must be an array: [[[x, y]"),
+    ({"type": "Polygon", "coordinates": 5}, "malformed Polygon (its coordinates must be an"),
+    ({"type": "Polygon", "coordinates": [[[0, 0], [1, 0, 3], [1, 1], [0, 0]]]},
+     "every position with the same count of numbers"),
+    ({"type": "LineString", "coordinates": [0, 0]}, "malformed LineString (its coordinates "
+                                                    "do not nest as a LineString's do"),
+])
+def test_malformed_geometry_says_how_it_should_nest(geometry, text):
+    """Not numpy's or Python's words ("inhomogeneous shape", "'int' object is not
+    subscriptable", "'coordinates'")."""
+    with pytest.raises(SkeletonError) as exc:
+        parse_geojson(fc({"type": "Feature", "properties": {}, "geometry": geometry}))
+    assert text in str(exc.value)
+    assert not any(w in str(exc.value) for w in ("inhomogeneous", "subscriptable", "array "
+                                                 "element", "object is"))
