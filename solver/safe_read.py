@@ -6,7 +6,7 @@ so each of these becomes one message that names the file and says how to fix it,
 as the caller's own error class (the CLI prints it and exits 2):
 
 - a path that is missing, a folder, unreadable, or larger than :data:`MAX_MB` megabytes
-  (``$CITYSYNTH_MAX_INPUT_MB`` raises the limit; parsed JSON takes about ten times its
+  (``$CITYSYNTH_MAX_INPUT_MB`` raises the limit; parsed JSON takes about 20 times its
   file size in memory, so the size is checked before anything is read);
 - text that is not UTF-8 (Latin-1, a Windows code page, UTF-16): the offending byte and
   line are named; a UTF-8 byte-order mark is accepted;
@@ -29,7 +29,9 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-MAX_MB = 512                 # default size limit of one input file
+MAX_MB = 100                 # default size limit of one input file: parsed, JSON takes
+                             # about 20 times its size (a 228 MB problem file peaked at
+                             # 5.1 GB), so 100 MB keeps within the 2 GB memory budget
 MAX_DEPTH = 100              # deepest nesting of JSON accepted (GeoJSON needs about 8)
 SIZE_ENV = "CITYSYNTH_MAX_INPUT_MB"
 UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
@@ -57,7 +59,7 @@ def read_bytes(path: str | Path, what: str, error: type[Exception]) -> bytes:
         limit = _limit_mb()
         if size > limit * 1e6:
             raise error(f"{p}: {size / 1e6:.0f} MB, larger than the {limit:g} MB a {what} "
-                        f"file may have (reading it would take about {size * 10 / 1e9:.1f}"
+                        f"file may have (reading it would take about {size * 20 / 1e9:.1f}"
                         f" GB of memory); split it, or raise ${SIZE_ENV}")
         return p.read_bytes()
     except FileNotFoundError:
