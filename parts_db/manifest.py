@@ -93,6 +93,7 @@ def _positive(v: object, where: str) -> float:
     return float(v)
 
 
+MAX_ATTRIBUTE = 10_000   # doors, windows...: of one part (1e300 overflowed the solver)
 MAX_ID = 200   # characters: a part's id names its files (parts/<id>.usdc), and file
                # systems take 255 bytes a name
 
@@ -165,9 +166,11 @@ def _part(p: dict, i: int, path: Path, seen: dict[str, str]) -> PartSpec:
                            "attributes = {doors = 1, windows = 4}")
     attrs = {}
     for k, v in attrs_in.items():
+        if not k.strip() or not k.isprintable():
+            raise LibraryError(f"{where}: an attribute needs a name (like doors), got {k!r}")
         if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
-                or v < 0:
-            raise LibraryError(f"{where}: attribute {k} must be a non-negative number, "
-                               f"got {v!r}")
+                or not 0 <= v <= MAX_ATTRIBUTE:
+            raise LibraryError(f"{where}: attribute {k} must be a number from 0 to "
+                               f"{MAX_ATTRIBUTE:,} (a count on one part), got {v!r}")
         attrs[k] = float(v)
     return PartSpec(pid, f, cast(PartClass, cls), style, angle, convex, length, attrs)

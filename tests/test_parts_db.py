@@ -207,6 +207,8 @@ GLB = GOOD.export(file_type="glb")
      "", 'its id and "wall.2" differ only in case or in characters other than letters'),
     ([("A\\nB", "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
     ([("x" * 201, "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
+    ([("A", "a.stl", GOOD, 'class = "middle"\nattributes = {doors = 1e300}')], "",
+     "attribute doors must be a number from 0 to 10,000"),
     ([("A", "a.stl", GOOD, 'class = "window"')], "", "unknown class 'window'"),
     ([("A", "/etc/passwd", None, 'class = "middle"')], "",
      "file '/etc/passwd' must be a path relative to the library folder"),
