@@ -59,3 +59,26 @@ def sweep_temporaries(folder: str | Path) -> int:
             p.unlink(missing_ok=True)
             n += 1
     return n
+
+
+@contextlib.contextmanager
+def all_or_nothing(folder: str | Path) -> Iterator[None]:
+    """Files and folders made in ``folder`` by the block go again if it fails: a command
+    that writes several files (a layout's JSON, its USD, the part files it references)
+    and meets an error after the first (a part's mesh damaged since ingest, a name the
+    file system refuses) leaves the folder as it found it, not half a result. (A file it
+    replaced keeps its new content; only what was not there before goes.)"""
+    root = Path(folder)
+    existed = root.exists()
+    before = set(root.rglob("*")) if existed else set()
+    try:
+        yield
+    except BaseException:
+        made = (set(root.rglob("*")) if root.exists() else set()) - before
+        for p in sorted(made, key=lambda q: len(q.parts), reverse=True):   # deepest first
+            with contextlib.suppress(OSError):
+                p.rmdir() if p.is_dir() and not p.is_symlink() else p.unlink()
+        if not existed:
+            with contextlib.suppress(OSError):
+                root.rmdir()
+        raise

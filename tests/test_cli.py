@@ -201,3 +201,28 @@ def test_a_block_whose_facade_would_not_fit_the_budget_is_refused_at_once(tmp_pa
                      r"longest side [34]\d,\d\d\d m\) would take about 2,[34]\d\d MB to "
                      r"solve, over the 2,048 MB budget; split it", err), err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_failure_while_writing_leaves_no_half_result(tmp_path, capsys):
+    """A part mesh damaged after ingest fails the export after the layout JSON was
+    written: the command leaves the output folder as it found it (it left the JSON and
+    part files behind)."""
+    import shutil
+
+    from citysynth.parts_db import ingest
+    lib = tmp_path / "lib"
+    shutil.copytree(EXAMPLES / "library", lib)
+    ingest(lib, tmp_path / "db")
+    for mesh in (lib / "meshes").glob("*.glb"):
+        mesh.write_bytes(mesh.read_bytes()[:100])
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "mine.txt").write_text("the user's own file\n")
+    code = main(["building", str(EXAMPLES / "skeletons" / "t_building.geojson"), "--library",
+                 str(tmp_path / "db"), "-o", str(out), "--no-preview"])
+    err = capsys.readouterr().err
+    assert code == 2 and "ingest the library again" in err, err
+    assert sorted(p.name for p in out.rglob("*")) == ["mine.txt"]
+    code = main(["building", str(EXAMPLES / "skeletons" / "t_building.geojson"), "--library",
+                 str(tmp_path / "db"), "-o", str(tmp_path / "fresh"), "--no-preview"])
+    assert code == 2 and not (tmp_path / "fresh").exists()

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from citysynth.export.writers import FORMATS
 from citysynth.parts_db import load_library
+from citysynth.parts_db.files import all_or_nothing
 from citysynth.pipeline.city.config import MAX_SLACK
 from citysynth.pipeline.city.footprints import describe_side, explain, stage_side
 from citysynth.pipeline.city.jobs import frame_tuple
@@ -147,10 +148,10 @@ def _finish(args, db, style: str, frame: Frame,
             print(f"citysynth {args.command}: cannot build "
                   f"{_why(args, db, style, frame, rings, built)}", file=sys.stderr)
             status = 1
-    for built, _rings in built_all:
-        if built.status != "ok":
-            continue
-        paths = write_outputs(built, db, args.out, formats=formats, k=args.k)
+    with all_or_nothing(args.out):
+        written = [(built, write_outputs(built, db, args.out, formats=formats, k=args.k))
+                   for built, _rings in built_all if built.status == "ok"]
+    for built, paths in written:
         print(f"{built.name}: {len(built.layouts)} layout(s)")
         for lay in built.layouts:
             print("  " + summary_line(lay))

@@ -16,6 +16,7 @@ import shapely
 from citysynth.examples import SAMPLE_LIBRARY
 from citysynth.export.writers import FORMATS
 from citysynth.parts_db import load_library
+from citysynth.parts_db.files import all_or_nothing
 from citysynth.pipeline.city.config import MAX_SLACK
 from citysynth.pipeline.commands.build import safe_name
 from citysynth.pipeline.errors import UsageError
@@ -113,7 +114,8 @@ def run(args) -> int:
 
 def _write(args, db, built: Built) -> int:
     formats = [f for f in FORMATS if f != "png" or not args.no_preview]
-    paths = write_outputs(built, db, args.out, formats=formats, k=args.k)
+    with all_or_nothing(args.out):
+        paths = write_outputs(built, db, args.out, formats=formats, k=args.k)
     print(f"{built.name}: {len(built.layouts)} row(s)")
     for lay in built.layouts:
         print("  " + summary_line(lay))
