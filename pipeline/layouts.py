@@ -69,6 +69,10 @@ def too_large(name: str, skeletons: list[Skeleton], exc: TooLargeError) -> str:
     its longest side, what solving it would take against the budget, what to do (the
     solver's own text speaks of stage graphs, states and quanta; its figures ride on
     the error)."""
+    if exc.k is not None:
+        return (f"{name}: k = {exc.k:,} layouts would take at least "
+                f"{(exc.need_mb or 0) / 1024:,.1f} GB to keep, over the "
+                f"{exc.budget_mb or 0:,.0f} MB budget; ask for fewer (--k)")
     if exc.shares is not None:
         return (f"{name}: its per-block intervals on {', '.join(exc.resources)} leave "
                 f"{exc.shares:,} ways to share the totals between its sides, too many "
@@ -113,7 +117,7 @@ def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
     except TooLargeError as exc:
         raise TooLargeError(too_large(name, skeletons, exc), need_mb=exc.need_mb,
                             budget_mb=exc.budget_mb, shares=exc.shares,
-                            resources=exc.resources) from None
+                            resources=exc.resources, k=exc.k) from None
     t2 = time.perf_counter()
     timings = {"structure_s": t1 - t0, "solve_s": t2 - t1}
     for sk, r in zip(skeletons, results, strict=True):

@@ -19,14 +19,16 @@ class TooLargeError(ProblemError):
     - ``need_mb``: what solving would take, when it is known before starting;
     - ``budget_mb``: the memory budget it was measured against;
     - ``shares`` and ``resources``: for structure-wide intervals, the ways of sharing
-      their totals between stages and the resources they are on.
+      their totals between stages and the resources they are on;
+    - ``k``: when what is too large is the number of solutions asked for.
     """
 
     def __init__(self, message: str, *, need_mb: float | None = None,
                  budget_mb: float | None = None, shares: int | None = None,
-                 resources: tuple[str, ...] = ()) -> None:
+                 resources: tuple[str, ...] = (), k: int | None = None) -> None:
         super().__init__(message)
         self.need_mb = need_mb
         self.budget_mb = budget_mb
         self.shares = shares
         self.resources = resources
+        self.k = k

@@ -162,7 +162,7 @@ def check_k(k: int, max_memory_mb: float) -> None:
                             f"{gb} GB, over the memory budget of "
                             f"{max_memory_mb:,.0f} MB; ask for fewer (k), or raise the "
                             "budget (--max-memory MB)", need_mb=need / 2**20,
-                            budget_mb=max_memory_mb)
+                            budget_mb=max_memory_mb, k=k)
 
 
 def check_length(cp: Compiled, max_memory_mb: float) -> None:

@@ -216,3 +216,7 @@ def test_a_block_too_large_is_worded_from_the_refusals_figures():
         "3,072 MB to solve, over the 2,048 MB budget; split it into smaller blocks or "
         "buildings")
     assert "too much memory" in too_large("b", [sk], TooLargeError("grew past the budget"))
+    many = TooLargeError("k = 10^12 ...", need_mb=2e9, budget_mb=2048, k=10**12)
+    assert too_large("b", [sk], many) == (
+        "b: k = 1,000,000,000,000 layouts would take at least 1,953,125.0 GB to keep, over "
+        "the 2,048 MB budget; ask for fewer (--k)")
