@@ -291,6 +291,11 @@ def skeletons_from_polygons(features: Iterable[Feature], frame: Frame, *,
     for f in features:
         polys = list(f.geometry.geoms) if isinstance(f.geometry, MultiPolygon) \
             else [f.geometry]
+        if len(polys) > 1 and all(p.is_valid for p in polys) and not f.geometry.is_valid:
+            what, _fix = why_invalid(f.geometry, frame)   # parts that overlap or touch
+            raise SkeletonError(f"{_in_file(f, f.name)}: its polygons overlap ({what}); "
+                                "two buildings cannot share ground: merge them into one "
+                                "polygon, or move them apart")
         for k, poly in enumerate(polys):
             label = f.name + (f" part {k}" if len(polys) > 1 else "")
             poly = _checked_polygon(poly, _in_file(f, label), min_area, frame)

@@ -379,3 +379,18 @@ def test_malformed_geometry_says_how_it_should_nest(geometry, text):
     assert text in str(exc.value)
     assert not any(w in str(exc.value) for w in ("inhomogeneous", "subscriptable", "array "
                                                  "element", "object is"))
+
+
+def test_a_multipolygon_whose_parts_overlap_is_refused_where_they_do():
+    """Each part valid, together not: two buildings on the same ground (built as two
+    overlapping blocks, exit 0, before)."""
+    a = [[366000.0, 5622000.0], [366040.0, 5622000.0], [366040.0, 5622030.0],
+         [366000.0, 5622030.0], [366000.0, 5622000.0]]
+    b = [[x + 20.0, y] for x, y in a]
+    feats, frame = _utm(feat("MultiPolygon", [[a], [b]]))
+    with pytest.raises(SkeletonError, match=r"feature 0: its polygons overlap \(self-"
+                                            r"intersection at \(3660\d\d\.\d\d, "):
+        skeletons_from_polygons(feats, frame)
+    apart = [[x + 60.0, y] for x, y in a]
+    feats, frame = _utm(feat("MultiPolygon", [[a], [apart]]))
+    assert len(skeletons_from_polygons(feats, frame)) == 2
