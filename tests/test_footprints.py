@@ -335,3 +335,18 @@ def test_a_light_well_too_small_for_the_kit_is_closed_with_a_note(tmp_path):
     report = json.loads((tmp_path / "run" / "report.json").read_text())
     assert [n["note"] for n in report["notes"]] == [rec["note"]]
     assert report["storeys_not_matched"] == []
+
+
+def test_a_footprint_drawn_twice_is_built_once_and_told(tmp_path):
+    """The same outline twice is one block; the second drawing is among the skipped
+    pieces with the feature it repeats (it appeared nowhere)."""
+    fp = houses(tmp_path, [{"id": "a"}, {"id": "b"}])
+    data = json.loads(fp.read_text())
+    data["features"].append(json.loads(json.dumps(data["features"][0])))
+    data["features"][-1]["properties"] = {"id": "again"}
+    fp.write_text(json.dumps(data))
+    assert run_city(tmp_path / "run", fp, workers=1) == 0
+    report = json.loads((tmp_path / "run" / "report.json").read_text())
+    assert report["counts"]["built"] == 2
+    assert [s["reason"] for s in report["skipped"]] == [
+        f"{fp}: feature 2 (again): the same outline as feature 0 (a), built once"]

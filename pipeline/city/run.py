@@ -105,7 +105,7 @@ def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: City
         skipped += [{"kind": "block", "reason": r} for r in reasons]
     if frame is None:
         raise ConfigError("nothing to build: give --streets, --footprints or both")
-    jobs = _jobs(outlines, cfg, _zone_polygons(cfg, frame, crs), frame, library)
+    jobs = _jobs(outlines, cfg, _zone_polygons(cfg, frame, crs), frame, library, skipped)
     return CityInputs(jobs, skipped, frame, {"inputs_s": time.perf_counter() - t0})
 
 
@@ -166,8 +166,9 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
 
 
 def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry | None],
-          frame: Frame, library: str | Path | None) -> list[BlockJob]:
-    """One job per distinct outline (the same outline twice is one block), by id."""
+          frame: Frame, library: str | Path | None, skipped: list[dict]) -> list[BlockJob]:
+    """One job per distinct outline, by id; the same outline again (a footprint drawn
+    twice) is built once, and its second drawing is told among the skipped pieces."""
     libraries: dict[str, PartDB] = {}
     jobs: dict[str, BlockJob] = {}
     for z in cfg.zones:   # every zone of another kind is checked, blocks in it or not
@@ -187,8 +188,18 @@ def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry
                        cfg.min_edge, cfg.slack,
                        spec if isinstance(spec, FootprintSpec) else None,
                        cut=spec == CUT, zone_kind=zone_kind).with_hash()
-        jobs.setdefault(job.id, job)
+        first = jobs.setdefault(job.id, job)
+        if first is not job:
+            here, there = _where(job), _where(first)
+            file = here.split(": ", 1)[0] + ": "
+            there = there.removeprefix(file) if here.startswith(file) else there
+            skipped.append(_skip(kind, f"{here}: the same outline as {there}, built once",
+                                 poly))
     return sorted(jobs.values(), key=lambda j: j.id)
+
+
+def _where(job: BlockJob) -> str:
+    return job.footprint.where if job.footprint is not None else f"block {job.id}"
 
 
 def _check_resources(cfg: CityConfig, s: BuildSettings, zone: str, db: PartDB,
