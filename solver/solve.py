@@ -135,17 +135,16 @@ def choose_method(cp: Compiled, k: int, max_memory_mb: float) -> Method:
 SOLUTION_BYTES = 2048    # what a kept solution takes (its sequence, cost, totals, and
                          # its result object): 1,000,000 solutions of the sample street
                          # took 1.3 GB (3.3 GB printed as JSON); 256 let 5 M reach 15 GB
-BUDGET_MB = (1.0, float(1 << 30))   # a memory budget below 1 MB or past 1 PB is a typo
+MAX_BUDGET_MB = float(1 << 30)   # a memory budget past 1 PB is a typo
 
 
 def check_budget(max_memory_mb: float) -> None:
     """The memory budget is a number of megabytes a machine can have (a budget of 1e30
     overflowed the kernels' integers; 0 or less refused everything as over it)."""
-    lo, hi = BUDGET_MB
-    if not (lo <= max_memory_mb <= hi):   # NaN too
-        raise ProblemError(f"the memory budget must be between {lo:g} and {hi:,.0f} MB, "
-                           f"got {max_memory_mb:g} MB; give it in megabytes "
-                           "(--max-memory MB)")
+    if not (0 < max_memory_mb <= MAX_BUDGET_MB):   # NaN too
+        raise ProblemError(f"the memory budget must be a positive number of megabytes up "
+                           f"to {MAX_BUDGET_MB:,.0f}, got {max_memory_mb:g}; give it in "
+                           "megabytes (--max-memory MB)")
 
 
 def check_k(k: int, max_memory_mb: float) -> None:

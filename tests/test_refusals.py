@@ -173,5 +173,6 @@ def test_a_memory_budget_no_machine_has_is_refused(budget):
     p = Problem.from_dict({
         "resources": ["length"], "elements": [{"id": "a", "resources": {"length": 1.0}}],
         "transitions": [["a", "a", 1.0]], "constraints": {"length": [3, 3]}})
-    with pytest.raises(ProblemError, match="the memory budget must be between 1 and "):
+    with pytest.raises(ProblemError, match="the memory budget must be a positive number of "
+                                           "megabytes up to 1,073,741,824"):
         solve(p, max_memory_mb=budget)
