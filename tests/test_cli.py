@@ -144,18 +144,25 @@ def test_a_sides_own_interval_no_parts_meet_is_told_with_what_they_make(tmp_path
 def test_a_block_too_large_to_solve_is_told_in_metres_and_megabytes(tmp_path, capsys):
     """A continent-sized block: exit 2, its facade length, what it would take against the
     budget, and to split it; not the solver's stage graphs, states and quanta."""
-    f = _geojson(tmp_path, "x", {"type": "Polygon", "coordinates": [
-        [[-10, 35], [40, 35], [40, 70], [-10, 70], [-10, 35]]]})
-    code = main(["block", str(f), "--library", str(EXAMPLES / "library"), "-o",
-                 str(tmp_path / "out"), "--no-preview"])
-    err = capsys.readouterr().err
-    assert code == 2, err
+    err = _refused_block(tmp_path, capsys, "x", [[-10, 35], [40, 35], [40, 70], [-10, 70],
+                                                 [-10, 35]])
     assert re.fullmatch(r"citysynth block: error: x: too large to lay out: [\d,]+ m of facade "
                         r"\(its longest side [\d,]+ m\) would take about [\d,]+ MB to solve, "
                         r"over the [\d,]+ MB budget; split it into smaller blocks or "
                         r"buildings\n", err), err
     assert not any(w in err.lower() for w in SOLVER_WORDS + ("quantum", "states")), err
+
+
+def _refused_block(tmp_path: Path, capsys, name: str, ring: list) -> str:
+    """``citysynth block`` on one lon/lat ring: refused (exit 2) with nothing written;
+    its stderr."""
+    f = _geojson(tmp_path, name, {"type": "Polygon", "coordinates": [ring]})
+    code = main(["block", str(f), "--library", str(EXAMPLES / "library"), "-o",
+                 str(tmp_path / "out"), "--no-preview"])
+    err = capsys.readouterr().err
+    assert code == 2, err
     assert not (tmp_path / "out").exists()
+    return err
 
 
 @pytest.mark.parametrize("degrees, code", [(0.7, 2), (1.0, 2), (5.0, 0)])
@@ -192,15 +199,10 @@ def test_a_block_whose_facade_would_not_fit_the_budget_is_refused_at_once(tmp_pa
     from citysynth.skeletons.geojson import lonlat_from_local
     ring = lonlat_from_local([(0, 0), (40000, 0), (40000, 40000), (0, 40000), (0, 0)],
                              (7.1, 50.73))
-    f = _geojson(tmp_path, "big", {"type": "Polygon", "coordinates": [ring]})
-    code = main(["block", str(f), "--library", str(EXAMPLES / "library"), "-o",
-                 str(tmp_path / "out"), "--no-preview"])
-    err = capsys.readouterr().err
-    assert code == 2, err
+    err = _refused_block(tmp_path, capsys, "big", ring)
     assert re.search(r"big: too large to lay out: 1[56]\d,\d\d\d m of facade \(its "
                      r"longest side [34]\d,\d\d\d m\) would take about 2,[34]\d\d MB to "
                      r"solve, over the 2,048 MB budget; split it", err), err
-    assert not (tmp_path / "out").exists()
 
 
 def test_a_failure_while_writing_leaves_no_half_result(tmp_path, capsys):
