@@ -136,18 +136,21 @@ def far_interval(values: list[float], tolerance: float) -> tuple[float, float]:
 
 def _why(details: list[dict], lot: Lot) -> str:
     """Why no tower fits, in heights and floor-area ratios (the solver's details name
-    its resources: height, floor_area)."""
+    its resources: height, floor_area). The ratio first: when both are named, the
+    height is out of reach only because of it."""
+    by = {d["constraint"]: d for d in details}
     said = []
-    for d in details:
-        near = nearest(d)
-        if d["constraint"] == "height":
-            tall = " or ".join(f"{x:g} m" for x in near)
-            said.append("no stack of the tower parts has that height" +
-                        (f"; the nearest are {tall} tall" if tall else ""))
-        elif d["constraint"] == "floor_area":
-            ratios = " or ".join(f"{x / lot.area:.3g}" for x in near)
-            said.append("no stack of the tower parts of that height has that floor-area "
-                        "ratio" + (f"; the nearest reach {ratios}" if ratios else ""))
+    if "floor_area" in by:
+        below, above = (by["floor_area"].get(k) for k in ("nearest_below", "nearest_above"))
+        ratios = [f"{x / lot.area:.4g}" for x in (below, above) if x is not None]
+        said.append("no stack of the tower parts of that height has that floor-area ratio"
+                    + (f"; the nearest reach {' or '.join(ratios)}" if ratios else ""))
+    if "height" in by:
+        tall = " or ".join(f"{x:g} m" for x in nearest(by["height"]))
+        alone = by["height"].get("blocks") != "together" and "floor_area" not in by
+        said.append(("no stack of the tower parts has that height" if alone else
+                     "with that floor-area ratio no stack of the tower parts has that height")
+                    + (f"; the nearest are {tall} tall" if tall else ""))
     return "; ".join(said) or ("the tower parts meet the height and the floor-area ratio "
                                "each alone but not together; relax one")
 

@@ -210,11 +210,26 @@ def _settle(lab, K, n, keys, vals, shift, pops, lab_state, lab_elem, cnt):
     return True
 
 
+@njit(cache=True, inline="always")
+def out_of_range(c, f, r, lo, cap, n, rlevel, rother, rbase, rmin, rmax):
+    """Can no completion of node (f, c + r(f)) bring some resource into its interval,
+    by the range tables (:func:`citysynth.solver.bounds.range_tables`)?"""
+    for t in range(len(rlevel)):
+        i, j = rlevel[t], rother[t]
+        at = rbase[t] + (c[i] + r[f, i]) * n + f
+        cj = c[j] + r[f, j]
+        if cj + rmin[at] > cap[j] or cj + rmax[at] < lo[j]:
+            return True
+    return False
+
+
 @njit(cache=True)
-def _children(e, g, c, lo, r, cap, n, sptr, selem, sw, back, bres, bbase, btab, kf, kj, nk):
+def _children(e, g, c, lo, r, cap, n, sptr, selem, sw, back, bres, bbase, btab, rng, kf,
+              kj, nk):
     """Write the children of a settled label at element e, cost g, consumption c (its
     end, then every successor that fits and can still complete) from kid row nk on,
-    as a heap; returns their count."""
+    as a heap; returns their count. ``rng`` holds the range tables."""
+    rlevel, rother, rbase, rmin, rmax = rng
     m = 0
     if back[e] and admissible(c, lo):
         kf[nk], kj[nk] = g, -1
@@ -232,6 +247,16 @@ def _children(e, g, c, lo, r, cap, n, sptr, selem, sw, back, bres, bbase, btab, 
             i = bres[t]
             hb = max(hb, btab[bbase[t] + (c[i] + r[f, i]) * n + f])
         if hb == np.inf:
+            continue
+        out = False
+        for t in range(len(rlevel)):   # out_of_range, written out as the bound is
+            i, jj = rlevel[t], rother[t]
+            at = rbase[t] + (c[i] + r[f, i]) * n + f
+            cj = c[jj] + r[f, jj]
+            if cj + rmin[at] > cap[jj] or cj + rmax[at] < lo[jj]:
+                out = True
+                break
+        if out:
             continue
         kf[nk + m], kj[nk + m] = g + sw[j] + hb, j
         m += 1
@@ -256,7 +281,7 @@ def _children(e, g, c, lo, r, cap, n, sptr, selem, sw, back, bres, bbase, btab, 
 
 @njit(cache=True)
 def _astar_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, omega, back, bres, bbase,
-                 btab, keys, vals, shift, pops, lab_g, lab_f, lab_par, lab_elem, lab_state,
+                 btab, rng, keys, vals, shift, pops, lab_g, lab_f, lab_par, lab_elem, lab_state,
                  lab_dep, kbase, ksize, kf, kj, heap, results, cnt, room):
     """Pop labels until K complete sequences are out, the heap is empty, or the arrays
     have less than ``room`` free rows (the driver grows them and calls again).
@@ -282,7 +307,7 @@ def _astar_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, omega, back, br
             continue
         decode(lab_state[lab], cap, stride, c)
         m = _children(e, lab_g[lab], c, lo, r, cap, n, sptr, selem, sw, back, bres, bbase,
-                      btab, kf, kj, nk)
+                      btab, rng, kf, kj, nk)
         kbase[lab], ksize[lab] = nk, m
         nk += m
         nl2 = _next_kid(lab, nl, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dep,
@@ -302,7 +327,7 @@ def _grow_labels(m, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dep, kbase, 
 
 
 @njit(cache=True)
-def _root(n, r, cap, off, front, omega, bres, bbase, btab, lab_g, lab_f, lab_par, lab_elem,
+def _root(n, r, lo, cap, off, front, omega, bres, bbase, btab, rng, lab_g, lab_f, lab_par, lab_elem,
           lab_state, lab_dep, kbase, ksize, kf, kj):
     """Label 0, the virtual source, with the front elements as its children."""
     lab_g[0], lab_f[0], lab_par[0], lab_elem[0], lab_state[0], lab_dep[0] = \
@@ -312,7 +337,8 @@ def _root(n, r, cap, off, front, omega, bres, bbase, btab, lab_g, lab_f, lab_par
     for e in range(n):
         if front[e] and fits(zero, r, e, cap):
             hb = bound_after(zero, e, r, n, bres, bbase, btab)
-            if hb < np.inf:
+            if hb < np.inf and not out_of_range(zero, e, r, lo, cap, n, rng[0], rng[1],
+                                                rng[2], rng[3], rng[4]):
                 kf[m], kj[m] = omega[e] + hb, e
                 m += 1
     for pos in range(m // 2 - 1, -1, -1):
@@ -323,7 +349,7 @@ def _root(n, r, cap, off, front, omega, bres, bbase, btab, lab_g, lab_f, lab_par
 
 @njit(cache=True)
 def _astar(K, n, r, lo, cap, stride, off, sptr, selem, sw, front, omega, back, bres, bbase,
-           btab, max_labels, max_kids, max_nodes):
+           btab, rng, max_labels, max_kids, max_nodes):
     room = n + 2  # the most children one settlement can write: a list and an end
     for e in range(n):
         room = max(room, sptr[e + 1] - sptr[e] + 2)
@@ -337,7 +363,7 @@ def _astar(K, n, r, lo, cap, stride, off, sptr, selem, sw, front, omega, back, b
     kj = np.empty(max(m, 4 * room), dtype=np.int64)
     results = np.empty(K, dtype=np.int64)
     cnt = np.zeros(6, dtype=np.int64)  # labels, heap size, results, nodes, settled, kids
-    cnt[5] = _root(n, r, cap, off, front, omega, bres, bbase, btab, lab_g, lab_f, lab_par,
+    cnt[5] = _root(n, r, lo, cap, off, front, omega, bres, bbase, btab, rng, lab_g, lab_f, lab_par,
                    lab_elem, lab_state, lab_dep, kbase, ksize, kf, kj)
     cnt[0] = _next_kid(0, 1, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dep, kbase,
                        ksize, kf, kj, selem, sw, off, omega)
@@ -345,7 +371,7 @@ def _astar(K, n, r, lo, cap, stride, off, sptr, selem, sw, front, omega, back, b
         cnt[1] = _push(heap, 0, lab_f, lab_par, lab_elem, lab_dep, 1)
     while True:
         _astar_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, omega, back, bres,
-                     bbase, btab, keys, vals, shift, pops, lab_g, lab_f, lab_par, lab_elem,
+                     bbase, btab, rng, keys, vals, shift, pops, lab_g, lab_f, lab_par, lab_elem,
                      lab_state, lab_dep, kbase, ksize, kf, kj, heap, results, cnt, room)
         if cnt[1] == 0 or cnt[2] >= K:
             break
@@ -374,6 +400,7 @@ def astar_k_best(cp: Compiled, bounds: Bounds, k: int, budget_bytes: int):
     status, res, lab_par, lab_elem, cnt = _astar(
         int(k), cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.off, cp.succ_ptr, cp.succ_elem,
         cp.succ_w, cp.front, cp.omega, cp.back, bounds.res, bounds.base, bounds.table,
+        (bounds.rlevel, bounds.rother, bounds.rbase, bounds.rmin, bounds.rmax),
         share // LABEL_BYTES, share // KID_BYTES, share // NODE_BYTES)
     counters = {"labels": int(cnt[0]), "nodes": int(cnt[3]), "settled": int(cnt[4])}
     if status != STATUS_OK:

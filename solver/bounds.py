@@ -26,7 +26,7 @@ can take the maximum over them for any node with a few loads.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -144,15 +144,29 @@ def relaxed_cost_to_go(ri, lo, cap, back, pred_ptr, pred_elem, pred_w):
     return h
 
 
+def _no_ranges() -> np.ndarray:
+    return np.zeros(0, dtype=np.int64)
+
+
 @dataclass(frozen=True)
 class Bounds:
     """Cost-to-go tables of one-resource relaxations, flat: table t holds resource
-    ``res[t]``, value for (c, e) at ``table[base[t] + c * n + e]``."""
+    ``res[t]``, value for (c, e) at ``table[base[t] + c * n + e]``.
+
+    Range tables (:func:`range_tables`), flat the same way: table t gives, for a node
+    (e, c) of resource ``rlevel[t]``'s relaxation, the least (``rmin``) and the most
+    (``rmax``) of resource ``rother[t]`` any completion consumes; a label whose other
+    resource can no longer land inside its interval is dropped."""
 
     res: np.ndarray    # int64 [T]  which constrained resource each table relaxes to
     base: np.ndarray   # int64 [T]  where each table starts in ``table``
     table: np.ndarray  # float64
     exact: bool        # the only resource is kept: the values are the exact cost-to-go
+    rlevel: np.ndarray = field(default_factory=_no_ranges)   # int64 [U]
+    rother: np.ndarray = field(default_factory=_no_ranges)   # int64 [U]
+    rbase: np.ndarray = field(default_factory=_no_ranges)    # int64 [U]
+    rmin: np.ndarray = field(default_factory=lambda: np.zeros(0))  # float64
+    rmax: np.ndarray = field(default_factory=lambda: np.zeros(0))  # float64
 
     @property
     def count(self) -> int:
@@ -160,7 +174,7 @@ class Bounds:
 
     @property
     def nbytes(self) -> int:
-        return int(self.table.nbytes)
+        return int(self.table.nbytes + self.rmin.nbytes + self.rmax.nbytes)
 
 
 def table_bytes(cp: Compiled, i: int) -> int:
@@ -170,8 +184,9 @@ def table_bytes(cp: Compiled, i: int) -> int:
 
 def relaxation_bounds(cp: Compiled, budget_bytes: int) -> Bounds:
     """Tables for every constrained resource whose table fits ``budget_bytes`` (the
-    narrowest first; a resource that does not fit is simply not used for bounding).
-    With one resource the single table is exact."""
+    narrowest first; a resource that does not fit is simply not used for bounding),
+    then, with the rest of the budget, the range tables of the other resources over
+    the narrowest one's levels. With one resource the single table is exact."""
     order = sorted(range(cp.R), key=lambda i: (int(cp.cap[i]), i))
     res: list[int] = []
     parts: list[np.ndarray] = []
@@ -189,7 +204,51 @@ def relaxation_bounds(cp: Compiled, budget_bytes: int) -> Bounds:
     if parts:
         base[1:] = np.cumsum([len(p) for p in parts])[:-1]
     table = np.concatenate(parts) if parts else np.zeros(0)
-    return Bounds(np.array(res, dtype=np.int64), base, table, cp.R == 1 and len(res) == 1)
+    ranges = range_tables(cp, res[0], budget_bytes - used) if res and cp.R > 1 else {}
+    return Bounds(np.array(res, dtype=np.int64), base, table, cp.R == 1 and len(res) == 1,
+                  **ranges)
+
+
+def range_tables(cp: Compiled, level: int, budget_bytes: int) -> dict[str, np.ndarray]:
+    """For every other constrained resource j (as many as ``budget_bytes`` holds), the
+    least and the most of j that a completion of node (e, c) of resource ``level``'s
+    relaxation consumes: the relaxation's backward program again, each transition
+    weighing what its element consumes of j (negated for the most).
+
+    Why: the cost bounds only see one resource at a time. When two are tied together
+    (a tower's height and its floor area: every floor brings both) a search can spend
+    its whole budget on prefixes that meet each interval alone but can never meet both
+    (300 m of floors always exceed the floor area of a 900 m² lot at FAR 4), and on an
+    infeasible problem it never ends. With these tables such a prefix is dropped the
+    moment it is made, and such a problem is answered at the root. Exact: a completion
+    of the real problem is one of the relaxation's, so its consumption of j lies
+    between the two values; only labels no feasible sequence passes through go.
+
+    The most is left unbounded (+inf, no pruning) when an element that consumes none of
+    the level resource consumes some of j: such elements can repeat on one level, and
+    the backward program needs non-negative weights there."""
+    n, lo, cap = cp.n, int(cp.lo[level]), int(cp.cap[level])
+    rl = cp.r[:, level].copy()
+    counts = np.diff(cp.pred_ptr)
+    size = (cap + 1) * n
+    others = [j for j in range(cp.R) if j != level][: max(budget_bytes // (16 * size), 0)]
+    if not others:
+        return {}
+    mins, maxs = [], []
+    for j in others:
+        rj = cp.r[:, j].astype(np.float64)
+        w = np.repeat(rj, counts)
+        mins.append(relaxed_cost_to_go(rl, lo, cap, cp.back, cp.pred_ptr, cp.pred_elem,
+                                       w).ravel())
+        if np.any((rl == 0) & (rj > 0)):
+            maxs.append(np.full(size, np.inf))
+        else:
+            maxs.append(-relaxed_cost_to_go(rl, lo, cap, cp.back, cp.pred_ptr,
+                                            cp.pred_elem, -w).ravel())
+    return {"rlevel": np.full(len(others), level, dtype=np.int64),
+            "rother": np.array(others, dtype=np.int64),
+            "rbase": np.arange(len(others), dtype=np.int64) * size,
+            "rmin": np.concatenate(mins), "rmax": np.concatenate(maxs)}
 
 
 @njit(cache=True, inline="always")

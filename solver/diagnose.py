@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from citysynth.solver.bounds import range_tables
 from citysynth.solver.compiled import Compiled, with_bounds
 from citysynth.solver.estimate import dense_rows
 from citysynth.solver.graph import grow
@@ -44,6 +45,59 @@ def _reachable_totals(cp: Compiled, max_rows: int) -> np.ndarray | None:
     reached = (G[:nrows][:, cp.back] < np.inf).any(axis=1)
     st = row_state[:nrows][reached]
     return np.stack([(st // cp.stride[i]) % (cp.cap[i] + 1) for i in range(cp.R)], axis=1)
+
+
+SPAN_BYTES = 256 << 20   # range tables the diagnosis may build
+
+
+def _spans(cp: Compiled) -> tuple[int, dict[int, tuple[int, int]]]:
+    """The narrowest resource L and, for every other resource j, the least and the most
+    of j (quanta) that sequences meeting L's interval alone consume (none: no such
+    sequence). Growing the graph with j's bounds relaxed only sees totals up to one
+    element past j's interval; a tower of 300 m needs twice the floor area a 900 m²
+    lot allows at FAR 4, far past that window, and only this says how far."""
+    if cp.R < 2:
+        return -1, {}
+    level = min(range(cp.R), key=lambda i: (int(cp.cap[i]), i))
+    ranges = range_tables(cp, level, SPAN_BYTES)
+    if not ranges:
+        return level, {}
+    n, out = cp.n, {}
+    first = np.flatnonzero(cp.front & (cp.r[:, level] <= cp.cap[level]))
+    at = cp.r[first, level] * n + first
+    for t, j in enumerate(ranges["rother"]):
+        size = (int(cp.cap[level]) + 1) * n
+        lo = cp.r[first, j] + ranges["rmin"][t * size + at]
+        hi = cp.r[first, j] + ranges["rmax"][t * size + at]
+        lo, hi = lo[np.isfinite(lo)], hi[hi > -np.inf]
+        if len(lo) and len(hi):
+            out[int(j)] = (int(lo.min()), int(hi.max()) if np.isfinite(hi.max()) else -1)
+    return level, out
+
+
+def _beyond_window(cp: Compiled, asked: list[tuple[float, float]], details: list[dict]
+                   ) -> list[str]:
+    """Constraints the grown graphs did not name, missed by sequences meeting the
+    narrowest constraint alone (:func:`_spans`): appended to ``details``; their
+    reasons."""
+    level, spans = _spans(cp)
+    said = {d["constraint"] for d in details}
+    blocking = []
+    for j, (least, most) in spans.items():
+        name, q = cp.bounded[j], cp.quant[j].quantum
+        if name in said or (least <= cp.hi[j] and (most < 0 or most >= cp.lo[j])):
+            continue
+        below = round(most * q, 9) if 0 <= most < cp.lo[j] else None
+        above = round(least * q, 9) if least > cp.hi[j] else None
+        details.append({"constraint": name, "asked": [asked[j][0], asked[j][1]],
+                        "nearest_below": below, "nearest_above": above,
+                        "blocks": "together", "given": cp.bounded[level]})
+        reach = (f"at least {_fmt(least * q)}" if above is not None
+                 else f"at most {_fmt(most * q)}")
+        blocking.append(f"{_interval_text(name, *asked[j])} cannot be met together with "
+                        f"{_interval_text(cp.bounded[level], *asked[level])}: sequences "
+                        f"meeting that reach {name} {reach}")
+    return blocking
 
 
 def _alone_blocks(cp: Compiled, i: int, no_minimums: np.ndarray | None) -> bool:
@@ -114,6 +168,7 @@ def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
             why, detail["blocks"] = f"holds no multiple of its quantum {q:g}", "quantum"
         blocking.append(f"{_interval_text(name, *asked[i])} {why}; nearest achievable: "
                         f"{', '.join(near) or 'none'}")
+    blocking += _beyond_window(cp, asked, details)
     if blocking:
         return "; ".join(blocking), details
     if not any_reach:

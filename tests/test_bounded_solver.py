@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from citysynth.solver import Problem, TooLargeError, solve
 from citysynth.solver.astar import astar_k_best
 from citysynth.solver.bounded import bounds_for
-from citysynth.solver.bounds import Bounds, relaxed_cost_to_go
+from citysynth.solver.bounds import Bounds, range_tables, relaxed_cost_to_go
 from citysynth.solver.compiled import compile_problem
 from citysynth.solver.samples import street_front
 from citysynth.solver.solve import choose_method
@@ -95,15 +95,18 @@ def test_best_first_search_with_and_without_bounds(p, k):
         _check_sequences(p, seqs, k, f"{bounds.count} tables")
 
 
-def _relaxed_by_bellman_ford(p: Problem, cp, i: int) -> np.ndarray:
+def _relaxed_by_bellman_ford(p: Problem, cp, i: int, weight=None) -> np.ndarray:
     """The cost to go of the one-resource relaxation by plain Bellman-Ford from
-    infinity (the least fixed point: exact, zero-consumption cycles included)."""
+    infinity (the least fixed point: exact, zero-consumption cycles included); with
+    ``weight`` (element index -> number) a transition weighs that of its element
+    instead of its cost."""
     index = p.element_index()
     ri = cp.r[:, i]
     lo, cap = int(cp.lo[i]), int(cp.cap[i])
     back = {index[x] for x in p.back}
     omega = {index[e.id]: e.cost for e in p.elements}
-    edges = [(index[a], index[b], d + omega[index[b]]) for a, b, d in p.transitions]
+    edges = [(index[a], index[b], d + omega[index[b]] if weight is None else
+              weight(index[b])) for a, b, d in p.transitions]
     h = np.full((cap + 1, cp.n), np.inf)
     changed = True
     while changed:
@@ -135,6 +138,57 @@ def test_relaxation_tables_are_the_relaxed_cost_to_go(p):
         for e in range(cp.n):
             own = int(cp.r[e, i])
             assert np.array_equal(h[own:, e], want[own:, e]), (cp.bounded[i], e)
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(problems())
+def test_range_tables_are_the_least_and_most_another_resource_completes_with(p):
+    """Each range table holds, for every node of the level resource's relaxation, the
+    least and the most of the other resource that its completions consume (Bellman-Ford
+    on the element's consumption, and on its negation where no element repeats on one
+    level while consuming some; unbounded there)."""
+    cp = compile_problem(p)
+    if cp.empty_bounds or cp.R < 2:
+        return
+    level = 0
+    ranges = range_tables(cp, level, 1 << 30)
+    size = (int(cp.cap[level]) + 1) * cp.n
+    for t, j in enumerate(ranges["rother"]):
+        rj = cp.r[:, j]
+        least = _relaxed_by_bellman_ford(p, cp, level, lambda b: float(rj[b]))
+        repeats = bool(np.any((cp.r[:, level] == 0) & (rj > 0)))
+        most = None if repeats else -_relaxed_by_bellman_ford(p, cp, level,
+                                                              lambda b: -float(rj[b]))
+        got_min = ranges["rmin"][t * size:(t + 1) * size].reshape(-1, cp.n)
+        got_max = ranges["rmax"][t * size:(t + 1) * size].reshape(-1, cp.n)
+        for e in range(cp.n):
+            own = int(cp.r[e, level])
+            assert np.array_equal(got_min[own:, e], least[own:, e]), (j, e)
+            if most is None:
+                assert np.all(got_max[own:, e] == np.inf)
+            else:
+                assert np.array_equal(got_max[own:, e], most[own:, e]), (j, e)
+
+
+def test_two_tied_resources_out_of_reach_together_are_answered_at_the_root():
+    """Every floor brings 3 m of height and 100 m² of floor area: 300 m exactly with at
+    most 5,000 m² is impossible, though each alone is easy. The search used to fill its
+    whole budget on prefixes meeting each alone; the range tables refuse every first
+    element, and the diagnosis says how much floor area 300 m takes."""
+    p = Problem.from_dict({
+        "resources": ["height", "floor_area"], "quantum": {"height": 1, "floor_area": 1},
+        "elements": [{"id": "ground", "resources": {"height": 5, "floor_area": 150}},
+                     {"id": "floor", "resources": {"height": 3, "floor_area": 100}},
+                     {"id": "roof", "resources": {"height": 4, "floor_area": 0}}],
+        "transitions": [["ground", "floor", 0], ["floor", "floor", 1], ["floor", "roof", 0]],
+        "front": ["ground"], "back": ["roof"],
+        "constraints": {"height": [300, 300], "floor_area": [0, 5000]}, "k": 1})
+    r = solve(p, method="bounded")
+    assert r.status == "infeasible"
+    assert r.stats["labels"] <= 1
+    area = next(d for d in r.details if d["constraint"] == "floor_area")
+    assert area["nearest_above"] == 150 + 100 * 97 and area["blocks"] == "together"
+    assert "floor_area in [0, 5000] cannot be met together with height = 300" in r.reason
 
 
 def test_all_zero_costs_give_the_lexicographically_first_sequences_at_once():
