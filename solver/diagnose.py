@@ -75,7 +75,7 @@ def _spans(cp: Compiled) -> tuple[int, dict[int, tuple[int, int]]]:
     return level, out
 
 
-def _beyond_window(cp: Compiled, asked: list[tuple[float, float]], details: list[dict]
+def _beyond_window(cp: Compiled, asked: list[tuple[float, ...]], details: list[dict]
                    ) -> list[str]:
     """Constraints the grown graphs did not name, missed by sequences meeting the
     narrowest constraint alone (:func:`_spans`): appended to ``details``; their
