@@ -29,7 +29,7 @@ from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.files import atomic_path, write_text
 from citysynth.parts_db.manifest import Manifest, PartClass, read_manifest
 from citysynth.parts_db.measure import STACKED, STRAIGHT, measure
-from citysynth.parts_db.meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh
+from citysynth.parts_db.meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh, mesh_bytes
 
 FORMAT_VERSION = 2
 DB_JSON = "partdb.json"
@@ -122,13 +122,7 @@ def library_hash(m: Manifest) -> str:
     for spec in m.parts:
         f = root / spec.file
         h.update(spec.file.encode() + b"\0")
-        if not f.is_file():
-            raise LibraryError(f'part "{spec.id}" ({f}): mesh file not found')
-        try:
-            h.update(f.read_bytes())
-        except OSError as exc:
-            raise LibraryError(f'part "{spec.id}" ({f}): cannot read the mesh file '
-                               f"({exc.strerror})") from None
+        h.update(mesh_bytes(f, f'part "{spec.id}" ({f})'))
     return h.hexdigest()
 
 

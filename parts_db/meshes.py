@@ -7,19 +7,25 @@ names are counted so a manifest need not repeat what the model already says.
 
 from __future__ import annotations
 
-import json
 import re
-import struct
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
 from citysynth.parts_db.errors import LibraryError
+from citysynth.parts_db.mesh_faults import (
+    MeshFault,
+    check_content,
+    check_loaded,
+    explain_failure,
+    read_file,
+)
 
 FORMATS = {".glb", ".gltf", ".obj", ".ply", ".stl"}
 COUNTED = ("window", "door", "balcony")
 COUNT_ATTRIBUTE = {"window": "windows", "door": "doors", "balcony": "balconies"}
+EXPORT_AGAIN = "export the mesh again from its modelling tool, or drop the part from the manifest"
 _NAME = re.compile(r"^(window|door|balcony)s?(?:[_\-.\s]|\d|$)", re.IGNORECASE)
 
 
@@ -29,10 +35,7 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
     if path.suffix.lower() not in FORMATS:
         raise LibraryError(f"{where}: unsupported mesh format {path.suffix!r}; use one of "
                            f"{', '.join(sorted(FORMATS))}")
-    if not path.is_file():
-        raise LibraryError(f"{where}: mesh file not found")
-    loaded = read_mesh(path, where, "export the mesh again from its modelling tool, or "
-                       "drop the part from the manifest")
+    loaded = read_mesh(path, where, EXPORT_AGAIN)
     counts = {k: 0 for k in COUNTED}
     if isinstance(loaded, trimesh.Scene):
         for node in loaded.graph.nodes_geometry:
@@ -43,11 +46,8 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
         mesh = _flatten(loaded)
     else:
         mesh = loaded
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-        raise LibraryError(f"{where}: the mesh is empty (no triangles)")
-    if not np.isfinite(mesh.vertices).all():
-        raise LibraryError(f"{where}: the mesh has non-finite vertex coordinates")
-    mesh.process()  # merge duplicate vertices: sections find bodies by shared edges
+    with np.errstate(all="ignore"):   # huge coordinates warn while merging; no output
+        mesh.process()  # merge duplicate vertices: sections find bodies by shared edges
     if meters_per_unit != 1.0:
         mesh = mesh.copy()
         mesh.apply_scale(meters_per_unit)
@@ -55,56 +55,31 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
 
 
 def read_mesh(path: Path, where: str, fix: str):
-    """The file loaded by trimesh (a Scene or a Trimesh, unprocessed), or a LibraryError
-    ``where: why; fix`` saying in the format's terms what is wrong with it: what a GLB's
-    header says first (:func:`glb_damage`), a .gltf's JSON checked before trimesh reads
-    it (trimesh takes damaged JSON for a missing file), else :func:`unreadable`."""
+    """The file loaded by trimesh (a Scene or a Trimesh with faces, unprocessed), or a
+    LibraryError ``where: why; fix`` saying in the user's terms what is wrong with the
+    file (:mod:`parts_db.mesh_faults`), looked at before trimesh reads it and checked
+    after; the fault's own fix where it has one, else ``fix``."""
+    data = mesh_bytes(path, where, fix)
     try:
-        damage = glb_damage(path)
-        if damage is None and path.suffix.lower() == ".gltf":
-            json.loads(path.read_bytes().decode("utf-8"))
-        loaded = None if damage else trimesh.load(str(path), force=None, process=False)
-    except Exception as exc:  # trimesh raises many kinds for unreadable files
-        raise LibraryError(f"{where}: {unreadable(exc, path)}; {fix}") from None
-    if damage:
-        raise LibraryError(f"{where}: the mesh cannot be read: {damage}; {fix}")
+        check_content(path, data)
+        try:
+            loaded = trimesh.load(str(path), force=None, process=False)
+        except (Exception, MemoryError) as exc:  # noqa: BLE001 - trimesh raises many kinds
+            raise explain_failure(path, data, exc) from None
+        check_loaded(loaded)
+    except MeshFault as fault:
+        raise LibraryError(f"{where}: {fault.why}; {fault.fix or fix}") from None
     return loaded
 
 
-def glb_damage(path: Path) -> str | None:
-    """What a GLB's own header says is wrong with it (no glTF header, a version other
-    than 2, fewer bytes than it declares), or None (and None for other formats).
-    trimesh reads on past a short GLB into its JSON and reports that instead."""
-    if path.suffix.lower() != ".glb":
-        return None
-    with path.open("rb") as f:
-        head = f.read(12)
-    size = path.stat().st_size
-    if len(head) < 12 or head[:4] != b"glTF":
-        return "the file has no glTF header (it is not a GLB, or is cut short within its " \
-            "first 12 bytes)"
-    version, length = struct.unpack("<II", head[4:12])
-    if version != 2:
-        return f"its header gives glTF version {version}; only glTF 2 is read"
-    if length > size:
-        return f"the file is cut short: its header gives {length:,} bytes, the file has {size:,}"
-    return None
-
-
-def unreadable(exc: Exception, path: Path | str) -> str:
-    """Why a mesh file could not be read, in the file's terms (where its format says
-    what went wrong), not the parser's exception text alone."""
-    kind = Path(path).suffix.lower()
-    name = kind.lstrip(".").upper()
-    if isinstance(exc, json.JSONDecodeError):
-        where = "its glTF JSON chunk" if kind == ".glb" else "its JSON"
-        return f"the mesh cannot be read: {where} is damaged at character {exc.pos} ({exc.msg})"
-    if isinstance(exc, UnicodeDecodeError):
-        return f"the mesh cannot be read: byte {exc.start} is not text where {name} needs text"
-    if isinstance(exc, struct.error | EOFError | ValueError | KeyError | IndexError):
-        return (f"the mesh cannot be read: the file is cut short or not a valid {name} file "
-                f"({type(exc).__name__}: {exc})")
-    return f"the mesh cannot be read ({type(exc).__name__}: {exc})"
+def mesh_bytes(path: Path, where: str, fix: str = EXPORT_AGAIN) -> bytes:
+    """The bytes of a part's mesh file, or a LibraryError if the path is no readable
+    file (missing, a folder, a link loop, a pipe, empty): the library's hash reads them
+    first, and must tell these as loading does."""
+    try:
+        return read_file(path)
+    except MeshFault as fault:
+        raise LibraryError(f"{where}: {fault.why}; {fault.fix or fix}") from None
 
 
 def _flatten(scene: trimesh.Scene):

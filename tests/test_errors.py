@@ -30,7 +30,8 @@ LIB = EXAMPLES / "library"
 DISTRICT = EXAMPLES / "city" / "district_streets.geojson"
 # exceptions used as signals inside citysynth, caught where they are raised' callers and
 # never reaching a user (each a deliberate exception to USER_ERRORS)
-SIGNALS = {("citysynth.solver.structures.stage_graphs", "NotExact")}
+SIGNALS = {("citysynth.solver.structures.stage_graphs", "NotExact"),
+           ("citysynth.parts_db.mesh_faults", "MeshFault")}   # told as a LibraryError
 
 
 def _error_classes() -> set[tuple[str, str]]:
