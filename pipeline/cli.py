@@ -12,10 +12,13 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import traceback
 import warnings
+from collections.abc import Sequence
 from importlib.metadata import PackageNotFoundError, version
+from typing import NoReturn
 
 from citysynth.parts_db.library import CACHE_ENV
 from citysynth.pipeline.city.process import (
@@ -43,7 +46,7 @@ from citysynth.pipeline.errors import (
     EXIT_OK,
     USER_ERRORS,
 )
-from citysynth.pipeline.paths import check_numbers, check_out_dir
+from citysynth.pipeline.paths import check_not_empty, check_numbers, check_out_dir
 from citysynth.skeletons import InputWarning
 
 __all__ = ["EXIT_BAD_INPUT", "EXIT_INFEASIBLE", "EXIT_INTERNAL", "EXIT_OK", "build_parser",
@@ -57,8 +60,47 @@ def _version() -> str:
         return "unknown"
 
 
+# argparse's wording, said in the user's words (the option keeps its name)
+_PLAIN = (
+    (re.compile(r"^argument (\S+): "), r"\1: "),
+    (re.compile(r"invalid int value: (.*)$"), r"\1 is not a whole number"),
+    (re.compile(r"invalid float value: (.*)$"), r"\1 is not a number"),
+    (re.compile(r"invalid choice: (\S+) \(choose from (.*)\)$"), r"\1 is not one of \2"),
+    (re.compile(r"expected one argument$"), "needs a value"),
+    (re.compile(r"expected (\d+) arguments$"), r"needs \1 values"),
+    (re.compile(r"^the following arguments are required: (.*)$"), r"missing \1"),
+    (re.compile(r"^COMMAND: (\S+) is not one of"), r"\1 is not a command; one of"),
+    (re.compile(r"^missing COMMAND$"), "no command given"),
+)
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage mistake (an unknown option, a missing or wrongly
+    typed value, a bad choice) as the project reports any bad input: one line on stderr
+    that says what is wrong and where to read more, exit 2. The usage block argparse
+    prints first would bury that line; ``--help`` still prints it all."""
+
+    commands: dict[str, argparse.ArgumentParser] = {}   # set on the top-level parser
+
+    def error(self, message: str) -> NoReturn:
+        for pattern, plain in _PLAIN:
+            message = pattern.sub(plain, message)
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}; see {self.prog} --help\n")
+
+    def parse_args(self, args: Sequence[str] | None = None,   # type: ignore[override]
+                   namespace: argparse.Namespace | None = None) -> argparse.Namespace:
+        """Words left over are blamed on the command they were given to, whose --help
+        lists its options (argparse blames the top-level ``citysynth``)."""
+        ns, extras = self.parse_known_args(args, namespace)
+        if extras:
+            unknown = "unknown option" if extras[0].startswith("-") else "unexpected argument"
+            where = self.commands.get(getattr(ns, "command", None) or "", self)
+            where.error(f"{unknown} {' '.join(extras)}")
+        return ns
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="citysynth",
         description="Example-based city generator: exact k-best layouts of building parts.",
     )
@@ -70,6 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for module in (solve, ingest, skeleton, build, tower, street, city, diff, demo, gallery):
         module.register(sub)
+    parser.commands = dict(sub.choices)
     return parser
 
 
@@ -110,12 +153,16 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(argv: list[str] | None) -> int:
     warnings.formatwarning = _format_warning
-    args = build_parser().parse_args(argv)
-    if args.cache:   # the environment carries it into worker processes too
-        os.environ[CACHE_ENV] = os.path.abspath(args.cache)
     try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as stop:     # --help, --version (0) or a usage mistake (2)
+        return stop.code if isinstance(stop.code, int) else EXIT_BAD_INPUT
+    try:
+        if args.cache is not None:   # the environment carries it into worker processes
+            check_not_empty(args.cache, "--cache")
+            os.environ[CACHE_ENV] = os.path.abspath(args.cache)
         check_numbers(args)
-        if getattr(args, "out", None):
+        if getattr(args, "out", None) is not None:
             check_out_dir(args.out)
         if args.command in SOLVING:
             announce_compile()

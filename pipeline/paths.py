@@ -12,7 +12,10 @@ from citysynth.pipeline.errors import UsageError
 
 
 def check_out_dir(out: str | Path, option: str = "-o") -> None:
-    """``out`` is a folder that exists, or can be made, and may be written."""
+    """``out`` is a folder that exists, or can be made, and may be written. An empty
+    path (``-o ""``, an unset shell variable) is refused: as a path it is the current
+    folder, where the outputs would land unasked."""
+    check_not_empty(out, option)
     p = Path(out)
     if p.exists() and not p.is_dir():
         raise UsageError(f"{p}: a file, not a folder; {option} names the output folder "
@@ -26,6 +29,13 @@ def check_out_dir(out: str | Path, option: str = "-o") -> None:
     if not os.access(anc, os.W_OK | os.X_OK):
         raise UsageError(f"{anc}: may not be written (read-only or no permission), so "
                          f"{p} cannot be written; give another {option} folder")
+
+
+def check_not_empty(folder: str | Path, option: str) -> None:
+    """A folder option given as ``""`` (or blanks) is a mistake, not "here"."""
+    if not str(folder).strip():
+        raise UsageError(f"{option}: the folder is empty ({str(folder)!r}); give a folder "
+                         f"path, e.g. {option} out")
 
 
 def check_numbers(args: Namespace) -> None:

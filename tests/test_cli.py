@@ -228,3 +228,39 @@ def test_a_failure_while_writing_leaves_no_half_result(tmp_path, capsys):
     code = main(["building", str(EXAMPLES / "skeletons" / "t_building.geojson"), "--library",
                  str(tmp_path / "db"), "-o", str(tmp_path / "fresh"), "--no-preview"])
     assert code == 2 and not (tmp_path / "fresh").exists()
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["solve", "p.json", "--bogus"], "citysynth solve: error: unknown option --bogus; see "
+                                     "citysynth solve --help"),
+    (["solve", "a.json", "b.json"], "citysynth solve: error: unexpected argument b.json; see "
+                                    "citysynth solve --help"),
+    (["street", "--line"], "citysynth street: error: --line: needs a value; see citysynth "
+                           "street --help"),
+    (["street", "--line", "s.geojson", "--doors", "1"],
+     "citysynth street: error: --doors: needs 2 values; see citysynth street --help"),
+    (["street"], "citysynth street: error: missing --line; see citysynth street --help"),
+    (["street", "--line", "s.geojson", "--side", "up"],
+     "citysynth street: error: --side: 'up' is not one of 'left', 'right', 'both'; see "
+     "citysynth street --help"),
+    (["block", "b.geojson", "--library", "lib", "--k", "abc"],
+     "citysynth block: error: --k: 'abc' is not a whole number; see citysynth block --help"),
+    (["tower", "--height", "tall", "--far", "2", "--lot-area", "900"],
+     "citysynth tower: error: --height: 'tall' is not a number; see citysynth tower --help"),
+    (["bogus"], "citysynth: error: 'bogus' is not a command; one of 'solve', 'ingest', "
+                "'skeleton', 'building', 'block', 'tower', 'street', 'city', 'diff', 'demo', "
+                "'gallery'; see citysynth --help"),
+    ([], "citysynth: error: no command given; see citysynth --help"),
+])
+def test_a_usage_mistake_is_one_line_saying_where_to_read_more(capsys, argv, said):
+    """argparse printed its usage block (4+ lines) before the error; now the error alone,
+    with the command's --help to read, exit 2 (returned, as every other exit is)."""
+    assert main(argv) == 2
+    cap = capsys.readouterr()
+    assert cap.err.splitlines() == [said] and cap.out == ""
+
+
+def test_help_still_prints_the_whole_usage(capsys):
+    assert main(["street", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: citysynth street [-h] --line FILE") and "--doors LO HI" in out
