@@ -32,7 +32,7 @@ from citysynth.parts_db import Part, PartDB
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import street_front_problem
-from citysynth.solver import Problem, solve
+from citysynth.solver import Problem, Result, solve
 from citysynth.solver.diagnose import nearest
 
 BEND = 5.0           # degrees: a facade line turning more than this starts a new run
@@ -207,13 +207,47 @@ def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
     return solve_runs(name, all_runs, db, ask, frame, locate)
 
 
-def _why(run: Run, details: list[dict], locate: Locate | None = None) -> str:
+def _blamed(problem: dict, ask: StreetAsk) -> list[str] | None:
+    """When the run's length alone can be filled, the asked intervals that each keep
+    it from being filled (e.g. doors in [1, 2]: too few doors for 80 m of buildings),
+    with the lengths such rows reach; None when the length itself is the cause. The
+    solver's diagnosis keeps every maximum, so it blames the length for them."""
+    cons = problem["constraints"]
+
+    def fails(*names: str) -> Result | None:
+        r = solve(Problem.from_dict({**problem, "k": 1,
+                                     "constraints": {n: cons[n] for n in names}}))
+        return None if r.status == "ok" else r
+
+    if not ask.constraints or fails("length"):
+        return None
+    said = []
+    for a, lo, hi in ask.constraints:
+        r = fails("length", a)
+        if r is not None:
+            near = [x for d in r.details if d["constraint"] == "length" for x in nearest(d)]
+            said.append(f"its length cannot be filled by buildings with {a} in "
+                        f"[{lo:g}, {hi:g}]" + (f" (such rows measure "
+                                               f"{' or '.join(f'{x:g}' for x in near)} m)"
+                                               if near else "")
+                        + f"; widen the {a} interval or leave it out")
+    return said or ["its length can be filled, and each asked interval met, but not all "
+                    "together; widen one of the intervals"]
+
+
+def _why(run: Run, details: list[dict], locate: Locate | None = None,
+         blamed: list[str] | None = None) -> str:
     """Why a run takes no row of buildings, in metres and the asked intervals (the
-    solver's details: each blocking constraint and the nearest totals it reaches), and
-    where the run lies when ``locate`` can say it in the input's coordinates."""
+    solver's details: each blocking constraint and the nearest totals it reaches, or
+    what :func:`_blamed` found), and where the run lies when ``locate`` can say it in
+    the input's coordinates."""
     ends = "" if locate is None else (f", from {locate(run.line.coords[0])} to "
                                       f"{locate(run.line.coords[-1])}")
-    where = f"the {run.side} side's run {run.index + 1} ({run.line.length:.1f} m{ends})"
+    run_name = (f"the {run.side} side's run {run.index + 1}" if run.side in SIDES
+                else f"{run.side} {run.index + 1}")    # a block's own side, in a row zone
+    where = f"{run_name} ({run.line.length:.1f} m{ends})"
+    if blamed:
+        return f"{where}: " + "; ".join(blamed)
     said = []
     for d in details:
         near = " or ".join(f"{x:g}" for x in nearest(d))
@@ -244,7 +278,9 @@ def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
         problem["constraints"] = cons
         r = solve(Problem.from_dict(problem))
         if r.status != "ok":
-            return Built(name, "infeasible", reason=_why(run, r.details, locate),
+            blamed = (_blamed(problem, ask) if not r.details or any(
+                d["constraint"] == "length" for d in r.details) else None)
+            return Built(name, "infeasible", reason=_why(run, r.details, locate, blamed),
                          timings={"solve_s": time.perf_counter() - t0})
         solved.append(r.solutions)
     t1 = time.perf_counter()

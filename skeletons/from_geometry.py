@@ -23,7 +23,7 @@ from shapely.geometry.base import BaseGeometry
 from shapely.validation import explain_validity
 
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.skeletons.geojson import Feature, Frame, angle_between
+from citysynth.skeletons.geojson import Feature, Frame, angle_between, format_xy
 from citysynth.skeletons.model import (
     FRONTS,
     Edge,
@@ -324,25 +324,34 @@ def _checked_polygon(poly: BaseGeometry, where: str, min_area: float, frame: Fra
         else shapely.geometry.polygon.orient(poly, 1.0)
 
 
-def why_invalid(poly: Polygon, frame: Frame) -> tuple[str, str]:
+def why_invalid(poly: Polygon, frame: Frame | None) -> tuple[str, str]:
     """What GEOS finds wrong with a polygon, its location in the input's coordinates
-    (GEOS gives it in local metres: "Self-intersection[4.6e-15 0]"), and what to do."""
+    (GEOS gives it in local metres: "Self-intersection[4.6e-15 0]"; without ``frame``,
+    as they are), and what to do. An outline of fewer than 3 distinct corners, or of
+    corners on one line, is said so: GEOS calls the one a "geometry component" and the
+    other a "self-intersection", and neither crosses itself."""
     text = explain_validity(poly)
     m = re.fullmatch(r"\s*([^\[]+)\[\s*(\S+)\s+(\S+)\s*\]\s*", text)
     if m is None:
         return text, "fix the outline"
-    what = m.group(1).strip().lower()
-    return (f"{what} at {frame.at((float(m.group(2)), float(m.group(3))))}",
-            _FIXES.get(what, "fix the outline so it does not cross itself"))
+    what = m.group(1).strip().lower().replace(" in geometry component", "")
+    xy = (float(m.group(2)), float(m.group(3)))
+    if what == "self-intersection" and poly.convex_hull.area == 0:
+        what = "no area: its corners lie on one line"
+    fix = next((f for key, f in _FIXES.items() if what.startswith(key)), "fix the outline")
+    return f"{what} at {frame.at(xy) if frame else format_xy(xy)}", fix
 
 
-_FIXES = {   # what to do about each of GEOS's validity complaints
+_FIXES = {   # what to do about each of GEOS's validity complaints (by how it starts)
+    "self-intersection": "fix the outline so it does not cross itself",
+    "ring self-intersection": "fix the outline so it does not touch itself",
     "hole lies outside shell": "move the courtyard inside the outline, or drop it",
     "holes are nested": "a courtyard lies inside another: drop the inner one",
     "interior is disconnected": "a courtyard cuts the block in two: give each part as "
                                 "its own polygon",
     "nested shells": "give each building its own polygon",
-    "too few points": "a ring needs at least 3 distinct corners",
+    "too few points": "an outline needs at least 3 distinct corners",
+    "no area": "an outline needs at least 3 corners that are not on one line",
 }
 
 

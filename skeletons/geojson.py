@@ -133,7 +133,8 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
     ``accept`` names the geometries the caller can use ("lines", "polygons"); features
     with others, or with none, are left out with a warning (:class:`Features`)."""
     raw = _raw_features(data, source)
-    given = _input_crs(_chosen_crs(crs, _crs_member(data, source), source), source)
+    member = _crs_member(data, source)
+    given = _input_crs(_chosen_crs(crs, member, source), source)
     kept, skipped = _usable(raw, source, accept)
     if not kept:
         raise SkeletonError(f"{source}: no usable features: all {len(raw)} left out ("
@@ -142,7 +143,8 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
     for message in skipped:
         warnings.warn(message, InputWarning, stacklevel=3)
     geoms = [g for _, g, _ in kept]
-    project, frame = _frame(geoms, given, source, origin, origin_digits)
+    named_by = "--crs" if crs is not None else f'the file\'s "crs" member ({member})'
+    project, frame = _frame(geoms, given, source, origin, origin_digits, named_by)
     feats = Features((Feature(i, shapely.transform(g, project), props, source)
                       for i, g, props in kept), skipped)
     return feats, frame
@@ -377,12 +379,15 @@ def _unit(crs: pyproj.CRS) -> float:
 # --- the local frame ----------------------------------------------------------------------
 
 def _frame(geoms: list[BaseGeometry], given: pyproj.CRS | None, source: str,
-           origin: tuple[float, float] | None, origin_digits: int | None
-           ) -> tuple[Project, Frame]:
-    """How to project the input, and the frame it lands in."""
+           origin: tuple[float, float] | None, origin_digits: int | None,
+           named_by: str = "--crs") -> tuple[Project, Frame]:
+    """How to project the input, and the frame it lands in (``named_by``: where the
+    CRS was given, for messages)."""
     allc = np.vstack([shapely.get_coordinates(g) for g in geoms])
     to_lonlat = _to_lonlat(given, source) if given is not None else None
     if given is not None and to_lonlat is not None:
+        if not given.is_geographic:
+            _check_not_degrees(allc, given, source, named_by)
         _check_area(given, to_lonlat(_extent(allc)), source)
         if not given.is_geographic and _scale_error(given, allc) <= TRUE_SCALE:
             return _kept_projected(allc, given, origin)
@@ -441,6 +446,29 @@ def _check_area(given: pyproj.CRS, lonlat: Coords, source: str) -> None:
             f"{at[1]:.2f}, beyond the latitudes that map is made for ({south:g} to "
             f"{north:g}); is the CRS right, and are the coordinates in its unit "
             f"({_unit_name(given)})?")
+
+
+def _check_not_degrees(allc: Coords, given: pyproj.CRS, source: str, named_by: str
+                       ) -> None:
+    """Refuse longitude/latitude degrees given a projected CRS: read as its metres, a
+    whole district shrinks to centimetres and fails later as zero-length edges or
+    polygons of no area. Projected coordinates are never all within ±180, ±90 of their
+    CRS's origin (false eastings and northings put it outside the area the CRS is made
+    for); a custom CRS with no such area (a local frame) is refused only when the data
+    would span less than a metre, which no city does."""
+    lo, hi = allc.min(axis=0), allc.max(axis=0)
+    span = float((hi - lo).max()) * _unit(given)
+    if not (-180 <= lo[0] and hi[0] <= 180 and -90 <= lo[1] and hi[1] <= 90) or (
+            given.area_of_use is None and span >= 1.0):
+        return
+    fix = ("leave --crs out (GeoJSON is lon/lat) or give --crs EPSG:4326"
+           if named_by == "--crs" else f"correct {named_by}, or give --crs EPSG:4326")
+    name = given.name if given.name != "unknown" else given.to_string()
+    raise SkeletonError(
+        f"{source}: the coordinates (such as {allc[0, 0]:.6f}, {allc[0, 1]:.6f}) look like "
+        f"longitude/latitude degrees, not coordinates of {name} (in {_unit_name(given)}) "
+        f"as {named_by} says: all lie within ±180, ±90, and read so the whole input would span "
+        f"{span:.2g} m; {fix}")
 
 
 def _unit_name(crs: pyproj.CRS) -> str:

@@ -26,6 +26,7 @@ import json
 import os
 import stat
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -141,8 +142,10 @@ def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
 
     if not text.strip():
         raise error(f"{p}: empty; a {what} file holds JSON")
+    twice: list[bool] = []
     try:
-        data = json.loads(text, parse_constant=constant)
+        data = json.loads(text, parse_constant=constant,
+                          object_pairs_hook=_object_hook(twice))
     except json.JSONDecodeError as exc:
         seq = (exc.msg == "Extra data" and exc.colno == 1 and what == "GeoJSON")
         hint = ("; it looks like GeoJSON Text Sequence (a feature per line): give one "
@@ -161,10 +164,59 @@ def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
     if deep:
         raise error(f"{p}: JSON nested more than {max_depth} levels deep; a {what} file "
                     "never is: check that it is the right file")
+    repeated = _duplicate_key(data) if twice else None
+    if repeated:
+        key, where = repeated
+        raise error(f"{p}: key {key!r} is given twice in {where}; JSON keys must be unique "
+                    "(the second would silently replace the first): keep one of them")
     if "\\u" in text and _lone_surrogate(data):
         raise error(f"{p}: a string holds half of a UTF-16 surrogate pair (a \\udXXX "
                     "escape without its partner), which is no character: fix the escape")
     return data
+
+
+class _Twice(dict):
+    """A JSON object that gave its key ``key`` twice. The parser keeps the last value,
+    so the user's first one would vanish without a word; :func:`_object_hook` makes
+    one, :func:`_duplicate_key` finds it, with its place, after parsing."""
+
+    key: str = ""
+
+
+def _object_hook(found: list[bool]) -> Callable[[list[tuple[str, Any]]], dict[str, Any]]:
+    """The parser's ``object_pairs_hook``: a dict, or a :class:`_Twice` (noted in
+    ``found``) when a key repeats."""
+    def make(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        d = dict(pairs)
+        if len(d) == len(pairs):
+            return d
+        twice = _Twice(d)
+        seen: set[str] = set()
+        for k, _ in pairs:
+            if k in seen:
+                twice.key = k
+                break
+            seen.add(k)
+        found.append(True)
+        return twice
+    return make
+
+
+def _duplicate_key(data: Any) -> tuple[str, str] | None:
+    """The first repeated key of ``data`` (in document order) and the place of its
+    object, e.g. ``features[2].properties`` (walked without recursion)."""
+    stack: list[tuple[Any, str]] = [(data, "")]
+    while stack:
+        value, path = stack.pop()
+        if isinstance(value, _Twice):
+            return value.key, (f"the object at {path}" if path else "the top-level object")
+        if isinstance(value, dict):
+            stack.extend((v, f"{path}.{k}" if path else str(k))
+                         for k, v in reversed(value.items()) if isinstance(v, dict | list))
+        elif isinstance(value, list):
+            stack.extend((v, f"{path}[{i}]") for i, v in reversed(list(enumerate(value)))
+                         if isinstance(v, dict | list))
+    return None
 
 
 def _lone_surrogate(data: Any) -> bool:

@@ -81,6 +81,8 @@ BROKEN_JSON: dict[str, Callable[[bytes], bytes | None]] = {
     "lone-surrogate": lambda good: b'{"type": "\\ud800"}',
     "geopackage": lambda good: b"SQLite format 3\x00" + bytes(200),
     "gzip": lambda good: __import__("gzip").compress(good, mtime=0),
+    # a key given twice: the parser keeps the last value, the first vanished unsaid
+    "duplicate-key": lambda good: good.replace(b"{", b'{"citysynth": 1, "citysynth": 2,', 1),
 }
 SPECIAL = ("folder", "fifo", "symlink-loop", "too-large")
 
@@ -274,6 +276,10 @@ STRUCTURE_SHAPES: dict[str, Callable[[dict], object]] = {
     "keypoint-branch-string": _set(("keypoints", 1, "branch"), "north"),
     "keypoints-string": _set(("keypoints",), "four"),
     "closed-string": _set(("closed",), "yes"),
+    # ignored before (the solver never read them); now refused, naming the place
+    "keypoint-unknown-key": _set(("keypoints", 0, "colour"), "red"),
+    "key-element-resources": _set(("elements", 4, "resources"), {"length": 1.0}),
+    "stage-elements-empty": _set(("stages", 0, "elements"), []),   # read as "all"
 }
 for shape, edit in STRUCTURE_SHAPES.items():
     def make_structure(tmp: Path, edit=edit) -> list[str]:
@@ -512,6 +518,12 @@ OPTIONS = {
                                      "900", "-o", str(t / "out")], "at most 1,000 m"),
     "tower-height-1e300": (lambda t: ["tower", "--height", "1e300", "--far", "4",
                                       "--lot-area", "900", "-o", str(t / "out")], "1e+300"),
+    # lon/lat degrees read as metres: a building of a millimetre, "zero-length edge"
+    "crs-3857-on-lonlat": (lambda t: ["skeleton", str(_lines(t)), "--crs", "EPSG:3857"],
+                           "look like longitude/latitude degrees"),
+    "crs-utm-on-lonlat": (lambda t: ["block", str(_write(t / "p.geojson", POLYS)),
+                                     "--library", str(LIB), "--crs", "EPSG:32632", "-o",
+                                     str(t / "out")], "look like longitude/latitude degrees"),
     "scheduler-malformed": (lambda t: ["city", "--streets", str(EX / "city" /
                                                                 "district_streets.geojson"),
                                        "--library", str(LIB), "--scheduler", "::::",
@@ -548,6 +560,16 @@ for cmd, argv_of in OUT_COMMANDS.items():
          names="{tmp}/a-file")
     case(f"out-{cmd}-under-a-file", lambda t, a=argv_of: a(t, str(_blocker(t) / "sub")),
          names="{tmp}/a-file")
+# -o "" (an unset shell variable) wrote into the current folder
+EMPTY_OUT = {**OUT_COMMANDS,
+             "street": lambda t, o: ["street", "--line", str(_lines(t)), "-o", o],
+             "tower": lambda t, o: ["tower", "--height", "30", "--far", "2", "--lot-area",
+                                    "900", "-o", o],
+             "gallery": lambda t, o: ["gallery", "--out", o]}
+for cmd, argv_of in EMPTY_OUT.items():
+    for blank in ("", " "):
+        case(f"out-{cmd}-empty{'-blank' if blank else ''}",
+             lambda t, a=argv_of, b=blank: a(t, b), names="-o: the folder is empty")
 
 
 # --- pathological inputs: refused with an estimate, before the work --------------------------

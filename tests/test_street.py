@@ -116,8 +116,9 @@ def test_runs_split_at_bends_and_stop_short_of_inner_corners():
     (["--doors", "60", "70"], 1, " m, from (690000.00, 5335006.00) to (690199.55, "),
     (["--doors", "60", "70"], 1, ")): its doors in [60, 70] cannot be met by the buildings, "
                                  "which make "),
-    (["--windows", "0", "0"], 1, ")): the buildings meet its length and the asked intervals "
-                                 "each alone but not together; relax one"),
+    # the length alone is met: the windows asked are the cause, said so
+    (["--windows", "0", "0"], 1, ")): its length cannot be filled by buildings with windows "
+                                 "in [0, 0]; widen the windows interval or leave it out"),
 ])
 def test_street_bad_or_impossible_asks(tmp_path, capsys, args, code, text):
     argv = ["street", "--line", str(_line_file(tmp_path / "s.geojson")), "--no-preview",

@@ -68,6 +68,7 @@ from shapely.geometry import Polygon
 
 from citysynth.pipeline.city.footprints import Storeys
 from citysynth.pipeline.errors import ConfigError
+from citysynth.skeletons.from_geometry import why_invalid
 from citysynth.skeletons.streets import Setbacks
 from citysynth.solver.safe_read import read_toml
 
@@ -361,7 +362,8 @@ def _polygon(poly: Any, where: str, err: _Err) -> tuple[tuple[float, float], ...
             for q in poly)):
         raise err(where + "polygon", "must be a list of at least 3 [lon, lat] pairs")
     if not Polygon(poly).is_valid:
-        raise err(where + "polygon", "crosses itself")
+        what, fix = why_invalid(Polygon(poly), None)
+        raise err(where + "polygon", f"not a valid polygon ({what}); {fix}")
     return tuple((float(a), float(b)) for a, b in poly)
 
 

@@ -282,6 +282,12 @@ def _parse_legs(elems: list[dict], resources: tuple[str, ...], source: str
             continue
         lg = e["legs"]
         where = f"elements[{i}].legs"
+        if any(_number(v, f"{source}: elements[{i}].resources.{r}") for r, v in
+               (e.get("resources") or {}).items()):    # all zero: what to_dict writes
+            raise ProblemError(f"{source}: elements[{i}].resources: key element "
+                               f"{e['id']!r} has legs, which are all it counts (its "
+                               '"resources" would be ignored); put the amounts in its '
+                               'legs and leave "resources" out')
         if not isinstance(lg, list) or not 2 <= len(lg) <= 3 or not all(
                 isinstance(x, dict) for x in lg):
             raise ProblemError(f"{source}: {where}: a key element needs [in-leg, out-leg] "
@@ -298,6 +304,9 @@ def _parse_legs(elems: list[dict], resources: tuple[str, ...], source: str
     return legs
 
 
+_KEYPOINT_KEYS = {"elements", "branch"}
+
+
 def _parse_keypoints(kps: Any, source: str
                      ) -> tuple[list[tuple[str, ...]], dict[int, int]]:
     """The key elements each key point admits, and T key point -> its branch stage."""
@@ -307,6 +316,10 @@ def _parse_keypoints(kps: Any, source: str
     keypoints: list[tuple[str, ...]] = []
     branch: dict[int, int] = {}
     for j, kp in enumerate(kps):
+        unknown = sorted(set(kp) - _KEYPOINT_KEYS) if isinstance(kp, dict) else []
+        if unknown:
+            raise ProblemError(f"{source}: keypoints[{j}]: unknown key {unknown[0]!r}; a key "
+                               f"point has {', '.join(sorted(_KEYPOINT_KEYS))}")
         els = kp.get("elements") if isinstance(kp, dict) else None
         if not isinstance(els, list) or not els:
             raise ProblemError(f"{source}: keypoints[{j}]: needs a non-empty elements list")
@@ -497,6 +510,9 @@ def _checked_stage(i: int, s: Stage, resources: tuple[str, ...],
     cons = _checked_intervals(s.constraints, resources, f"stages[{i}].constraints", err)
     if not cons:
         raise err(f"stages[{i}]: needs at least one constraint")
+    if s.elements is not None and not s.elements:   # would read as "every filler"
+        raise err(f"stages[{i}].elements: empty, so no element may fill the stage; list "
+                  "the elements that may, or leave \"elements\" out for all of them")
     for x in s.elements or ():
         if x not in elements:
             raise err(f"stages[{i}].elements: unknown element {x!r}")
