@@ -239,6 +239,23 @@ class _KeyParts:
     joint: bool                               # some key point may be a mitre joint
 
 
+MIN_CORNER_DEG = 5.0   # a sharper corner is a line drawn back on itself, not a building
+
+
+def _check_hairpins(sk: Skeleton) -> None:
+    """Refuse a corner sharper than :data:`MIN_CORNER_DEG`, convex or concave: its two
+    sides run almost on top of each other (a line drawn back on itself), and the cuts
+    at such a corner come out millimetres apart (at 1-4.5° placement failed with "parts
+    do not meet"; from 5° up every side length that fits parts builds)."""
+    for k in sk.keypoints:
+        if k.kind == "corner" and k.angle is not None and round(k.angle, 3) < MIN_CORNER_DEG:
+            raise SkeletonError(
+                f"{sk.name}: the corner of {k.angle:.1f}° at {sk.frame.at(k.xy)} is sharper "
+                f"than the {MIN_CORNER_DEG:g}° citysynth builds: its two sides run almost "
+                "on top of each other; open the corner up, or draw its sides as separate "
+                "lines")
+
+
 def _check_noses(sk: Skeleton, chains: list[_Chain]) -> None:
     """Refuse a convex corner so sharp that its nose (the end wall squaring off an acute
     corner, :data:`~citysynth.export.joints.NOSE` wide, set back NOSE / (2 sin(angle/2))
@@ -283,6 +300,7 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
             f"block this large would take about {len(keys) * KEY_MB / 1024:,.1f} GB and "
             f"minutes to solve (measured: 2,000 took 17 s and 1.1 GB); split it into "
             f"buildings of at most {MAX_KEYS:,}, or simplify its outline")
+    _check_hairpins(sk)
     _check_noses(sk, chains)
     root, oriented = _orient(sk, keys, chains)
     # renumber so the root is key point 0

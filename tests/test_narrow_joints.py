@@ -77,3 +77,26 @@ def test_a_sharp_v_building_does_not_run_through_itself(tmp_path, sample_db, ang
     name, a_ = _audit(tmp_path / "v.layout.json", sample_db)
     assert a_.footprint > 100, f"{name}: {a_.line()}"
     assert a_.overlap_share < MAX_OVERLAP and a_.beyond_max <= MAX_BEYOND, a_.line()
+
+
+@pytest.mark.parametrize("angle", [1.0, 3.0, 4.9])
+def test_a_hairpin_building_is_refused_where_it_turns(tmp_path, capsys, angle):
+    """A line bent back on itself by under 5 degrees: its cuts came out millimetres
+    apart and the command ended with "stage 0: parts do not meet at (-30.00, -0.52),
+    4.1 mm apart" in the building's local frame. Now one line naming the corner, its
+    angle and place in the input's coordinates, and what to do; nothing written."""
+    a = math.radians(angle)
+    line = [(60.0, 0.0), (0.0, 0.0), (60 * math.cos(a), 60 * math.sin(a))]
+    src = tmp_path / "hairpin.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [{
+        "type": "Feature", "properties": {"id": "h"},
+        "geometry": {"type": "LineString",
+                     "coordinates": [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in line]}}]}))
+    out = tmp_path / "out"
+    assert main(["building", str(src), "--library", str(LIB), "--crs", "EPSG:25833",
+                 "-o", str(out), "--no-preview"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    assert f"the corner of {angle:.1f}° at ({ORIGIN[0]:.2f}, {ORIGIN[1]:.2f})" in err
+    assert "open the corner up" in err
+    assert not out.exists() or not any(out.iterdir())
