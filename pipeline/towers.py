@@ -32,7 +32,8 @@ from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import tower_problem
 from citysynth.solver import Problem, solve
-from citysynth.solver.diagnose import nearest
+from citysynth.solver.compiled import compile_problem
+from citysynth.solver.diagnose import nearest, reach_given
 
 FIT_TOL = 0.01        # metres a part may reach past its lot (the lot's own rounding)
 AREA_QUANTUM = 1.0    # m² of floor area the solver counts in (its rounding error is
@@ -134,25 +135,37 @@ def far_interval(values: list[float], tolerance: float) -> tuple[float, float]:
     return lo, hi
 
 
-def _why(details: list[dict], lot: Lot) -> str:
+def _why(details: list[dict], lot: Lot, area: tuple[float, float],
+         reach: tuple[float, float] | None) -> str:
     """Why no tower fits, in heights and floor-area ratios (the solver's details name
-    its resources: height, floor_area). The ratio first: when both are named, the
-    height is out of reach only because of it."""
+    its resources: height, floor_area; ``reach`` is the floor area towers of the asked
+    height have, :func:`~citysynth.solver.diagnose.reach_given`). The ratio first:
+    a height is often out of reach only because of it."""
     by = {d["constraint"]: d for d in details}
     said = []
-    if "floor_area" in by:
+    if reach is not None and (reach[0] > area[1] or reach[1] < area[0]):
+        lo, hi = (x / lot.area for x in reach)
+        said.append("every stack of the tower parts of that height has a floor-area ratio "
+                    + (f"of at least {lo:.4g}" if hi == math.inf else
+                       f"of {lo:.4g}" if lo == hi else f"between {lo:.4g} and {hi:.4g}"))
+    elif "floor_area" in by:
         below, above = (by["floor_area"].get(k) for k in ("nearest_below", "nearest_above"))
         ratios = [f"{x / lot.area:.4g}" for x in (below, above) if x is not None]
         said.append("no stack of the tower parts of that height has that floor-area ratio"
                     + (f"; the nearest reach {' or '.join(ratios)}" if ratios else ""))
     if "height" in by:
         tall = " or ".join(f"{x:g} m" for x in nearest(by["height"]))
-        alone = by["height"].get("blocks") != "together" and "floor_area" not in by
+        alone = by["height"].get("blocks") != "together" and not said
         said.append(("no stack of the tower parts has that height" if alone else
                      "with that floor-area ratio no stack of the tower parts has that height")
                     + (f"; the nearest are {tall} tall" if tall else ""))
     return "; ".join(said) or ("the tower parts meet the height and the floor-area ratio "
                                "each alone but not together; relax one")
+
+
+def _area_reach(problem: Problem) -> tuple[float, float] | None:
+    """The least and the most floor area (m²) of towers of the asked height."""
+    return reach_given(compile_problem(problem), "height", "floor_area")
 
 
 def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, float],
@@ -174,13 +187,15 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
     problem = tower_problem(db, hi, area, style=style, k=k, area_quantum=AREA_QUANTUM,
                             keep=lambda p: fits(p, lot))
     problem["constraints"]["height"] = [lo, hi]
-    result = solve(Problem.from_dict(problem))
+    asked = Problem.from_dict(problem)
+    result = solve(asked)
     t1 = time.perf_counter()
     timings = {"solve_s": t1 - t0}
     at = f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
     if result.status != "ok":
         return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
-                     f"{at} m on a {lot.area:g} m² lot: {_why(result.details, lot)}",
+                     f"{at} m on a {lot.area:g} m² lot: "
+                     f"{_why(result.details, lot, area, _area_reach(asked))}",
                      timings=timings)
     parts = db.by_id
     layouts = [tower_layout(name, rank, sol.sequence, sol.cost, parts, db, lot,

@@ -50,15 +50,17 @@ def _reachable_totals(cp: Compiled, max_rows: int) -> np.ndarray | None:
 SPAN_BYTES = 256 << 20   # range tables the diagnosis may build
 
 
-def _spans(cp: Compiled) -> tuple[int, dict[int, tuple[int, int]]]:
-    """The narrowest resource L and, for every other resource j, the least and the most
-    of j (quanta) that sequences meeting L's interval alone consume (none: no such
-    sequence). Growing the graph with j's bounds relaxed only sees totals up to one
-    element past j's interval; a tower of 300 m needs twice the floor area a 900 m²
-    lot allows at FAR 4, far past that window, and only this says how far."""
+def _spans(cp: Compiled, level: int | None = None) -> tuple[int, dict[int, tuple[int, int]]]:
+    """The resource L (``level``, by default the narrowest) and, for every other
+    resource j, the least and the most (-1: unbounded) of j (quanta) that sequences
+    meeting L's interval alone consume (none: no such sequence). Growing the graph
+    with j's bounds relaxed only sees totals up to one element past j's interval; a
+    tower of 300 m needs twice the floor area a 900 m² lot allows at FAR 4, far past
+    that window, and only this says how far."""
     if cp.R < 2:
         return -1, {}
-    level = min(range(cp.R), key=lambda i: (int(cp.cap[i]), i))
+    if level is None:
+        level = min(range(cp.R), key=lambda i: (int(cp.cap[i]), i))
     ranges = range_tables(cp, level, SPAN_BYTES)
     if not ranges:
         return level, {}
@@ -73,6 +75,20 @@ def _spans(cp: Compiled) -> tuple[int, dict[int, tuple[int, int]]]:
         if len(lo) and len(hi):
             out[int(j)] = (int(lo.min()), int(hi.max()) if np.isfinite(hi.max()) else -1)
     return level, out
+
+
+def reach_given(cp: Compiled, given: str, other: str) -> tuple[float, float] | None:
+    """The least and the most of resource ``other`` (in its units; the most is inf when
+    unbounded) that sequences meeting resource ``given``'s interval alone consume, or
+    None when no sequence meets it: what a tower of that height can have of floor
+    area, say, however far from what was asked."""
+    i, j = cp.bounded.index(given), cp.bounded.index(other)
+    _level, spans = _spans(cp, i)
+    if j not in spans:
+        return None
+    least, most = spans[j]
+    q = cp.quant[j].quantum
+    return round(least * q, 9), (round(most * q, 9) if most >= 0 else float("inf"))
 
 
 def _beyond_window(cp: Compiled, asked: list[tuple[float, ...]], details: list[dict]
@@ -168,7 +184,8 @@ def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
             why, detail["blocks"] = f"holds no multiple of its quantum {q:g}", "quantum"
         blocking.append(f"{_interval_text(name, *asked[i])} {why}; nearest achievable: "
                         f"{', '.join(near) or 'none'}")
-    blocking += _beyond_window(cp, asked, details)
+    if not details:   # the grown graphs saw nothing in their window: look further
+        blocking += _beyond_window(cp, asked, details)
     if blocking:
         return "; ".join(blocking), details
     if not any_reach:

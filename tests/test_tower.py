@@ -107,13 +107,13 @@ def test_tower_on_a_drawn_lot_is_centred_and_turned(tmp_path):
     (["--far", "0"], 2, "--far takes one positive ratio"),
     (["--far", "12", "8"], 2, "LO (12) is above HI (8)"),
     (["--far", "60"], 1, "infeasible: floor-area ratio 58.8-61.2 at 120 m on a 400 m² lot: "
-                          "no stack of the tower parts of that height has that floor-area "
-                          "ratio; the nearest reach "),
+                          "every stack of the tower parts of that height has a floor-area "
+                          "ratio between "),
     # a skyscraper the lot cannot carry: answered at once (it searched its whole 2 GB
     # for about 100 s, then refused in the solver's words), the ratio first
-    (["--far", "4", "--height", "300"], 1, "at 300 m on a 400 m² lot: no stack of the tower "
-                                           "parts of that height has that floor-area ratio; "
-                                           "the nearest reach "),
+    (["--far", "4", "--height", "300"], 1, "at 300 m on a 400 m² lot: every stack of the "
+                                           "tower parts of that height has a floor-area "
+                                           "ratio between "),
     (["--far", "10", "--height", "120.1"], 1, "at 120.1 m on a 400 m² lot: no stack of the "
                                               "tower parts has that height; the nearest are "),
 ])
