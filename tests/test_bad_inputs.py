@@ -457,6 +457,12 @@ RUN_DAMAGE: dict[str, tuple[Callable[[Path], object], str]] = {
     "files-symlink-outside": (lambda r: (lambda p: (p.unlink(), p.symlink_to(
         "/etc/hostname")))(_first_layout(r)), "outside the run folder"),
     "run-is-file": (lambda r: (shutil.rmtree(r), r.write_text("x")), "{run}"),
+    # a valid manifest, but reached by a link out of the run folder
+    "manifest-symlink-outside": (lambda r: (
+        shutil.copy(r / "manifest.json", r.parent / f"{r.name}-elsewhere.json"),
+        (r / "manifest.json").unlink(),
+        (r / "manifest.json").symlink_to(r.parent / f"{r.name}-elsewhere.json")),
+        "outside the run folder"),
 }
 for dmg, (how, names) in RUN_DAMAGE.items():
     for side in ("a", "b"):

@@ -39,6 +39,10 @@ def _manifest(run: Path) -> dict:
         raise UsageError(f"{run}: not a citysynth run folder (no {MANIFEST}); give the "
                          "-o folder of citysynth city")
     where = run / MANIFEST
+    if not where.resolve().is_relative_to(run.resolve()):   # a link out of the folder
+        raise UsageError(f"{where}: a link to {where.resolve()}, outside the run folder; "
+                         "diff reads only what a run wrote: give the -o folder of "
+                         "citysynth city itself")
     m = read_json(where, "run manifest", UsageError)
     if not isinstance(m, dict) or m.get("schema") != RUN_SCHEMA:
         raise UsageError(f"{where}: not a {RUN_SCHEMA} manifest; rerun citysynth city "
