@@ -18,6 +18,7 @@ Kernels walk the lists instead when the table is sparse (:attr:`Compiled.sparse`
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -141,7 +142,7 @@ def compile_problem(p: Problem) -> Compiled:
             "constrain a resource it uses"
         )
 
-    box = _box(r, lev, lo, hi)
+    box = _box(r, lev, lo, hi, bounded)
 
     omega = np.array([e.cost for e in p.elements], dtype=np.float64)
     a, b, d = p.transition_index
@@ -163,8 +164,10 @@ def compile_problem(p: Problem) -> Compiled:
     )
 
 
-def _box(r: np.ndarray, lev: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> dict:
-    """The state box for bounds lo..hi: caps, strides, offsets, top level."""
+def _box(r: np.ndarray, lev: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+         names: Sequence[str]) -> dict:
+    """The state box for bounds lo..hi: caps, strides, offsets, top level (``names``:
+    the resources', for a refusal)."""
     R = r.shape[1]
     # Longest possible sequence: every element uses >= 1 level, and resources that
     # every element consumes bound it more tightly.
@@ -177,7 +180,7 @@ def _box(r: np.ndarray, lev: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> dict
     cap = np.minimum(hi_pos, max_len * r.max(axis=0)).astype(np.int64)
     states = math.prod(int(c) + 1 for c in cap)   # Python integers: no overflow
     if states > MAX_STATES:
-        raise _box_too_large(cap, states)
+        raise _box_too_large(cap, states, names)
     stride = np.ones(R, dtype=np.int64)
     for i in range(1, R):
         stride[i] = stride[i - 1] * (cap[i - 1] + 1)
@@ -192,11 +195,11 @@ about 10^18 quanta and more) is refused before anything is allocated: it used to
 overflow into negative sizes."""
 
 
-def _box_too_large(cap: np.ndarray, states: int) -> TooLargeError:
+def _box_too_large(cap: np.ndarray, states: int, names: Sequence[str]) -> TooLargeError:
     widest = int(np.argmax(cap))
     return TooLargeError(
-        f"problem too large: its intervals span about {states:.3g} states (resource "
-        f"totals up to {int(cap[widest]):.3g} quanta of resource {widest + 1}), more than "
+        f"problem too large: its intervals span about {states:.3g} states (totals up to "
+        f"{int(cap[widest]):.3g} quanta of \"{names[widest]}\"), more than "
         f"any table can number ({MAX_STATES:.3g}); tighten the bounds or give a coarser "
         "quantum")
 
@@ -205,4 +208,4 @@ def with_bounds(cp: Compiled, lo: np.ndarray, hi: np.ndarray) -> Compiled:
     """The same problem with other quantised bounds (used to diagnose infeasibility)."""
     lo = np.asarray(lo, dtype=np.int64)
     hi = np.asarray(hi, dtype=np.int64)
-    return replace(cp, lo=lo, hi=hi, **_box(cp.r, cp.lev, lo, hi))
+    return replace(cp, lo=lo, hi=hi, **_box(cp.r, cp.lev, lo, hi, cp.bounded))
