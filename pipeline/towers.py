@@ -119,11 +119,18 @@ def check_lot(db: PartDB, lot: Lot, style: str | None) -> None:
                          f"{small.id}, needs {pw:.1f} x {pd:.1f} m; give a larger lot")
 
 
+MAX_FAR = 500.0   # a 1,000 m tower covering its whole lot has a ratio of about 300
+
+
 def far_interval(values: list[float], tolerance: float) -> tuple[float, float]:
     """``--far LO HI``, or ``--far X`` within ``tolerance`` (a share of X) either side."""
     if not values or len(values) > 2 or not all(math.isfinite(v) and v > 0 for v in values):
         raise UsageError("--far takes one positive ratio X or two, LO HI; got "
                          + " ".join(f"{v:g}" for v in values))
+    if min(values) > MAX_FAR:   # 1e300 reached the solver as a floor area past counting
+        raise UsageError(f"--far {min(values):g}: a floor-area ratio past any tower (one "
+                         f"of {MAX_TOWER_HEIGHT:,.0f} m covering its whole lot has about "
+                         f"300); ask for at most {MAX_FAR:g}")
     if len(values) == 1:
         if not 0 <= tolerance < 1:
             raise UsageError(f"--far-tolerance must be a share in [0, 1), got {tolerance:g}")
@@ -136,13 +143,17 @@ def far_interval(values: list[float], tolerance: float) -> tuple[float, float]:
 
 
 def _why(details: list[dict], lot: Lot, area: tuple[float, float],
-         reach: tuple[float, float] | None) -> str:
+         reach: tuple[float, float] | None, height: float, lowest: float) -> str:
     """Why no tower fits, in heights and floor-area ratios (the solver's details name
     its resources: height, floor_area; ``reach`` is the floor area towers of the asked
     height have, :func:`~citysynth.solver.diagnose.reach_given`). The ratio first:
     a height is often out of reach only because of it."""
     by = {d["constraint"]: d for d in details}
     said = []
+    if reach is None and not by:   # the height alone: below the lowest, or off-quantum
+        return "no stack of the tower parts has that height" + (
+            f"; the lowest is {lowest:g} m (a ground floor and a roof)" if height < lowest
+            else "")
     if reach is not None and (reach[0] > area[1] or reach[1] < area[0]):
         lo, hi = (x / lot.area for x in reach)
         said.append("every stack of the tower parts of that height has a floor-area ratio "
@@ -161,6 +172,12 @@ def _why(details: list[dict], lot: Lot, area: tuple[float, float],
                     + (f"; the nearest are {tall} tall" if tall else ""))
     return "; ".join(said) or ("the tower parts meet the height and the floor-area ratio "
                                "each alone but not together; relax one")
+
+
+def _lowest(problem: dict) -> float:
+    """The lowest tower of a tower problem: its shortest ground floor and roof."""
+    height = {e["id"]: e["resources"]["height"] for e in problem["elements"]}
+    return min(height[x] for x in problem["front"]) + min(height[x] for x in problem["back"])
 
 
 def _area_reach(problem: Problem) -> tuple[float, float] | None:
@@ -193,10 +210,9 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
     timings = {"solve_s": t1 - t0}
     at = f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
     if result.status != "ok":
+        why = _why(result.details, lot, area, _area_reach(asked), hi, _lowest(problem))
         return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
-                     f"{at} m on a {lot.area:g} m² lot: "
-                     f"{_why(result.details, lot, area, _area_reach(asked))}",
-                     timings=timings)
+                     f"{at} m on a {lot.area:g} m² lot: {why}", timings=timings)
     parts = db.by_id
     layouts = [tower_layout(name, rank, sol.sequence, sol.cost, parts, db, lot,
                             {"height": [lo, hi], "floor_area": list(area)}, far)
@@ -244,6 +260,7 @@ def tower_layout(name: str, rank: int, sequence: list[str], cost: float,
 # --- towers on the lots of a city block --------------------------------------------------
 
 MIN_LOT_SHARE = 0.4   # a lot smaller than this share of size x size is dropped
+LARGEST_LOT = 1.5     # a lot is at most this many times size along each side
 MIN_LOT_WIDTH = 0.5   # ... and one narrower on average than this share of size
 
 
@@ -306,6 +323,6 @@ def far_bounds(db: PartDB, style: str | None, height: tuple[float, float], size:
     if not parts or not roofs:
         return 0.0, 0.0
     density = [(p.floor_area or 0.0) / p.length for p in parts]
-    lo = min(density) * max(height[0] - max(roofs), 0.0) / (1.5 * size) ** 2
+    lo = min(density) * max(height[0] - max(roofs), 0.0) / (LARGEST_LOT * size) ** 2
     hi = max(density) * height[1] / (MIN_LOT_SHARE * size ** 2)
     return lo, hi

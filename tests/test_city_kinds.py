@@ -172,6 +172,9 @@ def test_lots_are_roughly_square_and_inside_the_ground():
     ('kind = "row"\nheight = [40, 90]', "zone[0].height: zone 'z': only a zone of kind"),
     ('kind = "towers"\nheight = [40, 90]\nfar = [200, 300]', "zone 'z': far: [200, 300] "
                                                              "cannot be met"),
+    # lots no ground floor fits: said as such (it was told as a ratio of 1557 to 1e5)
+    ('kind = "towers"\nlot = 0.5\nheight = [40, 110]\nfar = [3, 8]',
+     "zone 'z': lot: lots of about 0.5 m are too small for any tower: no ground floor"),
     ('kind = "towers"\nlot = 1e9\nheight = [40, 90]\nfar = [2, 6]', "on lots of about 1e+09 "
                                                                    "m have a floor-area "
                                                                    "ratio between 3.89e-16"),

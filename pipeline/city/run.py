@@ -61,9 +61,9 @@ from citysynth.pipeline.city.process import (
     terminate_as_interrupt,
     worker_init,
 )
-from citysynth.pipeline.errors import ConfigError
+from citysynth.pipeline.errors import ConfigError, UsageError
 from citysynth.pipeline.layouts import check_style, default_style
-from citysynth.pipeline.towers import far_bounds
+from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Frame, parse_geojson, read_geojson
 from citysynth.skeletons.geojson import LONLAT_FRAME
 from citysynth.skeletons.streets import Block, highway_classes, street_blocks
@@ -258,6 +258,11 @@ def _kind_style(db: PartDB, s: BuildSettings, kind: ZoneKind, where: str) -> str
                           "whole-block intervals cannot hold; use per_side (or per_block "
                           "= {} in the zone to drop an inherited one)")
     if kind.kind == "towers":
+        try:   # the largest lot cut_lots keeps is 1.5 lot square
+            check_lot(db, Lot.square((LARGEST_LOT * kind.lot) ** 2), style)
+        except UsageError as exc:
+            raise ConfigError(f"{where}lot: lots of about {kind.lot:g} m are too small for "
+                              f"any tower: {exc}") from None
         lo, hi = far_bounds(db, style, kind.height, kind.lot)
         if kind.far[0] > hi or kind.far[1] < lo:
             raise ConfigError(
