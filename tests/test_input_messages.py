@@ -125,6 +125,10 @@ def _structure(tmp_path: Path, edit) -> Path:
     (lambda d: d["stages"][2].update(elements=[]),
      'stages[2].elements: empty, so no element may fill the stage; list the elements that '
      'may, or leave "elements" out for all of them'),
+    # key elements only: the stage was left with no filler, untold
+    (lambda d: d["stages"][2].update(elements=["corner_small"]),
+     "stages[2].elements: 'corner_small' is a key element (it has legs), which stands at "
+     "key points, not between them"),
 ])
 def test_a_structure_files_ignored_entries_are_refused_where_they_are(tmp_path, capsys,
                                                                       edit, said):

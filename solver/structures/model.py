@@ -146,7 +146,7 @@ class Structure:
         els = {x: _checked_amounts(v, res, f"elements[{x!r}]", err)
                for x, v in elements.items()}
         kps = _checked_keypoints(keypoints, legs, err)
-        sts = tuple(_checked_stage(i, s, res, els, len(kps), err)
+        sts = tuple(_checked_stage(i, s, res, els, len(kps), set(legs), err)
                     for i, s in enumerate(stages))
         if isinstance(k, bool) or not isinstance(k, int) or k < 1:
             raise err(f'"k" must be a positive integer, got {k!r}')
@@ -504,9 +504,11 @@ def _checked_intervals(intervals: Mapping[str, Interval], resources: tuple[str, 
 
 
 def _checked_stage(i: int, s: Stage, resources: tuple[str, ...],
-                   elements: Mapping[str, object], n_keypoints: int, err: _Err) -> Stage:
-    """Stage i: at least one interval, known fillers, two distinct key points (one,
-    when it is the only key point: a cycle of one stage)."""
+                   elements: Mapping[str, object], n_keypoints: int, keys: set[str],
+                   err: _Err) -> Stage:
+    """Stage i: at least one interval, known fillers that are not key elements (a list
+    of key elements only left the stage no filler, untold), two distinct key points
+    (one, when it is the only key point: a cycle of one stage)."""
     cons = _checked_intervals(s.constraints, resources, f"stages[{i}].constraints", err)
     if not cons:
         raise err(f"stages[{i}]: needs at least one constraint")
@@ -516,6 +518,10 @@ def _checked_stage(i: int, s: Stage, resources: tuple[str, ...],
     for x in s.elements or ():
         if x not in elements:
             raise err(f"stages[{i}].elements: unknown element {x!r}")
+        if x in keys:
+            raise err(f"stages[{i}].elements: {x!r} is a key element (it has legs), which "
+                      "stands at key points, not between them; list the fillers that may "
+                      "fill the stage")
     for v, name in ((s.start, "from"), (s.end, "to")):
         if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < n_keypoints:
             raise err(f"stages[{i}].{name}: must be a key point index, got {v!r}")
