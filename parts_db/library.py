@@ -10,9 +10,9 @@ and is only read back. Any bad part stops the ingest before anything is written.
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import os
+import shlex
 import zipfile
 import zlib
 from collections.abc import Callable
@@ -24,11 +24,12 @@ import numpy as np
 import shapely
 import shapely.errors
 
+from citysynth.parts_db import stored
 from citysynth.parts_db.costs import allowed_matrix, cost_matrix
 from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.files import atomic_path, write_text
 from citysynth.parts_db.manifest import Manifest, PartClass, read_manifest
-from citysynth.parts_db.measure import STACKED, STRAIGHT, measure
+from citysynth.parts_db.measure import STACKED, STRAIGHT, measure, snap_legs
 from citysynth.parts_db.meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh, mesh_bytes
 
 FORMAT_VERSION = 2
@@ -208,8 +209,7 @@ def _ingest_part(root: Path, m: Manifest, spec, warnings: list[str]) -> Part:
     mesh, counts = load_part_mesh(f, spec.id, m.meters_per_unit)
     meas = measure(mesh, spec, where)
     q = m.quantum
-    legs_q = [max(round(leg / q), 1) * q for leg in meas.legs]
-    legs_q = [round(x, 9) for x in legs_q]
+    legs_q = snap_legs(meas.legs, q)
     scale = 1.0
     if m.rescale and (spec.cls in STRAIGHT or spec.cls in STACKED):
         scale = legs_q[0] / meas.legs[0]
@@ -238,8 +238,15 @@ def _part_json(p: Part) -> dict:
                                      "floor_area", "angle", "convex")}
     for k in ("sec_in", "sec_out", "sec_branch"):
         g = getattr(p, k)
-        d[k] = None if g is None else shapely.to_wkt(g, rounding_precision=6)
+        d[k] = None if g is None else _wkt(g)
     return d
+
+
+def _wkt(g) -> str:
+    """A section as WKT to 1 µm; in full precision should rounding make it invalid (a
+    sliver thinner than that), which the loader would refuse."""
+    text = shapely.to_wkt(g, rounding_precision=6)
+    return text if shapely.from_wkt(text).is_valid else shapely.to_wkt(g, rounding_precision=-1)
 
 
 def save(db: PartDB, out_dir: Path) -> None:
@@ -258,48 +265,55 @@ def save(db: PartDB, out_dir: Path) -> None:
     write_text(out_dir / DB_JSON, json.dumps(meta, indent=1, sort_keys=True))
 
 
-# A damaged database (truncated, edited, another format) raises any of these on reading.
+# A damaged database (truncated, edited, another format) raises any of these on reading;
+# :mod:`parts_db.stored` turns every one it can foresee into a LibraryError naming it.
 _DAMAGED = (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError, EOFError,
             RecursionError, zipfile.BadZipFile, zlib.error, shapely.errors.ShapelyError)
 
 
 def _read_db(out_dir: Path) -> PartDB:
-    """The database in ``out_dir``, every array read now (an npz is read lazily) and
-    checked against the hash the JSON records for it."""
-    meta = json.loads((out_dir / DB_JSON).read_text(encoding="utf-8"))
-    npz = (out_dir / DB_NPZ).read_bytes()
+    """The database in ``out_dir``, every table read now (an npz is read lazily), checked
+    against the hash the JSON records for it, and every value checked as ingest makes it
+    (:mod:`parts_db.stored`): what the pipeline reads later, it may trust."""
+    meta = stored.read_meta(out_dir / DB_JSON, FORMAT_VERSION)
+    try:
+        npz = (out_dir / DB_NPZ).read_bytes()
+    except FileNotFoundError:
+        raise LibraryError(f"{out_dir / DB_NPZ}: missing") from None
+    except OSError as exc:
+        raise LibraryError(f"{out_dir / DB_NPZ}: cannot be read ({exc.strerror or exc})"
+                           ) from None
     if "npz_sha256" in meta and hashlib.sha256(npz).hexdigest() != meta["npz_sha256"]:
-        raise ValueError(f"{DB_NPZ} does not match the hash {DB_JSON} records for it")
-    with np.load(io.BytesIO(npz)) as z:
-        arrays = {k: z[k] for k in ("allowed", "cost", "cost_branch")}
-    n = len(meta["parts"])
-    if any(a.shape != (n, n) for a in arrays.values()):
-        raise ValueError(f"{DB_NPZ} holds tables of another size than its {n} parts")
-    parts = []
-    for d in meta["parts"]:
-        secs = {k: None if d[k] is None else shapely.from_wkt(d[k])
-                for k in ("sec_in", "sec_out", "sec_branch")}
-        parts.append(Part(d["id"], d["cls"], d["style"], d["file"], d["attributes"],
-                          d["legs"], d["legs_measured"], d["directions"], d["scale"],
-                          d["origin"], d["height"], d["floor_area"], d["angle"],
-                          d["convex"], **secs))
-    return PartDB(meta["name"], meta["library_hash"], meta["quantum"], parts,
-                  arrays["allowed"], arrays["cost"], arrays["cost_branch"],
+        raise LibraryError(f"{out_dir / DB_NPZ}: does not match the hash {DB_JSON} records "
+                           "for it (changed, or cut short, since it was written)")
+    tables = stored.read_tables(out_dir / DB_NPZ, npz)
+    seen: dict[str, str] = {}
+    parts = [Part(**stored.part_fields(d, i, out_dir / DB_JSON, seen, meta["quantum"]))
+             for i, d in enumerate(meta["parts"])]
+    stored.check_tables(out_dir / DB_NPZ, tables, parts)
+    if meta.get("library_root"):
+        stored.check_meshes(out_dir / DB_JSON, Path(meta["library_root"]), parts)
+    return PartDB(meta["name"], meta["library_hash"], float(meta["quantum"]), parts,
+                  tables["allowed"], tables["cost"], tables["cost_branch"],
                   meta["warnings"], out_dir, True,
                   Path(meta["library_root"]) if meta.get("library_root") else None,
-                  meta.get("meters_per_unit", 1.0))
+                  float(meta.get("meters_per_unit", 1.0)))
 
 
 def load_db(out_dir: str | Path) -> PartDB:
     """A database folder written by ``citysynth ingest -o``; a damaged one is the
-    user's to rebuild, said in one line."""
+    user's to rebuild (from the library it names, when that is still there), said in
+    one line that names the file, the part or key, and what is wrong."""
     out_dir = Path(out_dir)
     try:
         return _read_db(out_dir)
-    except _DAMAGED as exc:
-        raise LibraryError(f"{out_dir}: a damaged part database ({type(exc).__name__}: "
-                           f"{exc}); write it again with citysynth ingest LIBRARY -o "
-                           f"{out_dir} --force") from None
+    except _DAMAGED as exc:   # LibraryError among them: stored's refusals
+        lib = stored.library_of(out_dir / DB_JSON)
+        what = str(exc) if isinstance(exc, LibraryError) else \
+            f"{out_dir}: a damaged part database ({exc})"
+        raise LibraryError(f"{what}; write it again with citysynth ingest "
+                           f"{shlex.quote(lib or 'LIBRARY')} -o {shlex.quote(str(out_dir))} "
+                           "--force") from None
 
 
 def _read_cached(out_dir: Path, digest: str) -> PartDB | None:

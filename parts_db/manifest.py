@@ -11,7 +11,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath, PureWindowsPath
-from typing import Literal, cast, get_args
+from typing import Literal, get_args
 
 from citysynth.parts_db.errors import LibraryError
 from citysynth.solver.safe_read import read_toml
@@ -64,7 +64,7 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     if unknown:
         raise LibraryError(f"{path}: [library] has unknown key(s) {unknown}; "
                            f"allowed: {sorted(_LIB_KEYS)}")
-    quantum = _positive(lib.get("quantum", 0.2), f"{path}: [library] quantum")
+    quantum = positive(lib.get("quantum", 0.2), f"{path}: [library] quantum")
     units = lib.get("units", "m")
     if units not in UNITS:
         raise LibraryError(f"{path}: [library] units {units!r} unknown; use one of "
@@ -87,10 +87,23 @@ def read_manifest(library_dir: str | Path) -> Manifest:
                     rescale, tuple(parts))
 
 
-def _positive(v: object, where: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
+def finite(v: object) -> float | None:
+    """``v`` as a float when it is a finite number (not a bool, not NaN or infinite, not
+    an integer too large for a float: JSON has those), else None."""
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        return None
+    try:
+        x = float(v)
+    except OverflowError:
+        return None
+    return x if math.isfinite(x) else None
+
+
+def positive(v: object, where: str) -> float:
+    x = finite(v)
+    if x is None or x <= 0:
         raise LibraryError(f"{where}: must be a positive number, got {v!r}")
-    return float(v)
+    return x
 
 
 MAX_ATTRIBUTE = 10_000   # doors, windows...: of one part (1e300 overflowed the solver)
@@ -107,7 +120,7 @@ def id_key(pid: str) -> str:
     return ("_" + key if key[:1].isdigit() else key).casefold()
 
 
-def _check_id(pid: object, where: str, seen: dict[str, str]) -> str:
+def check_id(pid: object, where: str, seen: dict[str, str]) -> str:
     """A part's id: a printable string, as unique as the file names it becomes."""
     if not isinstance(pid, str) or not pid:
         raise LibraryError(f"{where}: needs an id (a non-empty string)")
@@ -130,47 +143,77 @@ def _part(p: dict, i: int, path: Path, seen: dict[str, str]) -> PartSpec:
     pid = p.get("id")
     named = isinstance(pid, str) and pid.isprintable()
     where = f"{path}: part #{i + 1}" + (f' "{pid}"' if named else "")
-    pid = _check_id(pid, where, seen)
+    pid = check_id(pid, where, seen)
     unknown = sorted(set(p) - _PART_KEYS)
     if unknown:
         raise LibraryError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(_PART_KEYS)}")
-    f = p.get("file")
+    f = check_file(p.get("file"), where)
+    cls = check_class(p.get("class"), where)
+    style = check_style(p.get("style", "default"), where)
+    angle = convex = None
+    if cls == "corner":
+        angle, convex = check_corner(p.get("angle"), p.get("convex"), where)
+    length = positive(p["length"], f"{where}: length") if "length" in p else None
+    attrs = check_attributes(p.get("attributes", {}), where)
+    return PartSpec(pid, f, cls, style, angle, convex, length, attrs)
+
+
+# The checks of one part's fields, shared with the reader of a stored part database
+# (parts_db.stored), which holds the same fields and must refuse the same values.
+
+def check_file(f: object, where: str) -> str:
+    """A part's mesh file: a path relative to the library folder."""
     if not isinstance(f, str) or not f:
         raise LibraryError(f"{where}: needs a file (path of its mesh, relative to the library)")
     if PurePosixPath(f).is_absolute() or PureWindowsPath(f).is_absolute():
         raise LibraryError(f"{where}: file {f!r} must be a path relative to the library "
                            "folder (so the library can be moved and shared)")
-    cls = p.get("class")
+    return f
+
+
+def check_class(cls: object, where: str) -> PartClass:
     if cls not in CLASSES:
         raise LibraryError(f"{where}: unknown class {cls!r}; classes are {', '.join(CLASSES)}")
-    style = p.get("style", "default")
+    return cls
+
+
+def check_style(style: object, where: str) -> str:
     if not isinstance(style, str) or not style:
         raise LibraryError(f"{where}: style must be a non-empty string")
-    angle = convex = None
-    if cls == "corner":
-        if "angle" not in p:
-            raise LibraryError(f"{where}: a corner needs an angle (degrees between its legs, "
-                               "e.g. angle = 90) and convex = true|false")
-        angle = _positive(p["angle"], f"{where}: angle")
-        if not 0 < angle < 180:
-            raise LibraryError(f"{where}: angle must lie between 0 and 180 degrees "
-                               f"(the angle between the legs), got {angle:g}")
-        convex = p.get("convex")
-        if not isinstance(convex, bool):
-            raise LibraryError(f"{where}: a corner needs convex = true (outer corner) or "
-                               "false (inner corner)")
-    length = _positive(p["length"], f"{where}: length") if "length" in p else None
-    attrs_in = p.get("attributes", {})
+    return style
+
+
+def check_corner(angle: object, convex: object, where: str) -> tuple[float, bool]:
+    """A corner's angle (degrees between its legs, in (0, 180)) and convexity."""
+    if angle is None:
+        raise LibraryError(f"{where}: a corner needs an angle (degrees between its legs, "
+                           "e.g. angle = 90) and convex = true|false")
+    a = positive(angle, f"{where}: angle")
+    if not 0 < a < 180:
+        raise LibraryError(f"{where}: angle must lie between 0 and 180 degrees "
+                           f"(the angle between the legs), got {a:g}")
+    if not isinstance(convex, bool):
+        raise LibraryError(f"{where}: a corner needs convex = true (outer corner) or "
+                           "false (inner corner)")
+    return a, convex
+
+
+def check_attributes(attrs_in: object, where: str,
+                     limits: dict[str, float] | None = None) -> dict[str, float]:
+    """A part's attributes: named counts from 0 to :data:`MAX_ATTRIBUTE` (``limits``
+    raises that for some names: a stored database holds measured floor areas)."""
     if not isinstance(attrs_in, dict):
         raise LibraryError(f"{where}: attributes must be a table, e.g. "
                            "attributes = {doors = 1, windows = 4}")
     attrs = {}
     for k, v in attrs_in.items():
-        if not k.strip() or not k.isprintable():
+        if not isinstance(k, str) or not k.strip() or not k.isprintable():
             raise LibraryError(f"{where}: an attribute needs a name (like doors), got {k!r}")
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
-                or not 0 <= v <= MAX_ATTRIBUTE:
+        top = (limits or {}).get(k, MAX_ATTRIBUTE)
+        x = finite(v)
+        if x is None or not 0 <= x <= top:
+            what = "a count on one part" if top == MAX_ATTRIBUTE else "a measured amount"
             raise LibraryError(f"{where}: attribute {k} must be a number from 0 to "
-                               f"{MAX_ATTRIBUTE:,} (a count on one part), got {v!r}")
-        attrs[k] = float(v)
-    return PartSpec(pid, f, cast(PartClass, cls), style, angle, convex, length, attrs)
+                               f"{top:,g} ({what}), got {v!r}")
+        attrs[k] = x
+    return attrs

@@ -56,6 +56,12 @@ def leg_directions(spec: PartSpec) -> list[tuple[float, float]]:
     return [(1.0, 0.0)]
 
 
+def snap_legs(measured: list[float], quantum: float) -> list[float]:
+    """Measured legs snapped to the library quantum (at least one quantum each): the
+    lengths the solver counts in whole quanta."""
+    return [round(max(round(leg / quantum), 1) * quantum, 9) for leg in measured]
+
+
 def _facade_section(mesh, direction, dist, outward_end: bool, labels):
     """Section across a leg at distance ``dist`` along ``direction`` from the origin,
     seen along the direction of travel of the sequence (into the part on an incoming
@@ -105,8 +111,8 @@ def measure(mesh, spec: PartSpec, where: str) -> Measured:
         m = Measured(legs, dirs, height, None, sec_in, sec_out)
         if spec.cls == "t_junction":
             m.sec_branch = _facade_section(mesh, dirs[2], legs[2] - EPS, True, labels)
-    for name, sec in (("in", m.sec_in), ("out", m.sec_out)):
-        if sec.is_empty or sec.area <= 0:
+    for name, sec in (("in", m.sec_in), ("out", m.sec_out), ("branch", m.sec_branch)):
+        if sec is not None and (sec.is_empty or sec.area <= 0):
             raise LibraryError(f"{where}: no cross-section at its {name}-end; the mesh must "
                                "be closed and reach both ends of its primary axis")
     if spec.cls not in STACKED:
