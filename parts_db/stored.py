@@ -57,6 +57,7 @@ PART_KEYS = {"id", "cls", "style", "file", "attributes", "legs", "legs_measured"
              "sec_in", "sec_out", "sec_branch"}
 MAX_FLOOR_AREA = 1e6     # m² of one storey (a square kilometre)
 MAX_HEIGHT = 10_000.0    # m of one part
+MAX_COORD = 1e9          # m: no mesh lies farther out (1e300 overflowed placing parts)
 LEGS = {"corner": 2, "t_junction": 3}   # legs per class; every other class has one
 
 
@@ -176,9 +177,9 @@ def _section(v: object, where: str, key: str) -> object:
     except (shapely.errors.ShapelyError, ValueError):
         raise LibraryError(f"{where}: {key} is not readable polygon WKT: {_show(v)}") from None
     if g is None or g.geom_type not in ("Polygon", "MultiPolygon") or g.is_empty \
-            or not np.isfinite(g.bounds).all() or g.area <= 0:
-        raise LibraryError(f"{where}: {key} must be a polygon of positive area, got "
-                           f"{_show(v)}")
+            or not (np.abs(g.bounds) <= MAX_COORD).all() or not 0 < g.area < math.inf:
+        raise LibraryError(f"{where}: {key} must be a polygon of positive area (coordinates "
+                           f"within {MAX_COORD:g} m), got {_show(v)}")
     if not g.is_valid:
         raise LibraryError(f"{where}: {key} is an invalid polygon (its outline crosses "
                            "itself, or a hole lies outside it)")
@@ -238,6 +239,9 @@ def part_fields(d: object, i: int, path: Path, seen: dict[str, str], quantum: fl
         raise LibraryError(f"{where}: scale must be 1 or its legs over its legs_measured "
                            f"({rescaled:.9g}), got {_show(d['scale'])}")
     f["origin"] = _numbers(d["origin"], 3, where, "origin", signed=True)
+    if max(map(abs, f["origin"])) > MAX_COORD:
+        raise LibraryError(f"{where}: origin {_show(d['origin'])} lies more than "
+                           f"{MAX_COORD:g} m out")
     f["height"] = _number(d["height"], where, "height", 0, MAX_HEIGHT, above=True)
     if cls in STACKED:
         f["floor_area"] = _number(d["floor_area"], where, "floor_area", 0, MAX_FLOOR_AREA)
