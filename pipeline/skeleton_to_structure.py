@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict, defaultdict
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import cast
 
 import numpy as np
@@ -46,7 +46,6 @@ from citysynth.export.t_poses import (
     main_depth,
     part_leg,
     pose_from_ground,
-    SEP,
     t_element,
     t_pose,
 )
@@ -238,8 +237,6 @@ class _KeyParts:
     branch: dict[int, int]                    # T key point -> its branch stage
     parts: dict[str, Part]                    # key parts used, by id
     joint: bool                               # some key point may be a mitre joint
-    # a ring's seam joint carrying a module's section: id -> (its joint, that module)
-    seam: dict[str, tuple[str, str]] = field(default_factory=dict)
 
 
 MIN_CORNER_DEG = 5.0   # a sharper corner is a line drawn back on itself, not a building
@@ -338,9 +335,7 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                                asked=dict(st.constraints), end_leg=structure.end_leg(s))
                      for s, st in enumerate(structure.stages)),
         branch=dict(kp.branch), asked=dict(structure.global_constraints),
-        joints={**_joint_variants(db.quantum),
-                **{sid: _joint_variants(db.quantum)[jid] for sid, (jid, _p) in kp.seam.items()}}
-        if kp.joint else {})
+        joints=_joint_variants(db.quantum) if kp.joint else {})
     return StructurePlan(structure, placement)
 
 
@@ -371,14 +366,10 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
     branch: dict[int, int] = {}
     parts: dict[str, Part] = {}
     poses: dict[str, Part] = {}     # T key element -> its part
-    seam: dict[str, tuple[str, str]] = {}
     for j, v in enumerate(keys):
         kp = kp_of[v]
         extra: list[str] = []
-        if kp.kind == "corner" and any(c.a == c.b == v for c in chains):
-            seam = _seam_joints(db.quantum, db.select("middle", style))
-            opts, extra = [], list(seam)
-        elif kp.kind == "corner":
+        if kp.kind == "corner":
             run = _straight_run(v, chains, kp_of)
             opts = [p for p in corners if p.convex == kp.convex and p.angle is not None
                     and kp.angle is not None and abs(p.angle - kp.angle) <= angle_tol
@@ -405,30 +396,7 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
         options.append(tuple([p.id for p in opts] + extra))
         parts.update((p.id, p) for p in opts)
     return _KeyParts(tuple(options), branch, {**parts, **poses},
-                     any(is_joint(x) for o in options for x in o), seam)
-
-
-def _seam_joints(q: float, fillers: list[Part]) -> dict[str, tuple[str, str]]:
-    """The mitre joints at the seam of a ring that only bends (its one key point, where
-    the ring is cut: :func:`citysynth.skeletons.from_geometry.seamed`), each carrying
-    the section of a family of modules: the module before it pays the database's
-    transition into that family, and only a module of it follows. A plain joint joins
-    any two modules at no cost, as at a corner; at a seam the facade runs on nearly
-    straight, and a round block closed a row of tall modules onto a row of low ones
-    there with no transition part (a step in the roof, a cut face standing above it).
-    Both legs of a seam count toward the ring's one stage, so one joint per total leg
-    length is all the solver needs (each option at a key point is a stage graph)."""
-    totals: dict[float, str] = {}
-    for jid, (a, b) in _joint_variants(q).items():
-        totals.setdefault(round(a + b, 9), jid)
-    families: list[Part] = []
-    for p in fillers:
-        if not any(disagreement(p.sec_in, f.sec_in) <= SEAM_SAME for f in families):
-            families.append(p)
-    return {f"{jid}{SEP}{p.id}": (jid, p.id) for jid in totals.values() for p in families}
-
-
-SEAM_SAME = 0.5   # m² of section disagreement under which modules start alike at a seam
+                     any(is_joint(x) for o in options for x in o))
 
 
 def _t_pose(sk: Skeleton, j: int, b: int, oriented: dict[int, tuple[int, int]],
@@ -582,8 +550,6 @@ def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
             elements[jid] = dict(zero)
             costs[jid] = float(joint_cost) + JOINT_LEG_COST * (a + b - 2 * quantum)
             legs[jid] = ({**zero, "length": a}, {**zero, "length": b})
-        for sid, (jid, _p) in kp.seam.items():
-            elements[sid], costs[sid], legs[sid] = elements[jid], costs[jid], legs[jid]
     return {"elements": elements, "costs": costs, "legs": legs}
 
 
@@ -591,8 +557,7 @@ def _transitions(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
     """:func:`_transition_tables`, made once per process for each set of parts (every
     block of a style asks for the same tables, which took milliseconds of Python a
     block to build); each caller gets its own copies."""
-    key = (db.library_hash, tuple(p.id for p in fillers), tuple(kp.parts), kp.joint,
-           bool(kp.seam))
+    key = (db.library_hash, tuple(p.id for p in fillers), tuple(kp.parts), kp.joint)
     tables = _TABLES.get(key)
     if tables is None:
         tables = _TABLES[key] = _transition_tables(db, fillers, kp)
@@ -613,8 +578,7 @@ def _transition_tables(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
     at its ends, compared as the database compares sections. A mitre joint joins the
     modules on either side at no
     cost of its own (they are cut to meet; its cost is its unary cost), and only modules:
-    a stage with no module beside a joint would leave its corner empty. A seam joint
-    (:func:`_seam_joints`) passes on the transition between the modules it joins."""
+    a stage with no module beside a joint would leave its corner empty."""
     ids = [p.id for p in fillers] + list(kp.parts)
     idx = db.index()
     base = {x: t_pose(x).part for x in ids}
@@ -633,11 +597,6 @@ def _transition_tables(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
         for jid in _joint_variants(db.quantum):
             for p in fillers:
                 trans[(p.id, jid)] = trans[(jid, p.id)] = 0.0
-    for sid, (_jid, y) in kp.seam.items():   # across a seam: the modules' own transition
-        family = [p for p in fillers
-                  if disagreement(p.sec_in, db.by_id[y].sec_in) <= SEAM_SAME]
-        trans.update(((sid, p.id), 0.0) for p in family)
-        trans.update(((x.id, sid), trans[(x.id, y)]) for x in fillers if (x.id, y) in trans)
     return {"transitions": trans, "branch_transitions": btrans,
             "branch_in_transitions": into_branch}
 
