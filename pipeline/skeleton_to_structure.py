@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict, defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import cast
 
 import numpy as np
@@ -43,6 +43,7 @@ from citysynth.export.plan import (
     other_side,
 )
 from citysynth.export.t_poses import (
+    SEP,
     main_depth,
     part_leg,
     pose_from_ground,
@@ -53,8 +54,9 @@ from citysynth.parts_db import Part, PartDB
 from citysynth.parts_db.manifest import PartClass
 from citysynth.parts_db.sections import disagreement
 from citysynth.pipeline.corner_room import CornerRoom, mass_depth
-from citysynth.skeletons import Skeleton
+from citysynth.skeletons import KeyPoint, Skeleton
 from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.from_geometry import STRAIGHT_TOL
 from citysynth.solver.structures import Stage, Structure
 
 MAX_KEYS = 2_000    # key points of one structure: more is refused with an estimate
@@ -237,6 +239,8 @@ class _KeyParts:
     branch: dict[int, int]                    # T key point -> its branch stage
     parts: dict[str, Part]                    # key parts used, by id
     joint: bool                               # some key point may be a mitre joint
+    # a ring's seam joints: id -> (its joint, the module it hands on ("": any), extra cost)
+    seam: dict[str, tuple[str, str, float]] = field(default_factory=dict)
 
 
 MIN_CORNER_DEG = 5.0   # a sharper corner is a line drawn back on itself, not a building
@@ -335,7 +339,9 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                                asked=dict(st.constraints), end_leg=structure.end_leg(s))
                      for s, st in enumerate(structure.stages)),
         branch=dict(kp.branch), asked=dict(structure.global_constraints),
-        joints=_joint_variants(db.quantum) if kp.joint else {})
+        joints={**_joint_variants(db.quantum),
+                **{sid: _joint_variants(db.quantum)[jid] for sid, (jid, _p, _c) in kp.seam.items()}}
+        if kp.joint else {})
     return StructurePlan(structure, placement)
 
 
@@ -366,6 +372,7 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
     branch: dict[int, int] = {}
     parts: dict[str, Part] = {}
     poses: dict[str, Part] = {}     # T key element -> its part
+    seam: dict[str, tuple[str, str, float]] = {}
     for j, v in enumerate(keys):
         kp = kp_of[v]
         extra: list[str] = []
@@ -377,7 +384,11 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
             if opts and room is not None:   # rigid: only where the block has room for it
                 own = [i for c in chains if v in (c.a, c.b) for i in c.edges]
                 opts = [p for p in opts if room.fits(p, v, own)]
-            extra = list(_joint_variants(db.quantum))
+            if _is_seam(kp, v, chains):   # a ring that only bends: joined as it runs on
+                seam = _seam_joints(db, db.select("middle", style))
+                extra = list(seam)
+            else:
+                extra = list(_joint_variants(db.quantum))
         elif kp.kind == "t_junction":
             branch[j] = next(s for s, c in enumerate(chains) if kp.branch in c.edges)
             swap, street = _t_pose(sk, j, branch[j], oriented, placed)
@@ -396,7 +407,49 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
         options.append(tuple([p.id for p in opts] + extra))
         parts.update((p.id, p) for p in opts)
     return _KeyParts(tuple(options), branch, {**parts, **poses},
-                     any(is_joint(x) for o in options for x in o))
+                     any(is_joint(x) for o in options for x in o), seam)
+
+
+def _is_seam(kp: KeyPoint, v: int, chains: list[_Chain]) -> bool:
+    """Whether key point v is a ring's seam: its one key point (the ring runs from it
+    back to it), turning as little as a bend (a real corner there stays a corner)."""
+    return (abs(kp.turn or 0.0) < STRAIGHT_TOL
+            and any(c.a == c.b == v for c in chains))
+
+
+def _seam_joints(db: PartDB, fillers: list[Part]) -> dict[str, tuple[str, str, float]]:
+    """The mitre joints at the seam of a ring that only bends (its one key point, where
+    the ring is cut: :func:`citysynth.skeletons.from_geometry.seamed`), each carrying
+    the section of a family of modules: the module before it pays the database's
+    transition into that family, and only a module of it follows. A plain joint joins
+    any two modules at no cost, as at a corner; at a seam the facade runs on nearly
+    straight, and a round block closed a row of tall modules onto a row of low ones
+    there with no transition part (a step in the roof, a cut face standing above it).
+    Both legs of a seam count toward the ring's one stage, so one joint per total leg
+    length is all the solver needs (each option at a key point is a stage graph). A
+    plain joint stays, at the cost of the worst transition between the modules, for a
+    library whose modules cannot close a ring on their own transitions."""
+    totals: dict[float, str] = {}
+    for jid, (a, b) in _joint_variants(db.quantum).items():
+        totals.setdefault(round(a + b, 9), jid)
+    families: list[Part] = []
+    for p in fillers:
+        if not any(_start_alike(p, f) for f in families):
+            families.append(p)
+    ids = [db.index()[p.id] for p in fillers]
+    costs = db.cost[np.ix_(ids, ids)]
+    worst = float(costs[np.isfinite(costs)].max(initial=0.0))
+    out = {f"{jid}{SEP}{p.id}": (jid, p.id, 0.0) for jid in totals.values() for p in families}
+    out.update({f"{jid}{SEP}any": (jid, "", worst) for jid in totals.values()})
+    return out
+
+
+SEAM_SAME = 0.5   # m² of section disagreement under which modules start alike at a seam
+
+
+def _start_alike(a: Part, b: Part) -> bool:
+    """Whether two modules start with the same section (within :data:`SEAM_SAME`)."""
+    return float(shapely.area(shapely.symmetric_difference(a.sec_in, b.sec_in))) <= SEAM_SAME
 
 
 def _t_pose(sk: Skeleton, j: int, b: int, oriented: dict[int, tuple[int, int]],
@@ -550,6 +603,8 @@ def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
             elements[jid] = dict(zero)
             costs[jid] = float(joint_cost) + JOINT_LEG_COST * (a + b - 2 * quantum)
             legs[jid] = ({**zero, "length": a}, {**zero, "length": b})
+        for sid, (jid, _p, extra) in kp.seam.items():
+            elements[sid], costs[sid], legs[sid] = elements[jid], costs[jid] + extra, legs[jid]
     return {"elements": elements, "costs": costs, "legs": legs}
 
 
@@ -557,7 +612,8 @@ def _transitions(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
     """:func:`_transition_tables`, made once per process for each set of parts (every
     block of a style asks for the same tables, which took milliseconds of Python a
     block to build); each caller gets its own copies."""
-    key = (db.library_hash, tuple(p.id for p in fillers), tuple(kp.parts), kp.joint)
+    key = (db.library_hash, tuple(p.id for p in fillers), tuple(kp.parts), kp.joint,
+           bool(kp.seam))
     tables = _TABLES.get(key)
     if tables is None:
         tables = _TABLES[key] = _transition_tables(db, fillers, kp)
@@ -578,7 +634,8 @@ def _transition_tables(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
     at its ends, compared as the database compares sections. A mitre joint joins the
     modules on either side at no
     cost of its own (they are cut to meet; its cost is its unary cost), and only modules:
-    a stage with no module beside a joint would leave its corner empty."""
+    a stage with no module beside a joint would leave its corner empty. A seam joint
+    (:func:`_seam_joints`) passes on the transition between the modules it joins."""
     ids = [p.id for p in fillers] + list(kp.parts)
     idx = db.index()
     base = {x: t_pose(x).part for x in ids}
@@ -597,6 +654,11 @@ def _transition_tables(db: PartDB, fillers: list[Part], kp: _KeyParts) -> dict:
         for jid in _joint_variants(db.quantum):
             for p in fillers:
                 trans[(p.id, jid)] = trans[(jid, p.id)] = 0.0
+    for sid, (_jid, y, _extra) in kp.seam.items():   # across a seam: the modules' own
+        family = [p for p in fillers if not y or _start_alike(p, db.by_id[y])]
+        trans.update(((sid, p.id), 0.0) for p in family)
+        trans.update(((x.id, sid), trans[(x.id, y)] if y else 0.0) for x in fillers
+                     if not y or (x.id, y) in trans)
     return {"transitions": trans, "branch_transitions": btrans,
             "branch_in_transitions": into_branch}
 
