@@ -282,13 +282,16 @@ def _children(e, g, c, lo, r, cap, n, sptr, selem, sw, back, bres, bbase, btab, 
 @njit(cache=True)
 def _astar_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, omega, back, bres, bbase,
                  btab, rng, keys, vals, shift, pops, lab_g, lab_f, lab_par, lab_elem, lab_state,
-                 lab_dep, kbase, ksize, kf, kj, heap, results, cnt, room):
-    """Pop labels until K complete sequences are out, the heap is empty, or the arrays
-    have less than ``room`` free rows (the driver grows them and calls again).
-    cnt = [labels, heap size, results, nodes, settled, kid rows]."""
+                 lab_dep, kbase, ksize, kf, kj, heap, results, cnt, room, max_pops):
+    """Pop labels until K complete sequences are out, the heap is empty, the arrays
+    have less than ``room`` free rows (the driver grows them and calls again), or
+    ``max_pops`` labels were popped (the driver, in Python, lets Ctrl-C in and calls
+    again). cnt = [labels, heap size, results, nodes, settled, kid rows]."""
     c = np.zeros(len(cap), dtype=np.int64)
     nl, hs, nk = cnt[0], cnt[1], cnt[5]
-    while hs > 0 and cnt[2] < K:
+    popped = 0
+    while hs > 0 and cnt[2] < K and popped < max_pops:
+        popped += 1
         if nl + 2 > len(lab_g) or nk + room > len(kf) or cnt[3] + 1 > len(pops) or \
                 2 * (cnt[3] + 1) > len(keys):
             break
@@ -347,12 +350,17 @@ def _root(n, r, lo, cap, off, front, omega, bres, bbase, btab, rng, lab_g, lab_f
     return m
 
 
-@njit(cache=True)
+POPS_PER_CALL = 1 << 18   # labels one kernel call pops at most (tens of milliseconds)
+
+
 def _astar(K, n, r, lo, cap, stride, off, sptr, selem, sw, front, omega, back, bres, bbase,
            btab, rng, max_labels, max_kids, max_nodes):
-    room = n + 2  # the most children one settlement can write: a list and an end
-    for e in range(n):
-        room = max(room, sptr[e + 1] - sptr[e] + 2)
+    """The search's driver, in Python between kernel calls of at most
+    :data:`POPS_PER_CALL` pops: a search that runs to its budget (a minute and more)
+    stops on Ctrl-C or SIGTERM within a call, where a compiled driver held the signal
+    until it ended."""
+    # the most children one settlement can write: a list and an end
+    room = max(n, int(np.diff(sptr).max(initial=0))) + 2
     m = 1 << 12
     _tab, keys, vals, shift = table_new(False, 1 << 10, 1)
     pops = np.zeros(1 << 10, dtype=np.int64)
@@ -372,7 +380,8 @@ def _astar(K, n, r, lo, cap, stride, off, sptr, selem, sw, front, omega, back, b
     while True:
         _astar_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, omega, back, bres,
                      bbase, btab, rng, keys, vals, shift, pops, lab_g, lab_f, lab_par, lab_elem,
-                     lab_state, lab_dep, kbase, ksize, kf, kj, heap, results, cnt, room)
+                     lab_state, lab_dep, kbase, ksize, kf, kj, heap, results, cnt, room,
+                     POPS_PER_CALL)
         if cnt[1] == 0 or cnt[2] >= K:
             break
         if cnt[0] > max_labels or cnt[5] > max_kids or cnt[3] > max_nodes:

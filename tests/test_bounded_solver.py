@@ -269,3 +269,40 @@ def test_auto_takes_the_graph_only_for_thousands_of_sequences_on_a_small_box():
     last = a.solutions[-1].cost
     assert [s.to_dict() for s in a.solutions if s.cost < last] == \
         [s.to_dict() for s in b.solutions if s.cost < last]
+
+
+def test_a_long_search_lets_ctrl_c_in_between_kernel_calls(monkeypatch):
+    """The search's driver runs in Python between kernel calls of a bounded number of
+    pops, so SIGINT (here an alarm raising KeyboardInterrupt) stops a long search while
+    it runs. The compiled driver it replaces held the signal until the whole search
+    was done (a minute and more at the memory budget)."""
+    import signal
+
+    from citysynth.solver import astar
+
+    p = street_front(400, resources=3)
+    p["constraints"].update(doors=[0, 1000], balconies=[0, 1000])
+    problem = Problem.from_dict(p)
+    k = 300_000
+    solve(Problem.from_dict(street_front(20, resources=3)), k=2, method="bounded")  # compiled
+    seen: list[int] = []
+    kernel = astar._astar_steps
+
+    def counted(*args):
+        kernel(*args)
+        seen.append(int(args[-3][2]))   # cnt[2]: complete sequences so far
+    monkeypatch.setattr(astar, "_astar_steps", counted)
+    monkeypatch.setattr(astar, "POPS_PER_CALL", 1 << 12)
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGALRM, interrupt)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.5)
+        with pytest.raises(KeyboardInterrupt):
+            solve(problem, k=k, method="bounded")
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+    assert len(seen) > 1 and seen[-1] < k, "the search ran to its end before the signal"
