@@ -27,7 +27,7 @@ import warnings
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 import pyproj
@@ -134,7 +134,8 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
     with others, or with none, are left out with a warning (:class:`Features`)."""
     raw = _raw_features(data, source)
     member = _crs_member(data, source)
-    given = _input_crs(_chosen_crs(crs, member, source), source)
+    chosen, overrides = _chosen_crs(crs, member)
+    given = _with_member(lambda: _input_crs(chosen, source), overrides, member)
     kept, skipped = _usable(raw, source, accept)
     if not kept:
         raise SkeletonError(f"{source}: no usable features: all {len(raw)} left out ("
@@ -144,7 +145,12 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
         warnings.warn(message, InputWarning, stacklevel=3)
     geoms = [g for _, g, _ in kept]
     named_by = "--crs" if crs is not None else f'the file\'s "crs" member ({member})'
-    project, frame = _frame(geoms, given, source, origin, origin_digits, named_by)
+    project, frame = _with_member(
+        lambda: _frame(geoms, given, source, origin, origin_digits, named_by), overrides,
+        member)
+    if overrides:
+        warnings.warn(f"{source}: the file says its coordinates are in {member}, but "
+                      f"--crs says {crs}; using {crs}", InputWarning, stacklevel=2)
     feats = Features((Feature(i, shapely.transform(g, project), props, source)
                       for i, g, props in kept), skipped)
     return feats, frame
@@ -309,20 +315,33 @@ def _crs_member(data: dict[str, Any], source: str) -> str | None:
                         "or give the CRS with --crs")
 
 
-def _chosen_crs(option: str | None, member: str | None, source: str) -> str | None:
-    """``--crs`` wins over the file's ``"crs"`` member (a file can be mislabelled), but
-    when the two name different CRSs the user hears which one is used."""
+def _chosen_crs(option: str | None, member: str | None) -> tuple[str | None, bool]:
+    """``--crs`` wins over the file's ``"crs"`` member (a file can be mislabelled); and
+    whether it overrides a member naming another CRS (the user hears which one is used,
+    once ``--crs`` proved readable and fitting the coordinates)."""
     if option is None or member is None:
-        return member if option is None else option
+        return (member if option is None else option), False
     try:
         same = pyproj.CRS.from_user_input(option).equals(
             pyproj.CRS.from_user_input(member), ignore_axis_order=True)
     except pyproj.exceptions.CRSError:
-        same = False
-    if not same:
-        warnings.warn(f"{source}: the file says its coordinates are in {member}, but "
-                      f"--crs says {option}; using {option}", InputWarning, stacklevel=4)
-    return option
+        return option, False      # an unreadable --crs is refused as such, nothing more
+    return option, not same
+
+
+_T = TypeVar("_T")
+
+
+def _with_member(step: Callable[[], _T], overrides: bool, member: str | None) -> _T:
+    """``step``, whose refusal of a ``--crs`` that overrides the file's own "crs" member
+    names that member too, in the same line (it was a warning line, then the error)."""
+    try:
+        return step()
+    except SkeletonError as exc:
+        if not overrides:
+            raise
+        raise SkeletonError(f'{exc} (the file\'s "crs" member says {member}; leaving '
+                            "--crs out uses it)") from None
 
 
 def _input_crs(crs: str | None, source: str) -> pyproj.CRS | None:

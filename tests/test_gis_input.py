@@ -413,6 +413,24 @@ def test_crs_option_over_the_files_member_is_said():
         parse_geojson(member, "s.geojson", crs="EPSG:3395")
 
 
+@pytest.mark.parametrize("option, says", [
+    ("foo", "s.geojson: unknown CRS 'foo'; give it as EPSG:<code>"),
+    ("EPSG:4326", 'are not longitude/latitude (RFC 7946); give the CRS of projected input, '
+                  'e.g. --crs EPSG:25832 (the file\'s "crs" member says EPSG:25832; leaving '
+                  "--crs out uses it)"),
+])
+def test_a_crs_option_refused_over_the_files_member_is_one_message(option, says):
+    """A --crs that cannot be used, over a file whose own "crs" member names another:
+    one error naming the member, no warning line before it (it warned "using foo",
+    then refused foo)."""
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        with pytest.raises(SkeletonError) as exc:
+            parse_geojson(_projected("EPSG:25832"), "s.geojson", crs=option)
+    assert says in str(exc.value)
+    assert not [w for w in got if issubclass(w.category, InputWarning)]
+
+
 def test_a_block_across_the_date_line_is_framed_there():
     """A block across ±180° is framed at 180°, not at 0° (where the transverse Mercator
     would mirror it), and measures what the same block at 0° does."""
