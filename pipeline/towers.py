@@ -31,7 +31,7 @@ from citysynth.pipeline.city.config import MAX_TOWER_HEIGHT
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import tower_problem
-from citysynth.solver import Problem, solve
+from citysynth.solver import Problem, TooLargeError, solve
 from citysynth.solver.compiled import compile_problem
 from citysynth.solver.diagnose import nearest, reach_given
 
@@ -174,6 +174,14 @@ def _why(details: list[dict], lot: Lot, area: tuple[float, float],
                                "each alone but not together; relax one")
 
 
+def _most_floor_area(problem: dict, height: float) -> float:
+    """A bound on the floor area of a tower of ``height`` metres: every metre of it at
+    the densest part's floor area per metre."""
+    dense = max(e["resources"]["floor_area"] / e["resources"]["height"]
+                for e in problem["elements"] if e["resources"]["height"] > 0)
+    return dense * height
+
+
 def _lowest(problem: dict) -> float:
     """The lowest tower of a tower problem: its shortest ground floor and roof."""
     height = {e["id"]: e["resources"]["height"] for e in problem["elements"]}
@@ -204,11 +212,21 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
     problem = tower_problem(db, hi, area, style=style, k=k, area_quantum=AREA_QUANTUM,
                             keep=lambda p: fits(p, lot))
     problem["constraints"]["height"] = [lo, hi]
+    at = f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
     asked = Problem.from_dict(problem)
-    result = solve(asked)
+    try:
+        result = solve(asked)
+    except TooLargeError:
+        most = _most_floor_area(problem, hi)
+        if area[0] <= most:
+            raise
+        # a lot of 1e12 m²: its floor area is more floors than a search can count
+        return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
+                     f"{at} m on a {lot.area:g} m² lot: every stack of the tower parts of "
+                     f"that height has a floor-area ratio of at most {most / lot.area:.4g}",
+                     timings={"solve_s": time.perf_counter() - t0})
     t1 = time.perf_counter()
     timings = {"solve_s": t1 - t0}
-    at = f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
     if result.status != "ok":
         why = _why(result.details, lot, area, _area_reach(asked), hi, _lowest(problem))
         return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
