@@ -67,8 +67,8 @@ def _spans(cp: Compiled, level: int | None = None) -> tuple[int, dict[int, tuple
     n, out = cp.n, {}
     first = np.flatnonzero(cp.front & (cp.r[:, level] <= cp.cap[level]))
     at = cp.r[first, level] * n + first
+    size = (int(cp.cap[level]) + 1) * n
     for t, j in enumerate(ranges["rother"]):
-        size = (int(cp.cap[level]) + 1) * n
         lo = cp.r[first, j] + ranges["rmin"][t * size + at]
         hi = cp.r[first, j] + ranges["rmax"][t * size + at]
         lo, hi = lo[np.isfinite(lo)], hi[hi > -np.inf]
@@ -93,15 +93,14 @@ def reach_given(cp: Compiled, given: str, other: str) -> tuple[float, float] | N
 
 def _beyond_window(cp: Compiled, asked: list[tuple[float, ...]], details: list[dict]
                    ) -> list[str]:
-    """Constraints the grown graphs did not name, missed by sequences meeting the
-    narrowest constraint alone (:func:`_spans`): appended to ``details``; their
+    """When the grown graphs named no constraint: those missed by sequences meeting
+    the narrowest constraint alone (:func:`_spans`), appended to ``details``; their
     reasons."""
     level, spans = _spans(cp)
-    said = {d["constraint"] for d in details}
     blocking = []
     for j, (least, most) in spans.items():
         name, q = cp.bounded[j], cp.quant[j].quantum
-        if name in said or (least <= cp.hi[j] and (most < 0 or most >= cp.lo[j])):
+        if least <= cp.hi[j] and (most < 0 or most >= cp.lo[j]):
             continue
         below = round(most * q, 9) if 0 <= most < cp.lo[j] else None
         above = round(least * q, 9) if least > cp.hi[j] else None
