@@ -339,9 +339,7 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                                asked=dict(st.constraints), end_leg=structure.end_leg(s))
                      for s, st in enumerate(structure.stages)),
         branch=dict(kp.branch), asked=dict(structure.global_constraints),
-        joints={**_joint_variants(db.quantum),
-                **{sid: _joint_variants(db.quantum)[jid] for sid, (jid, _p, _c) in kp.seam.items()}}
-        if kp.joint else {})
+        joints=_joints(db.quantum, kp.seam) if kp.joint else {})
     return StructurePlan(structure, placement)
 
 
@@ -408,6 +406,14 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
         parts.update((p.id, p) for p in opts)
     return _KeyParts(tuple(options), branch, {**parts, **poses},
                      any(is_joint(x) for o in options for x in o), seam)
+
+
+def _joints(q: float, seam: dict[str, tuple[str, str, float]]
+            ) -> dict[str, tuple[float, float]]:
+    """Every mitre joint's legs by id, a ring's seam joints (:func:`_seam_joints`)
+    included under their own ids."""
+    plain = _joint_variants(q)
+    return {**plain, **{sid: plain[jid] for sid, (jid, _p, _c) in seam.items()}}
 
 
 def _is_seam(kp: KeyPoint, v: int, chains: list[_Chain]) -> bool:
