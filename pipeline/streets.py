@@ -178,8 +178,23 @@ def tolerance(length: float, quantum: float, stretch: float, slack: float) -> fl
 
 
 @dataclass(frozen=True)
+class Loosen:
+    """How a refusal tells the user to loosen what they asked, in the words of where
+    they asked it: the street command's flags, or a city's settings (a row zone), so the
+    advice names a knob the user has."""
+
+    length: str = "allow more --stretch or --slack"
+    interval: str = "the {name} interval"     # the interval of a resource {name}
+
+
+CITY_LOOSEN = Loosen("allow more stretch or slack in city.toml",
+                     "the {name} interval of per_side in city.toml")
+
+
+@dataclass(frozen=True)
 class StreetAsk:
-    """What a street asks: sides, offset, stretch tolerance, intervals, style, k."""
+    """What a street asks: sides, offset, stretch tolerance, intervals, style, k, and
+    how to advise loosening them."""
 
     sides: tuple[str, ...]
     offset: float = 0.0
@@ -188,6 +203,7 @@ class StreetAsk:
     constraints: tuple[tuple[str, float, float], ...] = ()
     style: str | None = None
     k: int = 1
+    loosen: Loosen = Loosen()
 
 
 def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
@@ -226,16 +242,21 @@ def _blamed(problem: dict, ask: StreetAsk) -> list[str] | None:
         r = fails("length", a)
         if r is not None:
             near = [x for d in r.details if d["constraint"] == "length" for x in nearest(d)]
-            said.append(f"its length cannot be filled by buildings with {a} in "
+            said.append(f"its length cannot be filled by {_kind(ask)} with {a} in "
                         f"[{lo:g}, {hi:g}]" + (f" (such rows measure "
                                                f"{' or '.join(f'{x:g}' for x in near)} m)"
                                                if near else "")
-                        + f"; widen the {a} interval or leave it out")
+                        + f"; widen {ask.loosen.interval.format(name=a)} or leave it out")
     return said or ["its length can be filled, and each asked interval met, but not all "
                     "together; widen one of the intervals"]
 
 
-def _why(run: Run, details: list[dict], locate: Locate | None = None,
+def _kind(ask: StreetAsk) -> str:
+    """The buildings a street asks for, as a refusal names them."""
+    return f"the {ask.style} buildings" if ask.style else "the buildings"
+
+
+def _why(run: Run, details: list[dict], ask: StreetAsk, locate: Locate | None = None,
          blamed: list[str] | None = None) -> str:
     """Why a run takes no row of buildings, in metres and the asked intervals (the
     solver's details: each blocking constraint and the nearest totals it reaches, or
@@ -249,18 +270,19 @@ def _why(run: Run, details: list[dict], locate: Locate | None = None,
     if blamed:
         return f"{where}: " + "; ".join(blamed)
     said = []
+    kind = _kind(ask)
     for d in details:
         near = " or ".join(f"{x:g}" for x in nearest(d))
         if d["constraint"] == "length":
-            said.append("no row of the buildings fits its length" +
-                        (f" (the nearest rows measure {near} m); allow more --stretch or "
-                         "--slack" if near else ""))
+            said.append(f"no row of {kind} fits its length" +
+                        (f" (the nearest rows measure {near} m); {ask.loosen.length}"
+                         if near else ""))
         else:
             lo, hi = d["asked"]
-            said.append(f"its {d['constraint']} in [{lo:g}, {hi:g}] cannot be met by the "
-                        f"buildings" + (f", which make {near} there" if near else "") +
-                        "; widen the interval")
-    return f"{where}: " + ("; ".join(said) or "the buildings meet its length and the asked "
+            said.append(f"its {d['constraint']} in [{lo:g}, {hi:g}] cannot be met by {kind}"
+                        + (f", which make {near} there" if near else "") +
+                        f"; widen {ask.loosen.interval.format(name=d['constraint'])}")
+    return f"{where}: " + ("; ".join(said) or f"{kind} meet its length and the asked "
                            "intervals each alone but not together; relax one")
 
 
@@ -280,7 +302,7 @@ def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
         if r.status != "ok":
             blamed = (_blamed(problem, ask) if not r.details or any(
                 d["constraint"] == "length" for d in r.details) else None)
-            return Built(name, "infeasible", reason=_why(run, r.details, locate, blamed),
+            return Built(name, "infeasible", reason=_why(run, r.details, ask, locate, blamed),
                          timings={"solve_s": time.perf_counter() - t0})
         solved.append(r.solutions)
     t1 = time.perf_counter()

@@ -190,3 +190,30 @@ def test_bad_kind_settings_name_the_zone_and_the_key(tmp_path, capsys, zone, fra
     err = capsys.readouterr().err
     assert fragment in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "run").exists()
+
+
+def test_a_row_zone_refusal_says_once_what_to_loosen_in_city_toml():
+    """A row zone's side that no row fills is told once, with the knob to turn named as
+    city.toml names it (not the street command's flags), and the style's buildings."""
+    from dataclasses import replace
+
+    from citysynth.pipeline.city.jobs import solve_block, worker_library
+    from citysynth.pipeline.streets import CITY_LOOSEN, Run, StreetAsk, _why
+
+    job = _by_kind(_inputs(), "row")[0]
+    db = worker_library(str(LIB))
+    doors = replace(job, per_side=(("doors", 40.0, 50.0),))
+    prep, built = solve_block(doors, db)
+    assert built.status != "ok"
+    reason = built.reason
+    assert reason.count("no row") <= 1 and "--" not in reason, reason
+    assert "per_side in city.toml" in reason and f"the {job.style} buildings" in reason, reason
+    assert reason.count("widen") + reason.count("allow more") == 1, reason
+    # a side no row measures: the length's knobs as city.toml names them
+    ask = StreetAsk(("left",), style="classic", loosen=CITY_LOOSEN)
+    side = Run("side", 1, shapely.LineString([(0, 0), (13.3, 0)]))
+    why = _why(side, [{"constraint": "length", "asked": [13.2, 13.4],
+                       "nearest_below": 12.6, "nearest_above": 14.0}], ask)
+    assert why == ("side 2 (13.3 m): no row of the classic buildings fits its length (the "
+                   "nearest rows measure 12.6 or 14 m); allow more stretch or slack in "
+                   "city.toml"), why

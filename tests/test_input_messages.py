@@ -13,7 +13,7 @@ from shapely.geometry import LineString
 
 from citysynth.pipeline.city.config import ConfigError, load_config
 from citysynth.pipeline.cli import main
-from citysynth.pipeline.streets import Run, _why
+from citysynth.pipeline.streets import Run, StreetAsk, _why
 from citysynth.skeletons import SkeletonError
 from citysynth.skeletons.geojson import parse_geojson
 
@@ -42,16 +42,17 @@ def test_doors_that_cannot_fill_a_street_are_blamed_not_its_length(tmp_path, cap
         [366000.0, 5622000.0], [366080.0, 5622000.0]]})))
     err = _err(["street", "--line", str(line), "--doors", "1", "2", "--no-preview", "-o",
                 str(tmp_path / "out")], capsys, code=1)
-    assert "its length cannot be filled by buildings with doors in [1, 2] (such rows " \
+    assert "its length cannot be filled by the buildings with doors in [1, 2] (such rows " \
            "measure 48 m); widen the doors interval or leave it out" in err, err
     assert "--stretch" not in err and not (tmp_path / "out").exists()
 
 
 def test_a_row_zones_side_is_named_once():
     """A row zone's runs are the block's own sides ("side side's run 2" before)."""
-    said = _why(Run("side", 1, LineString([(0, 0), (30, 0)])), [])
+    ask = StreetAsk(("left",))
+    said = _why(Run("side", 1, LineString([(0, 0), (30, 0)])), [], ask)
     assert said.startswith("side 2 (30.0 m): ") and "side side" not in said
-    assert _why(Run("left", 0, LineString([(0, 0), (30, 0)])), []).startswith(
+    assert _why(Run("left", 0, LineString([(0, 0), (30, 0)])), [], ask).startswith(
         "the left side's run 1 (30.0 m): ")
 
 

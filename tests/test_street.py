@@ -117,7 +117,7 @@ def test_runs_split_at_bends_and_stop_short_of_inner_corners():
     (["--doors", "60", "70"], 1, ")): its doors in [60, 70] cannot be met by the buildings, "
                                  "which make "),
     # the length alone is met: the windows asked are the cause, said so
-    (["--windows", "0", "0"], 1, ")): its length cannot be filled by buildings with windows "
+    (["--windows", "0", "0"], 1, ")): its length cannot be filled by the buildings with windows "
                                  "in [0, 0]; widen the windows interval or leave it out"),
 ])
 def test_street_bad_or_impossible_asks(tmp_path, capsys, args, code, text):

@@ -33,6 +33,7 @@ from citysynth.parts_db import PartDB
 from citysynth.pipeline.city.footprints import Prepared
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.streets import (
+    CITY_LOOSEN,
     MIN_RUN,
     RING_SIMPLIFY,
     Run,
@@ -85,13 +86,11 @@ def _row(job: BlockJob, db: PartDB, ground: shapely.Geometry, frame: str,
     if not kept:
         return (f"no side is a straight run of at least {MIN_RUN:g} m with room for a row "
                 f"{depth:.1f} m deep behind it")
-    ask = StreetAsk(("left",), 0.0, job.stretch, job.slack, job.per_side, job.style, job.k)
+    ask = StreetAsk(("left",), 0.0, job.stretch, job.slack, job.per_side, job.style, job.k,
+                    CITY_LOOSEN)
     built = solve_runs(job.id, kept, db, ask, frame)
-    if built.status != "ok":
-        asked = ", ".join(f"{n} = [{lo:g}, {hi:g}]" for n, lo, hi in job.per_side)
-        built.reason = (f"{where}: no row of the {job.style} buildings fills {built.reason}"
-                        + (f"; loosen per_side ({asked}) or allow more stretch" if asked
-                           else "; allow more stretch"))
+    if built.status != "ok":   # the side, why, and what to loosen in city.toml's words
+        built.reason = f"{where}: {built.reason}"
     return built
 
 
