@@ -14,6 +14,8 @@ others is a hole, and the bodies are united.
 
 from __future__ import annotations
 
+from typing import overload
+
 import numpy as np
 import shapely
 import trimesh
@@ -73,9 +75,16 @@ def _even_odd(loops: list) -> BaseGeometry:
     return solid
 
 
-def disagreement(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Area of the symmetric difference of each pair (vectorised over arrays)."""
-    return shapely.area(shapely.symmetric_difference(a, b))
+@overload
+def disagreement(a: np.ndarray, b: np.ndarray) -> np.ndarray: ...
+@overload
+def disagreement(a: BaseGeometry, b: BaseGeometry) -> float: ...
+def disagreement(a, b):
+    """Area of the symmetric difference of two sections, or of each pair (vectorised
+    over arrays): the transition cost table's measure, and the seam's (two modules
+    start alike)."""
+    out = shapely.area(shapely.symmetric_difference(a, b))
+    return out if isinstance(a, np.ndarray) else float(out)
 
 
 SCALE = round(1 / GRID)   # GEOS snaps to this integral scale (as its PrecisionModel does)

@@ -455,7 +455,7 @@ SEAM_SAME = 0.5   # m² of section disagreement under which modules start alike 
 
 def _start_alike(a: Part, b: Part) -> bool:
     """Whether two modules start with the same section (within :data:`SEAM_SAME`)."""
-    return float(shapely.area(shapely.symmetric_difference(a.sec_in, b.sec_in))) <= SEAM_SAME
+    return disagreement(a.sec_in, b.sec_in) <= SEAM_SAME
 
 
 def _t_pose(sk: Skeleton, j: int, b: int, oriented: dict[int, tuple[int, int]],
