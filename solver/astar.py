@@ -17,8 +17,14 @@ consistent, the sequence because a prefix comes first. So this is still a best-f
 order, end labels come out in (cost, lexicographic) order, and the k settled at a node
 are its k smallest prefixes in that order. The k sequences returned are therefore
 the first k in (cost, lexicographic) order, the same as the intermediate graph's
-enumeration returns, without any extra pass. Comparing two sequences walks their
-parent chains up to where they part, and happens only when two f are exactly equal.
+enumeration returns, without any extra pass. Two sequences are compared only when
+two f are exactly equal, by finding where they part with Myers' skew-binary jump
+pointers: each label keeps, besides its parent, one ancestor further up (one more
+int64 a label), placed so that a label's ancestor at a given depth, and the first
+labels where two sequences of equal depth differ, are reached in O(log depth) steps;
+walking the parent chains took O(depth) a comparison, which on plateaus of equal f
+with sequences thousands of elements long was most of the search's time (85 us a
+label in a search whose labels reach 16,000 deep; under 2 us now).
 On a problem where every cost is zero the order is a depth-first walk in
 lexicographic order, which reaches the first complete sequence at once. g is summed
 front to back, exactly as the reported cost is, so ties are judged on the very
@@ -33,7 +39,10 @@ are never popped.
 
 Labels, child heaps and the node table are plain arrays grown by the driver between
 calls of the step kernel (as in fgs.py: nothing is reallocated inside the hot loop).
-Label 0 is the virtual source; its children are the front elements.
+Label 0 is the virtual source; its children are the front elements. A label's depth
+and jump pointer share one array, ``lab_dj`` (depth of label i at 2i, jump at 2i + 1):
+a separate jump array, one more array argument to every kernel call made per label,
+cost 10-20 % on the street bench in numba's passing of array arguments.
 """
 
 from __future__ import annotations
@@ -57,18 +66,46 @@ from citysynth.solver.compiled import Compiled
 
 STATUS_OK = 0
 STATUS_TOO_LARGE = 1
-LABEL_BYTES = 80   # g, f, parent, element, state, depth, child heap, heap slot
+LABEL_BYTES = 88   # g, f, parent, element, state, depth + jump, child heap, heap slot
 KID_BYTES = 16     # f and successor index of one child
 NODE_BYTES = 40    # hash slots (two, at load 1/2) and settle count
 _END = -1          # element of an end label (the sequence of its parent, complete)
 _ROOT = -2         # element of label 0, the virtual source
 
 
+@njit(cache=True, inline="always")
+def _jump_for(p, dj):
+    """The jump pointer of a new label whose parent is p (Myers' skew-binary lists):
+    jump[p]'s own jump when the two jumps above p span equal depths, else p itself.
+    Label 0, the root, jumps to itself. The depth of a label's jump depends only on
+    the label's depth, and any ancestor is reached from a label in O(log depth) hops
+    of jumps and parents. ``dj`` holds depth and jump of label i at 2i and 2i + 1."""
+    j = dj[2 * p + 1]
+    jj = dj[2 * j + 1]
+    if dj[2 * p] - dj[2 * j] == dj[2 * j] - dj[2 * jj]:
+        return jj
+    return p
+
+
+@njit(cache=True, inline="always")
+def _ancestor_at(x, d, par, dj):
+    """The ancestor of label x at depth d (x itself at its own depth)."""
+    while dj[2 * x] > d:
+        j = dj[2 * x + 1]
+        if dj[2 * j] >= d:
+            x = j
+        else:
+            x = par[x]
+    return x
+
+
 @njit(cache=True)
-def _seq_less(a, b, par, elem, dep):
+def _seq_less(a, b, par, elem, dj):
     """Sequence of label a before that of label b: lexicographic on element indices,
     a prefix before its extensions, an end label (the sequence of its parent) right
-    after its parent. Distinct labels never share a sequence."""
+    after its parent. Distinct labels never share a sequence. Ancestors are reached
+    by jump pointers (:func:`_jump_for`; ``dj`` holds depth and jump of label i at 2i
+    and 2i + 1): O(log depth) steps where walking parents took O(depth)."""
     end_a = elem[a] == _END
     end_b = elem[b] == _END
     if end_a:
@@ -78,33 +115,39 @@ def _seq_less(a, b, par, elem, dep):
     if a == b:
         return end_b and not end_a
     x, y = a, b
-    while dep[x] > dep[y]:
-        x = par[x]
-    if x == b:
-        return False        # b is a proper prefix of a
-    while dep[y] > dep[x]:
-        y = par[y]
-    if y == a:
-        return True         # a is a proper prefix of b
+    da, db = dj[2 * a], dj[2 * b]
+    if da > db:
+        x = _ancestor_at(x, db, par, dj)
+        if x == b:
+            return False    # b is a proper prefix of a
+    elif db > da:
+        y = _ancestor_at(y, da, par, dj)
+        if y == a:
+            return True     # a is a proper prefix of b
+    # x != y, at equal depths, so are their jumps: jump both while the jumps still
+    # differ (the parting point is above them), else step both to their parents
     while par[x] != par[y]:
-        x = par[x]
-        y = par[y]
+        jx, jy = dj[2 * x + 1], dj[2 * y + 1]
+        if jx != jy:
+            x, y = jx, jy
+        else:
+            x, y = par[x], par[y]
     return elem[x] < elem[y]   # the first elements where the sequences part
 
 
 @njit(cache=True, inline="always")
-def _before(a, b, f, par, elem, dep):
+def _before(a, b, f, par, elem, dj):
     """Main heap order: f, then the sequence."""
-    return f[a] < f[b] or (f[a] == f[b] and _seq_less(a, b, par, elem, dep))
+    return f[a] < f[b] or (f[a] == f[b] and _seq_less(a, b, par, elem, dj))
 
 
 @njit(cache=True)
-def _push(heap, hs, f, par, elem, dep, lab):
+def _push(heap, hs, f, par, elem, dj, lab):
     pos = hs
     while pos > 0:
         up = (pos - 1) // 2
         q = heap[up]
-        if _before(lab, q, f, par, elem, dep):
+        if _before(lab, q, f, par, elem, dj):
             heap[pos] = q
             pos = up
         else:
@@ -114,7 +157,7 @@ def _push(heap, hs, f, par, elem, dep, lab):
 
 
 @njit(cache=True)
-def _pop(heap, hs, f, par, elem, dep):
+def _pop(heap, hs, f, par, elem, dj):
     top = heap[0]
     hs -= 1
     if hs > 0:
@@ -125,10 +168,10 @@ def _pop(heap, hs, f, par, elem, dep):
             if ch >= hs:
                 break
             a = heap[ch]
-            if ch + 1 < hs and _before(heap[ch + 1], a, f, par, elem, dep):
+            if ch + 1 < hs and _before(heap[ch + 1], a, f, par, elem, dj):
                 ch += 1
                 a = heap[ch]
-            if _before(a, last, f, par, elem, dep):
+            if _before(a, last, f, par, elem, dj):
                 heap[pos] = a
                 pos = ch
             else:
@@ -171,7 +214,7 @@ def _kid_pop(kf, kj, base, size):
 
 
 @njit(cache=True)
-def _next_kid(P, nl, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dep, kbase, ksize, kf,
+def _next_kid(P, nl, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dj, kbase, ksize, kf,
               kj, selem, sw, off, omega):
     """Move parent P's best remaining child onto a new label nl; returns nl + 1 (nl
     when P has none left)."""
@@ -187,7 +230,8 @@ def _next_kid(P, nl, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dep, kbase,
     else:
         f = selem[j]
         lab_g[nl], lab_elem[nl], lab_state[nl] = lab_g[P] + sw[j], f, lab_state[P] + off[f]
-    lab_f[nl], lab_par[nl], lab_dep[nl] = kfv, P, lab_dep[P] + 1
+    lab_f[nl], lab_par[nl] = kfv, P
+    lab_dj[2 * nl], lab_dj[2 * nl + 1] = lab_dj[2 * P] + 1, _jump_for(P, lab_dj)
     kbase[nl], ksize[nl] = -1, 0
     return nl + 1
 
@@ -282,7 +326,7 @@ def _children(e, g, c, lo, r, cap, n, sptr, selem, sw, back, bres, bbase, btab, 
 @njit(cache=True)
 def _astar_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, omega, back, bres, bbase,
                  btab, rng, keys, vals, shift, pops, lab_g, lab_f, lab_par, lab_elem, lab_state,
-                 lab_dep, kbase, ksize, kf, kj, heap, results, cnt, room, max_pops):
+                 lab_dj, kbase, ksize, kf, kj, heap, results, cnt, room, max_pops):
     """Pop labels until K complete sequences are out, the heap is empty, the arrays
     have less than ``room`` free rows (the driver grows them and calls again), or
     ``max_pops`` labels were popped (the driver, in Python, lets Ctrl-C in and calls
@@ -295,11 +339,11 @@ def _astar_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, omega, back, br
         if nl + 2 > len(lab_g) or nk + room > len(kf) or cnt[3] + 1 > len(pops) or \
                 2 * (cnt[3] + 1) > len(keys):
             break
-        lab, hs = _pop(heap, hs, lab_f, lab_par, lab_elem, lab_dep)
+        lab, hs = _pop(heap, hs, lab_f, lab_par, lab_elem, lab_dj)
         nl2 = _next_kid(lab_par[lab], nl, lab_g, lab_f, lab_par, lab_elem, lab_state,
-                        lab_dep, kbase, ksize, kf, kj, selem, sw, off, omega)
+                        lab_dj, kbase, ksize, kf, kj, selem, sw, off, omega)
         if nl2 > nl:
-            hs = _push(heap, hs, lab_f, lab_par, lab_elem, lab_dep, nl)
+            hs = _push(heap, hs, lab_f, lab_par, lab_elem, lab_dj, nl)
             nl = nl2
         e = lab_elem[lab]
         if e == _END:
@@ -313,28 +357,28 @@ def _astar_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, omega, back, br
                       btab, rng, kf, kj, nk)
         kbase[lab], ksize[lab] = nk, m
         nk += m
-        nl2 = _next_kid(lab, nl, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dep,
+        nl2 = _next_kid(lab, nl, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dj,
                         kbase, ksize, kf, kj, selem, sw, off, omega)
         if nl2 > nl:
-            hs = _push(heap, hs, lab_f, lab_par, lab_elem, lab_dep, nl)
+            hs = _push(heap, hs, lab_f, lab_par, lab_elem, lab_dj, nl)
             nl = nl2
     cnt[0], cnt[1], cnt[5] = nl, hs, nk
 
 
 @njit(cache=True)
-def _grow_labels(m, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dep, kbase, ksize,
+def _grow_labels(m, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dj, kbase, ksize,
                  heap):
     return (grow_f64(lab_g, m), grow_f64(lab_f, m), grow_i64(lab_par, m),
-            grow_i64(lab_elem, m), grow_i64(lab_state, m), grow_i64(lab_dep, m),
+            grow_i64(lab_elem, m), grow_i64(lab_state, m), grow_i64(lab_dj, 2 * m),
             grow_i64(kbase, m), grow_i64(ksize, m), grow_i64(heap, m))
 
 
 @njit(cache=True)
 def _root(n, r, lo, cap, off, front, omega, bres, bbase, btab, rng, lab_g, lab_f, lab_par, lab_elem,
-          lab_state, lab_dep, kbase, ksize, kf, kj):
+          lab_state, lab_dj, kbase, ksize, kf, kj):
     """Label 0, the virtual source, with the front elements as its children."""
-    lab_g[0], lab_f[0], lab_par[0], lab_elem[0], lab_state[0], lab_dep[0] = \
-        0.0, 0.0, -1, _ROOT, 0, -1
+    lab_g[0], lab_f[0], lab_par[0], lab_elem[0], lab_state[0] = 0.0, 0.0, -1, _ROOT, 0
+    lab_dj[0], lab_dj[1] = -1, 0   # depth -1, and the root jumps to itself
     zero = np.zeros(len(cap), dtype=np.int64)
     m = 0
     for e in range(n):
@@ -365,31 +409,31 @@ def _astar(K, n, r, lo, cap, stride, off, sptr, selem, sw, front, omega, back, b
     _tab, keys, vals, shift = table_new(False, 1 << 10, 1)
     pops = np.zeros(1 << 10, dtype=np.int64)
     e0 = np.empty(0, dtype=np.int64)
-    lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dep, kbase, ksize, heap = _grow_labels(
+    lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dj, kbase, ksize, heap = _grow_labels(
         m, np.empty(0), np.empty(0), e0, e0, e0, e0, e0, e0, e0)
     kf = np.empty(max(m, 4 * room))
     kj = np.empty(max(m, 4 * room), dtype=np.int64)
     results = np.empty(K, dtype=np.int64)
     cnt = np.zeros(6, dtype=np.int64)  # labels, heap size, results, nodes, settled, kids
     cnt[5] = _root(n, r, lo, cap, off, front, omega, bres, bbase, btab, rng, lab_g, lab_f, lab_par,
-                   lab_elem, lab_state, lab_dep, kbase, ksize, kf, kj)
-    cnt[0] = _next_kid(0, 1, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dep, kbase,
-                       ksize, kf, kj, selem, sw, off, omega)
+                   lab_elem, lab_state, lab_dj, kbase, ksize, kf, kj)
+    cnt[0] = _next_kid(0, 1, lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dj,
+                       kbase, ksize, kf, kj, selem, sw, off, omega)
     if cnt[0] > 1:
-        cnt[1] = _push(heap, 0, lab_f, lab_par, lab_elem, lab_dep, 1)
+        cnt[1] = _push(heap, 0, lab_f, lab_par, lab_elem, lab_dj, 1)
     while True:
         _astar_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, omega, back, bres,
                      bbase, btab, rng, keys, vals, shift, pops, lab_g, lab_f, lab_par, lab_elem,
-                     lab_state, lab_dep, kbase, ksize, kf, kj, heap, results, cnt, room,
-                     POPS_PER_CALL)
+                     lab_state, lab_dj, kbase, ksize, kf, kj, heap, results, cnt,
+                     room, POPS_PER_CALL)
         if cnt[1] == 0 or cnt[2] >= K:
             break
         if cnt[0] > max_labels or cnt[5] > max_kids or cnt[3] > max_nodes:
             return STATUS_TOO_LARGE, results[:0], lab_par, lab_elem, cnt
         if cnt[0] + 2 > len(lab_g):
-            lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dep, kbase, ksize, heap = \
+            lab_g, lab_f, lab_par, lab_elem, lab_state, lab_dj, kbase, ksize, heap = \
                 _grow_labels(2 * len(lab_g), lab_g, lab_f, lab_par, lab_elem, lab_state,
-                             lab_dep, kbase, ksize, heap)
+                             lab_dj, kbase, ksize, heap)
         if cnt[5] + room > len(kf):
             kf = grow_f64(kf, 2 * (cnt[5] + room))
             kj = grow_i64(kj, 2 * (cnt[5] + room))
