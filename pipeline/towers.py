@@ -32,8 +32,8 @@ from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import tower_problem
 from citysynth.solver import Problem, TooLargeError, solve
-from citysynth.solver.compiled import compile_problem
-from citysynth.solver.diagnose import nearest, reach_given
+from citysynth.solver.compiled import Compiled, compile_problem, with_bounds
+from citysynth.solver.diagnose import nearest, reach_given, spans_fit
 
 FIT_TOL = 0.01        # metres a part may reach past its lot (the lot's own rounding)
 AREA_QUANTUM = 1.0    # m² of floor area the solver counts in (its rounding error is
@@ -144,10 +144,11 @@ def far_interval(values: list[float], tolerance: float) -> tuple[float, float]:
 
 def _why(details: list[dict], lot: Lot, area: tuple[float, float],
          reach: tuple[float, float] | None, height: float, lowest: float) -> str:
-    """Why no tower fits, in heights and floor-area ratios (the solver's details name
-    its resources: height, floor_area; ``reach`` is the floor area towers of the asked
-    height have, :func:`~citysynth.solver.diagnose.reach_given`). The ratio first:
-    a height is often out of reach only because of it."""
+    """Why no tower fits, in heights and floor-area ratios (the solver's details, or
+    :func:`_range_details` in their form, name its resources: height, floor_area;
+    ``reach`` is the floor area towers of the asked height have,
+    :func:`~citysynth.solver.diagnose.reach_given`). The ratio first: a height is often
+    out of reach only because of it."""
     by = {d["constraint"]: d for d in details}
     said = []
     if reach is None and not by:   # the height alone: below the lowest, or off-quantum
@@ -188,16 +189,66 @@ def _lowest(problem: dict) -> float:
     return min(height[x] for x in problem["front"]) + min(height[x] for x in problem["back"])
 
 
-def _area_reach(problem: Problem) -> tuple[float, float] | None:
+def _area_reach(cp: Compiled) -> tuple[float, float] | None:
     """The least and the most floor area (m²) of towers of the asked height."""
-    return reach_given(compile_problem(problem), "height", "floor_area")
+    return reach_given(cp, "height", "floor_area")
+
+
+def _height_reach(cp: Compiled) -> tuple[float, float] | None:
+    """The least and the most height (m) of towers of the asked floor area, whatever
+    the height asked: it bounds how many parts a stack holds, and so how much floor
+    area the tables reach (``Compiled.cap``), which would hide taller towers of that
+    floor area. Bounded by :data:`MAX_TOWER_HEIGHT` instead, only towers taller than
+    any citysynth stacks are left out."""
+    h = cp.bounded.index("height")
+    lo, hi = cp.lo.copy(), cp.hi.copy()
+    lo[h], hi[h] = 0, math.floor(MAX_TOWER_HEIGHT / cp.quant[h].quantum)
+    return reach_given(with_bounds(cp, lo, hi), "floor_area", "height")
+
+
+def _range_details(cp: Compiled, area: tuple[float, float],
+                   reach: tuple[float, float] | None, height: tuple[float, float],
+                   lowest: float) -> list[dict] | None:
+    """What :func:`_why` needs of an infeasible tower, from the range tables alone (a
+    few milliseconds), or None when only the solver's diagnosis can tell it (it grows
+    the whole box of heights and floor areas: 4 to 30 s for skyscrapers).
+
+    They tell it when no stack has the height at all (``reach`` is None) or the floor
+    areas of those that do (``reach``) all miss ``area``, and the heights of the stacks
+    with that floor area lie all below or all above the asked: the nearest is then the
+    tallest or the lowest of them, as the diagnosis finds it (its ``height`` detail).
+    They cannot when towers of that height reach floor areas on both sides of the
+    interval (some sum falls between), or those heights lie on both sides of the asked
+    (the nearest is some height between)."""
+    lo, hi = height
+    if reach is None:
+        if hi < lowest:
+            return []   # below the lowest tower: _why names it
+        if not spans_fit(cp, "height"):
+            return None   # the tables did not fit: None proves nothing
+    elif area[0] <= reach[1] and reach[0] <= area[1]:
+        return None
+    tall = _height_reach(cp)
+    if tall is None:
+        return []   # no stack of any height has that floor area (or not known): no more
+    least, most = tall
+    if most < lo:
+        below, above = most, None
+    elif least > hi:
+        below, above = None, least
+    else:
+        return None
+    if above is not None and above > MAX_TOWER_HEIGHT:
+        return []   # a height the tower command would refuse is no help
+    return [{"constraint": "height", "asked": [lo, hi], "nearest_below": below,
+             "nearest_above": above, "blocks": "alone" if reach is None else "together"}]
 
 
 def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, float],
                 far: tuple[float, float], *, style: str | None = None, k: int = 1) -> Built:
     """The k best towers of exactly ``height`` metres (or of any height in the interval
     ``(lo, hi)``, a city zone's) and a floor-area ratio in ``far`` on ``lot``
-    (infeasible, with the solver's reason, when there is none)."""
+    (infeasible, with the reason, when there is none)."""
     lo, hi = (height, height) if isinstance(height, int | float) else height
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
         raise UsageError(f"--height must be a positive number of metres, got {lo:g}"
@@ -214,21 +265,29 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
     problem["constraints"]["height"] = [lo, hi]
     at = f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
     asked = Problem.from_dict(problem)
+    lowest = _lowest(problem)
     try:
-        result = solve(asked)
+        cp = compile_problem(asked)
+        reach = _area_reach(cp)
+        told = _range_details(cp, area, reach, (lo, hi), lowest)
+        # when the range tables prove that no tower meets the ask, and say why, neither
+        # the search nor the solver's diagnosis (seconds for a skyscraper) is needed
+        result = solve(asked) if told is None else None
     except TooLargeError:
         most = _most_floor_area(problem, hi)
         if area[0] <= most:
             raise
-        # a lot of 1e12 m²: its floor area is more floors than a search can count
+        # a floor area more floors than a search can count, and range tables too large
+        # to tell (a lot of 1e12 m² is told by them)
         return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
                      f"{at} m on a {lot.area:g} m² lot: every stack of the tower parts of "
                      f"that height has a floor-area ratio of at most {most / lot.area:.4g}",
                      timings={"solve_s": time.perf_counter() - t0})
     t1 = time.perf_counter()
     timings = {"solve_s": t1 - t0}
-    if result.status != "ok":
-        why = _why(result.details, lot, area, _area_reach(asked), hi, _lowest(problem))
+    if result is None or result.status != "ok":
+        why = _why(result.details if result is not None else told or [], lot, area, reach,
+                   hi, lowest)
         return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
                      f"{at} m on a {lot.area:g} m² lot: {why}", timings=timings)
     parts = db.by_id

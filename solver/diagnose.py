@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from citysynth.solver.bounds import range_tables
+from citysynth.solver.bounds import range_tables, relaxed_cost_to_go
 from citysynth.solver.compiled import Compiled, with_bounds
 from citysynth.solver.estimate import dense_rows
 from citysynth.solver.graph import grow
@@ -50,6 +50,12 @@ def _reachable_totals(cp: Compiled, max_rows: int) -> np.ndarray | None:
 SPAN_BYTES = 256 << 20   # range tables the diagnosis may build
 
 
+def spans_fit(cp: Compiled, given: str) -> bool:
+    """Do the range tables over resource ``given`` (16 bytes a node of its relaxation)
+    fit :data:`SPAN_BYTES`? When not, :func:`reach_given` says None without knowing."""
+    return 16 * (int(cp.cap[cp.bounded.index(given)]) + 1) * cp.n <= SPAN_BYTES
+
+
 def _spans(cp: Compiled, level: int | None = None) -> tuple[int, dict[int, tuple[int, int]]]:
     """The resource L (``level``, by default the narrowest) and, for every other
     resource j, the least and the most (-1: unbounded) of j (quanta) that sequences
@@ -77,16 +83,46 @@ def _spans(cp: Compiled, level: int | None = None) -> tuple[int, dict[int, tuple
     return level, out
 
 
+def _most_given(cp: Compiled, level: int, j: int) -> int:
+    """The most of resource j (quanta) that sequences meeting resource ``level``'s
+    interval alone consume; -1 when none do, or when it is not known.
+
+    The range tables leave it unbounded whenever an element consuming none of
+    ``level`` consumes some of j (such elements might repeat on one level of the
+    relaxation): a tower's roof has a height but no floor area, so how tall towers of
+    some floor area are was unknown. When no such element may follow another, a level
+    holds no path of them to repeat, each is settled once, and the backward program
+    over -j is exact (its within-level step settles each in turn, whatever the
+    weights' sign); else -1."""
+    zero = cp.r[:, level] == 0
+    rows = np.repeat(np.arange(cp.n), np.diff(cp.succ_ptr))
+    if (zero[rows] & zero[cp.succ_elem]).any():
+        return -1
+    rl = cp.r[:, level].copy()
+    w = np.repeat(cp.r[:, j].astype(np.float64), np.diff(cp.pred_ptr))
+    h = relaxed_cost_to_go(rl, int(cp.lo[level]), int(cp.cap[level]), cp.back,
+                           cp.pred_ptr, cp.pred_elem, -w)
+    first = np.flatnonzero(cp.front & (rl <= cp.cap[level]))
+    most = cp.r[first, j] - h[rl[first], first]
+    most = most[np.isfinite(most)]
+    return int(most.max()) if len(most) else -1
+
+
 def reach_given(cp: Compiled, given: str, other: str) -> tuple[float, float] | None:
     """The least and the most of resource ``other`` (in its units; the most is inf when
-    unbounded) that sequences meeting resource ``given``'s interval alone consume, or
-    None when no sequence meets it: what a tower of that height can have of floor
-    area, say, however far from what was asked."""
+    it may be unbounded, :func:`_most_given`) that sequences meeting resource
+    ``given``'s interval alone consume, or None when no sequence meets it (or the
+    tables do not fit, :func:`spans_fit`): what a tower of that height can have of
+    floor area, or how tall towers of that floor area are, say, however far from what
+    was asked. Both are exact: some sequence consumes the least, and one the most
+    (unless inf)."""
     i, j = cp.bounded.index(given), cp.bounded.index(other)
     _level, spans = _spans(cp, i)
     if j not in spans:
         return None
     least, most = spans[j]
+    if most < 0:
+        most = _most_given(cp, i, j)
     q = cp.quant[j].quantum
     return round(least * q, 9), (round(most * q, 9) if most >= 0 else float("inf"))
 

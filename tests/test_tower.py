@@ -118,10 +118,11 @@ def test_tower_on_a_drawn_lot_is_centred_and_turned(tmp_path):
     (["--far", "4", "--height", "0.001"], 1, "at 0.001 m on a 400 m² lot: no stack of the "
                                              "tower parts has that height; the lowest is "),
     # a lot of 1,000 km square: it was refused in solver words ("a solution needs at
-    # least 12,136,222,899 elements to reach its minimums")
+    # least 12,136,222,899 elements to reach its minimums"), then told as "of at most"
+    # the densest part's ratio over the whole height; the range tables tell it exactly
     (["--far", "4", "--lot-area", "1e12"], 1, "on a 1e+12 m² lot: every stack of the tower "
                                               "parts of that height has a floor-area ratio "
-                                              "of at most "),
+                                              "between 3.189e-09 and 1.157e-08"),
     # a ratio past any tower: it reached the solver as a floor area past counting
     (["--far", "1e300"], 2, "--far 1e+300: a floor-area ratio past any tower"),
     (["--far", "10", "--height", "120.1"], 1, "at 120.1 m on a 400 m² lot: no stack of the "
