@@ -17,7 +17,12 @@ structure among the k best ever uses. Here the completions form a DAG over
   completion j of the node after it", created only when a node is asked for its
   second completion; popping (i, j) offers (i, j + 1), and (i + 1, 0) after (i, 0),
   each asked for only then (a stage list finds more paths on demand, ``more``);
-* the results are a merge of the root's streams.
+  entry 1 of a list with one path so far is offered at a lower bound on its cost
+  (``second``) and its path found only if that candidate becomes the least, which
+  most never do (a candidate may wait under a key below its own: it is taken only
+  once found, so the pops keep their order);
+* the results are a merge of the root's streams, read back through links that
+  completions share (one per completion), copied into rows only for the k returned.
 
 Exactly the same sums, in the same order, as the general program: a candidate costs
 stage + (completion + unary cost of the element between), ties go to the end element
@@ -44,8 +49,13 @@ StageList = list[tuple[float, Any]]
 Payload = dict[int, tuple[str, Any, "Payload"]]
 Item = tuple[float, int, int, int]      # (cost, pair t = end element * S + share, i, j)
 # a structure read back: the element at every key point, the fillers and totals of
-# every stage (see ChainProgram's ``read``)
+# every stage (see ChainProgram's ``read``); each structure's own lists
 Rows = tuple[list[str], list[list[str]], list[dict[str, float]]]
+# a completion read back (ChainProgram._link): the key point at its position and the
+# element there, then its stage, that stage's fillers and totals (the reader's own,
+# -1 and None at the leaf of an open chain), and the completion after it (None at the
+# end). Completions share the ones after them, so reading one back adds one tuple
+Link = tuple[int, str, int, "list[str] | None", "dict[str, float] | None", "Link | None"]
 Read = Callable[[int, str, str, Any], tuple[list[str], dict[str, float]]]
 
 
@@ -154,14 +164,40 @@ def _first_pairs(a, b, cf, S):
 class _Node:
     """The completions of one (position, element, share) found so far."""
 
-    __slots__ = ("items", "heap", "pending", "done", "rows")
+    __slots__ = ("items", "heap", "rest", "at", "pending", "done", "links")
 
     def __init__(self, first: Item | None):
         self.items: list[Item] = [] if first is None else [first]
         self.heap: list[Item] | None = None
+        # many first candidates (_start_heap): their costs and pairs sorted by (cost,
+        # pair), rest[.][at:] not taken yet, kept out of the heap
+        self.rest: tuple[list[float], list[int]] | None = None
+        self.at = 0
         self.pending: Item | None = None   # popped, its successors not offered yet
         self.done = first is None
-        self.rows: dict[int, Rows] | None = None   # completions read back (_rows), by j
+        self.links: dict[int, Link] | None = None   # completions read back (_link), by j
+
+
+def _pop(node: _Node, heap: list[Item], offers: list[Item]) -> Item | None:
+    """A node's least candidate once ``offers`` join its heap, taken out (None: none
+    left). With first candidates still in ``node.rest`` (sorted), the least of them
+    not taken yet against the least in the heap: together the least of all, as one
+    heap of them all would pop it (keys are distinct: a first candidate has i = j = 0,
+    an offer not)."""
+    rest = node.rest
+    if rest is not None and node.at < len(rest[0]):
+        for x in offers:
+            heapq.heappush(heap, x)
+        first = (rest[0][node.at], rest[1][node.at], 0, 0)
+        if heap and heap[0] < first:
+            return heapq.heappop(heap)
+        node.at += 1
+        return first
+    if offers:   # push all but the last, then push it and pop the least at once
+        for x in offers[:-1]:
+            heapq.heappush(heap, x)
+        return heapq.heappushpop(heap, offers[-1])
+    return heapq.heappop(heap) if heap else None
 
 
 class ChainProgram:
@@ -171,22 +207,25 @@ class ChainProgram:
     A list may say that only its ``final`` leading entries are final (more paths may
     follow, :class:`citysynth.solver.structures.stage_kbest.Growing`); ``more(s, a, b,
     share)`` then replaces it by a longer one and returns its new ``final`` count (k
-    once complete). Without ``final`` a list is complete. ``firsts``: the cost of every
+    once complete). Without ``final`` a list is complete. ``second(s, a, b, share)``:
+    a lower bound on the cost of entry 1 of such a list, which is then found only
+    when needed (see :meth:`_offers`). ``firsts``: the cost of every
     list's first entry, C[stage, start element, end element, share] (elements by their
     index at their key point, inf for none; see ``StageGraphs.first_costs``), when
     the provider has them without making the lists: then a list is only asked for
     when the enumeration reads it. ``read(s, a, b, payload)``: the fillers and totals of
     a stage list entry (the provider's ``filling``, once per entry); with it the
-    structures come back as :data:`Rows` instead of payloads (see :meth:`_rows`)."""
+    structures come back as :data:`Rows` instead of payloads (see :meth:`_link`)."""
 
     def __init__(self, st: Structure, k: int, ghi: list[int], glo: list[int],
                  chain: tuple[list[int], list[int]],
                  stage_lists: Callable[[int, str, str], dict[Share, StageList]],
                  more: Callable[[int, str, str, Share], int] | None = None,
-                 firsts: np.ndarray | None = None, read: Read | None = None):
+                 firsts: np.ndarray | None = None, read: Read | None = None,
+                 second: Callable[[int, str, str, Share], float] | None = None):
         self.st, self.k, self.glo = st, k, glo
         self.keys, self.stages = chain
-        self.stage_lists, self._more = stage_lists, more
+        self.stage_lists, self._more, self._second = stage_lists, more, second
         self.one = len(ghi) == 1
         self.S = ghi[0] + 1 if self.one else 1
         self.elems = [list(st.keypoints[v]) for v in self.keys]
@@ -296,11 +335,12 @@ class ChainProgram:
                     streams.append((nodes, ri, g, B, arg))
         heapq.heapify(heap)
         results: list[tuple[float, str, Payload | Rows]] = []
-        out = self._payload if self.read is None else self._rows
         while heap and len(results) < self.k:
             c, t, j = heapq.heappop(heap)
             nodes, ri, g, B, arg = streams[t]
-            results.append((c, roots[ri], out(nodes, B, arg, 0, ri, g, j)))
+            results.append((c, roots[ri], self._payload(nodes, B, arg, 0, ri, g, j)
+                            if self.read is None else
+                            self._rows(self._link(nodes, B, arg, 0, ri, g, j))))
             if len(results) == self.k:
                 break
             nxt = self._item(nodes, B, arg, 0, ri, g, j + 1)
@@ -340,91 +380,144 @@ class ChainProgram:
     def _advance(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
                  arg: np.ndarray, p: int, ei: int, g: int, node: _Node) -> None:
         """Find the node's next completion (or mark it done)."""
-        if len(node.items) >= self.k:
-            node.done = True
+        if len(node.items) >= self.k or p == self.L:   # an open chain's leaf: one
+            node.done = True                            # empty completion
             return
-        S = self.S
         if p == self.last:
-            r = node.items[0][1] // S
-            ent = self._entry(p, ei, r, self.shares[g], len(node.items))
-            if ent is None:
-                node.done = True
-            else:
-                node.items.append((ent[0], node.items[0][1], len(node.items), 0))
+            self._advance_closing(p, ei, g, node)
             return
-        if p == self.L:        # the leaf of an open chain: one empty completion
-            node.done = True
-            return
-        cf = self.cfl[p + 1]
         if node.heap is None:
             self._start_heap(B, p, ei, g, node)
         heap = node.heap
         assert heap is not None
-        offers: list[Item] = []
-        if node.pending is not None:
-            # offer (i, j + 1), and (i + 1, 0) after (i, 0): every pair once, each after
-            # one with a smaller key, so the pops are all pairs in key order exactly as
-            # the general program's heap (which offers both and keeps a seen set) pops
-            _c, t, i, j = node.pending
-            node.pending = None
-            fi, g1 = divmod(t, S)
-            share, sub = self.shares[g1], g - g1
-            lists = self.lists[p][ei][fi]
-            ls = None if lists is None else lists.get(share)
-            after = nodes.get((p + 1, fi, sub))
-            for i2, j2 in ((i, j + 1), (i + 1, 0)) if j == 0 else ((i, j + 1),):
-                # the entry and the completion, read directly when they are found and
-                # final already (most are), else by _entry and _item
-                if ls is not None and i2 < len(ls) and i2 < getattr(ls, "final", i2 + 1):
-                    a = ls[i2][0]
-                else:
-                    ent = self._entry(p, ei, fi, share, i2)
-                    if ent is None:
-                        continue
-                    a = ent[0]
-                if after is not None and j2 < len(after.items):
-                    b = after.items[j2][0]
-                else:
-                    got = self._item(nodes, B, arg, p + 1, fi, sub, j2)
-                    if got is None:
-                        continue
-                    b = got[0]
-                    after = nodes[(p + 1, fi, sub)]
-                offers.append((a + (b + cf[fi]), t, i2, j2))
-        if offers:   # push all but the last, then push it and pop the least at once
-            for x in offers[:-1]:
-                heapq.heappush(heap, x)
-            item = heapq.heappushpop(heap, offers[-1])
-        elif heap:
-            item = heapq.heappop(heap)
-        else:
+        offers = [] if node.pending is None else \
+            self._offers(nodes, B, arg, p, ei, g, node.pending)
+        node.pending = None
+        item = _pop(node, heap, offers)
+        while item is not None and item[3] < 0:   # offered at a bound: find its entry
+            item = _pop(node, heap, self._resolve(nodes, p, ei, g, item))
+        if item is None:
             node.done = True
-            return
-        node.items.append(item)
-        node.pending = item
+        else:
+            node.items.append(item)
+            node.pending = item
+
+    def _offers(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
+                arg: np.ndarray, p: int, ei: int, g: int, taken: Item) -> list[Item]:
+        """The candidates a node offers once it took (i, j): (i, j + 1), and (i + 1, 0)
+        after (i, 0). Every pair once, each after one with a smaller key, so the pops
+        are all pairs in key order exactly as the general program's heap (which offers
+        both and keeps a seen set) pops them.
+
+        (i, j + 1) needs completion j + 1 of the node after, found now if it is not
+        yet: the recursion of the lazy program, once per key point a structure's
+        completions go down. (i + 1, 0) needs entry i + 1 of the stage list: read
+        directly when it is found and final (most are), else found (``more``); but
+        entry 1 of a list that has one path so far is offered at a lower bound on its
+        cost (``second``, the provider's, without the path) and found only when that
+        is the least candidate (:meth:`_resolve`): most such lists never get that far
+        (100 structures of a 40-corner block offer 55 and use 8 of them: 13 calls for
+        more paths instead of 55, each several times the bound's cost)."""
+        _c, t, i, j = taken
+        fi, g1 = divmod(t, self.S)
+        share, sub = self.shares[g1], g - g1
+        lists = self.lists[p][ei][fi]
+        if lists is None:
+            lists = self._lists(p, ei, fi)
+        ls = lists.get(share)
+        after = nodes.get((p + 1, fi, sub))
+        if after is None:
+            after = self._node(nodes, B, arg, p + 1, fi, sub)
+        items = after.items
+        cf = self.cfl[p + 1][fi]
+        out: list[Item] = []
+        j2 = j + 1
+        if j2 < self.k:
+            while len(items) <= j2 and not after.done:
+                self._advance(nodes, B, arg, p + 1, fi, sub, after)
+            if j2 < len(items):   # entry i is found and final: (i, j) used it
+                a = ls[i][0] if ls is not None and i < len(ls) else \
+                    self._entry_cost(p, ei, fi, share, i)
+                out.append((a + (items[j2][0] + cf), t, i, j2))
+        if j == 0:
+            i2 = i + 1
+            if ls is not None and i2 < len(ls) and i2 < getattr(ls, "final", i2 + 1):
+                out.append((ls[i2][0] + (items[0][0] + cf), t, i2, 0))
+            elif i2 == 1 and self._second is not None and \
+                    getattr(ls, "final", None) is not None and i2 < self.k:
+                bound = self._second(self.stages[p], self.elems[p][ei],
+                                     self.elems[(p + 1) % len(self.elems)][fi], share)
+                out.append((bound + (items[0][0] + cf), t, i2, -1))
+            else:
+                ent = self._entry(p, ei, fi, share, i2)
+                if ent is not None:
+                    out.append((ent[0] + (items[0][0] + cf), t, i2, 0))
+        return out
+
+    def _resolve(self, nodes: dict[tuple[int, int, int], _Node], p: int, ei: int, g: int,
+                 cand: Item) -> list[Item]:
+        """A candidate (i, 0) offered at a bound (j = -1, see :meth:`_offers`) that is a
+        node's least now: its entry found, and the candidate at its own cost (at least
+        the bound: it goes back into the heap), or none when the list has no entry i.
+        The node's pops stay in key order: every candidate waits in the heap under a
+        key no larger than its own, and is taken only once found."""
+        bound, t, i, _j = cand
+        fi, g1 = divmod(t, self.S)
+        ent = self._entry(p, ei, fi, self.shares[g1], i)
+        if ent is None:
+            return []
+        c = ent[0] + (nodes[(p + 1, fi, g - g1)].items[0][0] + self.cfl[p + 1][fi])
+        if c < bound:
+            raise AssertionError("a stage list entry costs less than its bound")
+        return [(c, t, i, 0)]
+
+    def _entry_cost(self, p: int, ei: int, fi: int, share: Share, i: int) -> float:
+        """The cost of entry i of a list, known to be there."""
+        ent = self._entry(p, ei, fi, share, i)
+        assert ent is not None
+        return ent[0]
+
+    def _advance_closing(self, p: int, ei: int, g: int, node: _Node) -> None:
+        """The next completion of a node at the stage closing a cycle: the next entry
+        of its list back to the root's element."""
+        r = node.items[0][1] // self.S
+        ent = self._entry(p, ei, r, self.shares[g], len(node.items))
+        if ent is None:
+            node.done = True
+        else:
+            node.items.append((ent[0], node.items[0][1], len(node.items), 0))
 
     def _start_heap(self, B: np.ndarray, p: int, ei: int, g: int, node: _Node) -> None:
         """Every first candidate, as the general program's heap holds them; the first
-        one popped is the completion the array pass found, its successors pending."""
+        one popped is the completion the array pass found, its successors pending.
+
+        Many pairs (a structure-wide resource: every end element and share, up to a
+        few hundred) come sorted by (cost, pair) from arrays and stay there
+        (``node.rest``), taken one by one as they become the least candidate: a
+        node asked for a few more completions takes a few of them, so the others are
+        never made into tuples and heap entries."""
         S, F = self.S, int(self.ne[p + 1])
         a = self.A[p, ei, :F, :g + 1]
         b = B[p + 1, :F, g::-1]                  # b[f, g1] = completion at share g - g1
         # (f, g1) ascending: the pairs' order. A few pairs (no structure-wide resource)
         # by a Python loop, which costs less than the array calls; the same float sums
-        cand: list[Item]
+        first: Item
         if F * (g + 1) <= SMALL_START:
             cf, al, bl, inf = self.cfl[p + 1], a.tolist(), b.tolist(), math.inf
             cand = [(x + (y + cf[fi]), fi * S + g1, 0, 0) for fi in range(F)
                     for g1, (x, y) in enumerate(zip(al[fi], bl[fi], strict=True))
                     if x < inf and y < inf]
             heapq.heapify(cand)
-        else:   # sorted by (cost, pair), so a heap already
+            first = heapq.heappop(cand)
+            node.heap = cand
+        else:
             c, t = _first_pairs(a, b, self.cf[p + 1, :F], S)
-            cand = [(x, y, 0, 0) for x, y in zip(c.tolist(), t.tolist(), strict=True)]
-        first = heapq.heappop(cand)
+            cl, tl = c.tolist(), t.tolist()
+            first = (cl[0], tl[0], 0, 0)
+            node.heap, node.rest, node.at = [], (cl, tl), 1
         if first[:2] != node.items[0][:2]:
             raise AssertionError("first completion differs from the array pass")
-        node.heap, node.pending = cand, first
+        node.pending = first
 
     def _payload(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
                  arg: np.ndarray, p: int, ei: int, g: int, j: int) -> Payload:
@@ -449,46 +542,70 @@ class ChainProgram:
         self._payloads[key] = out
         return out
 
-    def _rows(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
-              arg: np.ndarray, p: int, ei: int, g: int, j: int) -> Rows:
-        """Completion j of (p, ei, g) read back: the elements at the key points from
-        position p on, the fillers and totals of its stages (the rest None). Made once
-        per completion, from the rows of the completion after it: a copy of three lists
-        and one entry set in each, where the general payload is read back stage by
-        stage for every structure (100 structures of a 40-corner block: 4,000 stages,
-        about 1,250 completions). Rows are only read."""
-        node = nodes.get((p, ei, g))
-        if node is None:
-            node = self._node(nodes, B, arg, p, ei, g)
-        if node.rows is None:
-            node.rows = {}
-        got = node.rows.get(j)
-        if got is not None:
-            return got
-        e = self.elems[p][ei]
-        if p == self.L:   # the leaf of an open chain
-            keys: list[str] = [None] * len(self.st.keypoints)   # type: ignore[list-item]
-            fills: list[list[str]] = [None] * self.L            # type: ignore[list-item]
-            totals: list[dict[str, float]] = [None] * self.L    # type: ignore[list-item]
-        else:
-            _c, t, i, j2 = node.items[j]   # found: the structure ran through it
-            fi, g1 = divmod(t, self.S)
-            share = self.shares[g1]
-            lists = self.lists[p][ei][fi]
-            ls = None if lists is None else lists.get(share)
-            ent = ls[i] if ls is not None and i < len(ls) else self._entry(p, ei, fi, share, i)
-            assert ent is not None and self.read is not None
-            f = self.elems[(p + 1) % len(self.elems)][fi]
-            if p == self.last:   # the cycle closes on the root's element
-                keys = [None] * len(self.st.keypoints)   # type: ignore[list-item]
-                fills = [None] * self.L                  # type: ignore[list-item]
-                totals = [None] * self.L                 # type: ignore[list-item]
-                keys[self.kps[0]] = f
+    def _link(self, nodes: dict[tuple[int, int, int], _Node], B: np.ndarray,
+              arg: np.ndarray, p: int, ei: int, g: int, j: int) -> Link:
+        """Completion j of (p, ei, g) read back as a :data:`Link`: its stage's entry read
+        (``read``) and the link of the completion after it. Made once per completion
+        and shared by every structure through it, so a completion costs one tuple
+        where a copy of whole rows (key points, fillers, totals) per completion cost
+        three lists as long as the structure (100 structures of a 40-corner block:
+        about 1,250 completions); :meth:`_rows` copies only the k structures returned.
+        Walks down to the first completion read back already, then links back up."""
+        # (the node's links, j, p, ei, pair t and entry i; t = -1 at the leaf)
+        todo: list[tuple[dict[int, Link], int, int, int, int, int]] = []
+        link: Link | None = None
+        S, L, last = self.S, self.L, self.last
+        while True:
+            node = nodes.get((p, ei, g))
+            if node is None:
+                node = self._node(nodes, B, arg, p, ei, g)
+            links = node.links
+            if links is None:
+                links = node.links = {}
             else:
-                after = self._rows(nodes, B, arg, p + 1, fi, g - g1, j2)
-                keys, fills, totals = list(after[0]), list(after[1]), list(after[2])
-            s = self.stages[p]
-            fills[s], totals[s] = self.read(s, e, f, ent[1])
-        keys[self.kps[p]] = e
-        got = node.rows[j] = (keys, fills, totals)
-        return got
+                link = links.get(j)
+                if link is not None:
+                    break
+            if p == L:   # the leaf of an open chain
+                todo.append((links, j, p, ei, -1, 0))
+                break
+            _c, t, i, j2 = node.items[j]   # found: the structure ran through it
+            todo.append((links, j, p, ei, t, i))
+            if p == last:   # the stage closing the cycle: no completion after it
+                break
+            p, ei, g, j = p + 1, t // S, g - t % S, j2
+        read, elems, kps, stages, shares = self.read, self.elems, self.kps, self.stages, \
+            self.shares
+        assert read is not None
+        for links, j, p, ei, t, i in reversed(todo):
+            e = elems[p][ei]
+            if t < 0:
+                link = (kps[p], e, -1, None, None, None)
+            else:
+                fi, g1 = divmod(t, S)
+                lists = self.lists[p][ei][fi]
+                if lists is None:   # entry 0 found from the first entries' array
+                    lists = self._lists(p, ei, fi)
+                s = stages[p]
+                # the cycle closes on the root's element, which position 0 holds
+                link = (kps[p], e, s,
+                        *read(s, e, elems[(p + 1) % len(elems)][fi], lists[shares[g1]][i][1]),
+                        None if p == last else link)
+            links[j] = link
+        assert link is not None
+        return link
+
+    def _rows(self, link: Link | None) -> Rows:
+        """A structure from the link of its root completion: the element at every key
+        point, the fillers and totals of every stage, copied (a structure's own lists,
+        where the reader's are shared by every structure using the same entry)."""
+        keys: list[str] = [None] * len(self.st.keypoints)   # type: ignore[list-item]
+        fills: list[list[str]] = [None] * self.L            # type: ignore[list-item]
+        totals: list[dict[str, float]] = [None] * self.L    # type: ignore[list-item]
+        while link is not None:
+            kp, e, s, fill, total, link = link
+            keys[kp] = e
+            if fill is not None:
+                fills[s] = fill.copy()
+                totals[s] = total.copy()   # type: ignore[union-attr]
+        return keys, fills, totals

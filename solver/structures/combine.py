@@ -37,6 +37,7 @@ ARRAYS_K1 = True   # k = 1 by arrays (tests switch it off to compare with the ge
 LAZY_CHAINS = True  # chains and cycles by the lazy program (tests compare the two)
 FIRST_PATHS = 1     # ... whose stage lists start with this many paths and grow on demand
 MIN_SHARES = 4     # ... when a structure-wide resource has at least this many values
+SECOND_BOUNDS = True  # ... entry 1 of a growing list offered at a bound (tests switch it off)
 Share = tuple[int, ...]
 StageList = list[tuple[float, Any]]   # cost-sorted (cost, payload of the stage's provider)
 StageLists = Callable[[int, str, str], dict[Share, StageList]]
@@ -136,19 +137,22 @@ def best_structures(st: Structure, k: int, ghi: list[int], glo: list[int],
                     stage_lists: StageLists,
                     more: Callable[[int, str, str, Share], int] | None = None,
                     firsts: Callable[[], np.ndarray | None] | None = None,
-                    read: Read | None = None
+                    read: Read | None = None,
+                    second: Callable[[int, str, str, Share], float] | None = None
                     ) -> list[tuple[float, str, Payload | Rows]]:
     """The k best (cost, element at the root, payload) of structure ``st``. A payload
     maps each stage to (element at its end, the stage list's payload, payload below
     that end). ``ghi``/``glo``: bounds of the structure-wide resources in quanta.
     Chains and cycles go to the lazy program of :mod:`.chain_kbest` (same sums, same
-    order), whose lists may start short and grow by ``more``, whose first entries may
+    order), whose lists may start short and grow by ``more`` (entry 1 offered at the
+    lower bound ``second`` on its cost until it is needed), whose first entries may
     come as one array from ``firsts``, and whose structures come back as their rows
     when ``read`` reads a stage list entry (see there)."""
     chain = chain_of(st, ghi) if LAZY_CHAINS else None
     if chain is not None:  # (chain_of is cheap: a walk over the stages)
         return ChainProgram(st, k, ghi, glo, chain, stage_lists, more,
-                            firsts() if firsts is not None else None, read).run()
+                            firsts() if firsts is not None else None, read,
+                            second if SECOND_BOUNDS else None).run()
     return [*_Program(st, k, ghi, stage_lists).run(glo)]
 
 

@@ -52,6 +52,7 @@ from citysynth.solver.structures.stage_kbest import (
     Growing,
     StageGraph,
     _best_fill,
+    _second_cost,
     _stage_best_costs,
     _stage_kbest_of,
     first_lists,
@@ -201,6 +202,7 @@ class StageGraphs:
         self.q = _quanta(st, tracked, gnames, gq)
         self.budget = int(max_memory_mb * 2**20)
         self._lists: dict[tuple[int, str, str], dict[Share, StageList]] = {}
+        self._seconds: dict[tuple[int, str, str, Share], float] = {}   # (second_cost)
         self._paths: list[tuple[np.ndarray, np.ndarray, tuple[str, ...]]] = []
         self._shares_of: dict[int, np.ndarray] = {}
         self.counts = {"stage_graphs": 0, "stage_queries": 0, "graph_rows": 0}
@@ -562,6 +564,22 @@ class StageGraphs:
                           old.q)
         self._lists[(i, a, b)][share] = ls
         return ls.final if isinstance(ls, Growing) else self.k
+
+    def second_cost(self, i: int, a: str, b: str, share: Share) -> float:
+        """A lower bound on the cost of entry 1 of a :class:`Growing` list that holds
+        one final path so far (inf: there is no second path), from its graph's costs
+        along the best path (:func:`~citysynth.solver.structures.stage_kbest._second_cost`,
+        its very cost in practice), without finding the second path as :meth:`more`
+        does (several times dearer): the lazy program asks for that only once it is
+        the least of its candidates. Once per list (with a structure-wide resource,
+        nodes of the lazy program at several shares offer the same list's entry)."""
+        key = (i, a, b, share)
+        got = self._seconds.get(key)
+        if got is None:
+            ls = self._lists[(i, a, b)][share]
+            assert isinstance(ls, Growing)
+            got = self._seconds[key] = float(_second_cost(self._graph_of[ls.gi][0], ls.q))
+        return got
 
     def filling(self, i: int, a: str, b: str, payload: tuple[int, int]
                 ) -> tuple[list[str], dict[str, float]]:

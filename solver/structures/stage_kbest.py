@@ -218,6 +218,93 @@ def _best_fill(G, q):
 
 
 @njit(cache=True)
+def _query_other(G, q, c, bkey):
+    """The least cost of query q's choices but the one with tie key ``bkey`` (inf:
+    none), as :func:`_stage_choices` lists them."""
+    n = G.n
+    R = len(G.cap)
+    for i in range(R):
+        c[i] = G.qlo[q, i]
+    other = np.inf
+    while True:  # every state of the query's box: a mixed-radix counter
+        s = 0
+        for i in range(R):
+            s += c[i] * G.stride[i]
+        row = _row(G, s)
+        if row >= 0:
+            for e in range(n):
+                w = G.wq[q, e]
+                if w < np.inf and G.g[row, e] < np.inf and s * n + e != bkey:
+                    other = min(other, G.g[row, e] + w)
+        i = 0
+        while i < R:
+            c[i] += 1
+            if c[i] <= G.qhi[q, i]:
+                break
+            c[i] = G.qlo[q, i]
+            i += 1
+        if i == R:
+            break
+    return other
+
+
+@njit(cache=True)
+def _second_cost(G, q):
+    """The cost of the second best filling of query q (inf: it has one at most), from
+    the forward costs along its best path alone: a lower bound on entry 1 of its stage
+    list that costs one walk back, where finding the path itself by the enumeration
+    (:func:`_stage_kbest_of`, K = 2) costs several times more; the lazy program of
+    :mod:`.chain_kbest` asks the graph for the path only once the bound is the least
+    of a node's candidates, which it mostly never is.
+
+    Any path into a node v other than its best one either comes in by another
+    predecessor (at best that predecessor's g plus the edge) or by the best
+    predecessor p* and another path into it: g2(v) = min(least way in other than
+    p*, g2(p*) + the edge from p*). Along the best path, found as
+    :func:`_best_fill` finds it, from the start (one path, g2 = inf) to the query.
+    Each term is a path's front-to-back sum (g is, the forward pass adds the same
+    way) and rounding is monotone, so this is the least such sum over every path but
+    the best: entry 1's cost itself when the enumeration's sums are the front-to-back
+    ones (:func:`sorted_paths`), and never more than it."""
+    c = np.zeros(len(G.cap), dtype=np.int64)
+    _bc, bkey, row, e = _query_best(G, q, c)
+    if bkey < 0:
+        return np.inf
+    other = _query_other(G, q, c, bkey)
+    last = e
+    # back along the best path: at each node the least way in but the best, and the
+    # edge in from the best
+    alt = np.empty(max(G.n, 8))
+    into = np.empty(max(G.n, 8))
+    m = 0
+    while e != 0:
+        if m == len(alt):
+            alt = np.concatenate((alt, np.empty(len(alt))))
+            into = np.concatenate((into, np.empty(len(into))))
+        rp = _row(G, G.row_state[row] - G.off[e])
+        bp = -1
+        pc = np.inf
+        o = np.inf
+        for p in range(G.n):
+            w = G.W[e, p]
+            if w < np.inf and G.g[rp, p] < np.inf:
+                cost = G.g[rp, p] + w
+                if bp < 0 or cost < pc:
+                    o = min(o, pc)
+                    bp, pc = p, cost
+                else:
+                    o = min(o, cost)
+        alt[m] = o
+        into[m] = G.W[e, bp]
+        m += 1
+        row, e = rp, bp
+    g2 = np.inf   # the start: one (empty) path
+    for t in range(m - 1, -1, -1):
+        g2 = min(alt[t], g2 + into[t])
+    return min(other, g2 + G.wq[q, last])
+
+
+@njit(cache=True)
 def _stage_best_costs(G):
     """The cost of the best filling of every query of G (inf: none), as
     :func:`_stage_kbest_of` with K = 1 finds it: the least of the query's choices,
