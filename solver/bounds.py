@@ -209,6 +209,42 @@ def relaxation_bounds(cp: Compiled, budget_bytes: int) -> Bounds:
                   **ranges)
 
 
+def zero_chains(cp: Compiled, level: int) -> bool:
+    """May an element consuming none of resource ``level`` follow another such element
+    (on cp's successor lists)? Only then can the relaxation over ``level`` stay on one
+    level for more than one step."""
+    zero = cp.r[:, level] == 0
+    rows = np.repeat(np.arange(cp.n), np.diff(cp.succ_ptr))
+    return bool((zero[rows] & zero[cp.succ_elem]).any())
+
+
+def most_is_exact(cp: Compiled, level: int, j: int) -> bool:
+    """Is the backward program of resource ``level``'s relaxation over -j (each
+    transition weighing minus what its element consumes of j) the exact most of j?
+
+    Yes when no element consuming none of ``level`` consumes some of j (every
+    within-level weight is zero, Dijkstra's condition holds), or when no such element
+    may follow another (:func:`zero_chains`): then a level's zero-consumption element
+    has only successors on higher levels, so its value is final before the level's
+    Dijkstra starts, each is popped once, and the predecessors it updates consume some
+    of ``level`` and are never pushed: the within-level step is exact whatever the
+    weights' sign. Otherwise such elements may repeat on one level and the most may be
+    unbounded."""
+    zero = cp.r[:, level] == 0
+    return not np.any(zero & (cp.r[:, j] > 0)) or not zero_chains(cp, level)
+
+
+def most_to_go(cp: Compiled, level: int, j: int) -> np.ndarray | None:
+    """m[c, e]: the most of resource j that a completion of node (e, c) of resource
+    ``level``'s relaxation consumes (-inf when none completes), or None when that is
+    not known to be bounded (:func:`most_is_exact`)."""
+    if not most_is_exact(cp, level, j):
+        return None
+    w = np.repeat(cp.r[:, j].astype(np.float64), np.diff(cp.pred_ptr))
+    return -relaxed_cost_to_go(cp.r[:, level].copy(), int(cp.lo[level]),
+                               int(cp.cap[level]), cp.back, cp.pred_ptr, cp.pred_elem, -w)
+
+
 def range_tables(cp: Compiled, level: int, budget_bytes: int) -> dict[str, np.ndarray]:
     """For every other constrained resource j (as many as ``budget_bytes`` holds), the
     least and the most of j that a completion of node (e, c) of resource ``level``'s
@@ -224,9 +260,11 @@ def range_tables(cp: Compiled, level: int, budget_bytes: int) -> dict[str, np.nd
     of the real problem is one of the relaxation's, so its consumption of j lies
     between the two values; only labels no feasible sequence passes through go.
 
-    The most is left unbounded (+inf, no pruning) when an element that consumes none of
-    the level resource consumes some of j: such elements can repeat on one level, and
-    the backward program needs non-negative weights there."""
+    The most is the backward program over -j when it is exact there
+    (:func:`most_is_exact`), else left unbounded (+inf, no pruning): a tower's roof
+    has a height but no floor area, yet no roof follows a roof, so over height levels
+    the most floor area is exact and labels that can no longer reach the floor-area
+    minimum go too."""
     n, lo, cap = cp.n, int(cp.lo[level]), int(cp.cap[level])
     rl = cp.r[:, level].copy()
     counts = np.diff(cp.pred_ptr)
@@ -240,11 +278,8 @@ def range_tables(cp: Compiled, level: int, budget_bytes: int) -> dict[str, np.nd
         w = np.repeat(rj, counts)
         mins.append(relaxed_cost_to_go(rl, lo, cap, cp.back, cp.pred_ptr, cp.pred_elem,
                                        w).ravel())
-        if np.any((rl == 0) & (rj > 0)):
-            maxs.append(np.full(size, np.inf))
-        else:
-            maxs.append(-relaxed_cost_to_go(rl, lo, cap, cp.back, cp.pred_ptr,
-                                            cp.pred_elem, -w).ravel())
+        most = most_to_go(cp, level, j)
+        maxs.append(np.full(size, np.inf) if most is None else most.ravel())
     return {"rlevel": np.full(len(others), level, dtype=np.int64),
             "rother": np.array(others, dtype=np.int64),
             "rbase": np.arange(len(others), dtype=np.int64) * size,

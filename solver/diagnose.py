@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from citysynth.solver.bounds import range_tables, relaxed_cost_to_go
+from citysynth.solver.bounds import most_to_go, range_tables
 from citysynth.solver.compiled import Compiled, with_bounds
 from citysynth.solver.estimate import dense_rows
 from citysynth.solver.graph import grow
@@ -87,23 +87,17 @@ def _most_given(cp: Compiled, level: int, j: int) -> int:
     """The most of resource j (quanta) that sequences meeting resource ``level``'s
     interval alone consume; -1 when none do, or when it is not known.
 
-    The range tables leave it unbounded whenever an element consuming none of
-    ``level`` consumes some of j (such elements might repeat on one level of the
-    relaxation): a tower's roof has a height but no floor area, so how tall towers of
-    some floor area are was unknown. When no such element may follow another, a level
-    holds no path of them to repeat, each is settled once, and the backward program
-    over -j is exact (its within-level step settles each in turn, whatever the
-    weights' sign); else -1."""
-    zero = cp.r[:, level] == 0
-    rows = np.repeat(np.arange(cp.n), np.diff(cp.succ_ptr))
-    if (zero[rows] & zero[cp.succ_elem]).any():
+    The same rule as the range tables' (:func:`citysynth.solver.bounds.most_to_go`):
+    exact unless an element consuming none of ``level`` but some of j may follow
+    another element consuming none of ``level`` (then -1). A tower's roof has a height
+    but no floor area and no roof follows a roof, so how tall towers of some floor
+    area are is known."""
+    m = most_to_go(cp, level, j)
+    if m is None:
         return -1
-    rl = cp.r[:, level].copy()
-    w = np.repeat(cp.r[:, j].astype(np.float64), np.diff(cp.pred_ptr))
-    h = relaxed_cost_to_go(rl, int(cp.lo[level]), int(cp.cap[level]), cp.back,
-                           cp.pred_ptr, cp.pred_elem, -w)
+    rl = cp.r[:, level]
     first = np.flatnonzero(cp.front & (rl <= cp.cap[level]))
-    most = cp.r[first, j] - h[rl[first], first]
+    most = cp.r[first, j] + m[rl[first], first]
     most = most[np.isfinite(most)]
     return int(most.max()) if len(most) else -1
 
