@@ -26,7 +26,11 @@ def nearest(detail: dict) -> list[float]:
 
 
 def _fmt(x: float) -> str:
-    return f"{round(x, 9):g}"
+    """A total as a message says it: short (``%g``) unless that rounds it, as six
+    digits round 999,999.6 m and 1,000,001.4 m alike to "1e+06"; then in full."""
+    v = round(x, 9)
+    short = f"{v:g}"
+    return short if float(short) == v else f"{v:.15g}"
 
 
 def _interval_text(name: str, lo: float, hi: float) -> str:

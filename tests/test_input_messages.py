@@ -151,3 +151,17 @@ def test_a_json_key_given_twice_is_named_with_its_place(tmp_path, capsys):
     assert err.endswith("structure.json: key 'cost' is given twice in the object at "
                         "elements[2]; JSON keys must be unique (the second would silently "
                         "replace the first): keep one of them"), err
+
+
+def test_nearest_totals_past_six_digits_are_said_in_full():
+    """A kilometres-long length's nearest totals were said in six digits: asked exactly
+    1e6 m, "nearest achievable: 1e+06 (below), 1e+06 (above)"."""
+    from citysynth.solver import Problem, solve
+
+    r = solve(Problem.from_dict({
+        "resources": ["length"], "quantum": {"length": 0.2},
+        "elements": [{"id": "A", "resources": {"length": 333333.4}}],
+        "transitions": [["A", "A", 0.0]], "constraints": {"length": [1e6, 1e6]}}))
+    assert r.status == "infeasible"
+    assert "length = 1e+06" in r.reason and "666666.8 (below)" in r.reason \
+        and "1000000.2 (above)" in r.reason, r.reason
