@@ -150,7 +150,8 @@ def _stage_kbest(G, K, depth):
 @njit(cache=True)
 def _query_best(G, q, c):
     """The least of query q's choices as :func:`_stage_choices` lists them, by (cost,
-    tie key): (cost, key, row, element); key -1 when it has none."""
+    tie key): (cost, key, row, element, the least cost of every other choice); key -1
+    when it has none, the last inf when it has one at most (:func:`_second_cost`)."""
     n = G.n
     R = len(G.cap)
     for i in range(R):
@@ -159,6 +160,7 @@ def _query_best(G, q, c):
     bkey = -1
     brow = -1
     be = -1
+    other = np.inf
     while True:  # every state of the query's box: a mixed-radix counter
         s = 0
         for i in range(R):
@@ -171,7 +173,10 @@ def _query_best(G, q, c):
                     cost = G.g[row, e] + w
                     key = s * n + e
                     if bkey < 0 or cost < bc or (cost == bc and key < bkey):
+                        other = min(other, bc)
                         bc, bkey, brow, be = cost, key, row, e
+                    else:
+                        other = min(other, cost)
         i = 0
         while i < R:
             c[i] += 1
@@ -181,7 +186,7 @@ def _query_best(G, q, c):
             i += 1
         if i == R:
             break
-    return bc, bkey, brow, be
+    return bc, bkey, brow, be, other
 
 
 @njit(cache=True)
@@ -190,7 +195,7 @@ def _best_fill(G, q):
     :func:`_stage_kbest_of` with K = 1 finds it (each step back takes the least
     predecessor: cost, then element), and whether its front-to-back sum is the
     query's cost bit for bit."""
-    bc, bkey, row, e = _query_best(G, q, np.zeros(len(G.cap), dtype=np.int64))
+    bc, bkey, row, e, _other = _query_best(G, q, np.zeros(len(G.cap), dtype=np.int64))
     back = np.empty(max(G.n, 8), dtype=np.int64)
     m = 0
     while e != 0:
@@ -218,37 +223,6 @@ def _best_fill(G, q):
 
 
 @njit(cache=True)
-def _query_other(G, q, c, bkey):
-    """The least cost of query q's choices but the one with tie key ``bkey`` (inf:
-    none), as :func:`_stage_choices` lists them."""
-    n = G.n
-    R = len(G.cap)
-    for i in range(R):
-        c[i] = G.qlo[q, i]
-    other = np.inf
-    while True:  # every state of the query's box: a mixed-radix counter
-        s = 0
-        for i in range(R):
-            s += c[i] * G.stride[i]
-        row = _row(G, s)
-        if row >= 0:
-            for e in range(n):
-                w = G.wq[q, e]
-                if w < np.inf and G.g[row, e] < np.inf and s * n + e != bkey:
-                    other = min(other, G.g[row, e] + w)
-        i = 0
-        while i < R:
-            c[i] += 1
-            if c[i] <= G.qhi[q, i]:
-                break
-            c[i] = G.qlo[q, i]
-            i += 1
-        if i == R:
-            break
-    return other
-
-
-@njit(cache=True)
 def _second_cost(G, q):
     """The cost of the second best filling of query q (inf: it has one at most), from
     the forward costs along its best path alone: a lower bound on entry 1 of its stage
@@ -266,11 +240,9 @@ def _second_cost(G, q):
     way) and rounding is monotone, so this is the least such sum over every path but
     the best: entry 1's cost itself when the enumeration's sums are the front-to-back
     ones (:func:`sorted_paths`), and never more than it."""
-    c = np.zeros(len(G.cap), dtype=np.int64)
-    _bc, bkey, row, e = _query_best(G, q, c)
+    _bc, bkey, row, e, other = _query_best(G, q, np.zeros(len(G.cap), dtype=np.int64))
     if bkey < 0:
         return np.inf
-    other = _query_other(G, q, c, bkey)
     last = e
     # back along the best path: at each node the least way in but the best, and the
     # edge in from the best
