@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from citysynth.solver.bounds import most_to_go, range_tables
+from citysynth.solver.bounds import range_tables
 from citysynth.solver.compiled import Compiled, with_bounds
 from citysynth.solver.estimate import dense_rows
 from citysynth.solver.graph import grow
@@ -87,40 +87,20 @@ def _spans(cp: Compiled, level: int | None = None) -> tuple[int, dict[int, tuple
     return level, out
 
 
-def _most_given(cp: Compiled, level: int, j: int) -> int:
-    """The most of resource j (quanta) that sequences meeting resource ``level``'s
-    interval alone consume; -1 when none do, or when it is not known.
-
-    The same rule as the range tables' (:func:`citysynth.solver.bounds.most_to_go`):
-    exact unless an element consuming none of ``level`` but some of j may follow
-    another element consuming none of ``level`` (then -1). A tower's roof has a height
-    but no floor area and no roof follows a roof, so how tall towers of some floor
-    area are is known."""
-    m = most_to_go(cp, level, j)
-    if m is None:
-        return -1
-    rl = cp.r[:, level]
-    first = np.flatnonzero(cp.front & (rl <= cp.cap[level]))
-    most = cp.r[first, j] + m[rl[first], first]
-    most = most[np.isfinite(most)]
-    return int(most.max()) if len(most) else -1
-
-
 def reach_given(cp: Compiled, given: str, other: str) -> tuple[float, float] | None:
-    """The least and the most of resource ``other`` (in its units; the most is inf when
-    it may be unbounded, :func:`_most_given`) that sequences meeting resource
-    ``given``'s interval alone consume, or None when no sequence meets it (or the
-    tables do not fit, :func:`spans_fit`): what a tower of that height can have of
-    floor area, or how tall towers of that floor area are, say, however far from what
-    was asked. Both are exact: some sequence consumes the least, and one the most
-    (unless inf)."""
+    """The least and the most of resource ``other`` (in its units) that sequences
+    meeting resource ``given``'s interval alone consume, or None when no sequence meets
+    it (or the tables do not fit, :func:`spans_fit`): what a tower of that height can
+    have of floor area, or how tall towers of that floor area are, say, however far
+    from what was asked. Both are exact: some sequence consumes the least, and one the
+    most; the most is inf when it may be unbounded
+    (:func:`~citysynth.solver.bounds.most_is_exact`; not for towers: a roof adds height
+    and no floor area, but no roof follows a roof)."""
     i, j = cp.bounded.index(given), cp.bounded.index(other)
     _level, spans = _spans(cp, i)
     if j not in spans:
         return None
     least, most = spans[j]
-    if most < 0:
-        most = _most_given(cp, i, j)
     q = cp.quant[j].quantum
     return round(least * q, 9), (round(most * q, 9) if most >= 0 else float("inf"))
 
