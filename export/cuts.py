@@ -37,7 +37,14 @@ from citysynth.export.clip import clip
 from citysynth.export.layout import Cut
 from citysynth.parts_db import Part, PartDB
 from citysynth.parts_db.geometry import Piece, part_pieces
-from citysynth.parts_db.sections import body_labels, loop_section, plane_section
+from citysynth.parts_db.sections import (
+    NO_RINGS,
+    Rings,
+    body_labels,
+    loop_section,
+    plain_rings_section,
+    plane_section,
+)
 
 BAND = 0.02            # m at each end of a part: what an extension stretches
 CACHED_CUTS = 1024     # cut prototypes kept per process (a building has tens)
@@ -143,50 +150,96 @@ def _cap(mesh_v: np.ndarray, mesh_f: np.ndarray, plane: tuple[float, float, floa
          ) -> tuple[np.ndarray, np.ndarray] | None:
     """The triangulated cross-section of the part (its extended mesh: mesh_v, mesh_f)
     on ``plane`` (within the other planes), facing out of the kept side: (vertices,
-    faces), or None when empty. The section is ingest's :func:`plane_section`, taken
-    by :func:`loop_section` where the segments chain simply (the same polygons, without
-    noding them: that was most of a cut's time)."""
+    faces), or None when empty. The section is ingest's :func:`plane_section`; where
+    its loops lie plainly apart and within the other planes (most caps) they are
+    triangulated as they are (:func:`plain_rings_section`, no shapely); else it is
+    taken by :func:`loop_section` where the segments chain simply (the same polygons,
+    without noding them), failing that by plane_section, and cut by the other planes."""
     a, b, c = plane
     origin = np.array([a * c, b * c, 0.0])
     normal = np.array([a, b, 0.0])
     u = np.array([-b, a, 0.0])                 # horizontal, in the plane
     w = np.array([0.0, 0.0, 1.0])
-    section = loop_section(mesh_v, mesh_f, labels, origin, normal, u, w)
-    if section is None:
-        whole = trimesh.Trimesh(mesh_v, mesh_f, process=False)
-        section = plane_section(whole, origin, normal, u, w, labels)
-    for a2, b2, c2 in planes:                  # the other planes bound it along u
+    bounds = _bounds(plane, planes, origin, u)
+    if bounds[0] >= bounds[1]:
+        return None                            # the other planes keep nothing of it
+    rings = plain_rings_section(mesh_v, mesh_f, labels, origin, normal, u, w)
+    if rings is not None:
+        if not len(rings.xy) or (bounds[0] <= rings.xy[:, 0].min()
+                                 and rings.xy[:, 0].max() <= bounds[1]):
+            return _triangulated(rings, origin, normal, u, w)
+        section = shapely.from_ragged_array(POLYGON, rings.xy,
+                                            (rings.ring_ends, rings.poly_ends))
+    else:
+        section = loop_section(mesh_v, mesh_f, labels, origin, normal, u, w)
+        if section is None:
+            whole = trimesh.Trimesh(mesh_v, mesh_f, process=False)
+            section = plane_section(whole, origin, normal, u, w, labels)
+    if bounds != (-np.inf, np.inf):
+        section = shapely.intersection(section, box(max(bounds[0], -1e6), -1e6,
+                                                    min(bounds[1], 1e6), 1e6))
+    return _triangulated(_rings(section), origin, normal, u, w)
+
+
+def _bounds(plane: tuple[float, float, float], planes: tuple[tuple[float, float, float], ...],
+            origin: np.ndarray, u: np.ndarray) -> tuple[float, float]:
+    """The range of the cap's u coordinate the other planes keep."""
+    lo, hi = -np.inf, np.inf
+    for a2, b2, c2 in planes:
         if (a2, b2, c2) == plane:
             continue
-        k = a2 * -b + b2 * a                   # (a2, b2) . u
-        base = a2 * origin[0] + b2 * origin[1]
+        k = a2 * u[0] + b2 * u[1]              # (a2, b2) . u
         if abs(k) < 1e-9:
             continue
-        limit = (c2 - base) / k
-        half = box(-1e6, -1e6, limit, 1e6) if k > 0 else box(limit, -1e6, 1e6, 1e6)
-        section = section.intersection(half)
+        limit = (c2 - (a2 * origin[0] + b2 * origin[1])) / k
+        lo, hi = (lo, min(hi, limit)) if k > 0 else (max(lo, limit), hi)
+    return float(lo), float(hi)
+
+
+def _rings(section) -> Rings:
+    """A shapely section's polygons (more than a speck of area) as :class:`Rings`."""
     parts = shapely.get_parts(section)
     polys = parts[(shapely.get_type_id(parts) == POLYGON) & (shapely.area(parts) > 1e-8)]
     if not len(polys):
-        return None
-    # earcut on each polygon's rings (closing points kept, as trimesh passes them)
+        return NO_RINGS
     rings, owner = shapely.get_rings(polys, return_index=True)   # shell, then holes
     xy, at = shapely.get_coordinates(rings, return_index=True)
-    ring_ends = np.r_[0, np.cumsum(np.bincount(at, minlength=len(rings)))]
-    poly_ends = np.r_[0, np.cumsum(np.bincount(owner, minlength=len(polys)))]
+    return Rings(xy, np.r_[0, np.cumsum(np.bincount(at, minlength=len(rings)))],
+                 np.r_[0, np.cumsum(np.bincount(owner, minlength=len(polys)))])
+
+
+def _triangulated(rings: Rings, origin: np.ndarray, normal: np.ndarray, u: np.ndarray,
+                  w: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Polygons more than a speck of area triangulated by earcut on their rings
+    (closing points kept, as trimesh passes them), in 3D on the plane, facing along
+    ``normal`` (out of the kept side); None when there are none."""
+    xy, ring_ends, poly_ends = rings
+    if not len(xy):
+        return None
+    faces = [triangulate_float64(xy[ring_ends[r0]:ring_ends[r1]],
+                                 ring_ends[r0 + 1:r1 + 1] - ring_ends[r0]
+                                 ).reshape(-1, 3).astype(np.int64) + ring_ends[r0]
+             for r0, r1, area in zip(poly_ends[:-1], poly_ends[1:], _areas(rings),
+                                     strict=True) if area > 1e-8]
+    if not faces:
+        return None
     verts = origin + np.outer(xy[:, 0], u) + np.outer(xy[:, 1], w)
-    faces = []
-    for k in range(len(polys)):
-        r0, r1 = poly_ends[k], poly_ends[k + 1]
-        start = ring_ends[r0]
-        f = triangulate_float64(xy[start:ring_ends[r1]], ring_ends[r0 + 1:r1 + 1] - start
-                                ).reshape(-1, 3).astype(np.int64) + start
-        e1, e2 = verts[f[:, 1]] - verts[f[:, 0]], verts[f[:, 2]] - verts[f[:, 0]]
-        facing = np.stack([e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1],
-                           e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
-                           e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]], axis=1) @ normal
-        faces.append(np.where((facing < 0)[:, None], f[:, ::-1], f))   # out of the kept side
-    return verts, np.concatenate(faces)
+    f = np.concatenate(faces)
+    e1, e2 = verts[f[:, 1]] - verts[f[:, 0]], verts[f[:, 2]] - verts[f[:, 0]]
+    facing = np.stack([e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1],
+                       e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
+                       e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]], axis=1) @ normal
+    return verts, np.where((facing < 0)[:, None], f[:, ::-1], f)
+
+
+def _areas(rings: Rings) -> np.ndarray:
+    """Each polygon's area: its shell's (shoelace) less its holes'."""
+    xy, ring_ends, poly_ends = rings
+    cross = xy[:-1, 0] * xy[1:, 1] - xy[1:, 0] * xy[:-1, 1]
+    cross[ring_ends[1:-1] - 1] = 0.0            # from one ring's last point to the next
+    ring = -np.abs(np.add.reduceat(cross, ring_ends[:-1])) / 2   # holes count less
+    ring[poly_ends[:-1]] *= -1                                        # shells more
+    return np.add.reduceat(ring, poly_ends[:-1])
 
 
 def _with_caps(out: list[Piece], original: tuple[Piece, ...],

@@ -14,7 +14,7 @@ others is a hole, and the bodies are united.
 
 from __future__ import annotations
 
-from typing import overload
+from typing import NamedTuple, overload
 
 import numpy as np
 import shapely
@@ -22,7 +22,7 @@ import trimesh
 from shapely.geometry.base import BaseGeometry
 from trimesh.constants import tol
 
-from citysynth.parts_db.section_loops import chain, segments
+from citysynth.parts_db.section_loops import chain, plain_rings, segments
 
 EMPTY = shapely.Polygon()
 GRID = 1e-6  # metres: segment ends computed from both sides of an edge meet on it
@@ -110,16 +110,68 @@ def loop_section(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, or
     deeper in lies in a hole, which plane_section's even-odd rule removes whole. Any
     other linework (a point three ends share, segments touching, crossing or doubling
     back) returns None."""
-    origin = np.asarray(origin, dtype=float)
-    dots = np.dot(vertices - origin, np.asarray(normal, dtype=float))
-    grid, lab = segments(np.ascontiguousarray(vertices, dtype=np.float64),
-                         np.ascontiguousarray(faces, dtype=np.int64),
-                         np.ascontiguousarray(labels, dtype=np.int64), dots, origin,
-                         np.asarray(u, dtype=float), np.asarray(v, dtype=float), MERGE,
-                         float(SCALE), _CASE, _TURN, _FROM, _TO)
+    grid, lab = _segments(vertices, faces, labels, origin, normal, u, v)
     if not len(grid):
         return EMPTY
     return _loops_material(grid, lab)
+
+
+class Rings(NamedTuple):
+    """A section as rings to triangulate: ``xy`` [P, 2] points in metres on the plane's
+    (u, v) axes, each ring closed (its first point repeated last); ring r is
+    xy[ring_ends[r]:ring_ends[r + 1]]; polygon k's rings (its shell, then its holes) are
+    ring_ends' rings poly_ends[k] to poly_ends[k + 1]."""
+
+    xy: np.ndarray
+    ring_ends: np.ndarray
+    poly_ends: np.ndarray
+
+
+NO_RINGS = Rings(np.empty((0, 2)), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
+
+
+def plain_rings_section(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray,
+                        origin, normal, u, v) -> Rings | None:
+    """:func:`loop_section`'s polygons as :class:`Rings`, without shapely, where the
+    section is plainly apart: its segments chain into closed loops only, no two loops
+    (of any bodies) touch, and no loop lies inside a loop of another body; else None.
+
+    Such loops are polygons as they stand: a loop in no other loop of its body is a
+    shell, in exactly one that shell's hole, deeper ones lie in a hole (dropped, as
+    the even-odd rule drops them); bodies apart need no union. A cut's cap is such a
+    section nine times in ten, and shapely's per-call work on it (building, validating,
+    uniting and normalizing the polygons, then reading their rings back) was most of
+    the cap's time. Any other section (open chains, touching or nested bodies, a loop
+    folding back on itself) is for loop_section and, failing that, plane_section."""
+    grid, lab = _segments(vertices, faces, labels, origin, normal, u, v)
+    if not len(grid):
+        return NO_RINGS
+    walks = _walks(grid, lab)
+    if walks is None:
+        return None
+    flat, lo, slots, starts, closed_walk = walks
+    if not closed_walk.all() or (flat.max(axis=0) - lo >= 1 << 30).any():
+        return None    # open chains; or integer tests that could overflow
+    pts = flat[slots] - lo
+    rings, polys = plain_rings(pts, starts, lab[slots[starts[:-1]] >> 1])
+    if not len(polys):
+        return None
+    sizes = np.diff(starts)[rings]
+    take = np.concatenate([np.arange(starts[r], starts[r + 1]) for r in rings])
+    return Rings((pts[take] + lo) / SCALE, np.r_[0, np.cumsum(sizes)], polys)
+
+
+def _segments(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, origin, normal,
+              u, v) -> tuple[np.ndarray, np.ndarray]:
+    """The plane's segments, their ends snapped to the grid (in grid units, [S, 2, 2]),
+    and the body of each."""
+    origin = np.asarray(origin, dtype=float)
+    dots = np.dot(vertices - origin, np.asarray(normal, dtype=float))
+    return segments(np.ascontiguousarray(vertices, dtype=np.float64),
+                    np.ascontiguousarray(faces, dtype=np.int64),
+                    np.ascontiguousarray(labels, dtype=np.int64), dots, origin,
+                    np.asarray(u, dtype=float), np.asarray(v, dtype=float), MERGE,
+                    float(SCALE), _CASE, _TURN, _FROM, _TO)
 
 
 def _cases() -> tuple[np.ndarray, ...]:
@@ -156,18 +208,11 @@ def _loops_material(grid: np.ndarray, lab: np.ndarray) -> BaseGeometry | None:
     closed loops and open chains, none touching another. An open chain (a body that
     a seam splits into face-connected bodies leaves them) bounds nothing:
     polygonizing drops it."""
-    flat = grid.reshape(-1, 2)
-    lo = flat.min(axis=0)
-    span = flat.max(axis=0) - lo + 1
-    if (int(lab.max()) + 1) * int(span[0]) * int(span[1]) >= 1 << 62:
-        return None    # keys would overflow (a part kilometres long)
-    key = (np.repeat(lab, 2) * span[1] + (flat[:, 1] - lo[1])) * span[0] + (flat[:, 0] - lo[0])
-    slots, starts, closed_walk = chain(key)
-    if not len(starts):
-        return None    # three ends or more at a point
+    walks = _walks(grid, lab)
+    if walks is None:
+        return None
+    flat, _lo, slots, starts, closed_walk = walks
     sizes = np.diff(starts)
-    if (sizes[closed_walk] < 4).any():
-        return None    # a segment doubling back on the one before
     by_body = np.argsort(lab[slots[starts[:-1]] >> 1], kind="stable")
     body = lab[slots[starts[by_body]] >> 1]
     closed_walk, sizes = closed_walk[by_body], sizes[by_body]
@@ -181,6 +226,24 @@ def _loops_material(grid: np.ndarray, lab: np.ndarray) -> BaseGeometry | None:
     if not len(closed):
         return EMPTY
     return _even_odd_loops(xy, ends, closed, body[closed])
+
+
+def _walks(grid: np.ndarray, lab: np.ndarray) -> tuple[np.ndarray, ...] | None:
+    """The segments (snapped ends [S, 2, 2] in grid units, body of each) chained into
+    walks, keyed by (body, point): (their ends [2S, 2], the least of them, the walks'
+    slots, starts and closedness as :func:`chain` gives them), or None where three
+    ends or more meet at a point, a closed walk doubles back on itself (two
+    segments), or the keys would overflow (a part kilometres long)."""
+    flat = grid.reshape(-1, 2)
+    lo = flat.min(axis=0)
+    span = flat.max(axis=0) - lo + 1
+    if (int(lab.max()) + 1) * int(span[0]) * int(span[1]) >= 1 << 62:
+        return None
+    key = (np.repeat(lab, 2) * span[1] + (flat[:, 1] - lo[1])) * span[0] + (flat[:, 0] - lo[0])
+    slots, starts, closed_walk = chain(key)
+    if not len(starts) or (np.diff(starts)[closed_walk] < 4).any():
+        return None
+    return flat, lo, slots, starts, closed_walk
 
 
 def _even_odd_loops(xy: np.ndarray, ends: np.ndarray, closed: np.ndarray,

@@ -17,7 +17,13 @@ from hypothesis import strategies as st
 
 from citysynth.export import cuts
 from citysynth.parts_db.geometry import part_pieces
-from citysynth.parts_db.sections import GRID, body_labels, loop_section, plane_section
+from citysynth.parts_db.sections import (
+    GRID,
+    body_labels,
+    loop_section,
+    plain_rings_section,
+    plane_section,
+)
 
 STEP = 0.25     # m: box corners on this grid, so boxes often touch and planes hit corners
 
@@ -111,6 +117,91 @@ def test_loop_section_is_plane_section_or_declines(scene):
     fast, robust = _both(mesh, plane, one_body)
     if fast is not None:
         _assert_same(fast, robust)
+
+
+def _ring_polygons(rings) -> shapely.Geometry:
+    """Rings (from plain_rings_section) as shapely's polygons, to compare."""
+    xy, ring_ends, poly_ends = rings
+    polys = [shapely.Polygon(xy[ring_ends[r0]:ring_ends[r0 + 1]],
+                             [xy[ring_ends[r]:ring_ends[r + 1]] for r in range(r0 + 1, r1)])
+             for r0, r1 in zip(poly_ends[:-1], poly_ends[1:], strict=True)]
+    return shapely.union_all(polys) if polys else shapely.Polygon()
+
+
+@settings(max_examples=300, deadline=None)
+@given(scenes())
+def test_plain_rings_are_plane_sections_polygons_or_decline(scene):
+    """The cap's shapely-free path gives plane_section's polygons as rings (apart:
+    their union has the summed area), or declines; never anything else."""
+    mesh, plane, one_body = scene
+    labels = np.zeros(len(mesh.faces), dtype=np.int64) if one_body else body_labels(mesh)
+    frame = _frame(plane)
+    rings = plain_rings_section(np.asarray(mesh.vertices), np.asarray(mesh.faces), labels,
+                                *frame)
+    if rings is None:
+        return
+    polys = _ring_polygons(rings)
+    _assert_same(polys, plane_section(mesh, *frame, labels))
+    each = sum(shapely.Polygon(rings.xy[rings.ring_ends[r0]:rings.ring_ends[r0 + 1]]).area
+               - sum(shapely.Polygon(rings.xy[rings.ring_ends[r]:rings.ring_ends[r + 1]]).area
+                     for r in range(r0 + 1, r1))
+               for r0, r1 in zip(rings.poly_ends[:-1], rings.poly_ends[1:], strict=True))
+    assert abs(each - polys.area) < 1e-9      # no two polygons overlap
+
+
+def test_plain_rings_decline_touching_and_nested_bodies():
+    """Boxes of two bodies sharing a face, and a box of one body inside a tube of
+    another, need shapely's union: declined. Boxes apart and a lone tube are taken."""
+    plane = (1.0, 0.0, 0.5)
+    frame = _frame(plane)
+
+    def plain(parts):
+        mesh = _mesh(parts)
+        return plain_rings_section(np.asarray(mesh.vertices), np.asarray(mesh.faces),
+                                   body_labels(mesh), *frame)
+    assert plain([_box((0, 0, 0), (1, 1, 1)), _box((0, 1, 0), (1, 2, 1))]) is None
+    assert plain([_tube((0, 0, 0), (1, 2, 2), 0.5, 0),
+                  _box((0, 0.9, 0.9), (1, 1.1, 1.1))]) is None
+    apart = plain([_box((0, 0, 0), (1, 1, 1)), _box((0, 1.5, 0), (1, 2, 1))])
+    assert apart is not None and len(apart.poly_ends) == 3
+    tube = plain([_tube((0, 0, 0), (1, 2, 2), 0.5, 0)])
+    assert tube is not None and list(tube.poly_ends) == [0, 2]     # a shell and its hole
+
+
+@settings(max_examples=200, deadline=None)
+@given(scenes(), st.lists(st.tuples(st.floats(0, 2), st.floats(-1.5, 1.5)), max_size=3))
+def test_a_cap_is_the_same_by_either_path(scene, others):
+    """A cap triangulated from plain rings covers what the shapely path's cap covers
+    (same area, same extent), with other planes bounding it or keeping nothing of it."""
+    mesh, plane, one_body = scene
+    labels = np.zeros(len(mesh.faces), dtype=np.int64) if one_body else body_labels(mesh)
+    planes = [plane]
+    for angle, c in others:
+        a, b = round(float(np.cos(angle * np.pi)), 6), round(float(np.sin(angle * np.pi)), 6)
+        planes.append((a, b, c))
+    v, f = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    fast = cuts._cap(v, f, plane, tuple(planes), labels)
+    real = cuts.plain_rings_section
+    try:
+        cuts.plain_rings_section = lambda *a: None
+        slow = cuts._cap(v, f, plane, tuple(planes), labels)
+    finally:
+        cuts.plain_rings_section = real
+    assert (fast is None) == (slow is None)
+    if fast is not None:
+        assert _cap_area(fast) == pytest.approx(_cap_area(slow), abs=1e-9)
+        for (va, fa), (vb, fb) in [(fast, slow)]:
+            np.testing.assert_allclose(va[np.unique(fa)].min(0), vb[np.unique(fb)].min(0),
+                                       atol=1e-9)
+            np.testing.assert_allclose(va[np.unique(fa)].max(0), vb[np.unique(fb)].max(0),
+                                       atol=1e-9)
+
+
+def _cap_area(cap) -> float:
+    v, f = cap
+    t = v[f]
+    return float(0.5 * np.linalg.norm(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]),
+                                      axis=1).sum())
 
 
 def test_the_fast_path_takes_apart_boxes_tubes_and_nested_tubes():
@@ -285,3 +376,44 @@ def test_every_cut_is_capped_with_the_parts_section(sample_db):
             checked += 1
             capped += want > 0
     assert checked >= 40 and capped >= 0.8 * checked, (checked, capped)
+
+
+def _ring_set(*rings):
+    """Closed integer rings as plain_rings' input: (points, ring ends, body of each)."""
+    pts = np.array([p for r, _b in rings for p in [*r, r[0]]], dtype=np.int64)
+    ends = np.cumsum([0, *[len(r) + 1 for r, _b in rings]]).astype(np.int64)
+    return pts, ends, np.array([b for _r, b in rings], dtype=np.int64)
+
+
+def _square(x, y, size):
+    return [(x, y), (x + size, y), (x + size, y + size), (x, y + size)]
+
+
+def test_plain_rings_kernel():
+    """Shells, holes and islands in holes as the even-odd rule makes them; rings that
+    touch anywhere (a corner on another's side, a triangle folding back on itself) or a
+    ring of one body inside a ring of another decline (two empty arrays)."""
+    from citysynth.parts_db.section_loops import plain_rings
+    rings, polys = plain_rings(*_ring_set((_square(0, 0, 10), 0), (_square(20, 0, 5), 0)))
+    assert list(rings) == [0, 1] and list(polys) == [0, 1, 2]
+    rings, polys = plain_rings(*_ring_set((_square(0, 0, 10), 0), (_square(2, 2, 6), 0),
+                                          (_square(4, 4, 2), 0)))
+    assert list(rings) == [0, 1] and list(polys) == [0, 2]      # the island dropped
+    for case in [((_square(0, 0, 10), 0), (_square(2, 2, 6), 1)),          # nested bodies
+                 ((_square(0, 0, 10), 0), (_square(10, 2, 4), 1)),         # sides touch
+                 ((_square(0, 0, 10), 0), (_square(10, 10, 4), 0)),        # corners touch
+                 (([(0, 0), (10, 0), (5, 0)], 0),)]:                       # folds back
+        rings, polys = plain_rings(*_ring_set(*case))
+        assert not len(polys), case
+
+
+def test_other_planes_that_keep_nothing_leave_no_cap():
+    """A cut whose other planes keep no part of a plane's section (y <= 0.2 and y >= 0.6
+    on it) caps nothing there, by either path."""
+    mesh = _mesh([_box((0, 0, 0), (1, 1, 1))])
+    v, f = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    labels = body_labels(mesh)
+    plane = (1.0, 0.0, 0.5)
+    assert cuts._cap(v, f, plane, (plane, (0.0, 1.0, 0.2), (0.0, -1.0, -0.6)), labels) is None
+    kept = cuts._cap(v, f, plane, (plane, (0.0, 1.0, 0.6), (0.0, -1.0, -0.2)), labels)
+    assert kept is not None and _cap_area(kept) == pytest.approx(0.4)
