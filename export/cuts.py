@@ -15,9 +15,10 @@ A :class:`~citysynth.export.layout.Cut` says how, in the part's own placement fr
    piece, so each keeps its material.
 3. **Cap.** The part's solid cross-section on each plane (the even-odd section of its
    bodies, as ingest measures sections; taken from the section's segments chained
-   into loops where they chain simply, the same polygons without noding them) is
-   triangulated and added to the walls piece, facing out of the cut, so the cut part
-   is closed again.
+   into loops where they chain simply, the same polygons without noding them, and
+   where those loops lie plainly apart, as most do, triangulated straight from them
+   without shapely) is triangulated and added to the walls piece, facing out of the
+   cut, so the cut part is closed again.
 
 The cut pieces of a (part, cut) pair are computed once per process and, being plain
 prototypes, are instanced by USD and glTF like any part.
