@@ -180,7 +180,7 @@ def plain_rings(pts, ends, body):   # pragma: no cover (compiled)
     shell's hole, and deeper ones lie in a hole, dropped: the even-odd material that
     ``plane_section`` makes of them."""
     fail = (np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64))
-    if _touching(pts, ends):
+    if _touching(pts, ends, PAIRS_PER_SIDE * (ends[-1] + 16)):
         return fail
     # rings cross nowhere, so a ring lies in another exactly when its first point does
     nr = len(ends) - 1
@@ -212,11 +212,16 @@ def plain_rings(pts, ends, body):   # pragma: no cover (compiled)
     return rings[:n], poly[:p + 1]
 
 
+PAIRS_PER_SIDE = 64    # box-overlapping side pairs tested, a side, before giving up
+
+
 @njit(cache=True)
-def _touching(pts, ends):   # pragma: no cover (compiled)
+def _touching(pts, ends, budget):   # pragma: no cover (compiled)
     """Whether any two sides of the rings share a point, other than a ring's
     consecutive sides at their common corner (there, whether they fold back over each
-    other): pairwise among the sides whose boxes overlap, in a sweep along x."""
+    other): pairwise among the sides whose boxes overlap, in a sweep along x. Past
+    ``budget`` pairs it gives up and answers True (a dense section of long sides over
+    one another would make the sweep quadratic; shapely's noding is not)."""
     nr = len(ends) - 1
     ns = ends[nr] - nr                         # sides: each ring repeats one point
     sx0 = np.empty(ns, dtype=np.int64)
@@ -239,6 +244,9 @@ def _touching(pts, ends):   # pragma: no cover (compiled)
             b = first[order[j]]
             if max(pts[b, 1], pts[b + 1, 1]) < ay0 or min(pts[b, 1], pts[b + 1, 1]) > ay1:
                 continue
+            budget -= 1
+            if budget < 0:
+                return True
             r = ring_of[order[i]]
             lo, hi = min(a, b), max(a, b)
             if r == ring_of[order[j]] and (hi == lo + 1 or (lo == ends[r]

@@ -142,7 +142,9 @@ def plain_rings_section(vertices: np.ndarray, faces: np.ndarray, labels: np.ndar
     section nine times in ten, and shapely's per-call work on it (building, validating,
     uniting and normalizing the polygons, then reading their rings back) was most of
     the cap's time. Any other section (open chains, touching or nested bodies, a loop
-    folding back on itself) is for loop_section and, failing that, plane_section."""
+    folding back on itself, or sides so many and so long that testing them pairwise
+    would take longer than noding them) is for loop_section and, failing that,
+    plane_section."""
     grid, lab = _segments(vertices, faces, labels, origin, normal, u, v)
     if not len(grid):
         return NO_RINGS

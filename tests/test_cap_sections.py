@@ -417,3 +417,16 @@ def test_other_planes_that_keep_nothing_leave_no_cap():
     assert cuts._cap(v, f, plane, (plane, (0.0, 1.0, 0.2), (0.0, -1.0, -0.6)), labels) is None
     kept = cuts._cap(v, f, plane, (plane, (0.0, 1.0, 0.6), (0.0, -1.0, -0.2)), labels)
     assert kept is not None and _cap_area(kept) == pytest.approx(0.4)
+
+
+def test_plain_rings_give_up_on_a_dense_section():
+    """300 long thin parallelograms stacked across one another (every side's box
+    overlaps hundreds of others'): the pairwise test gives up within its budget and
+    declines, for shapely's noding; 20 of them, apart, are taken."""
+    from citysynth.parts_db.section_loops import plain_rings
+
+    def stack(n):
+        return _ring_set(*[([(0, 3 * k), (1000, 1000 + 3 * k), (1000, 1001 + 3 * k),
+                             (0, 1 + 3 * k)], k) for k in range(n)])
+    assert not len(plain_rings(*stack(300))[1])
+    assert len(plain_rings(*stack(20))[1]) == 21
