@@ -81,17 +81,18 @@ def _pop(heap, hs, lab_cost):
 @njit(cache=True)
 def _fgs_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, front_order, omega, back,
                dense, tab, keys, vals, shift, pops, lab_cost, lab_par, lab_j, lab_elem,
-               lab_state, heap, results, counters):
-    """Pop labels until done or until the arrays are nearly full (the driver then
-    grows them and calls again; nothing is reallocated in here, see graph.py).
-    counters = [labels, heap size, results, states, settled]."""
+               lab_state, heap, results, counters, max_pops):
+    """Pop labels until done, until ``max_pops`` pops, or until the arrays are nearly
+    full (the driver then grows them and calls again; nothing is reallocated in here,
+    see graph.py). counters = [labels, heap size, results, states, settled]."""
     c = np.zeros(len(cap), dtype=np.int64)
     nl, hs, nres, nnodes, settled = counters[0], counters[1], counters[2], counters[3], \
         counters[4]
-    while hs > 0 and nres < K:
+    while hs > 0 and nres < K and max_pops > 0:
         if nl + 3 > len(lab_cost) or nnodes + 1 > len(pops) or \
                 (not dense and 2 * (nnodes + 1) > len(keys)):
             break
+        max_pops -= 1
         lab, hs = _pop(heap, hs, lab_cost)
         e = lab_elem[lab]
         if e < 0:
@@ -170,9 +171,14 @@ def _fgs_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, front_order, omeg
         settled
 
 
-@njit(cache=True)
+POPS_PER_CALL = 1 << 18   # labels one kernel call pops at most (tens of milliseconds)
+
+
 def _fgs(K, n, r, lo, cap, stride, S, off, sptr, selem, sw, front_order, omega, back,
          dense, size_hint, max_labels):
+    """The search's driver, in Python between kernel calls of at most
+    :data:`POPS_PER_CALL` pops (as the A*'s): asked for by name on a large problem,
+    FGS runs minutes, and a compiled driver held Ctrl-C and SIGTERM until it ended."""
     tab, keys, vals, shift = table_new(dense, size_hint, S * n if dense else 1)
     m = 1 << 16
     pops = np.zeros(m, dtype=np.int64)
@@ -197,7 +203,7 @@ def _fgs(K, n, r, lo, cap, stride, S, off, sptr, selem, sw, front_order, omega, 
     while True:
         _fgs_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, front_order, omega, back,
                    dense, tab, keys, vals, shift, pops, lab_cost, lab_par, lab_j, lab_elem,
-                   lab_state, heap, results, counters)
+                   lab_state, heap, results, counters, POPS_PER_CALL)
         nl, hs, nres, nnodes = counters[0], counters[1], counters[2], counters[3]
         if hs == 0 or nres >= K:
             break

@@ -306,3 +306,44 @@ def test_a_long_search_lets_ctrl_c_in_between_kernel_calls(monkeypatch):
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, old)
     assert len(seen) > 1 and seen[-1] < k, "the search ran to its end before the signal"
+
+
+def test_fgs_by_name_lets_ctrl_c_in_between_kernel_calls(monkeypatch):
+    """FGS, asked for by name, runs in Python between kernel calls of a bounded number
+    of pops too: SIGINT (an alarm raising KeyboardInterrupt) stops it while it runs
+    (its compiled driver held the signal: bound_huge_eq2 ran past two minutes). Chunked,
+    it gives the same answers."""
+    import signal
+
+    from citysynth.solver import fgs
+
+    small = Problem.from_dict(street_front(30, resources=3))
+    whole = solve(small, k=50, method="fgs")
+    monkeypatch.setattr(fgs, "POPS_PER_CALL", 7)
+    chunked = solve(small, k=50, method="fgs")
+    assert [s.to_dict() for s in chunked.solutions] == [s.to_dict() for s in whole.solutions]
+    p = street_front(400, resources=3)
+    p["constraints"].update(doors=[0, 1000], balconies=[0, 1000])
+    problem = Problem.from_dict(p)
+    k = 300_000
+    seen: list[int] = []
+    kernel = fgs._fgs_steps
+
+    def counted(*args):
+        kernel(*args)
+        seen.append(int(args[-2][2]))   # counters[2]: complete sequences so far
+    monkeypatch.setattr(fgs, "_fgs_steps", counted)
+    monkeypatch.setattr(fgs, "POPS_PER_CALL", 1 << 12)
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGALRM, interrupt)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.5)
+        with pytest.raises(KeyboardInterrupt):
+            solve(problem, k=k, method="fgs")
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+    assert len(seen) > 1 and seen[-1] < k, "the search ran to its end before the signal"
