@@ -276,32 +276,43 @@ def test_a_long_search_lets_ctrl_c_in_between_kernel_calls(monkeypatch):
     pops, so SIGINT (here an alarm raising KeyboardInterrupt) stops a long search while
     it runs. The compiled driver it replaces held the signal until the whole search
     was done (a minute and more at the memory budget)."""
-    import signal
-
     from citysynth.solver import astar
+
+    solve(Problem.from_dict(street_front(20, resources=3)), k=2, method="bounded")  # compiled
+    _interrupted_while_searching(monkeypatch, astar, "_astar_steps", 3, "bounded")
+
+
+def _interrupted_while_searching(monkeypatch, module, kernel_name: str, counters_from_end: int,
+                                 method: str) -> None:
+    """A long search (k = 300,000 on a 400 m street with three resources), its kernel
+    ``module.kernel_name`` wrapped to count complete sequences after each call and to
+    set an alarm raising KeyboardInterrupt 0.2 s after its first call (so a slow setup
+    on a loaded machine cannot take the signal before the search runs): the signal
+    stops the search between calls, well before its end."""
+    import signal
 
     p = street_front(400, resources=3)
     p["constraints"].update(doors=[0, 1000], balconies=[0, 1000])
     problem = Problem.from_dict(p)
     k = 300_000
-    solve(Problem.from_dict(street_front(20, resources=3)), k=2, method="bounded")  # compiled
     seen: list[int] = []
-    kernel = astar._astar_steps
+    kernel = getattr(module, kernel_name)
 
     def counted(*args):
+        if not seen:
+            signal.setitimer(signal.ITIMER_REAL, 0.2)
         kernel(*args)
-        seen.append(int(args[-3][2]))   # cnt[2]: complete sequences so far
-    monkeypatch.setattr(astar, "_astar_steps", counted)
-    monkeypatch.setattr(astar, "POPS_PER_CALL", 1 << 12)
+        seen.append(int(args[-counters_from_end][2]))   # complete sequences so far
+    monkeypatch.setattr(module, kernel_name, counted)
+    monkeypatch.setattr(module, "POPS_PER_CALL", 1 << 12)
 
     def interrupt(signum, frame):
         raise KeyboardInterrupt
 
     old = signal.signal(signal.SIGALRM, interrupt)
     try:
-        signal.setitimer(signal.ITIMER_REAL, 0.5)
         with pytest.raises(KeyboardInterrupt):
-            solve(problem, k=k, method="bounded")
+            solve(problem, k=k, method=method)
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, old)
@@ -310,40 +321,18 @@ def test_a_long_search_lets_ctrl_c_in_between_kernel_calls(monkeypatch):
 
 def test_fgs_by_name_lets_ctrl_c_in_between_kernel_calls(monkeypatch):
     """FGS, asked for by name, runs in Python between kernel calls of a bounded number
-    of pops too: SIGINT (an alarm raising KeyboardInterrupt) stops it while it runs
-    (its compiled driver held the signal: bound_huge_eq2 ran past two minutes). Chunked,
-    it gives the same answers."""
-    import signal
-
+    of pops too: SIGINT stops it while it runs (its compiled driver held the signal:
+    bound_huge_eq2 ran past two minutes). Chunked, it gives the same answers."""
     from citysynth.solver import fgs
 
     small = Problem.from_dict(street_front(30, resources=3))
     whole = solve(small, k=50, method="fgs")
-    monkeypatch.setattr(fgs, "POPS_PER_CALL", 7)
-    chunked = solve(small, k=50, method="fgs")
-    assert [s.to_dict() for s in chunked.solutions] == [s.to_dict() for s in whole.solutions]
-    p = street_front(400, resources=3)
-    p["constraints"].update(doors=[0, 1000], balconies=[0, 1000])
-    problem = Problem.from_dict(p)
-    k = 300_000
-    seen: list[int] = []
+    calls: list[int] = []
     kernel = fgs._fgs_steps
-
-    def counted(*args):
-        kernel(*args)
-        seen.append(int(args[-2][2]))   # counters[2]: complete sequences so far
-    monkeypatch.setattr(fgs, "_fgs_steps", counted)
-    monkeypatch.setattr(fgs, "POPS_PER_CALL", 1 << 12)
-
-    def interrupt(signum, frame):
-        raise KeyboardInterrupt
-
-    old = signal.signal(signal.SIGALRM, interrupt)
-    try:
-        signal.setitimer(signal.ITIMER_REAL, 0.5)
-        with pytest.raises(KeyboardInterrupt):
-            solve(problem, k=k, method="fgs")
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
-    assert len(seen) > 1 and seen[-1] < k, "the search ran to its end before the signal"
+    with monkeypatch.context() as m:
+        m.setattr(fgs, "POPS_PER_CALL", 7)
+        m.setattr(fgs, "_fgs_steps", lambda *a: (calls.append(1), kernel(*a)))
+        chunked = solve(small, k=50, method="fgs")
+    assert [s.to_dict() for s in chunked.solutions] == [s.to_dict() for s in whole.solutions]
+    assert len(calls) > 100    # 7 pops a call (arrays growing would explain a few)
+    _interrupted_while_searching(monkeypatch, fgs, "_fgs_steps", 2, "fgs")
