@@ -138,3 +138,18 @@ def admissible(c, lo):
         if c[i] < lo[i]:
             return False
     return True
+
+
+@njit(cache=True, inline="always")
+def box_next(c, lo, hi):
+    """Step ``c``, a mixed-radix counter over the box [lo, hi] (its first digit
+    fastest, so states come in increasing order), to the next state: False, with c
+    back at lo, once past the last."""
+    i = 0
+    while i < len(lo):
+        c[i] += 1
+        if c[i] <= hi[i]:
+            return True
+        c[i] = lo[i]
+        i += 1
+    return False

@@ -42,6 +42,7 @@ import numpy as np
 from numba import njit
 
 from citysynth.solver._table import (
+    box_next,
     covers,
     decode,
     fits,
@@ -410,14 +411,7 @@ def _back_roots(n, r, lo, cap, stride, back, H, row_state, G, headB, nxtB, inB, 
                     inB[u] = 1
                     nxtB[u] = headB[lvl]
                     headB[lvl] = u
-        i = 0
-        while i < R:
-            c[i] += 1
-            if c[i] <= cap[i]:
-                break
-            c[i] = lo[i]
-            i += 1
-        if i == R:
+        if not box_next(c, lo, cap):
             return nrows
 
 

@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit, types
 from numba.extending import overload
 
-from citysynth.solver._table import hash_find
+from citysynth.solver._table import box_next, hash_find
 from citysynth.solver.kbest import TERM, graph_choices, kbest_from
 
 _X, _PTR, _KEY = 0, 1, 2
@@ -74,7 +74,7 @@ def _stage_choices(v, G, c, out_f, out_i):
         R = len(G.cap)
         for i in range(R):
             c[i] = G.qlo[q, i]
-        while True:  # every state of the query's box: a mixed-radix counter
+        while True:  # every state of the query's box
             s = 0
             for i in range(R):
                 s += c[i] * G.stride[i]
@@ -89,14 +89,7 @@ def _stage_choices(v, G, c, out_f, out_i):
                         out_i[m, _PTR] = -1
                         out_i[m, _KEY] = s * n + e
                         m += 1
-            i = 0
-            while i < R:
-                c[i] += 1
-                if c[i] <= G.qhi[q, i]:
-                    break
-                c[i] = G.qlo[q, i]
-                i += 1
-            if i == R:
+            if not box_next(c, G.qlo[q], G.qhi[q]):
                 break
         return m
     row = v // n
@@ -161,7 +154,7 @@ def _query_best(G, q, c):
     brow = -1
     be = -1
     other = np.inf
-    while True:  # every state of the query's box: a mixed-radix counter
+    while True:  # every state of the query's box
         s = 0
         for i in range(R):
             s += c[i] * G.stride[i]
@@ -177,14 +170,7 @@ def _query_best(G, q, c):
                         bc, bkey, brow, be = cost, key, row, e
                     else:
                         other = min(other, cost)
-        i = 0
-        while i < R:
-            c[i] += 1
-            if c[i] <= G.qhi[q, i]:
-                break
-            c[i] = G.qlo[q, i]
-            i += 1
-        if i == R:
+        if not box_next(c, G.qlo[q], G.qhi[q]):
             break
     return bc, bkey, brow, be, other
 
@@ -302,7 +288,7 @@ def _best_costs(g, wq, qlo, qhi, stride, dense, keys, vals, shift):
         for i in range(R):
             c[i] = qlo[q, i]
         bc = np.inf
-        while True:  # every state of the query's box: a mixed-radix counter
+        while True:  # every state of the query's box
             s = 0
             for i in range(R):
                 s += c[i] * stride[i]
@@ -312,14 +298,7 @@ def _best_costs(g, wq, qlo, qhi, stride, dense, keys, vals, shift):
                     cost = g[row, e] + wq[q, e]
                     if cost < bc:
                         bc = cost
-            i = 0
-            while i < R:
-                c[i] += 1
-                if c[i] <= qhi[q, i]:
-                    break
-                c[i] = qlo[q, i]
-                i += 1
-            if i == R:
+            if not box_next(c, qlo[q], qhi[q]):
                 break
         out[q] = bc
     return out
