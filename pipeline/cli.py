@@ -48,6 +48,7 @@ from citysynth.pipeline.errors import (
 )
 from citysynth.pipeline.paths import check_not_empty, check_numbers, check_out_dir
 from citysynth.skeletons import InputWarning
+from citysynth.solver.interrupts import interrupt_in
 
 __all__ = ["EXIT_BAD_INPUT", "EXIT_INFEASIBLE", "EXIT_INTERNAL", "EXIT_OK", "build_parser",
            "main"]
@@ -172,9 +173,7 @@ def _run(argv: list[str] | None) -> int:
         print(f"citysynth {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:
-        stopped = isinstance(exc, Terminated)
-        print(f"citysynth: {'terminated' if stopped else 'interrupted'}", file=sys.stderr)
-        return EXIT_TERMINATED if stopped else EXIT_INTERRUPTED
+        return _stopped(exc)
     except OSError as exc:
         if isinstance(exc, BrokenPipeError):
             raise
@@ -183,8 +182,16 @@ def _run(argv: list[str] | None) -> int:
         print(f"citysynth {args.command}: error: {environment_message(exc)}",
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    except Exception:   # a bug: its own exit code, so a pipeline never reads "infeasible"
-        return _internal(args.command)
+    except Exception as exc:   # a bug: its own exit code, so a pipeline never reads
+        signal = interrupt_in(exc)   # "infeasible"; or a signal numba's dispatcher wrapped
+        return _internal(args.command) if signal is None else _stopped(signal)
+
+
+def _stopped(exc: KeyboardInterrupt) -> int:
+    """Stopped by Ctrl-C (exit 130) or SIGTERM (143): one line saying which."""
+    terminated = isinstance(exc, Terminated)
+    print(f"citysynth: {'terminated' if terminated else 'interrupted'}", file=sys.stderr)
+    return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
 
 
 def _internal(command: str) -> int:

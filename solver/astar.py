@@ -63,6 +63,7 @@ from citysynth.solver._table import (
 )
 from citysynth.solver.bounds import Bounds, bound_after
 from citysynth.solver.compiled import Compiled
+from citysynth.solver.interrupts import kernel_calls
 
 STATUS_OK = 0
 STATUS_TOO_LARGE = 1
@@ -397,6 +398,7 @@ def _root(n, r, lo, cap, off, front, omega, bres, bbase, btab, rng, lab_g, lab_f
 POPS_PER_CALL = 1 << 18   # labels one kernel call pops at most (tens of milliseconds)
 
 
+@kernel_calls()
 def _astar(K, n, r, lo, cap, stride, off, sptr, selem, sw, front, omega, back, bres, bbase,
            btab, rng, max_labels, max_kids, max_nodes):
     """The search's driver, in Python between kernel calls of at most

@@ -30,6 +30,7 @@ from citysynth.solver._table import (
     table_rehash,
 )
 from citysynth.solver.compiled import Compiled
+from citysynth.solver.interrupts import kernel_calls
 
 STATUS_OK = 0
 STATUS_TOO_LARGE = 1
@@ -174,6 +175,7 @@ def _fgs_steps(K, n, r, lo, cap, stride, off, sptr, selem, sw, front_order, omeg
 POPS_PER_CALL = 1 << 18   # labels one kernel call pops at most (tens of milliseconds)
 
 
+@kernel_calls()
 def _fgs(K, n, r, lo, cap, stride, S, off, sptr, selem, sw, front_order, omega, back,
          dense, size_hint, max_labels):
     """The search's driver, in Python between kernel calls of at most
