@@ -446,17 +446,20 @@ def _astar(K, n, r, lo, cap, stride, off, sptr, selem, sw, front, omega, back, b
     return STATUS_OK, results[:cnt[2]], lab_par, lab_elem, cnt
 
 
-def astar_k_best(cp: Compiled, bounds: Bounds, k: int, budget_bytes: int):
+def astar_k_best(cp: Compiled, bounds: Bounds, k: int, budget_bytes: int,
+                 max_labels: int | None = None):
     """Run the search. Returns (status, sequences, counters): the first k sequences in
     (cost, lexicographic) order, fewer when fewer exist; counters are labels, nodes
     and settlements. STATUS_TOO_LARGE when labels, children and nodes outgrow
-    ``budget_bytes`` (a third each)."""
+    ``budget_bytes`` (a third each), or labels ``max_labels``."""
     share = max(budget_bytes // 3, 1 << 16)
+    labels = share // LABEL_BYTES if max_labels is None else min(share // LABEL_BYTES,
+                                                                 max_labels)
     status, res, lab_par, lab_elem, cnt = _astar(
         int(k), cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.off, cp.succ_ptr, cp.succ_elem,
         cp.succ_w, cp.front, cp.omega, cp.back, bounds.res, bounds.base, bounds.table,
         (bounds.rlevel, bounds.rother, bounds.rbase, bounds.rmin, bounds.rmax),
-        share // LABEL_BYTES, share // KID_BYTES, share // NODE_BYTES)
+        labels, share // KID_BYTES, share // NODE_BYTES)
     counters = {"labels": int(cnt[0]), "nodes": int(cnt[3]), "settled": int(cnt[4])}
     if status != STATUS_OK:
         return status, [], counters

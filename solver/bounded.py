@@ -10,7 +10,10 @@ spends its work near the answer instead:
 2. **One resource.** The relaxation is the problem, the table is the exact cost to go
    of every node, and the lazy k-best enumeration (:mod:`citysynth.solver.kbest`) runs on it
    directly: a plain dynamic program, then k paths. No growth from both ends, no
-   completing passes.
+   completing passes. For the best sequence alone (k = 1) a *coarse* table (whole
+   levels of several quanta, the lower bound only: a fraction of the program) guides
+   the search of 3. instead, which then sees a few hundred labels; should it make
+   more than the exact program would have cost, it starts again on the exact table.
 3. **Several resources.** A best-first (A*) search over (element, state) labels
    ordered by g + bound, ties broken lexicographically, returns the first k
    sequences in (cost, lexicographic) order (:mod:`citysynth.solver.astar`).
@@ -36,10 +39,34 @@ BOUNDS_SHARE = 4   # bound tables may use 1/4 of the memory budget, the search t
 EXACT_SHARE = 2    # a single resource's exact table 1/2, its enumeration the rest
 
 
-def bounds_for(cp: Compiled, budget_bytes: int) -> Bounds:
-    """The relaxation tables this method uses for ``cp`` under the memory budget."""
+COARSE_STEPS_PER_LABEL = 3000
+"""A search on a coarse table gives up for the exact table after one label per this
+many (level, transition) steps of the exact table's backward program: a label costs
+about 1.2-1.7 us, a step 0.3-0.4 ns (street bench), so the search may spend about
+1.5 times what the exact program would have, and a problem the coarse table guides
+badly costs at most about 2.5 times the exact path. On the street bench the search
+makes 24-1,006 labels, under the 200-1,280 it may."""
+
+
+def bounds_for(cp: Compiled, budget_bytes: int, k: int = 0) -> Bounds:
+    """The relaxation tables this method uses for ``cp`` under the memory budget: a
+    coarse one where it applies when one resource is constrained and only the best
+    sequence is asked for (k = 1: the search for it sees a few hundred labels, so a
+    table a fraction of the work guides it as well). Not for the second best on: the
+    exact table saves more search than it costs (k = 2 took 1.3-2.7x longer on the
+    coarse one on the street bench). Not with several resources: there the exact
+    table of the widest one prunes what the others allow (the three-resource street
+    at 80 m: 23 labels on exact tables, 289 on a coarse one; at 40 m, 41 against 604,
+    twice the time in all)."""
     share = EXACT_SHARE if cp.R == 1 else BOUNDS_SHARE
-    return relaxation_bounds(cp, budget_bytes // share)
+    return relaxation_bounds(cp, budget_bytes // share, coarse=k == 1 and cp.R == 1)
+
+
+def coarse_labels(cp: Compiled, bounds: Bounds) -> int:
+    """The labels a search on coarse tables may make before it gives up for the
+    exact tables (:data:`COARSE_STEPS_PER_LABEL`)."""
+    steps = sum(int(cp.cap[i]) + 1 for i in bounds.res) * max(len(cp.succ_elem), cp.n)
+    return max(256, steps // COARSE_STEPS_PER_LABEL)
 
 
 def exact_graph(cp: Compiled, bounds: Bounds) -> Graph:
@@ -77,9 +104,14 @@ def bounded_k_best(cp: Compiled, k: int, budget_bytes: int, bounds: Bounds | Non
         seqs, _costs, touched = k_best(exact_graph(cp, bounds), k)
         st.update(path="exact", nodes=int(bounds.table.size), kbest_nodes=touched)
         return seqs
-    status, seqs, counters = astar_k_best(cp, bounds, k, budget_bytes - bounds.nbytes)
+    status, seqs, counters = astar_k_best(
+        cp, bounds, k, budget_bytes - bounds.nbytes,
+        max_labels=coarse_labels(cp, bounds) if bounds.coarse else None)
     st.update(path="astar", labels=counters["labels"], nodes=counters["nodes"],
-              settled=counters["settled"])
+              settled=counters["settled"], coarse=bounds.coarse)
+    if status != STATUS_OK and bounds.coarse:   # a weak coarse bound: the exact tables
+        st["coarse_gave_up"] = counters["labels"]
+        return bounded_k_best(cp, k, budget_bytes, bounds_for(cp, budget_bytes), st)
     if status != STATUS_OK:
         raise _refusal(cp, counters["labels"], budget_bytes)
     return seqs

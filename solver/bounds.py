@@ -144,6 +144,97 @@ def relaxed_cost_to_go(ri, lo, cap, back, pred_ptr, pred_elem, pred_w):
     return h
 
 
+@njit(cache=True, fastmath={"nnan", "nsz"})
+def coarse_to_go(rc, need, back, pred_ptr, pred_elem, pred_w):
+    """g[q, e]: the cheapest completion from element e whose elements' coarse amounts
+    ``rc`` add up to at least q (q = 0..need), ending where a sequence may end; inf
+    when none does. Level q takes from level max(q - rc[f], 0) of each successor f, so
+    levels are filled upwards; level 0, and on every level the elements of coarse
+    amount 0, by a small Dijkstra (:func:`_finish_level`)."""
+    n = len(rc)
+    g = np.full((need + 1, n), np.inf)
+    for e in range(n):
+        if back[e]:
+            g[0, e] = 0.0
+    m = len(pred_elem) + n + 1
+    hk = np.empty(m)
+    hv = np.empty(m, dtype=np.int64)
+    _finish_level(g, 0, np.zeros(n, dtype=np.int64), pred_ptr, pred_elem, pred_w, hk, hv)
+    zero = False
+    for f in range(n):
+        if rc[f] == 0:
+            zero = True
+    for q in range(1, need + 1):
+        row = g[q]
+        for f in range(n):
+            if rc[f] == 0:
+                continue
+            hf = g[max(q - rc[f], 0), f]
+            if hf == np.inf:
+                continue
+            a, b = pred_ptr[f], pred_ptr[f + 1]
+            if b - a == n:
+                for p in range(n):
+                    x = pred_w[a + p] + hf
+                    y = row[p]
+                    row[p] = x if x < y else y
+            else:
+                for j in range(a, b):
+                    p = pred_elem[j]
+                    x = pred_w[j] + hf
+                    if x < row[p]:
+                        row[p] = x
+        if zero:
+            _finish_level(g, q, rc, pred_ptr, pred_elem, pred_w, hk, hv)
+    return g
+
+
+COARSE_LEVELS = 64
+"""A coarse table (:func:`coarse_factor`) has about this many levels below its
+resource's lower bound."""
+MIN_COARSE_FACTOR = 4
+"""A coarse table at least this many times smaller than the exact one, or none: where
+it would save less, the search it guides costs more than it saves (the 20 m street
+front at factor 2: 0.39 ms against 0.29 ms on the exact table; the motion graph's
+5 m row, 2.7 ms against 2.1 ms)."""
+
+
+def coarse_factor(cp: Compiled, i: int) -> int:
+    """How many quanta of resource i one level of its coarse table spans: at most half
+    the least positive amount an element consumes (so an element's amount, rounded up
+    to whole levels, grows by under half), about lo / :data:`COARSE_LEVELS`; 1 (the
+    exact table) below :data:`MIN_COARSE_FACTOR`, and for a resource with no lower
+    bound to reach."""
+    r = cp.r[:, i]
+    pos = r[r > 0]
+    if not len(pos) or cp.lo[i] <= 0:
+        return 1
+    s = min(int(pos.min()) // 2, -(-int(cp.lo[i]) // COARSE_LEVELS))
+    return s if s >= MIN_COARSE_FACTOR else 1
+
+
+def coarse_cost_to_go(cp: Compiled, i: int, s: int) -> np.ndarray:
+    """A consistent lower bound on resource i's relaxed cost to go, h[c, e] for c =
+    0..cap_i, from a table s times smaller: the relaxation that keeps only the lower
+    bound lo_i and counts each element's amount r in whole levels of s quanta,
+    ceil(r / s), needing ceil((lo_i - c) / s) more levels.
+
+    Every completion of node (e, c) in the real problem consumes at least lo_i - c, so
+    its levels, each rounded up, add up to at least ceil((lo_i - c) / s): it is a
+    completion of this relaxation with the same cost, and the table bounds the real
+    cost to go from below. Consistent, as A* needs: h(e, c) <= w(e, f) + h(f, c + r_f),
+    because ceil((lo - c) / s) <= ceil((lo - c - r_f) / s) + ceil(r_f / s) and the
+    table only grows with the levels still needed. What it gives up: the upper bound
+    (the search drops a label past cap itself) and the exact fit, for a backward
+    program over lo_i / s levels instead of cap_i."""
+    r = cp.r[:, i]
+    lo, cap = int(cp.lo[i]), int(cp.cap[i])
+    g = coarse_to_go(-(-r // s), -(-max(lo, 0) // s), cp.back, cp.pred_ptr, cp.pred_elem,
+                     cp.pred_w)
+    need = -(-np.maximum(lo - np.arange(cap + 1), 0) // s)
+    return g[need]
+
+
 def _no_ranges() -> np.ndarray:
     return np.zeros(0, dtype=np.int64)
 
@@ -162,6 +253,7 @@ class Bounds:
     base: np.ndarray   # int64 [T]  where each table starts in ``table``
     table: np.ndarray  # float64
     exact: bool        # the only resource is kept: the values are the exact cost-to-go
+    coarse: bool = False   # some table is a coarse one (:func:`coarse_cost_to_go`)
     rlevel: np.ndarray = field(default_factory=_no_ranges)   # int64 [U]
     rother: np.ndarray = field(default_factory=_no_ranges)   # int64 [U]
     rbase: np.ndarray = field(default_factory=_no_ranges)    # int64 [U]
@@ -182,21 +274,30 @@ def table_bytes(cp: Compiled, i: int) -> int:
     return 8 * cp.n * (int(cp.cap[i]) + 1)
 
 
-def relaxation_bounds(cp: Compiled, budget_bytes: int) -> Bounds:
+def relaxation_bounds(cp: Compiled, budget_bytes: int, coarse: bool = False) -> Bounds:
     """Tables for every constrained resource whose table fits ``budget_bytes`` (the
     narrowest first; a resource that does not fit is simply not used for bounding),
     then, with the rest of the budget, the range tables of the other resources over
-    the narrowest one's levels. With one resource the single table is exact."""
+    the narrowest one's levels. With one resource the single table is exact, unless
+    ``coarse``: then a resource with a wide lower bound and large amounts gets the
+    coarse table (:func:`coarse_cost_to_go`), a fraction of the work, which guides a
+    search for the best sequence nearly as well."""
     order = sorted(range(cp.R), key=lambda i: (int(cp.cap[i]), i))
     res: list[int] = []
     parts: list[np.ndarray] = []
     used = 0
+    any_coarse = False
     for i in order:
         need = table_bytes(cp, i)
         if used + need > budget_bytes:
             continue
-        h = relaxed_cost_to_go(cp.r[:, i].copy(), int(cp.lo[i]), int(cp.cap[i]), cp.back,
-                               cp.pred_ptr, cp.pred_elem, cp.pred_w)
+        s = coarse_factor(cp, i) if coarse else 1
+        if s > 1:
+            h = coarse_cost_to_go(cp, i, s)
+            any_coarse = True
+        else:
+            h = relaxed_cost_to_go(cp.r[:, i].copy(), int(cp.lo[i]), int(cp.cap[i]),
+                                   cp.back, cp.pred_ptr, cp.pred_elem, cp.pred_w)
         res.append(i)
         parts.append(h.ravel())
         used += need
@@ -205,8 +306,8 @@ def relaxation_bounds(cp: Compiled, budget_bytes: int) -> Bounds:
         base[1:] = np.cumsum([len(p) for p in parts])[:-1]
     table = np.concatenate(parts) if parts else np.zeros(0)
     ranges = range_tables(cp, res[0], budget_bytes - used) if res and cp.R > 1 else {}
-    return Bounds(np.array(res, dtype=np.int64), base, table, cp.R == 1 and len(res) == 1,
-                  **ranges)
+    return Bounds(np.array(res, dtype=np.int64), base, table,
+                  cp.R == 1 and len(res) == 1 and not any_coarse, any_coarse, **ranges)
 
 
 def zero_chains(cp: Compiled, level: int) -> bool:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from fractions import Fraction
+from functools import lru_cache
 
 import numpy as np
 
@@ -50,16 +51,17 @@ def exact_divisor(values: list[float]) -> Fraction | None:
     Values are read as rationals with denominators up to 10**4; the gcd of rationals
     a_i/b_i is gcd(a_i * L/b_i) / L with L = lcm(b_i). All-zero input gives 1.
     """
+    distinct = {v for v in values if v != 0}   # a library repeats its few lengths
+    if not distinct:
+        return Fraction(1)
+    if all(float(v).is_integer() for v in distinct):   # counts: the gcd of integers
+        return Fraction(math.gcd(*(int(v) for v in distinct)))
     fracs = []
-    for v in values:
-        if v == 0:
-            continue
-        f = Fraction(v).limit_denominator(_MAX_DENOMINATOR)
-        if abs(float(f) - v) > TOL * max(1.0, abs(v)):
+    for v in sorted(distinct):
+        f = _rational(v)
+        if f is None:
             return None
         fracs.append(f)
-    if not fracs:
-        return Fraction(1)
     lcm = 1
     for f in fracs:
         lcm = lcm * f.denominator // math.gcd(lcm, f.denominator)
@@ -67,6 +69,14 @@ def exact_divisor(values: list[float]) -> Fraction | None:
     for f in fracs:
         g = math.gcd(g, f.numerator * (lcm // f.denominator))
     return Fraction(g, lcm)
+
+
+@lru_cache(maxsize=4096)
+def _rational(v: float) -> Fraction | None:
+    """v as a rational with a denominator up to 10**4, or None when none is within
+    1e-9 of it (made once per value: problems from one library repeat its lengths)."""
+    f = Fraction(v).limit_denominator(_MAX_DENOMINATOR)
+    return f if abs(float(f) - v) <= TOL * max(1.0, abs(v)) else None
 
 
 def is_multiple(v: float, q: float) -> bool:

@@ -262,7 +262,7 @@ def _bounded(problem: Problem, cp: Compiled, k: int, max_memory_mb: float, table
              stats: dict) -> tuple[list[list[int]], float]:
     """The cost-bounded search (:mod:`citysynth.solver.bounded`); its setup is the bound tables."""
     budget = int(max_memory_mb * 2**20)
-    bounds = bounds_for(cp, budget)
+    bounds = bounds_for(cp, budget, k)
     stats["estimate"] = {"bound_tables_bytes": bounds.nbytes, "table": "hash"}
     t1 = time.perf_counter()
     seqs = _truly_feasible(problem, cp, k,
