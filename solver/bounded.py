@@ -110,8 +110,9 @@ def bounded_k_best(cp: Compiled, k: int, budget_bytes: int, bounds: Bounds | Non
     st.update(path="astar", labels=counters["labels"], nodes=counters["nodes"],
               settled=counters["settled"], coarse=bounds.coarse)
     if status != STATUS_OK and bounds.coarse:   # a weak coarse bound: the exact tables
-        st["coarse_gave_up"] = counters["labels"]
-        return bounded_k_best(cp, k, budget_bytes, bounds_for(cp, budget_bytes), st)
+        st["coarse_gave_up"] = counters["labels"]  # (within what the coarse ones leave:
+        rest = budget_bytes - bounds.nbytes        # the caller may still hold them)
+        return bounded_k_best(cp, k, rest, bounds_for(cp, rest), st)
     if status != STATUS_OK:
         raise _refusal(cp, counters["labels"], budget_bytes)
     return seqs
