@@ -10,13 +10,14 @@ spends its work near the answer instead:
 2. **One resource.** The relaxation is the problem, the table is the exact cost to go
    of every node, and the lazy k-best enumeration (:mod:`citysynth.solver.kbest`) runs on it
    directly: a plain dynamic program, then k paths. No growth from both ends, no
-   completing passes. For the best sequence alone (k = 1) a *coarse* table (whole
-   levels of several quanta, the lower bound only: a fraction of the program) guides
-   the search of 3. instead, which then sees a few hundred labels; should it make
-   more than the exact program would have cost, it starts again on the exact table.
+   completing passes. For the best sequence alone (k = 1) a *coarse* table (the
+   amount known to levels of several quanta: a fraction of the program) guides the
+   search of 3. instead, which then sees a few hundred labels; should it make more
+   than about 1.5 times the exact program's work, it starts again on the exact table.
 3. **Several resources.** A best-first (A*) search over (element, state) labels
    ordered by g + bound, ties broken lexicographically, returns the first k
-   sequences in (cost, lexicographic) order (:mod:`citysynth.solver.astar`).
+   sequences in (cost, lexicographic) order (:mod:`citysynth.solver.astar`). For
+   k = 1 a wide resource's table is coarse too, where it is at least 6 times smaller.
 
 Exact throughout: the bound never exceeds the true cost to go, so nothing cheaper than
 the k-th answer is ever cut, and the sequences are those the other methods return.
@@ -49,17 +50,13 @@ makes 24-1,006 labels, under the 200-1,280 it may."""
 
 
 def bounds_for(cp: Compiled, budget_bytes: int, k: int = 0) -> Bounds:
-    """The relaxation tables this method uses for ``cp`` under the memory budget: a
-    coarse one where it applies when one resource is constrained and only the best
-    sequence is asked for (k = 1: the search for it sees a few hundred labels, so a
-    table a fraction of the work guides it as well). Not for the second best on: the
-    exact table saves more search than it costs (k = 2 took 1.3-2.7x longer on the
-    coarse one on the street bench). Not with several resources: there the exact
-    table of the widest one prunes what the others allow (the three-resource street
-    at 80 m: 23 labels on exact tables, 289 on a coarse one; at 40 m, 41 against 604,
-    twice the time in all)."""
+    """The relaxation tables this method uses for ``cp`` under the memory budget:
+    coarse ones where they apply when only the best sequence is asked for (k = 1: the
+    search for it sees a few hundred labels, so a table a fraction of the work guides
+    it as well). Not for the second best on: the exact tables save more search than
+    they cost (k = 2 took 1.3-2.7x longer on coarse ones on the street bench)."""
     share = EXACT_SHARE if cp.R == 1 else BOUNDS_SHARE
-    return relaxation_bounds(cp, budget_bytes // share, coarse=k == 1 and cp.R == 1)
+    return relaxation_bounds(cp, budget_bytes // share, coarse=k == 1)
 
 
 def coarse_labels(cp: Compiled, bounds: Bounds) -> int:

@@ -1,6 +1,7 @@
-"""Coarse bound tables (solver.bounds.coarse_cost_to_go), which guide the search for
-the best sequence (k = 1) at a fraction of the exact tables' cost: the table against a
-plain Bellman-Ford of its own relaxation, a lower bound on the exact relaxed cost to
+"""Coarse bound tables (solver.bounds.coarse_cost_to_go: the amount consumed known to
+levels of s quanta), which guide the search for the best sequence (k = 1) at a
+fraction of the exact tables' cost: the table against a plain Bellman-Ford of its own
+relaxation, a lower bound on the exact relaxed cost to
 go, consistent on every transition; the search on coarse tables (at forced factors, so
 the small hypothesis problems take them) against exhaustive enumeration for k = 1..8;
 ``auto`` taking them on the street and, when they guide badly, giving up for the
@@ -34,30 +35,32 @@ from tests.test_solver_bruteforce import problems
 
 def _coarse_by_bellman_ford(p: Problem, cp, i: int, s: int) -> np.ndarray:
     """The coarse relaxation's cost to go by Bellman-Ford from infinity, straight from
-    its definition: from element e with q levels still needed, end (where a sequence
-    may end) once q is 0, or take a transition to f, needing max(q - ceil(r_f / s), 0);
-    then read at node (e, c) with ceil(max(lo - c, 0) / s) levels needed."""
+    its definition: from element e on level q, end (where a sequence may end) on a
+    level within [lo // s, cap // s], or take a transition to f, moving up by
+    r_f // s or by ceil(r_f / s) levels (within cap // s); read at node (e, c) on
+    level c // s."""
     index = p.element_index()
-    rc = -(-cp.r[:, i] // s)
+    r = cp.r[:, i]
     lo, cap = int(cp.lo[i]), int(cp.cap[i])
-    need = -(-max(lo, 0) // s)
+    qlo, qcap = max(lo, 0) // s, cap // s
     back = {index[x] for x in p.back}
     omega = {index[e.id]: e.cost for e in p.elements}
     edges = [(index[a], index[b], d + omega[index[b]]) for a, b, d in p.transitions]
-    g = np.full((need + 1, cp.n), np.inf)
+    g = np.full((qcap + 1, cp.n), np.inf)
     changed = True
     while changed:
         changed = False
-        for q in range(need + 1):
+        for q in range(qcap + 1):
             for e in range(cp.n):
-                best = 0.0 if e in back and q == 0 else np.inf
+                best = 0.0 if e in back and qlo <= q else np.inf
                 for a, b, w in edges:
-                    if a == e:
-                        best = min(best, w + g[max(q - int(rc[b]), 0), b])
+                    for step in {int(r[b]) // s, -(-int(r[b]) // s)}:
+                        if a == e and q + step <= qcap:
+                            best = min(best, w + g[q + step, b])
                 if best < g[q, e]:
                     g[q, e] = best
                     changed = True
-    return g[[-(-max(lo - c, 0) // s) for c in range(cap + 1)]]
+    return g[np.arange(cap + 1) // s]
 
 
 @settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
