@@ -53,6 +53,7 @@ from citysynth.solver._table import (
     table_rehash,
 )
 from citysynth.solver.compiled import Compiled
+from citysynth.solver.interrupts import in_background
 
 STATUS_OK = 0
 STATUS_TOO_LARGE = 1
@@ -452,8 +453,9 @@ def _grow_graph(n, r, lo, cap, stride, S, off, lev, top, W, npred,
 
 
 # C901: a numba kernel: growth, meeting and both completing passes in one compiled
-# call, inlined for speed
-@njit(cache=True)
+# call, inlined for speed. nogil: ``grow`` runs it in a thread the main thread waits on,
+# so Ctrl-C is taken while it runs (solver.interrupts.in_background)
+@njit(cache=True, nogil=True)
 def _grow(n, r, lo, cap, stride, S, off, lev, top, W, lists, npred,  # noqa: C901
           front, back, omega, dense, rows_hint, max_rows, forward_only, complete):
     """Grow, meet and complete. ``lists`` = (succ_ptr, succ_elem, succ_w, pred_ptr,
@@ -596,10 +598,9 @@ def grow(cp: Compiled, *, dense: bool, rows_hint: int, max_rows: int,
     W = np.zeros((1, 1)) if sparse else cp.W
     lists = (cp.succ_ptr, cp.succ_elem, cp.succ_w, cp.pred_ptr, cp.pred_elem, cp.pred_w,
              np.full(1, sparse, dtype=np.bool_))
-    return _grow(
-        cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.S, cp.off, cp.lev, cp.top, W, lists, npred,
-        cp.front, cp.back, cp.omega, dense, rows_hint, max_rows, forward_only, complete,
-    )
+    return in_background(
+        _grow, cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.S, cp.off, cp.lev, cp.top, W, lists,
+        npred, cp.front, cp.back, cp.omega, dense, rows_hint, max_rows, forward_only, complete)
 
 
 def build_graph(cp: Compiled, *, dense: bool, rows_hint: int, max_rows: int) -> Graph | None:

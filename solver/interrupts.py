@@ -1,4 +1,4 @@
-"""Ctrl-C and SIGTERM that land in numba's dispatcher.
+"""Ctrl-C and SIGTERM while compiled kernels run.
 
 A compiled kernel called from Python passes through numba's dispatcher, which runs
 Python code of its own around the call (unboxing arguments, unpickling a cached
@@ -10,8 +10,13 @@ of "interrupted", exit 130)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import threading
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from typing import Any, TypeVar
+
+T = TypeVar("T")
+WAIT_S = 0.05   # how often the waiting main thread looks up (and takes signals)
 
 
 def interrupt_in(exc: BaseException) -> KeyboardInterrupt | None:
@@ -41,3 +46,31 @@ def kernel_calls() -> Iterator[None]:
         if stop is None:
             raise
         raise stop from None
+
+
+def in_background(kernel: Callable[..., T], *args: Any) -> T:
+    """``kernel(*args)`` run in a daemon thread while the main thread waits in slices of
+    :data:`WAIT_S`, so Ctrl-C and SIGTERM reach the main thread while the kernel runs.
+
+    For one long compiled call that cannot be cut into short ones (the intermediate
+    graph's growth: seconds on a wide three-resource problem, every level in one
+    compiled loop): the kernel must be compiled with ``nogil=True``, or it would hold
+    the interpreter, and with it the signal, until it ends. On a signal the
+    KeyboardInterrupt is raised at once in the caller; the kernel finishes in the
+    background and its result is dropped (the command line exits, which ends it)."""
+    box: dict[str, Any] = {}
+
+    def run() -> None:
+        try:
+            box["out"] = kernel(*args)
+        except BaseException as exc:   # handed to the caller below
+            box["exc"] = exc
+
+    worker = threading.Thread(target=run, name="citysynth-kernel", daemon=True)
+    worker.start()
+    with kernel_calls():
+        while worker.is_alive():
+            worker.join(WAIT_S)
+    if "exc" in box:
+        raise box["exc"]
+    return box["out"]

@@ -67,3 +67,46 @@ def test_the_command_line_says_stopped_not_internal_error(monkeypatch, capsys, t
     assert main(["solve", str(problem)]) == code
     err = capsys.readouterr().err
     assert err.strip() == f"citysynth: {word}" and "Traceback" not in err
+
+
+def test_ctrl_c_stops_the_intermediate_graph_while_it_grows(monkeypatch):
+    """rcksp grows its intermediate graph in one compiled call (seconds on a wide
+    three-resource street), run in a thread the main thread waits on in short slices
+    (solver.interrupts.in_background): SIGINT, here an alarm raising
+    KeyboardInterrupt 0.1 s into the growth, stops the solve while the growth still
+    runs. Before, the kernel held the signal until the graph was grown."""
+    import signal
+    import threading
+
+    from citysynth.solver import Problem, graph, solve
+    from citysynth.solver.samples import street_front
+
+    solve(Problem.from_dict(street_front(20, resources=3)), k=5, method="rcksp")  # compiled
+    kernel = graph._grow
+    where: list[threading.Thread] = []
+    done = threading.Event()
+
+    def alarmed(*args):
+        where.append(threading.current_thread())
+        signal.setitimer(signal.ITIMER_REAL, 0.1)
+        try:
+            return kernel(*args)
+        finally:
+            done.set()
+    monkeypatch.setattr(graph, "_grow", alarmed)
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGALRM, interrupt)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            solve(Problem.from_dict(street_front(120, resources=3)), k=1000, method="rcksp")
+        assert where[0] is not threading.main_thread()
+        assert not done.is_set()    # stopped while the graph was still growing
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+    # let it end, so no other test shares the machine with it (not Thread.join: a
+    # join interrupted by a signal marks the thread stopped, bpo-45274's fix)
+    assert done.wait(120)
