@@ -138,9 +138,10 @@ def test_auto_takes_coarse_tables_for_the_best_street_front_only():
 
 
 def test_no_coarse_table_without_a_lower_bound_or_for_small_amounts():
-    """Factor 1 (the exact table) for an upper bound alone and for amounts of a few
-    quanta, where a coarse table would save nothing; else half the least amount, at
-    most lo / COARSE_LEVELS."""
+    """Factor 1 (the exact table) for an upper bound alone, for amounts of a few quanta
+    (a coarse table would save nothing) and for sequences long against the table (the
+    search would settle every element); else half the least amount, at most
+    lo / COARSE_LEVELS."""
     def compiled(lengths, lo, hi):
         ids = [f"e{x}" for x in lengths]
         return compile_problem(Problem.from_dict({
@@ -148,7 +149,10 @@ def test_no_coarse_table_without_a_lower_bound_or_for_small_amounts():
             "elements": [{"id": f"e{x}", "resources": {"len": x}, "cost": 1.0}
                          for x in lengths],
             "transitions": [[a, b, 0.0] for a in ids for b in ids]}))
-    assert coarse_factor(compiled([20, 21], 0, 2000), 0) == 1
+    many = list(range(20, 60))
+    assert coarse_factor(compiled(many, 0, 2000), 0) == 1
     assert coarse_factor(compiled([3, 4], 3000, 3000), 0) == 1
-    assert coarse_factor(compiled([20, 21], 2000, 2000), 0) == 10
-    assert coarse_factor(compiled([20, 21], 200, 210), 0) == 4
+    assert coarse_factor(compiled(many, 2000, 2000), 0) == 10
+    assert coarse_factor(compiled(many, 200, 210), 0) == 4
+    # sequences long against the table: two elements filling 20,000 are 1,000 deep
+    assert coarse_factor(compiled([20, 21], 20000, 20000), 0) == 1
