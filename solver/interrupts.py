@@ -68,9 +68,8 @@ def in_background(kernel: Callable[..., T], *args: Any) -> T:
 
     worker = threading.Thread(target=run, name="citysynth-kernel", daemon=True)
     worker.start()
-    with kernel_calls():
-        while worker.is_alive():
-            worker.join(WAIT_S)
+    while worker.is_alive():   # a signal's KeyboardInterrupt is raised here
+        worker.join(WAIT_S)
     if "exc" in box:
         raise box["exc"]
     return box["out"]

@@ -57,7 +57,7 @@ def exact_divisor(values: list[float]) -> Fraction | None:
     if all(float(v).is_integer() for v in distinct):   # counts: the gcd of integers
         return Fraction(math.gcd(*(int(v) for v in distinct)))
     fracs = []
-    for v in sorted(distinct):
+    for v in distinct:          # exact integer arithmetic below: order is immaterial
         f = _rational(v)
         if f is None:
             return None

@@ -96,18 +96,25 @@ def test_best_first_search_with_and_without_bounds(p, k):
         _check_sequences(p, seqs, k, f"{bounds.count} tables")
 
 
+def ends_and_edges(p: Problem, weight=None) -> tuple[set[int], list[tuple[int, int, float]]]:
+    """The element indices a sequence may end with, and every transition as (from, to,
+    weight) by element index: its cost (delta plus the entered element's own), or with
+    ``weight`` (element index -> number) that of the element it enters."""
+    index = p.element_index()
+    omega = {index[e.id]: e.cost for e in p.elements}
+    return {index[x] for x in p.back}, [
+        (index[a], index[b], d + omega[index[b]] if weight is None else weight(index[b]))
+        for a, b, d in p.transitions]
+
+
 def _relaxed_by_bellman_ford(p: Problem, cp, i: int, weight=None) -> np.ndarray:
     """The cost to go of the one-resource relaxation by plain Bellman-Ford from
     infinity (the least fixed point: exact, zero-consumption cycles included); with
     ``weight`` (element index -> number) a transition weighs that of its element
     instead of its cost."""
-    index = p.element_index()
     ri = cp.r[:, i]
     lo, cap = int(cp.lo[i]), int(cp.cap[i])
-    back = {index[x] for x in p.back}
-    omega = {index[e.id]: e.cost for e in p.elements}
-    edges = [(index[a], index[b], d + omega[index[b]] if weight is None else
-              weight(index[b])) for a, b, d in p.transitions]
+    back, edges = ends_and_edges(p, weight)
     h = np.full((cap + 1, cp.n), np.inf)
     changed = True
     while changed:

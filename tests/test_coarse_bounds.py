@@ -29,7 +29,7 @@ from citysynth.solver.bounds import (
 )
 from citysynth.solver.compiled import compile_problem
 from citysynth.solver.samples import street_front
-from tests.test_bounded_solver import _check_result, _check_sequences
+from tests.test_bounded_solver import _check_result, _check_sequences, ends_and_edges
 from tests.test_solver_bruteforce import problems
 
 
@@ -39,13 +39,10 @@ def _coarse_by_bellman_ford(p: Problem, cp, i: int, s: int) -> np.ndarray:
     level within [lo // s, cap // s], or take a transition to f, moving up by
     r_f // s or by ceil(r_f / s) levels (within cap // s); read at node (e, c) on
     level c // s."""
-    index = p.element_index()
     r = cp.r[:, i]
     lo, cap = int(cp.lo[i]), int(cp.cap[i])
     qlo, qcap = max(lo, 0) // s, cap // s
-    back = {index[x] for x in p.back}
-    omega = {index[e.id]: e.cost for e in p.elements}
-    edges = [(index[a], index[b], d + omega[index[b]]) for a, b, d in p.transitions]
+    back, edges = ends_and_edges(p)
     g = np.full((qcap + 1, cp.n), np.inf)
     changed = True
     while changed:
