@@ -27,6 +27,7 @@ side (so the mass lies behind the skeleton line, never on the street side).
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, Protocol
@@ -64,14 +65,15 @@ class _Path:
         self.len = np.hypot(seg[:, 0], seg[:, 1])
         self.cum = np.concatenate([[0.0], np.cumsum(self.len)])
         self.dir = seg / self.len[:, None]
+        self._cum = self.cum.tolist()    # for bisect: a block asks hundreds of times
 
     @property
     def length(self) -> float:
         return float(self.cum[-1])
 
     def segment(self, s: float) -> int:
-        return int(np.clip(np.searchsorted(self.cum, s, side="right") - 1, 0,
-                           len(self.len) - 1))
+        """The segment arc length s lies on (the first or last beyond the ends)."""
+        return min(max(bisect_right(self._cum, s) - 1, 0), len(self._cum) - 2)
 
     def at(self, s: float) -> np.ndarray:
         i = self.segment(s)
@@ -79,8 +81,8 @@ class _Path:
 
     def bends_within(self, s0: float, s1: float) -> list[int]:
         """Indices of the inner vertices strictly inside the arc-length range."""
-        return [i for i in range(1, len(self.p) - 1)
-                if s0 + TOL < self.cum[i] < s1 - TOL]
+        lo, hi = s0 + TOL, s1 - TOL
+        return [i for i in range(1, len(self._cum) - 1) if lo < self._cum[i] < hi]
 
     def distances(self, q: np.ndarray) -> np.ndarray:
         """Distance from each point q [m, 2] to the polyline, in one pass."""
@@ -625,11 +627,12 @@ def _footprints(placed: Sequence[Placed], spans: Sequence[tuple[float, float]]
     in one call (a block has hundreds)."""
     if not placed:
         return np.empty(0, dtype=object)
-    pts = np.empty((len(placed), 4, 2))
-    for k, (p, (x0, x1)) in enumerate(zip(placed, spans, strict=True)):
-        y0, y1 = p.y_range
-        pts[k] = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]]) @ p.a.T + p.origin
-    return shapely.polygons(pts)
+    (x0, x1), (y0, y1) = np.array(spans).T, np.array([p.y_range for p in placed]).T
+    local = np.stack([np.stack([x0, x1, x1, x0], axis=1),
+                      np.stack([y0, y0, y1, y1], axis=1)], axis=2)       # [n, 4, 2]
+    a = np.array([p.a for p in placed])                                # [n, 2, 2]
+    origin = np.array([p.origin for p in placed])
+    return shapely.polygons(np.einsum("nkj,nij->nki", local, a) + origin[:, None, :])
 
 
 def _clipped_footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:

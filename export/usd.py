@@ -149,9 +149,12 @@ def _prototype_spec(parent: Sdf.Layer | Sdf.PrimSpec, db: PartDB, inst: Instance
         data["cut"] = _vt(inst.cut.to_dict())
     root.customData = {"citysynth": data}
     looks = Sdf.PrimSpec(root, "Looks", Sdf.SpecifierDef, "Scope")
+    bound: dict[str, Sdf.Path] = {}
     for i, piece in enumerate(prototype_pieces(db, inst)):
-        _mesh_spec(root, prim_name(f"{piece.name}_{i}"), piece,
-                   _material_spec(looks, material_name(piece), parts_dir))
+        name = material_name(piece)
+        if name not in bound:
+            bound[name] = _material_spec(looks, name, parts_dir)
+        _mesh_spec(root, prim_name(f"{piece.name}_{i}"), piece, bound[name])
     return root
 
 
@@ -193,18 +196,15 @@ def _mesh_spec(parent: Sdf.PrimSpec, label: str, piece: Piece, material: Sdf.Pat
     opacity) bound to ``material``."""
     t = Sdf.ValueTypeNames
     mesh = Sdf.PrimSpec(parent, label, Sdf.SpecifierDef, "Mesh")
-    pts = piece.vertices.astype(np.float32)
+    pts, indices, normals, extent = piece.float32_arrays()
     _spec(mesh, "points", t.Point3fArray, Vt.Vec3fArray.FromNumpy(pts))
-    _spec(mesh, "faceVertexCounts", t.IntArray,
-          Vt.IntArray.FromNumpy(np.full(len(piece.faces), 3, dtype=np.int32)))
-    _spec(mesh, "faceVertexIndices", t.IntArray,
-          Vt.IntArray.FromNumpy(piece.faces.astype(np.int32).ravel()))
-    _spec(mesh, "normals", t.Normal3fArray,
-          Vt.Vec3fArray.FromNumpy(piece.normals.astype(np.float32)), UsdGeom.Tokens.uniform)
+    _spec(mesh, "faceVertexCounts", t.IntArray, _triangle_counts(len(piece.faces)))
+    _spec(mesh, "faceVertexIndices", t.IntArray, Vt.IntArray.FromNumpy(indices))
+    _spec(mesh, "normals", t.Normal3fArray, Vt.Vec3fArray.FromNumpy(normals),
+          UsdGeom.Tokens.uniform)
     _spec(mesh, "subdivisionScheme", t.Token, UsdGeom.Tokens.none,
           variability=Sdf.VariabilityUniform)
-    _spec(mesh, "extent", t.Float3Array,
-          Vt.Vec3fArray.FromNumpy(np.stack([pts.min(axis=0), pts.max(axis=0)])))
+    _spec(mesh, "extent", t.Float3Array, Vt.Vec3fArray.FromNumpy(extent))
     _spec(mesh, "primvars:displayColor", t.Color3fArray, _display_color(piece.rgba),
           UsdGeom.Tokens.constant)
     if piece.rgba[3] < 255:
@@ -218,6 +218,13 @@ def _mesh_spec(parent: Sdf.PrimSpec, label: str, piece: Piece, material: Sdf.Pat
 _BINDING_API = Sdf.TokenListOp.Create(prependedItems=["MaterialBindingAPI"])
 
 
+@lru_cache(maxsize=1024)
+def _triangle_counts(faces: int) -> Vt.IntArray:
+    """``faceVertexCounts`` of ``faces`` triangles (made once per face count; a Vt
+    array is a shared value, so each mesh's attribute holds the same one)."""
+    return Vt.IntArray.FromNumpy(np.full(faces, 3, dtype=np.int32))
+
+
 @lru_cache(maxsize=256)
 def _display_color(rgba: tuple[int, int, int, int]) -> Vt.Vec3fArray:
     """A piece colour's ``displayColor`` (linear), made once per colour: a city writes
@@ -226,11 +233,11 @@ def _display_color(rgba: tuple[int, int, int, int]) -> Vt.Vec3fArray:
 
 
 def _material_spec(looks: Sdf.PrimSpec, name: str, parts_dir: str) -> Sdf.Path:
-    """``Looks/<name>``, a Material referencing the library's material layer (once)."""
-    if name not in looks.nameChildren:
-        spec = Sdf.PrimSpec(looks, name, Sdf.SpecifierDef, "Material")
-        spec.referenceList.Prepend(Sdf.Reference(f"{parts_dir}/{material_file(name)}"))
-    return looks.path.AppendChild(name)
+    """``Looks/<name>``, a Material referencing the library's material layer (made
+    once per prototype by the caller)."""
+    spec = Sdf.PrimSpec(looks, name, Sdf.SpecifierDef, "Material")
+    spec.referenceList.Prepend(Sdf.Reference(f"{parts_dir}/{material_file(name)}"))
+    return spec.path
 
 
 def write_material(piece: Piece, path: Path) -> None:
@@ -261,19 +268,31 @@ def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path) -> 
     ``write_layout``). Cut prototypes go in the layer's own file, :func:`write_cuts`."""
     written = []
     materials: dict[str, Piece] = {}
+    parts = _file_names(out_dir / PARTS_DIR)
     for proto, inst in sorted(prototypes.items()):
         for piece in prototype_pieces(db, inst):
             materials.setdefault(material_name(piece), piece)
         path = out_dir / part_file(proto)
-        if inst.cut is None and not path.is_file():
+        if inst.cut is None and path.name not in parts:
             write_part(db, inst, path)
             written.append(path)
+    looks = _file_names(out_dir / PARTS_DIR / MATERIALS_DIR)
     for name, piece in sorted(materials.items()):
         mat = out_dir / PARTS_DIR / material_file(name)
-        if not mat.is_file():
+        if mat.name not in looks:
             write_material(piece, mat)
             written.append(mat)
     return written
+
+
+def _file_names(folder: Path) -> set[str]:
+    """The names of the files in ``folder`` (none when it is missing): one listing
+    instead of a stat per part, which a city block asks about a hundred times."""
+    try:
+        with os.scandir(folder) as entries:
+            return {e.name for e in entries if e.is_file()}
+    except (FileNotFoundError, NotADirectoryError):
+        return set()
 
 
 # --- layouts and cities ----------------------------------------------------------------

@@ -47,6 +47,33 @@ class Piece:
                              np.ascontiguousarray(self.faces, dtype=np.int64))
 
 
+    def float32_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The arrays a writer stores, in one compiled pass: points (float32), the face
+        vertex indices flattened (int32), the face normals (computed in float64 as
+        :attr:`normals`, then float32) and the points' extent (float32 [2, 3]: min,
+        max). A city writes hundreds of pieces a block, and the seven small numpy
+        passes these took cost more than the arithmetic."""
+        return _float32_arrays(np.ascontiguousarray(self.vertices, dtype=np.float64),
+                               np.ascontiguousarray(self.faces, dtype=np.int64))
+
+
+@njit(cache=True)
+def _float32_arrays(v: np.ndarray, f: np.ndarray):  # pragma: no cover (compiled)
+    pts = v.astype(np.float32)
+    ext = np.zeros((2, 3), dtype=np.float32)
+    if pts.shape[0]:
+        for c in range(3):
+            ext[0, c] = ext[1, c] = pts[0, c]
+        for r in range(1, pts.shape[0]):
+            for c in range(3):
+                x = pts[r, c]
+                if x < ext[0, c]:
+                    ext[0, c] = x
+                if x > ext[1, c]:
+                    ext[1, c] = x
+    return (pts, f.astype(np.int32).ravel(), _face_normals(v, f).astype(np.float32), ext)
+
+
 @njit(cache=True)
 def _face_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:  # pragma: no cover (compiled)
     """Each face's unit normal, with numpy's arithmetic in numpy's order (``cross``

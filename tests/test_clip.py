@@ -89,7 +89,8 @@ def _numpy_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
 @given(seed=st.integers(0, 2**31), angle=st.floats(0, 2 * np.pi), offset=st.floats(-1.5, 1.5))
 def test_cut_pieces_normals_are_numpys_to_the_bit(seed, angle, offset):
     """The compiled face normals USD writes equal numpy's to the bit on clipped meshes
-    (slivers and faces of no area included, which get zero normals)."""
+    (slivers and faces of no area included, which get zero normals), and so do the
+    float32 arrays written from them (points, indices, normals, extent)."""
     rng = np.random.default_rng(seed)
     whole = trimesh.util.concatenate([trimesh.creation.box(extents=rng.uniform(0.2, 2, 3))
                                       .apply_translation(rng.uniform(-1, 1, 3))
@@ -100,3 +101,9 @@ def test_cut_pieces_normals_are_numpys_to_the_bit(seed, angle, offset):
     got = Piece("walls", (1, 2, 3, 255), cv, cf).normals
     assert got.tobytes() == _numpy_normals(cv, cf).tobytes()
     assert (got[-2:] == 0).all()
+    pts, indices, normals, extent = Piece("walls", (1, 2, 3, 255), cv, cf).float32_arrays()
+    assert pts.tobytes() == cv.astype(np.float32).tobytes()
+    assert indices.tobytes() == cf.astype(np.int32).ravel().tobytes()
+    assert normals.tobytes() == got.astype(np.float32).tobytes()
+    f32 = cv.astype(np.float32)
+    assert extent.tobytes() == np.stack([f32.min(axis=0), f32.max(axis=0)]).tobytes()

@@ -185,6 +185,7 @@ class StageGraphs:
         self._read: dict[tuple[int, int], tuple[int, int]] = {}   # their paths, once found
         self._weights_of: dict[tuple[int, str, int, tuple[str, ...], int], np.ndarray] = {}
         self._legs_of: dict[tuple[int, tuple[str, ...], int], np.ndarray] = {}
+        self._fillers_of: dict[tuple[int, tuple[str, ...], int], np.ndarray] = {}
         self._boxes: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray,
                                                  np.ndarray]] = {}
         self._sets: dict[tuple[int, tuple[int, ...]], _QuerySet] = {}
@@ -395,11 +396,23 @@ class StageGraphs:
         got = self._weights_of.get(key)
         if got is None:
             first = st.branch_transitions if leg == 2 else st.transitions
-            last = st.branch_in_transitions if end_leg == 2 else st.transitions
             bs = st.keypoints[v]
-            got = self._weights_of[key] = np.array(
-                [[first.get((a, b), np.inf)] + [last.get((f, b), np.inf) for f in grp.fillers]
-                 for b in bs], dtype=np.float64).reshape(len(bs), len(grp.fillers) + 1)
+            got = self._weights_of[key] = np.empty((len(bs), len(grp.fillers) + 1))
+            got[:, 0] = [first.get((a, b), np.inf) for b in bs]
+            got[:, 1:] = self._filler_weights(grp, key[3], end_leg)
+        return got
+
+    def _filler_weights(self, grp: _Group, bs: tuple[str, ...], end_leg: int) -> np.ndarray:
+        """The weights of the edges from each filler into each end element ``bs`` (as
+        :meth:`_weights` lays them out), once per group and end: every start element
+        of the group shares them."""
+        key = (id(grp), bs, end_leg)
+        got = self._fillers_of.get(key)
+        if got is None:
+            last = self.st.branch_in_transitions if end_leg == 2 else self.st.transitions
+            got = self._fillers_of[key] = np.array(
+                [[last.get((f, b), np.inf) for f in grp.fillers] for b in bs],
+                dtype=np.float64).reshape(len(bs), len(grp.fillers))
         return got
 
     def _allowed_shares(self, i: int) -> np.ndarray:
