@@ -260,7 +260,8 @@ def _with_caps(out: list[Piece], original: tuple[Piece, ...],
 
 
 def load_kernels() -> None:
-    """Run the compiled cut kernels (clip, section, face normals) once on a box: loads
+    """Run the compiled cut kernels (clip, section, face normals, the arrays USD
+    writes) once on a box: loads
     them from numba's cache, or compiles them (about 6 s). A local city's parent does
     this before its workers fork, so they inherit them instead of each compiling them."""
     box_ = trimesh.creation.box()
@@ -268,4 +269,4 @@ def load_kernels() -> None:
     piece = Piece("walls", (200, 200, 200, 255), v, f)
     labels = np.zeros(len(f), dtype=np.int64)
     for p in _cut((piece,), 1.0, Cut((0.0, 0.0), ((1.0, 0.0, 0.25),)), labels):
-        p.normals  # noqa: B018 - compiles the normals kernel
+        p.float32_arrays()   # loads the normals and written-arrays kernels

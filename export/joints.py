@@ -55,6 +55,12 @@ class HalfPlane:
     extends: bool = True
 
 
+def _rounded(x: float, y: float, digits: int) -> tuple[float, float]:
+    """(x, y) rounded to ``digits`` as the layout JSON keeps them, -0.0 written 0.0
+    (plain calls: a city rounds thousands of these a block)."""
+    return (round(x, digits) or 0.0, round(y, digits) or 0.0)
+
+
 @dataclass
 class Placed:
     """A part instance before it is written: its 2D affine placement and the world
@@ -74,12 +80,11 @@ class Placed:
     def instance(self) -> Instance:
         """The instance at the precision the layout JSON keeps (so JSON, USD and glTF
         carry the same numbers and the checks test what is written)."""
-        def r(v, nd):
-            return tuple(0.0 if x == 0 else x for x in (round(c, nd) for c in v))
-        a = self.a.tolist()
+        (a00, a01), (a10, a11) = self.a.tolist()
+        ox, oy = self.origin.tolist()
         return Instance(self.part, self.cls, self.structure, self.stage, self.key,
-                        r((a[0][0], a[1][0]), AXIS_DIGITS), r((a[0][1], a[1][1]), AXIS_DIGITS),
-                        r(self.origin.tolist(), COORD_DIGITS), self.cut())
+                        _rounded(a00, a10, AXIS_DIGITS), _rounded(a01, a11, AXIS_DIGITS),
+                        _rounded(ox, oy, COORD_DIGITS), self.cut())
 
     def local_planes(self, extending: bool = False) -> list[tuple[float, float, float]]:
         """The half-planes in the part's frame: keep a*x + b*y <= c, (a, b) unit (only
