@@ -136,7 +136,8 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
     for si, (plan, sol) in enumerate(zip(plans, solutions, strict=True)):
         placer = _Placer(si, plan, sol, parts)
         instances, record = placer.place()
-        _check(plan, record, parts, instances, sol.keys)
+        _check(plan, record, parts, instances, sol.keys,
+               [res.get("length") for res in sol.resources], db.quantum)
         out.instances.extend(instances)
         out.structures.append(_summary(plan, sol, record))
     return out
@@ -677,13 +678,16 @@ _Segment = tuple[np.ndarray, np.ndarray, int | None, int | None]   # a, b, insta
 
 
 def _check(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
-           inst: list[Instance], keys: Sequence[str]) -> None:
+           inst: list[Instance], keys: Sequence[str],
+           solved: Sequence[float | None] = (), quantum: float = 0.0) -> None:
     """The layout's geometry against its skeleton (``keys``: the solution's element at
-    each key point); any failure is an ExportError."""
+    each key point; ``solved``: the length the solver counted on each stage, legs
+    included, and ``quantum`` the length quantum it counted in); any failure is an
+    ExportError."""
     for s, r in record.stages.items():
         st = plan.stages[s]
         where = f"{plan.name}: stage {s}"
-        _check_length(where, st, r)
+        _check_length(where, st, r, solved[s] if s < len(solved) else None, quantum)
         # facade segments in travel order: start key's leg, fillers, end key's leg
         segs = [_key_segment(plan, record, parts, inst, keys, st.start, r.start_leg,
                              outgoing=True)]
@@ -730,9 +734,20 @@ def _key_segment(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
     return (key, end, i, leg) if outgoing else (end, key, i, leg)
 
 
-def _check_length(where: str, st: PlanStage, r: _StageRecord) -> None:
+def _check_length(where: str, st: PlanStage, r: _StageRecord, solver: float | None,
+                  quantum: float) -> None:
+    """The stage's parts fill its skeleton as the solver counted: its count within the
+    stage's interval, and the parts' own geometry within a quantum a key part of that
+    count. The solver counts a key part's legs on the quantum grid, but a corner or a T
+    is not stretched to them (two legs at an angle, or collinear, take no one scale), so
+    a library drawn off the grid (a 0.3 m quantum over a 0.2 m design) has legs up to
+    half a quantum off, and a turned-over T's depth as much again: the fillers' stretch
+    takes that up too."""
     lo, hi = st.length_interval
-    if abs(r.path.length - r.solved) > (hi - lo) / 2 + TOL:
+    counted = r.solved if solver is None else solver
+    keys = 0.0 if solver is None else 2 * quantum     # two ends, leg and depth each
+    if abs(r.path.length - counted) > (hi - lo) / 2 + TOL or \
+            abs(r.solved - counted) > keys + TOL:
         raise ExportError(f"{where}: its parts measure {r.solved:.3f} m for "
                           f"{r.path.length:.3f} m of skeleton, more than the "
                           f"{(hi - lo) / 2:g} m a stretch may absorb")

@@ -209,6 +209,12 @@ def _ingest_part(root: Path, m: Manifest, spec, warnings: list[str]) -> Part:
     mesh, counts = load_part_mesh(f, spec.id, m.meters_per_unit)
     meas = measure(mesh, spec, where)
     q = m.quantum
+    shortest = min(meas.legs)
+    if q > shortest:     # snapped, the part would grow to a quantum (1000 m for 5 m)
+        raise LibraryError(f"{where}: it measures {shortest:.3g} m, less than the "
+                           f"library's quantum of {q:g} m, the step every part length is "
+                           "snapped to; choose a quantum a small fraction of the shortest "
+                           "part (0.1 or 0.2 m) in [library] of the manifest")
     legs_q = snap_legs(meas.legs, q)
     scale = 1.0
     if m.rescale and (spec.cls in STRAIGHT or spec.cls in STACKED):

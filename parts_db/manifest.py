@@ -65,6 +65,11 @@ def read_manifest(library_dir: str | Path) -> Manifest:
         raise LibraryError(f"{path}: [library] has unknown key(s) {unknown}; "
                            f"allowed: {sorted(_LIB_KEYS)}")
     quantum = positive(lib.get("quantum", 0.2), f"{path}: [library] quantum")
+    if quantum < MIN_QUANTUM:
+        raise LibraryError(f"{path}: [library] quantum {quantum:g} m is finer than "
+                           f"{MIN_QUANTUM:g} m (1 mm): the solver counts lengths in quanta, "
+                           "and a 100 m facade would be a hundred million of them; use 0.1 "
+                           "or 0.2 m")
     units = lib.get("units", "m")
     if units not in UNITS:
         raise LibraryError(f"{path}: [library] units {units!r} unknown; use one of "
@@ -106,6 +111,7 @@ def positive(v: object, where: str) -> float:
     return x
 
 
+MIN_QUANTUM = 0.001     # m: the finest length step a library may count in
 MAX_ATTRIBUTE = 10_000   # doors, windows...: of one part (1e300 overflowed the solver)
 MAX_ID = 200   # characters: a part's id names its files (parts/<id>.usdc), and file
                # systems take 255 bytes a name
@@ -209,6 +215,10 @@ def check_attributes(attrs_in: object, where: str,
     for k, v in attrs_in.items():
         if not isinstance(k, str) or not k.strip() or not k.isprintable():
             raise LibraryError(f"{where}: an attribute needs a name (like doors), got {k!r}")
+        if k == "length":
+            raise LibraryError(f"{where}: an attribute may not be called length: a part's "
+                               "length is measured from its mesh (or given as length = 5 "
+                               "beside its attributes); name the attribute otherwise")
         top = (limits or {}).get(k, MAX_ATTRIBUTE)
         x = finite(v)
         if x is None or not 0 <= x <= top:

@@ -11,6 +11,7 @@ Sub-commands live in :mod:`citysynth.pipeline.commands` and register themselves 
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import re
 import sys
@@ -203,12 +204,21 @@ def _internal(command: str) -> int:
     return EXIT_INTERNAL
 
 
+_FIXES = {errno.ENOSPC: "free space", errno.EDQUOT: "free space",
+          errno.EACCES: "fix the permissions", errno.EPERM: "fix the permissions",
+          errno.EROFS: "write to a writable folder",
+          errno.ENAMETOOLONG: "choose a shorter output folder or name"}
+
+
 def environment_message(exc: OSError) -> str:
-    """One line for a failure of the machine (disk full, no permission): what, where,
-    and that running again once it is fixed picks up where this run stopped."""
+    """One line for a failure of the machine (disk full, no permission, a path too
+    long): what, where, the fix for that failure, and that running again once it is
+    fixed is safe (a city run folder resumes; other commands write all or nothing)."""
     where = f"{exc.filename}: " if exc.filename else ""
-    return (f"{where}{exc.strerror or exc}; free space or fix the permissions and run again "
-            "(what was written is kept, and a run folder resumes)")
+    if exc.errno == errno.ENAMETOOLONG and exc.filename and len(str(exc.filename)) > 120:
+        where = f"{str(exc.filename)[:60]}...{str(exc.filename)[-40:]}: "
+    fix = _FIXES.get(exc.errno, "free space or fix the permissions")
+    return f"{where}{exc.strerror or exc}; {fix} and run again"
 
 
 def _closed_pipe() -> int:

@@ -64,11 +64,13 @@ def check_style(db: PartDB, style: str) -> None:
                             f"{', '.join(styles)}")
 
 
-def too_large(name: str, skeletons: list[Skeleton], exc: TooLargeError) -> str:
+def too_large(name: str, skeletons: list[Skeleton], exc: TooLargeError,
+              wide: Sequence[str] = ()) -> str:
     """A building or block too large to solve, in its user's words: how much facade,
     its longest side, what solving it would take against the budget, what to do (the
     solver's own text speaks of stage graphs, states and quanta; its figures ride on
-    the error)."""
+    the error). ``wide``: the resources of its per-block intervals, which make a long
+    facade far dearer (the first thing to loosen)."""
     if exc.k is not None:
         return (f"{name}: k = {exc.k:,} layouts would take at least "
                 f"{(exc.need_mb or 0) / 1024:,.1f} GB to keep, over the "
@@ -82,8 +84,10 @@ def too_large(name: str, skeletons: list[Skeleton], exc: TooLargeError) -> str:
     cost = (f" would take about {exc.need_mb:,.0f} MB to solve" if exc.need_mb is not None
             else " would take too much memory to solve") + \
         (f", over the {exc.budget_mb:,.0f} MB budget" if exc.budget_mb is not None else "")
+    fix = (f"narrow or drop its per-block intervals on {', '.join(wide)}, or split it"
+           if wide else "split it into smaller blocks or buildings")
     return (f"{name}: too large to lay out: {total:,.0f} m of facade (its longest side "
-            f"{longest:,.0f} m){cost}; split it into smaller blocks or buildings")
+            f"{longest:,.0f} m){cost}; {fix}")
 
 
 LAYOUT_MB_PER_KM = 15.0
@@ -115,7 +119,9 @@ def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
     try:
         results = [solve_structure(p.structure, k) for p in plans]
     except TooLargeError as exc:
-        raise TooLargeError(too_large(name, skeletons, exc), need_mb=exc.need_mb,
+        raise TooLargeError(too_large(name, skeletons, exc,
+                                      sorted(options.get("per_structure") or {})),
+                            need_mb=exc.need_mb,
                             budget_mb=exc.budget_mb, shares=exc.shares,
                             resources=exc.resources, k=exc.k) from None
     t2 = time.perf_counter()

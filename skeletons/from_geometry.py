@@ -52,8 +52,15 @@ def _constraints(props: dict[str, Any], where: str) -> dict[str, tuple[float, fl
                 or v[0] > v[1] or v[0] < 0):
             raise SkeletonError(f"{where}: constraint {k} must be [min, max] with "
                                 f"0 <= min <= max, got {v!r}")
+        if v[0] > MAX_MINIMUM:
+            raise SkeletonError(f"{where}: constraint {k} asks for at least {v[0]:g}, "
+                                f"more than any facade has (at most {MAX_MINIMUM:g}); "
+                                "check the value")
         out[str(k)] = (float(v[0]), float(v[1]))
     return out
+
+
+MAX_MINIMUM = 1e9   # doors, windows ... at the least on one side or building: past any
 
 
 def _front(props: dict[str, Any], where: str) -> Front:
@@ -275,6 +282,15 @@ def _check_crossings(edges: list[Edge], xy: dict[int, np.ndarray], frame: Frame)
         if shared and inter.geom_type == "Point":
             continue
         p = shapely.get_coordinates(inter)[0]
+        if inter.geom_type in ("LineString", "MultiLineString") and \
+                {edges[i].a, edges[i].b} == {edges[j].a, edges[j].b}:
+            raise SkeletonError(f"{edges[i].source} and {edges[j].source}: the same "
+                                f"edge is drawn twice (from {frame.at(xy[edges[i].a])} to "
+                                f"{frame.at(xy[edges[i].b])}); delete one of them")
+        if inter.geom_type in ("LineString", "MultiLineString"):
+            raise SkeletonError(f"{edges[i].source} and {edges[j].source}: edges run on "
+                                f"top of each other from {frame.at(p)}; delete or move "
+                                "the doubled stretch")
         raise SkeletonError(f"{edges[i].source} and {edges[j].source}: edges cross at "
                             f"{frame.at(p)} without a shared key point; split them there "
                             "or move them apart")

@@ -362,6 +362,14 @@ def _input_crs(crs: str | None, source: str) -> pyproj.CRS | None:
         raise SkeletonError(f"{source}: {crs} ({given.name}) is a {kind} CRS, not a map "
                             "of the ground; give the projected or lon/lat CRS the "
                             "coordinates are in, e.g. --crs EPSG:25832")
+    try:                  # a CRS of Mars or the Moon: no way to the Earth's lon/lat
+        pyproj.Transformer.from_crs(given, "EPSG:4326", always_xy=True)
+    except pyproj.exceptions.ProjError as exc:
+        body = re.search(r"\((\w[\w ]*) vs Earth\)", str(exc))
+        where = f"of another body ({body.group(1)}), not of the Earth" if body else \
+            "with no way to longitude and latitude on the Earth"
+        raise SkeletonError(f"{source}: {crs} ({given.name}) is a CRS {where}; give the "
+                            "CRS the coordinates are in, e.g. --crs EPSG:25832") from None
     flat = given.to_2d() if given.is_geographic else given
     if flat.equals(_CRS84, ignore_axis_order=True):
         return None

@@ -81,10 +81,16 @@ def _number(v: Any) -> float | None:
     return x if math.isfinite(x) and x > 0 else None
 
 
-def widest(v: Any) -> float | None:
+MAX_WIDTH = 250.0   # m: no street is wider (the widest avenues are about 140 m)
+MAX_LANES = 50      # lanes: nor has more (toll plazas have about 40)
+
+
+def widest(v: Any, most: float = math.inf) -> float | None:
     """The largest number among a tag's values (a merged edge is as wide as its widest
-    way), or None when none is a number."""
-    numbers = [x for x in map(_number, tag_values(v)) if x is not None]
+    way) up to ``most``, or None when none is such a number: a value past it (a width
+    of 1e308, a typo of 3000 for 3.00) is read as no value, as an unreadable one is,
+    and the street falls back to its next rule instead of swallowing the city."""
+    numbers = [x for x in map(_number, tag_values(v)) if x is not None and x <= most]
     return max(numbers, default=None)
 
 
@@ -101,10 +107,10 @@ def street_setback(props: dict[str, Any], s: Setbacks) -> float:
     """A street's setback: ``width`` / 2 + sidewalk, else ``lanes`` * lane width / 2 +
     sidewalk, else its ``highway`` class's setback (the default for a class not in the
     table). Several values (osmnx's merged edges, OSM's "2;3") take the widest."""
-    width = widest(props.get("width"))
+    width = widest(props.get("width"), MAX_WIDTH)
     if width is not None:
         return width / 2 + s.sidewalk
-    lanes = widest(props.get("lanes"))
+    lanes = widest(props.get("lanes"), MAX_LANES)
     if lanes is not None:
         return lanes * s.lane_width / 2 + s.sidewalk
     table = dict(s.by_class)

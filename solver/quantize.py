@@ -82,6 +82,8 @@ def _rational(v: float) -> Fraction | None:
 def is_multiple(v: float, q: float) -> bool:
     """v is an integer multiple of q (within 1e-9, relative to the multiple)."""
     m = v / q
+    if not math.isfinite(m):   # 1e308 of a 0.2 quantum: no multiple, and past any cap
+        return False
     return abs(m - round(m)) <= TOL * max(1.0, abs(m))
 
 
@@ -106,13 +108,18 @@ def quantise_resource(
     # one vector pass over the values (a street front's 74 parts, a library's
     # hundreds): the same arithmetic as is_multiple and round, element by element
     v = np.asarray(values, dtype=np.float64)
-    m = v / q
+    with np.errstate(over="ignore"):      # 1e308 / 0.2: refused just below
+        m = v / q
     if len(m) and not np.all(np.abs(m) < VALUE_QUANTA_MAX):
         worst = float(np.max(np.abs(v)))
+        quanta = worst / q
+        hint = (f'give a coarser "quantum", e.g. "quantum": {{"{name}": '
+                f"{max(worst / 1e4, 1e-9):.2g}}}" if worst <= VALUE_QUANTA_MAX * 1e3 else
+                "check the value, which no element plausibly has")
         raise ProblemError(
             f'resource "{name}": with a quantum of {q:g}, its value {worst:g} is '
-            f"{worst / q:.3g} quanta (at most {VALUE_QUANTA_MAX:.0e}); give a coarser "
-            f'"quantum", e.g. "quantum": {{"{name}": {max(worst / 1e4, 1e-9):.2g}}}')
+            + (f"{quanta:.3g}" if math.isfinite(quanta) else "beyond 1e308")
+            + f" quanta (at most {VALUE_QUANTA_MAX:.0e}); {hint}")
     near = np.rint(m)   # round half to even, as round() does
     ints = near.astype(np.int64).tolist()
     values_exact = bool(np.all(np.abs(m - near) <= TOL * np.maximum(1.0, np.abs(m))))
@@ -126,6 +133,12 @@ def bounds_in_quanta(lo: float, hi: float, q: float) -> tuple[int, int]:
     """[lo, hi] in multiples of q, rounded inward (a quantised total inside them
     never breaks the asked interval), within +-2**62 quanta: a bound past that (1e20
     doors) is no bound at all, and the tables hold int64."""
-    a = math.ceil(lo / q - TOL * max(1.0, lo / q))
-    b = math.floor(hi / q + TOL * max(1.0, hi / q))
-    return max(-QUANTA_CAP, min(QUANTA_CAP, a)), max(-QUANTA_CAP, min(QUANTA_CAP, b))
+    return _capped(lo / q, math.ceil, -1.0), _capped(hi / q, math.floor, 1.0)
+
+
+def _capped(m: float, to_int, toward: float) -> int:
+    """m quanta rounded by ``to_int`` after allowing the tolerance ``toward`` it, within
+    +-2**62 (also when m overflowed to infinity: 1e308 m in 0.2 m quanta)."""
+    if not abs(m) < QUANTA_CAP:
+        return QUANTA_CAP if m > 0 else -QUANTA_CAP
+    return max(-QUANTA_CAP, min(QUANTA_CAP, to_int(m + toward * TOL * max(1.0, m))))

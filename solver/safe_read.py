@@ -153,6 +153,8 @@ def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
             else ""
         raise error(f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
                     f"{exc.msg}{hint}") from None
+    except error:        # NaN, Infinity: the message constant() gave (error may be a ValueError)
+        raise
     except ValueError:   # Python's guard against integers of over 4,300 digits
         raise error(f"{p}: a number of thousands of digits; no {what} needs one: write it "
                     "with an exponent (1e300) or check that it is the right file") from None

@@ -164,6 +164,12 @@ def check_k(k: int, max_memory_mb: float) -> None:
                             budget_mb=max_memory_mb, k=k)
 
 
+def _quanta(amount: float) -> str:
+    """A count of quanta in three figures, or beyond what a float holds (1e308 m of
+    0.2 m quanta)."""
+    return f"{amount:.3g} quanta" if math.isfinite(amount) else "beyond 1e308 quanta"
+
+
 def check_length(cp: Compiled, max_memory_mb: float) -> None:
     """Refuse at once a minimum past what can be counted (1e300 m at 0.2 m), and one that
     only a solution too long for any search within the budget can reach: every element
@@ -174,7 +180,7 @@ def check_length(cp: Compiled, max_memory_mb: float) -> None:
         if q.lo > HI_CAP:
             raise TooLargeError(
                 f'resource "{q.resource}": its minimum {q.asked[0]:g} is '
-                f"{q.asked[0] / q.quantum:.3g} quanta of {q.quantum:g}, more than can be "
+                f"{_quanta(q.asked[0] / q.quantum)} of {q.quantum:g}, more than can be "
                 f"counted ({HI_CAP:.3g}); ask for less, or give a coarser quantum",
                 budget_mb=max_memory_mb)
         most = int(cp.r[:, i].max(initial=0))

@@ -210,7 +210,8 @@ def test_structure_wide_intervals_match_enumeration(d, k, lo, width):
 def test_an_upper_bound_past_reach_means_no_bound(d, k, lo, hi):
     """"doors = [lo, 1e20]" (no limit, as a user writes it) is clipped to what the
     stages can reach: exact as enumeration, and its shares stay few (it was refused as
-    10^20 ways to share the total); a minimum past reach is infeasible at once."""
+    10^20 ways to share the total), none from a minimum of zero (every filling meets
+    it); a minimum past reach is infeasible at once."""
     from citysynth.solver.structures.solve import _global_grid
     hi = max(hi, 1e20) if lo > hi else hi
     d = {**d, "constraints": {"doors": [lo, hi]}}
@@ -221,7 +222,10 @@ def test_an_upper_bound_past_reach_means_no_bound(d, k, lo, hi):
         assert expected == [] and r.status == "infeasible" and r.solutions == []
         return
     names, qs, los, his = _global_grid(st_)
-    assert his[0] * qs[0] <= 40   # at most 5 stages of at most 8 m, a door a metre
+    if lo <= 0:     # every filling meets it: left out of the search
+        assert names == []
+    else:
+        assert his[0] * qs[0] <= 40   # at most 5 stages of at most 8 m, a door a metre
     r = solve_structure(st_, k)
     assert [s.cost for s in r.solutions] == pytest.approx(expected[:k])
     for s in r.solutions:

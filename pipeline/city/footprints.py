@@ -79,14 +79,24 @@ class FootprintSpec:
         return f"{self.source}: {self.label}" if self.source else self.label
 
 
-def _number(v: Any) -> float | None:
-    """A tag's number: ``5``, ``"5"``, ``"12.5 m"``, ``"3;4"`` (the first); else None."""
+MAX_LEVELS = 200     # storeys: past the tallest building (163)
+MAX_HEIGHT = 1000.0  # m: likewise (828 m)
+
+
+def _number(v: Any, most: float = math.inf) -> float | None:
+    """A tag's number: ``5``, ``"5"``, ``"12.5 m"``, ``"3;4"`` (the first), up to
+    ``most``; else None: a value no building has (``1e308``, a typo) counts as no
+    value, as an unreadable one does."""
     if isinstance(v, bool) or v is None:
         return None
     if isinstance(v, int | float):
-        return float(v) if math.isfinite(v) and v > 0 else None
-    m = re.match(r"\s*([0-9]+(?:\.[0-9]+)?)", str(v))
-    return float(m.group(1)) if m and float(m.group(1)) > 0 else None
+        x = float(v)
+    else:
+        m = re.match(r"\s*([0-9]+(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?)", str(v))
+        if m is None:
+            return None
+        x = float(m.group(1))
+    return x if math.isfinite(x) and 0 < x <= most else None
 
 
 def feature_ref(props: dict[str, Any]) -> str:
@@ -102,7 +112,8 @@ def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: s
     """The spec of feature ``index`` of ``source`` from its properties."""
     roof = props.get("roof:shape")
     return FootprintSpec(source, index, feature_ref(props),
-                         _number(props.get("building:levels")), _number(props.get("height")),
+                         _number(props.get("building:levels"), MAX_LEVELS),
+                         _number(props.get("height"), MAX_HEIGHT),
                          str(roof) if roof not in (None, "") else None, source_crs,
                          stretch, tolerance, storeys)
 

@@ -9,6 +9,7 @@ infeasible (the reason on stderr; the others are still written), 2 on bad input.
 
 from __future__ import annotations
 
+import hashlib
 import re
 import sys
 from pathlib import Path
@@ -80,9 +81,18 @@ def register(sub) -> None:
     p.set_defaults(run=run_block)
 
 
+MAX_NAME = 100   # characters of a name kept as they are; its files add up to 20 more
+
+
 def safe_name(text: str) -> str:
-    """A file-name-safe version of a feature or file name."""
-    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_.") or "layout"
+    """A file-name-safe version of a feature or file name; one longer than
+    :data:`MAX_NAME` keeps its first 80 characters and a digest of the whole (every
+    file system takes 255 bytes a name at most, and a layout's files add their rank,
+    suffix and a temporary part), so distinct long ids stay distinct."""
+    name = re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_.") or "layout"
+    if len(name) > MAX_NAME:
+        name = f"{name[:80]}_{hashlib.sha1(text.encode('utf-8', 'surrogatepass')).hexdigest()[:12]}"
+    return name
 
 
 def _prepare(args):
@@ -173,17 +183,41 @@ def run_building(args) -> int:
 def run_block(args) -> int:
     db, style, feats, frame = _prepare(args)
     stem = safe_name(Path(args.file).stem)
-    built = []
+    names = []
     for f in feats:
         fid = f.properties.get("id", f.properties.get("name"))
-        name = safe_name(str(fid)) if fid is not None else \
-            (stem if len(feats) == 1 else f"{stem}_{f.index}")
+        names.append(safe_name(str(fid)) if fid is not None else
+                     (stem if len(feats) == 1 else f"{stem}_{f.index}"))
+    _check_names(args.file, names, args.k)
+    built = []
+    for f, name in zip(feats, names, strict=True):
         rings = skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
         built.append((solve_layouts(name, rings, db, style, args.k, **_options(args)), rings))
-    if len({b.name for b, _ in built}) != len(built):
-        raise SkeletonError(f"{args.file}: two blocks share a name (their \"id\"); give each "
-                            "feature a distinct id")
     return _finish(args, db, style, frame, built)
+
+
+def _check_names(source, names: list[str], k: int) -> None:
+    """Refuse blocks whose files would overwrite each other's: the same name, names
+    differing only in case (one file on Windows and macOS), or, with k above 1, a name
+    that is another block's rank (block "x_2" against rank 2 of block "x")."""
+    seen: dict[str, str] = {}
+    for name in names:
+        files = [name] + ([f"{name}_{r}" for r in range(1, k + 1)] if k > 1 else [])
+        for file in files:
+            other = seen.get(file.casefold())
+            if other is not None:
+                why = ("share a name" if other == name else
+                       "share a name but for letter case (one file on Windows and macOS)"
+                       if other.casefold() == name.casefold() else
+                       f"would write the same files ({file!r})")
+                raise SkeletonError(
+                    f"{source}: two blocks {why}: {other!r} and {name!r} (their \"id\"); "
+                    "give each feature a distinct id" + (
+                        f", not ending in _1 to _{k} after another's (with --k {k} a block's "
+                        "files are named <id>_<rank>)" if k > 1 and
+                        other.casefold() != name.casefold() else ""))
+        for file in files:
+            seen[file.casefold()] = name
 
 
 def _smallest(db, style: str) -> float:

@@ -102,7 +102,11 @@ def exit_code(report: Report, who: str) -> int:
     if bugs:
         return bugs
     c = report["counts"]
-    if not c["built"] and not c["failed"]:
+    if not c["built"] and not c["failed"] and not c["skipped"]:
+        print(f"{who}: nothing was built: the streets enclose no block (a block is the "
+              "ground a closed loop of streets surrounds; one street, or streets that "
+              "only branch, make none)", file=sys.stderr)
+    elif not c["built"] and not c["failed"]:
         print(f"{who}: nothing was built: all {c['skipped']} pieces were skipped "
               "(report.json and blocks.geojson say why)", file=sys.stderr)
     return EXIT_INFEASIBLE if c["failed"] or not c["built"] else EXIT_OK

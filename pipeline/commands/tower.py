@@ -28,6 +28,8 @@ from citysynth.skeletons.from_geometry import why_invalid
 FAR_TOLERANCE = 0.02   # --far X: within 2 % of X either side
 
 
+MAX_LOT_AREA = 1e12   # m²: a million km², past any lot (larger ones lose the metre to rounding)
+
 def register(sub) -> None:
     p = sub.add_parser("tower", help="stack a tower of exact height and floor-area ratio",
                        description="Stack a ground floor, floors and a roof of a part "
@@ -85,6 +87,10 @@ def run(args) -> int:
     if args.k < 1:
         raise UsageError(f"--k must be a positive integer, got {args.k}")
     far = far_interval(args.far, args.far_tolerance)
+    if not args.lot and args.lot_area > MAX_LOT_AREA:
+        raise UsageError(f"--lot-area {args.lot_area:g} m² is no building lot (at most "
+                         f"{MAX_LOT_AREA:g} m², a million km²); give the lot's area in "
+                         "square metres")
     lot = read_lot(args.lot, args.crs) if args.lot else Lot.square(args.lot_area)
     db = load_library(args.library)
     built = solve_tower(_name(args, far), db, lot, args.height, far, style=args.style,

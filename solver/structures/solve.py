@@ -61,7 +61,9 @@ class StructureResult:
 
 
 def _global_grid(st: Structure) -> Grid:
-    """Structure-wide resources on an exact integer grid: names, quanta, bounds."""
+    """Structure-wide resources on an exact integer grid: names, quanta, bounds. An
+    interval every filling meets (from zero or less up to the most the stages can reach,
+    no amount negative) is left out: the search needs no shares to keep it."""
     names: list[str] = []
     qs: list[float] = []
     los: list[int] = []
@@ -70,6 +72,8 @@ def _global_grid(st: Structure) -> Grid:
         values = [v[r] for v in st.elements.values()] + [leg[r] for legs in st.legs.values()
                                                          for leg in legs]
         reach, clipped = _reach(st, r), False
+        if reach is not None and lo <= 0 <= min(values, default=0.0) and hi >= reach:
+            continue        # every filling meets it ("doors = [0, 1e20]"): no shares
         if reach is not None and hi > max(reach, lo):   # beyond reach: no bound
             hi, clipped = max(reach, lo), True
         q = st.quantum.get(r)

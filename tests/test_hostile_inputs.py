@@ -1,0 +1,294 @@
+"""Inputs a hostile user or a broken export produce, each once found to crash a command
+(exit 3), overwrite another block's files, or say the wrong thing: every one now ends
+with one clear line and exit 2, or builds.
+
+- NaN in a JSON input is named as NaN (the big-integer guard swallowed its message);
+- bounds and amounts past what a float holds (1e308) are capped or refused, with no
+  overflow traceback and no numpy warning on stderr;
+- a street ``width`` or ``lanes`` no street has counts as no value;
+- a CRS of Mars or the Moon is refused as such;
+- block ids that would write each other's files (``x`` against rank 2 of ``x``) are
+  refused before anything is solved, and a very long id gets a short file name;
+- an absurd ``--lot-area`` is refused;
+- a per-block interval every filling meets costs nothing (it was refused as "too
+  large" on a 290 m block), and one that does make a block too large is named;
+- a library on a 0.3 m quantum (its key parts drawn on a 0.2 m grid) builds, and its
+  geometry meets the audit's bars.
+"""
+
+from __future__ import annotations
+
+import copy
+import errno
+import json
+import math
+import warnings
+from pathlib import Path
+
+import pytest
+
+from citysynth.parts_db import load_library
+from citysynth.pipeline.cli import environment_message, main
+from citysynth.pipeline.commands.build import MAX_NAME
+from citysynth.skeletons.streets import Setbacks, street_setback
+from citysynth.solver.structures.model import Structure
+from citysynth.solver.structures.solve import _global_grid, solve_structure
+
+ROOT = Path(__file__).resolve().parent.parent
+EX = ROOT / "examples"
+LIB = EX / "library"
+FACADE = json.loads((EX / "facade_small.json").read_text())
+CYCLE = json.loads((EX / "block_cycle.json").read_text())
+LON, LAT = 7.1, 50.73
+
+
+def _run(argv: list[str], capsys) -> tuple[int, str]:
+    capsys.readouterr()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        code = main(argv)
+    err = capsys.readouterr().err
+    assert "Traceback" not in err, err
+    noisy = [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
+    assert not noisy, noisy
+    return code, err
+
+
+def _write(path: Path, data) -> Path:
+    path.write_text(json.dumps(data) if not isinstance(data, str) else data)
+    return path
+
+
+def _rect(fid: str, lon: float, w_deg: float = 0.00085, h_deg: float = 0.00041) -> dict:
+    ring = [[lon, LAT], [lon + w_deg, LAT], [lon + w_deg, LAT + h_deg], [lon, LAT + h_deg],
+            [lon, LAT]]
+    return {"type": "Feature", "properties": {"id": fid},
+            "geometry": {"type": "Polygon", "coordinates": [ring]}}
+
+
+def test_nan_in_json_is_named_as_nan(tmp_path, capsys):
+    bad = _write(tmp_path / "p.json", '{"k": NaN}')
+    code, err = _run(["solve", str(bad)], capsys)
+    assert code == 2
+    assert "NaN is not a JSON number" in err and "thousands of digits" not in err
+
+
+def test_a_bound_of_1e308_is_capped_and_a_minimum_of_it_refused(tmp_path, capsys):
+    loose = copy.deepcopy(FACADE)
+    loose["constraints"]["length"] = [20.4, 1e308]
+    code, err = _run(["solve", str(_write(tmp_path / "loose.json", loose))], capsys)
+    assert code == 0, err
+    absurd = copy.deepcopy(FACADE)
+    absurd["constraints"]["length"] = [1e308, 1e308]
+    code, err = _run(["solve", str(_write(tmp_path / "absurd.json", absurd))], capsys)
+    assert code == 2 and "beyond 1e308 quanta" in err and "inf" not in err, err
+
+
+def test_an_amount_of_1e308_is_refused_without_a_numpy_warning(tmp_path, capsys):
+    p = copy.deepcopy(FACADE)
+    p["elements"][0]["resources"]["length"] = 1e308
+    code, err = _run(["solve", str(_write(tmp_path / "p.json", p))], capsys)
+    assert code == 2
+    assert "beyond 1e308 quanta" in err and "check the value" in err, err
+
+
+def test_a_stage_bound_of_1e308_is_refused_with_an_estimate_not_a_crash(tmp_path, capsys):
+    st = copy.deepcopy(CYCLE)
+    st["stages"][0]["constraints"]["length"] = [22, 1e308]
+    code, err = _run(["solve", str(_write(tmp_path / "s.json", st))], capsys)
+    assert code == 2 and "over the memory budget" in err, err
+
+
+@pytest.mark.parametrize("props, fallback", [
+    ({"width": 1e308, "highway": "residential"}, True),
+    ({"width": "3000", "highway": "residential"}, True),
+    ({"lanes": 1e12, "highway": "residential"}, True),
+    ({"width": "20 m", "highway": "residential"}, False),
+])
+def test_a_width_or_lane_count_no_street_has_counts_as_no_value(props, fallback):
+    s = Setbacks()
+    plain = street_setback({"highway": "residential"}, s)
+    got = street_setback(props, s)
+    assert math.isfinite(got)
+    assert (got == plain) == fallback
+    if not fallback:
+        assert got == pytest.approx(10 + s.sidewalk)
+
+
+@pytest.mark.parametrize("crs, body", [("IAU_2015:49900", "Mars"), ("IAU_2015:30100", "Moon")])
+def test_a_crs_of_another_body_is_refused(crs, body, capsys):
+    code, err = _run(["skeleton", str(EX / "skeletons" / "t_building.geojson"), "--crs", crs],
+                     capsys)
+    assert code == 2 and f"another body ({body})" in err, err
+
+
+def test_block_ids_that_would_share_files_are_refused_before_solving(tmp_path, capsys):
+    src = _write(tmp_path / "two.geojson", {"type": "FeatureCollection", "features": [
+        _rect("x", LON), _rect("x_2", LON + 0.01)]})
+    out = tmp_path / "out"
+    code, err = _run(["block", str(src), "--library", str(LIB), "--k", "2", "-o", str(out),
+                      "--no-preview"], capsys)
+    assert code == 2 and "'x' and 'x_2'" in err and "_1 to _2" in err, err
+    assert not out.exists()
+    same = _write(tmp_path / "case.geojson", {"type": "FeatureCollection", "features": [
+        _rect("same", LON), _rect("SAME", LON + 0.01)]})
+    code, err = _run(["block", str(same), "--library", str(LIB), "-o", str(out),
+                      "--no-preview"], capsys)
+    assert code == 2 and "share a name" in err, err
+    assert not out.exists()
+    code, err = _run(["block", str(src), "--library", str(LIB), "-o", str(out),
+                      "--no-preview"], capsys)          # k = 1: no rank names, no clash
+    assert code == 0, err
+
+
+def test_a_very_long_id_gets_a_short_distinct_file_name(tmp_path, capsys):
+    src = _write(tmp_path / "long.geojson", {"type": "FeatureCollection", "features": [
+        _rect("x" * 5000, LON), _rect("x" * 4999 + "y", LON + 0.01)]})
+    out = tmp_path / "out"
+    code, err = _run(["block", str(src), "--library", str(LIB), "-o", str(out),
+                      "--no-preview"], capsys)
+    assert code == 0, err
+    names = sorted(p.name for p in out.glob("*.layout.json"))
+    assert len(names) == 2 and all(len(n) <= MAX_NAME + 20 for n in names), names
+
+
+def test_an_absurd_lot_area_is_refused(tmp_path, capsys):
+    code, err = _run(["tower", "--height", "120", "--far", "10", "--lot-area", "1e300",
+                      "-o", str(tmp_path / "o"), "--no-preview"], capsys)
+    assert code == 2 and "no building lot" in err, err
+    assert not (tmp_path / "o").exists()
+
+
+def test_an_interval_every_filling_meets_is_left_out_and_solves_the_same():
+    free = copy.deepcopy(CYCLE)
+    assert free.pop("constraints") == {"doors": [8, 10]}
+    plain = Structure.from_dict(free)
+    wide = Structure.from_dict({**free, "constraints": {"doors": [0, 1e20]}})
+    assert _global_grid(wide)[0] == []
+    assert _global_grid(Structure.from_dict(CYCLE))[0] == ["doors"]   # a real bound stays
+    a, b = solve_structure(plain, 5), solve_structure(wide, 5)
+    assert [s.cost for s in a.solutions] == [s.cost for s in b.solutions]
+    assert [s.stages for s in a.solutions] == [s.stages for s in b.solutions]
+
+
+def test_a_too_large_block_names_its_per_block_interval():
+    from citysynth.pipeline.layouts import too_large
+    from citysynth.solver.errors import TooLargeError
+    exc = TooLargeError("x", need_mb=4544, budget_mb=2048)
+    assert "narrow or drop its per-block intervals on windows" in too_large(
+        "b", [], exc, ["windows"])
+    assert "split it into smaller blocks" in too_large("b", [], exc)
+
+
+def test_a_name_too_long_for_the_file_system_is_said_so():
+    msg = environment_message(OSError(errno.ENAMETOOLONG, "File name too long",
+                                      "/out/" + "x" * 300 + ".json"))
+    assert "choose a shorter output folder or name" in msg and len(msg) < 200, msg
+
+
+@pytest.fixture(scope="module")
+def coarse_library(tmp_path_factory) -> Path:
+    """The example library on a 0.3 m quantum: its key parts' legs and a T's depth land
+    up to half a quantum off the grid the solver counts in."""
+    lib = tmp_path_factory.mktemp("q03")
+    (lib / "meshes").symlink_to(LIB / "meshes")
+    text = (LIB / "manifest.toml").read_text()
+    assert "quantum = 0.2" in text
+    (lib / "manifest.toml").write_text(text.replace("quantum = 0.2", "quantum = 0.3", 1))
+    return lib
+
+
+def test_a_library_off_its_quantum_grid_builds_and_meets_the_audit(coarse_library, tmp_path,
+                                                                   capsys):
+    from tests.test_audit import _audit, _failures
+    out = tmp_path / "out"
+    code, err = _run(["building", str(EX / "skeletons" / "t_building.geojson"), "--library",
+                      str(coarse_library), "--style", "classic", "-o", str(out),
+                      "--no-preview"], capsys)
+    assert code == 0, err
+    src = _write(tmp_path / "rect.geojson", {"type": "FeatureCollection", "features": [
+        _rect("r60x45", LON)]})
+    code, err = _run(["block", str(src), "--library", str(coarse_library), "-o", str(out),
+                      "--no-preview"], capsys)
+    assert code == 0, err
+    db = load_library(coarse_library)
+    layouts = sorted(out.glob("*.layout.json"))
+    assert len(layouts) == 2
+    for p in layouts:
+        assert _failures(*_audit(p, db)) == []
+
+
+def _manifest_library(tmp_path: Path, edit) -> Path:
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "meshes").symlink_to(LIB / "meshes")
+    (lib / "manifest.toml").write_text(edit((LIB / "manifest.toml").read_text()))
+    return lib
+
+
+def test_ingest_refuses_a_quantum_longer_than_a_part(tmp_path, capsys):
+    lib = _manifest_library(tmp_path, lambda t: t.replace("quantum = 0.2", "quantum = 1000"))
+    code, err = _run(["ingest", str(lib), "-o", str(tmp_path / "db.json")], capsys)
+    assert code == 2 and "less than the library's quantum of 1000 m" in err, err
+    assert not (tmp_path / "db.json").exists()
+
+
+def test_ingest_refuses_an_attribute_called_length(tmp_path, capsys):
+    def edit(text: str) -> str:
+        at = text.index("\n", text.index("file", text.index("[[part]]"))) + 1
+        return text[:at] + "attributes = {length = 5}\n" + text[at:]
+    lib = _manifest_library(tmp_path, edit)
+    code, err = _run(["ingest", str(lib), "-o", str(tmp_path / "db.json")], capsys)
+    assert code == 2 and "may not be called length" in err, err
+
+
+@pytest.mark.parametrize("props, levels, height", [
+    ({"building:levels": "1e308"}, None, None),
+    ({"building:levels": 1e308, "height": 1e308}, None, None),
+    ({"building:levels": "5", "height": "12.5 m"}, 5.0, 12.5),
+    ({"building:levels": "2e1"}, 20.0, None),
+])
+def test_storeys_no_building_has_count_as_no_value(props, levels, height):
+    from citysynth.pipeline.city.footprints import Storeys, footprint_spec
+    spec = footprint_spec("f.geojson", 0, props, "", 0.05, 0.3, Storeys())
+    assert (spec.levels, spec.height) == (levels, height)
+
+
+def test_duplicated_building_lines_are_named_as_such(tmp_path, capsys):
+    d = json.loads((EX / "skeletons" / "t_building.geojson").read_text())
+    twin = copy.deepcopy(d["features"][0])
+    twin["geometry"]["coordinates"] = twin["geometry"]["coordinates"][::-1]
+    d["features"].append(twin)
+    code, err = _run(["skeleton", str(_write(tmp_path / "dup.geojson", d))], capsys)
+    assert code == 2 and "the same edge is drawn twice" in err, err
+
+
+def test_streets_that_enclose_nothing_say_so(tmp_path, capsys):
+    from citysynth.skeletons import lonlat_from_local
+    line = {"type": "Feature", "properties": {"highway": "residential"},
+            "geometry": {"type": "LineString",
+                         "coordinates": lonlat_from_local([(0, 0), (300, 0)], (LON, LAT))}}
+    src = _write(tmp_path / "one.geojson", {"type": "FeatureCollection", "features": [line]})
+    code, err = _run(["city", "--streets", str(src), "--library", str(LIB), "-o",
+                      str(tmp_path / "run"), "--no-overview", "--workers", "1"], capsys)
+    assert code == 1 and "the streets enclose no block" in err, err
+
+
+def test_a_minimum_no_facade_has_is_refused(tmp_path, capsys):
+    d = json.loads((EX / "skeletons" / "t_building.geojson").read_text())
+    d["features"][0]["properties"]["constraints"] = {"doors": [1e308, 1e308]}
+    code, err = _run(["building", str(_write(tmp_path / "b.geojson", d)), "--library",
+                      str(LIB), "-o", str(tmp_path / "o"), "--no-preview"], capsys)
+    assert code == 2 and "more than any facade has" in err, err
+    cfg = tmp_path / "city.toml"
+    cfg.write_text("[per_block]\nwindows = [1e12, 1e12]\n")
+    code, err = _run(["city", "--streets", str(_write(tmp_path / "s.geojson", {
+        "type": "FeatureCollection", "features": []})), "--library", str(LIB), "--config",
+        str(cfg), "-o", str(tmp_path / "run"), "--no-overview"], capsys)
+    assert code == 2 and "per_block.windows" in err and "more than any block" in err, err
+
+
+def test_ingest_refuses_a_quantum_finer_than_a_millimetre(tmp_path, capsys):
+    lib = _manifest_library(tmp_path, lambda t: t.replace("quantum = 0.2", "quantum = 1e-9"))
+    code, err = _run(["ingest", str(lib), "-o", str(tmp_path / "db.json")], capsys)
+    assert code == 2 and "finer than 0.001 m" in err, err
