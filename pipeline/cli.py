@@ -217,7 +217,7 @@ def environment_message(exc: OSError) -> str:
     where = f"{exc.filename}: " if exc.filename else ""
     if exc.errno == errno.ENAMETOOLONG and exc.filename and len(str(exc.filename)) > 120:
         where = f"{str(exc.filename)[:60]}...{str(exc.filename)[-40:]}: "
-    fix = _FIXES.get(exc.errno, "free space or fix the permissions")
+    fix = _FIXES.get(exc.errno or 0, "free space or fix the permissions")
     return f"{where}{exc.strerror or exc}; {fix} and run again"
 
 
