@@ -64,8 +64,10 @@ USER = "userProperties:citysynth:"   # attributes Blender, Maya and Houdini show
 
 
 def prim_name(text: str) -> str:
-    """A valid, readable prim name for an id ("classic_mid_2.6_4s" -> "classic_mid_2_6_4s")."""
-    return Tf.MakeValidIdentifier(text)
+    """A valid, readable prim name for an id ("classic_mid_2.6_4s" -> "classic_mid_2_6_4s";
+    "17" -> "_17": usd-core's ``Tf.MakeValidIdentifier`` would replace a leading digit,
+    and blocks "17" and "27" would both be "_7")."""
+    return Tf.MakeValidIdentifier("_" + text if text[:1].isdigit() else text)
 
 
 def _stage_metadata(layer: Sdf.Layer, default_prim: str) -> None:

@@ -142,6 +142,22 @@ def far_interval(values: list[float], tolerance: float) -> tuple[float, float]:
     return lo, hi
 
 
+def _said(x: float) -> str:
+    """A height as asked: in six figures, or every figure it needs (120.00001)."""
+    short = f"{x:g}"
+    return short if float(short) == x else repr(float(x))
+
+
+def _apart(x: float, asked: float) -> str:
+    """``x`` with as few figures as tell it from ``asked`` (at least six): 120 m said
+    against an ask of 120.00001 m reads as the ask met."""
+    for digits in range(6, 16):
+        text = f"{x:.{digits}g}"
+        if text != f"{asked:.{digits}g}":
+            return text
+    return f"{x:.16g}"
+
+
 def _why(details: list[dict], lot: Lot, area: tuple[float, float],
          reach: tuple[float, float] | None, height: float, lowest: float) -> str:
     """Why no tower fits, in heights and floor-area ratios (the solver's details, or
@@ -166,7 +182,7 @@ def _why(details: list[dict], lot: Lot, area: tuple[float, float],
         said.append("no stack of the tower parts of that height has that floor-area ratio"
                     + (f"; the nearest reach {' or '.join(ratios)}" if ratios else ""))
     if "height" in by:
-        tall = " or ".join(f"{x:g} m" for x in nearest(by["height"]))
+        tall = " or ".join(f"{_apart(x, height)} m" for x in nearest(by["height"]))
         alone = by["height"].get("blocks") != "together" and not said
         said.append(("no stack of the tower parts has that height" if alone else
                      "with that floor-area ratio no stack of the tower parts has that height")
@@ -263,7 +279,7 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
     problem = tower_problem(db, hi, area, style=style, k=k, area_quantum=AREA_QUANTUM,
                             keep=lambda p: fits(p, lot))
     problem["constraints"]["height"] = [lo, hi]
-    at = f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
+    at = _said(lo) if lo == hi else f"{_said(lo)}-{_said(hi)}"
     asked = Problem.from_dict(problem)
     lowest = _lowest(problem)
     try:

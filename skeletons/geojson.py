@@ -186,6 +186,10 @@ def _usable(raw: list[Any], source: str, accept: Accept
             raise SkeletonError(f"{source}: feature {i}: properties must be an object or "
                                 f"null, got {type(props).__name__}")
         props = dict(props or {})
+        fid = f.get("id")     # RFC 7946's own member, where GDAL and others write it
+        if "id" not in props and isinstance(fid, str | int) and not isinstance(fid, bool) \
+                and str(fid):
+            props["id"] = fid
         g = _geometry(f.get("geometry"), f"{source}: feature {i}")
         reason = _unusable(g, accept)
         if reason is not None:

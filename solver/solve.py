@@ -156,10 +156,13 @@ def check_k(k: int, max_memory_mb: float) -> None:
     if need > max_memory_mb * 2**20:
         big = k >= 1e12   # said in three figures, not in 31 digits
         size = f"{k:.3g}" if big else f"{k:,}"
-        gb = f"{need / 2**30:.3g}" if big else f"{need / 2**30:,.1f}"
+        amount = (f"{need / 2**30:.3g} GB" if big else f"{need / 2**30:,.1f} GB"
+                  if need >= 2**30 else f"{need / 2**20:,.1f} MB" if need >= 2**20
+                  else f"{need / 2**10:,.0f} KB")
+        budget = f"{max_memory_mb:,.0f}" if max_memory_mb >= 1 else f"{max_memory_mb:g}"
         raise TooLargeError(f"k = {size}: keeping that many solutions takes at least "
-                            f"{gb} GB, over the memory budget of "
-                            f"{max_memory_mb:,.0f} MB; ask for fewer (k), or raise the "
+                            f"{amount}, over the memory budget of "
+                            f"{budget} MB; ask for fewer (k), or raise the "
                             "budget (--max-memory MB)", need_mb=need / 2**20,
                             budget_mb=max_memory_mb, k=k)
 

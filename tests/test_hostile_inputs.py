@@ -292,3 +292,35 @@ def test_ingest_refuses_a_quantum_finer_than_a_millimetre(tmp_path, capsys):
     lib = _manifest_library(tmp_path, lambda t: t.replace("quantum = 0.2", "quantum = 1e-9"))
     code, err = _run(["ingest", str(lib), "-o", str(tmp_path / "db.json")], capsys)
     assert code == 2 and "finer than 0.001 m" in err, err
+
+
+def test_figures_are_said_with_the_digits_that_matter(tmp_path, capsys):
+    code, err = _run(["solve", str(EX / "facade_small.json"), "--max-memory", "0.001"],
+                     capsys)
+    assert code == 2 and "over the memory budget of 0.001 MB" in err and "0.0 GB" not in err
+    code, err = _run(["tower", "--height", "120.00001", "--far", "10", "--lot-area", "400",
+                      "-o", str(tmp_path / "o"), "--no-preview"], capsys)
+    assert code == 1 and "at 120.00001 m" in err, err
+
+
+def test_ids_keep_distinct_names_in_files_and_prims(tmp_path, capsys):
+    """Numeric ids keep their digits in the USD root prim ("17" was "_7", as was "27"),
+    ids of letters outside ASCII keep distinct file names (both were "layout"), and
+    RFC 7946's own feature "id" names a block (it was named by position)."""
+    from pxr import Sdf
+    feats = [_rect("17", LON), _rect("27", LON + 0.01), _rect("é", LON + 0.02),
+             _rect("中文", LON + 0.03), _rect("", LON + 0.04)]
+    feats[1]["properties"] = {}
+    feats[1]["id"] = 27                      # the Feature's own member, a number
+    feats[4]["properties"] = {}
+    feats[4]["id"] = "north_block"
+    src = _write(tmp_path / "ids.geojson", {"type": "FeatureCollection", "features": feats})
+    out = tmp_path / "out"
+    code, err = _run(["block", str(src), "--library", str(LIB), "-o", str(out),
+                      "--no-preview"], capsys)
+    assert code == 0, err
+    stems = sorted(p.name.removesuffix(".layout.json") for p in out.glob("*.layout.json"))
+    assert stems[:3] == ["17", "27", "id_7be2d2d20c10"] and stems[4] == "north_block", stems
+    assert stems[3].startswith("id_") and len(set(stems)) == 5
+    prims = {Sdf.Layer.FindOrOpen(str(out / f"{s}.usda")).defaultPrim for s in ("17", "27")}
+    assert prims == {"_17", "_27"}

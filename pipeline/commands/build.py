@@ -85,14 +85,19 @@ MAX_NAME = 100   # characters of a name kept as they are; its files add up to 20
 
 
 def safe_name(text: str) -> str:
-    """A file-name-safe version of a feature or file name; one longer than
-    :data:`MAX_NAME` keeps its first 80 characters and a digest of the whole (every
-    file system takes 255 bytes a name at most, and a layout's files add their rank,
-    suffix and a temporary part), so distinct long ids stay distinct."""
-    name = re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_.") or "layout"
-    if len(name) > MAX_NAME:
-        name = f"{name[:80]}_{hashlib.sha1(text.encode('utf-8', 'surrogatepass')).hexdigest()[:12]}"
-    return name
+    """A file-name-safe version of a feature or file name: every character but ASCII
+    letters, digits, ``.``, ``_`` and ``-`` made ``_``. One that lost letters outside
+    ASCII, or is left empty, or is longer than :data:`MAX_NAME` (every file system takes
+    255 bytes a name at most, and a layout's files add their rank, suffix and a
+    temporary part), keeps its first 80 characters and a digest of the whole, so
+    distinct ids stay distinct."""
+    name = re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_.")
+    if name and len(name) <= MAX_NAME and text.isascii():
+        return name
+    # letters no file name here keeps ("中文", "café"), nothing left, or too long: a
+    # digest of the whole keeps distinct ids distinct
+    digest = hashlib.sha1(text.encode("utf-8", "surrogatepass")).hexdigest()[:12]
+    return f"{name[:80]}_{digest}" if name else f"id_{digest}"
 
 
 def _prepare(args):
@@ -183,12 +188,13 @@ def run_building(args) -> int:
 def run_block(args) -> int:
     db, style, feats, frame = _prepare(args)
     stem = safe_name(Path(args.file).stem)
-    names = []
+    names, ids = [], []
     for f in feats:
         fid = f.properties.get("id", f.properties.get("name"))
+        ids.append(str(fid) if fid is not None else f"feature {f.index}")
         names.append(safe_name(str(fid)) if fid is not None else
                      (stem if len(feats) == 1 else f"{stem}_{f.index}"))
-    _check_names(args.file, names, args.k)
+    _check_names(args.file, names, ids, args.k)
     built = []
     for f, name in zip(feats, names, strict=True):
         rings = skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
@@ -196,28 +202,30 @@ def run_block(args) -> int:
     return _finish(args, db, style, frame, built)
 
 
-def _check_names(source, names: list[str], k: int) -> None:
+def _check_names(source, names: list[str], ids: list[str], k: int) -> None:
     """Refuse blocks whose files would overwrite each other's: the same name, names
     differing only in case (one file on Windows and macOS), or, with k above 1, a name
-    that is another block's rank (block "x_2" against rank 2 of block "x")."""
-    seen: dict[str, str] = {}
-    for name in names:
+    that is another block's rank (block "x_2" against rank 2 of block "x"). ``ids``:
+    what the features call them, which the message quotes."""
+    seen: dict[str, int] = {}
+    for n, name in enumerate(names):
         files = [name] + ([f"{name}_{r}" for r in range(1, k + 1)] if k > 1 else [])
         for file in files:
-            other = seen.get(file.casefold())
-            if other is not None:
+            m = seen.get(file.casefold())
+            if m is not None:
+                other = names[m]
                 why = ("share a name" if other == name else
                        "share a name but for letter case (one file on Windows and macOS)"
                        if other.casefold() == name.casefold() else
                        f"would write the same files ({file!r})")
                 raise SkeletonError(
-                    f"{source}: two blocks {why}: {other!r} and {name!r} (their \"id\"); "
-                    "give each feature a distinct id" + (
+                    f"{source}: two blocks {why}: {ids[m]!r} and {ids[n]!r} (their "
+                    "\"id\"); give each feature a distinct id" + (
                         f", not ending in _1 to _{k} after another's (with --k {k} a block's "
                         "files are named <id>_<rank>)" if k > 1 and
                         other.casefold() != name.casefold() else ""))
         for file in files:
-            seen[file.casefold()] = name
+            seen[file.casefold()] = n
 
 
 def _smallest(db, style: str) -> float:
