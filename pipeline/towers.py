@@ -345,6 +345,9 @@ def tower_layout(name: str, rank: int, sequence: list[str], cost: float,
         "lot": {"area": lot.area, "centre": [cx, cy], "angle": lot.angle,
                 "polygon": [list(c) for c in lot.polygon.exterior.coords]},
     }
+    if lot.polygon.interiors:   # a courtyard or an easement: Polygon(polygon, holes)
+        structure["lot"]["holes"] = [[list(c) for c in ring.coords]
+                                     for ring in lot.polygon.interiors]
     return Layout(name, rank, {"name": db.name, "hash": db.library_hash,
                                "quantum": db.quantum},
                   parts[sequence[0]].style, lot.frame, [structure], instances)

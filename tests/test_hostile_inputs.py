@@ -324,3 +324,21 @@ def test_ids_keep_distinct_names_in_files_and_prims(tmp_path, capsys):
     assert stems[3].startswith("id_") and len(set(stems)) == 5
     prims = {Sdf.Layer.FindOrOpen(str(out / f"{s}.usda")).defaultPrim for s in ("17", "27")}
     assert prims == {"_17", "_27"}
+
+
+def test_a_lot_with_a_hole_is_written_with_it(tmp_path, capsys):
+    import shapely
+    from citysynth.skeletons import lonlat_from_local
+    outer = lonlat_from_local([(0, 0), (60, 0), (60, 60), (0, 60), (0, 0)], (LON, LAT))
+    hole = lonlat_from_local([(40, 40), (55, 40), (55, 55), (40, 55), (40, 40)], (LON, LAT))
+    lot = _write(tmp_path / "lot.geojson", {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {},
+         "geometry": {"type": "Polygon", "coordinates": [outer, hole]}}]})
+    out = tmp_path / "o"
+    code, err = _run(["tower", "--height", "60", "--far", "0.5", "1.7", "--lot", str(lot),
+                      "-o", str(out), "--no-preview"], capsys)
+    assert code == 0, err
+    st = json.loads(next(out.glob("*.layout.json")).read_text())["structures"][0]["lot"]
+    poly = shapely.Polygon(st["polygon"], st["holes"])
+    assert poly.area == pytest.approx(st["area"], rel=1e-6)
+    assert len(st["holes"]) == 1
