@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 import shapely
@@ -336,7 +337,7 @@ def tower_layout(name: str, rank: int, sequence: list[str], cost: float,
     keys = [{"part": sequence[j], "kind": parts[sequence[j]].cls, "xy": [cx, cy],
              "z": round(zz, 6), "joint": "part"}
             for j, zz in ((0, 0.0), (len(sequence) - 1, instances[-1].z))]
-    structure = {
+    structure: dict[str, Any] = {
         "name": name, "closed": False, "cost": cost, "keys": keys,
         "stages": [{"from": 0, "to": 1, "length": met["height"], "stretch": 1.0,
                     "parts": list(sequence), "asked": asked, "met": met,

@@ -328,6 +328,7 @@ def test_ids_keep_distinct_names_in_files_and_prims(tmp_path, capsys):
 
 def test_a_lot_with_a_hole_is_written_with_it(tmp_path, capsys):
     import shapely
+
     from citysynth.skeletons import lonlat_from_local
     outer = lonlat_from_local([(0, 0), (60, 0), (60, 60), (0, 60), (0, 0)], (LON, LAT))
     hole = lonlat_from_local([(40, 40), (55, 40), (55, 55), (40, 55), (40, 40)], (LON, LAT))
