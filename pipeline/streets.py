@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -27,6 +27,7 @@ import shapely
 from shapely.geometry import LineString
 from shapely.ops import substring
 
+from citysynth.export.joints import HalfPlane, Placed, bisector
 from citysynth.export.layout import Instance, Layout
 from citysynth.parts_db import Part, PartDB
 from citysynth.pipeline.errors import UsageError
@@ -104,6 +105,7 @@ def _cut(coords: np.ndarray, turns: np.ndarray, side: str, depth: float,
 RING_SIMPLIFY = 0.25  # m: a block outline is straightened this much before it is cut
 RING_BEND = 0.01     # degrees: ... and cut at every turn left (rows on chords of a bent
 #                      run would overlap behind a left turn: depth² tan(turn) / 2)
+FOLD = math.sin(math.radians(RING_BEND))   # a row's chords turning left by more: folded
 
 
 def ring_runs(polygon: shapely.Polygon, depth: float, side: str = "ring") -> list[Run]:
@@ -321,6 +323,7 @@ def _place(run: Run, si: int, sequence: list[str], parts: dict[str, Part]
     solved = math.fsum(parts[x].length for x in sequence)
     stretch = run.line.length / solved
     out, at = [], 0.0
+    chords = []
     for pid in sequence:
         p = parts[pid]
         p0 = run.line.interpolate(at * stretch)
@@ -329,9 +332,38 @@ def _place(run: Run, si: int, sequence: list[str], parts: dict[str, Part]
         c = np.array([p1.x - p0.x, p1.y - p0.y])
         n = np.array([-c[1], c[0]]) / float(np.linalg.norm(c))
         x_axis = c / p.length
+        chords.append((c / float(np.linalg.norm(c)), np.array([p1.x, p1.y])))
         out.append(Instance(pid, p.cls, si, 0, None, (float(x_axis[0]), float(x_axis[1])),
                             (float(n[0]), float(n[1])), (p0.x, p0.y)))
-    return out, stretch
+    return _folded(out, chords, parts), stretch
+
+
+def _folded(row: list[Instance], chords: list[tuple[np.ndarray, np.ndarray]],
+            parts: dict[str, Part]) -> list[Instance]:
+    """A row whose chords turn toward its buildings (a run bent left, by less than
+    :data:`BEND`): each pair of neighbours cut on the bisector plane of their chords
+    through the point they share, each keeping its own side, as a block's modules are
+    at a fold. Standing on chords, their backs overlapped there (4.4 % of the ground of
+    a row round a 120 m arc). A turn away from the buildings leaves them whole."""
+    halves: list[list[HalfPlane]] = [[] for _ in row]
+    for i in range(len(row) - 1):
+        (u, at), (v, _end) = chords[i], chords[i + 1]
+        if u[0] * v[1] - u[1] * v[0] <= FOLD:     # straight on, or turning away
+            continue
+        b = bisector(u, v)
+        halves[i].append(HalfPlane((float(b[0]), float(b[1])), (float(at[0]), float(at[1])),
+                                   extends=False))
+        halves[i + 1].append(HalfPlane((float(-b[0]), float(-b[1])),
+                                       (float(at[0]), float(at[1])), extends=False))
+    out = []
+    for inst, h in zip(row, halves, strict=True):
+        if h:
+            placed = Placed(inst.part, inst.cls, parts[inst.part].length, (0.0, 1.0),
+                            inst.structure, inst.stage, inst.key,
+                            np.array([inst.x_axis, inst.y_axis]).T, np.array(inst.origin), h)
+            inst = replace(inst, cut=placed.cut())
+        out.append(inst)
+    return out
 
 
 def street_layout(name: str, rank: int, all_runs: list[Run], solutions: list,
