@@ -679,7 +679,7 @@ _Segment = tuple[np.ndarray, np.ndarray, int | None, int | None]   # a, b, insta
 
 def _check(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
            inst: list[Instance], keys: Sequence[str],
-           solved: Sequence[float | None] = (), quantum: float = 0.0) -> None:
+           solved: Sequence[float | None], quantum: float) -> None:
     """The layout's geometry against its skeleton (``keys``: the solution's element at
     each key point; ``solved``: the length the solver counted on each stage, legs
     included, and ``quantum`` the length quantum it counted in); any failure is an
@@ -687,7 +687,7 @@ def _check(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
     for s, r in record.stages.items():
         st = plan.stages[s]
         where = f"{plan.name}: stage {s}"
-        _check_length(where, st, r, solved[s] if s < len(solved) else None, quantum)
+        _check_length(where, st, r, solved[s], quantum)
         # facade segments in travel order: start key's leg, fillers, end key's leg
         segs = [_key_segment(plan, record, parts, inst, keys, st.start, r.start_leg,
                              outgoing=True)]

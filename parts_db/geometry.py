@@ -46,7 +46,6 @@ class Piece:
         return _face_normals(np.ascontiguousarray(self.vertices, dtype=np.float64),
                              np.ascontiguousarray(self.faces, dtype=np.int64))
 
-
     def float32_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The arrays a writer stores, in one compiled pass: points (float32), the face
         vertex indices flattened (int32), the face normals (computed in float64 as

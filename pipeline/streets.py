@@ -330,9 +330,10 @@ def _place(run: Run, si: int, sequence: list[str], parts: dict[str, Part]
         at += p.length
         p1 = run.line.interpolate(at * stretch)
         c = np.array([p1.x - p0.x, p1.y - p0.y])
-        n = np.array([-c[1], c[0]]) / float(np.linalg.norm(c))
+        u = c / float(np.linalg.norm(c))
+        n = np.array([-u[1], u[0]])
         x_axis = c / p.length
-        chords.append((c / float(np.linalg.norm(c)), np.array([p1.x, p1.y])))
+        chords.append((u, np.array([p1.x, p1.y])))
         out.append(Instance(pid, p.cls, si, 0, None, (float(x_axis[0]), float(x_axis[1])),
                             (float(n[0]), float(n[1])), (p0.x, p0.y)))
     return _folded(out, chords, parts), stretch

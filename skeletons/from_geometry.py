@@ -52,15 +52,23 @@ def _constraints(props: dict[str, Any], where: str) -> dict[str, tuple[float, fl
                 or v[0] > v[1] or v[0] < 0):
             raise SkeletonError(f"{where}: constraint {k} must be [min, max] with "
                                 f"0 <= min <= max, got {v!r}")
-        if v[0] > MAX_MINIMUM:
-            raise SkeletonError(f"{where}: constraint {k} asks for at least {v[0]:g}, "
-                                f"more than any facade has (at most {MAX_MINIMUM:g}); "
-                                "check the value")
+        absurd = absurd_minimum(v[0], "facade")
+        if absurd:
+            raise SkeletonError(f"{where}: constraint {k} {absurd}")
         out[str(k)] = (float(v[0]), float(v[1]))
     return out
 
 
 MAX_MINIMUM = 1e9   # doors, windows ... at the least on one side or building: past any
+
+
+def absurd_minimum(lo: float, whole: str) -> str | None:
+    """Why an interval's minimum no ``whole`` (a facade, a block) can have is refused,
+    or None: the one rule for constraints in GeoJSON and in city.toml."""
+    if lo <= MAX_MINIMUM:
+        return None
+    return (f"asks for at least {lo:g}, more than any {whole} has (at most "
+            f"{MAX_MINIMUM:g}); check the value")
 
 
 def _front(props: dict[str, Any], where: str) -> Front:

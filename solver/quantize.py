@@ -79,6 +79,12 @@ def _rational(v: float) -> Fraction | None:
     return f if abs(float(f) - v) <= TOL * max(1.0, abs(v)) else None
 
 
+def quanta_text(amount: float) -> str:
+    """A count of quanta in three figures, or past what a float holds (1e308 m of 0.2
+    m quanta), as messages say it."""
+    return f"{amount:.3g} quanta" if math.isfinite(amount) else "beyond 1e308 quanta"
+
+
 def is_multiple(v: float, q: float) -> bool:
     """v is an integer multiple of q (within 1e-9, relative to the multiple)."""
     m = v / q
@@ -118,8 +124,7 @@ def quantise_resource(
                 "check the value, which no element plausibly has")
         raise ProblemError(
             f'resource "{name}": with a quantum of {q:g}, its value {worst:g} is '
-            + (f"{quanta:.3g}" if math.isfinite(quanta) else "beyond 1e308")
-            + f" quanta (at most {VALUE_QUANTA_MAX:.0e}); {hint}")
+            f"{quanta_text(quanta)} (at most {VALUE_QUANTA_MAX:.0e}); {hint}")
     near = np.rint(m)   # round half to even, as round() does
     ints = near.astype(np.int64).tolist()
     values_exact = bool(np.all(np.abs(m - near) <= TOL * np.maximum(1.0, np.abs(m))))

@@ -32,6 +32,7 @@ from citysynth.solver.fgs import fgs
 from citysynth.solver.graph import build_graph
 from citysynth.solver.kbest import k_best
 from citysynth.solver.problem import Problem
+from citysynth.solver.quantize import quanta_text
 
 # the one-stage methods (see solve); the CLI offers METHODS
 Method = Literal["auto", "bounded", "rcksp", "fgs"]
@@ -167,12 +168,6 @@ def check_k(k: int, max_memory_mb: float) -> None:
                             budget_mb=max_memory_mb, k=k)
 
 
-def _quanta(amount: float) -> str:
-    """A count of quanta in three figures, or beyond what a float holds (1e308 m of
-    0.2 m quanta)."""
-    return f"{amount:.3g} quanta" if math.isfinite(amount) else "beyond 1e308 quanta"
-
-
 def check_length(cp: Compiled, max_memory_mb: float) -> None:
     """Refuse at once a minimum past what can be counted (1e300 m at 0.2 m), and one that
     only a solution too long for any search within the budget can reach: every element
@@ -183,7 +178,7 @@ def check_length(cp: Compiled, max_memory_mb: float) -> None:
         if q.lo > HI_CAP:
             raise TooLargeError(
                 f'resource "{q.resource}": its minimum {q.asked[0]:g} is '
-                f"{_quanta(q.asked[0] / q.quantum)} of {q.quantum:g}, more than can be "
+                f"{quanta_text(q.asked[0] / q.quantum)} of {q.quantum:g}, more than can be "
                 f"counted ({HI_CAP:.3g}); ask for less, or give a coarser quantum",
                 budget_mb=max_memory_mb)
         most = int(cp.r[:, i].max(initial=0))

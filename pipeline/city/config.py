@@ -68,7 +68,7 @@ from shapely.geometry import Polygon
 
 from citysynth.pipeline.city.footprints import Storeys
 from citysynth.pipeline.errors import ConfigError
-from citysynth.skeletons.from_geometry import MAX_MINIMUM, why_invalid
+from citysynth.skeletons.from_geometry import absurd_minimum, why_invalid
 from citysynth.skeletons.streets import Setbacks
 from citysynth.solver.safe_read import read_toml
 
@@ -399,9 +399,9 @@ def _intervals(d: Any, key: str, err: _Err) -> dict[str, tuple[float, float]]:
         if (not isinstance(iv, list) or len(iv) != 2 or not all(_isnum(x) for x in iv)
                 or iv[0] > iv[1] or iv[0] < 0):
             raise err(f"{key}.{name}", f"must be [min, max] with 0 <= min <= max, got {iv!r}")
-        if iv[0] > MAX_MINIMUM:
-            raise err(f"{key}.{name}", f"asks for at least {iv[0]:g}, more than any block "
-                      f"has (at most {MAX_MINIMUM:g}); check the value")
+        absurd = absurd_minimum(iv[0], "block")
+        if absurd:
+            raise err(f"{key}.{name}", absurd)
         out[str(name)] = (float(iv[0]), float(iv[1]))
     return out
 

@@ -26,9 +26,8 @@ from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.from_geometry import why_invalid
 
 FAR_TOLERANCE = 0.02   # --far X: within 2 % of X either side
-
-
 MAX_LOT_AREA = 1e12   # m²: a million km², past any lot (larger ones lose the metre to rounding)
+
 
 def register(sub) -> None:
     p = sub.add_parser("tower", help="stack a tower of exact height and floor-area ratio",
