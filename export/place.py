@@ -116,7 +116,7 @@ def _depth(p: Part, element: str) -> float:
     return main_depth(p.sec_in)
 
 
-def _y_range(p: Part) -> tuple[float, float]:
+def y_range(p: Part) -> tuple[float, float]:
     """A part's extent across its facade line (placement-frame Y): overhang to depth."""
     sec = p.sec_in
     if not isinstance(sec, BaseGeometry) or sec.is_empty:
@@ -665,7 +665,7 @@ def _straight_key(p: Part, si: int, j: int, xy, v, before: bool, front: str) -> 
 def _instance(p: Part, structure: int, stage, key, a: np.ndarray, origin) -> Placed:
     """A placed part (cut later where it meets a joint or a bend)."""
     length = _geom_length(p) if p.cls in ("middle", "end_left", "end_right") else 0.0
-    return Placed(p.id, p.cls, length, _y_range(p), structure, stage, key,
+    return Placed(p.id, p.cls, length, y_range(p), structure, stage, key,
                   np.asarray(a, dtype=float), np.asarray(origin, dtype=float))
 
 

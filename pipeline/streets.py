@@ -29,6 +29,7 @@ from shapely.ops import substring
 
 from citysynth.export.joints import HalfPlane, Placed, bisector
 from citysynth.export.layout import Instance, Layout
+from citysynth.export.place import y_range
 from citysynth.parts_db import Part, PartDB
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
@@ -105,7 +106,7 @@ def _cut(coords: np.ndarray, turns: np.ndarray, side: str, depth: float,
 RING_SIMPLIFY = 0.25  # m: a block outline is straightened this much before it is cut
 RING_BEND = 0.01     # degrees: ... and cut at every turn left (rows on chords of a bent
 #                      run would overlap behind a left turn: depth² tan(turn) / 2)
-FOLD = math.sin(math.radians(RING_BEND))   # a row's chords turning left by more: folded
+FOLD = math.sin(math.radians(RING_BEND))   # a row's chords turning by more: folded
 
 
 def ring_runs(polygon: shapely.Polygon, depth: float, side: str = "ring") -> list[Run]:
@@ -341,25 +342,28 @@ def _place(run: Run, si: int, sequence: list[str], parts: dict[str, Part]
 
 def _folded(row: list[Instance], chords: list[tuple[np.ndarray, np.ndarray]],
             parts: dict[str, Part]) -> list[Instance]:
-    """A row whose chords turn toward its buildings (a run bent left, by less than
-    :data:`BEND`): each pair of neighbours cut on the bisector plane of their chords
-    through the point they share, each keeping its own side, as a block's modules are
-    at a fold. Standing on chords, their backs overlapped there (4.4 % of the ground of
-    a row round a 120 m arc). A turn away from the buildings leaves them whole."""
+    """A row whose chords bend (a run bent by less than :data:`BEND`, a curved street):
+    each pair of neighbours meets on the bisector plane of their chords through the
+    point they share, each keeping its own side, as a block's modules do at a fold.
+    Standing on chords, their backs overlapped where the run turns toward the buildings
+    (4.4 % of the ground of a row round a 120 m arc), and fanned apart where it turns
+    away (a wedge open at the back, as much ground again): there both are extended up
+    to the plane (a concave fold) before the cut."""
     halves: list[list[HalfPlane]] = [[] for _ in row]
     for i in range(len(row) - 1):
         (u, at), (v, _end) = chords[i], chords[i + 1]
-        if u[0] * v[1] - u[1] * v[0] <= FOLD:     # straight on, or turning away
+        turn = u[0] * v[1] - u[1] * v[0]
+        if abs(turn) <= FOLD:     # straight on
             continue
-        b = bisector(u, v)
-        halves[i].append(HalfPlane((float(b[0]), float(b[1])), (float(at[0]), float(at[1])),
-                                   extends=False))
-        halves[i + 1].append(HalfPlane((float(-b[0]), float(-b[1])),
-                                       (float(at[0]), float(at[1])), extends=False))
+        b, p = bisector(u, v), (float(at[0]), float(at[1]))
+        away = bool(turn < 0)
+        halves[i].append(HalfPlane((float(b[0]), float(b[1])), p, extends=away))
+        halves[i + 1].append(HalfPlane((float(-b[0]), float(-b[1])), p, extends=away))
     out = []
     for inst, h in zip(row, halves, strict=True):
         if h:
-            placed = Placed(inst.part, inst.cls, parts[inst.part].length, (0.0, 1.0),
+            part = parts[inst.part]
+            placed = Placed(inst.part, inst.cls, part.length, y_range(part),
                             inst.structure, inst.stage, inst.key,
                             np.array([inst.x_axis, inst.y_axis]).T, np.array(inst.origin), h)
             inst = replace(inst, cut=placed.cut())
