@@ -15,6 +15,7 @@ import hashlib
 import json
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -39,9 +40,10 @@ class Cut:
     extend: tuple[float, float] = (0.0, 0.0)
     planes: tuple[tuple[float, float, float], ...] = ()
 
-    @property
+    @cached_property
     def key(self) -> str:
-        """A short name for the cut (part prototypes are named part~key)."""
+        """A short name for the cut (part prototypes are named part~key); made once per
+        cut, as a block's writers ask for it hundreds of times."""
         text = json.dumps([self.extend, self.planes])
         return hashlib.sha256(text.encode()).hexdigest()[:10]
 
@@ -73,7 +75,7 @@ class Instance:
     cut: Cut | None = None     # a mitre joint or a fold: the part cut (and extended)
     z: float = 0.0             # lifted by this much (a tower's stacked floors); else 0
 
-    @property
+    @cached_property
     def proto(self) -> str:
         """The prototype this instance shows: its part, or the part cut (``part~key``)."""
         return self.part if self.cut is None else f"{self.part}~{self.cut.key}"
