@@ -24,7 +24,7 @@ from shapely.geometry import LineString, MultiLineString, Polygon
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.geojson import Feature
 
-_NUMBER = re.compile(r"\s*(\d+(?:[.,]\d+)?|[.,]\d+)")
+_NUMBER = re.compile(r"\s*((?:\d+(?:[.,]\d+)?|[.,]\d+)(?:[eE][+-]?\d+)?)")
 
 
 @dataclass(frozen=True)
@@ -67,9 +67,12 @@ def tag_values(v: Any) -> list[Any]:
     return [] if v is None else [v]
 
 
-def _number(v: Any) -> float | None:
-    """A positive finite number from one OSM value ("7", "7 m", "7,5", 7), if any."""
-    if isinstance(v, bool):
+def osm_number(v: Any, most: float = math.inf) -> float | None:
+    """A positive number from one OSM value (``7``, ``"7"``, ``"7 m"``, ``"7,5"``,
+    ``"1e3"``, ``"3;4"``: the first) up to ``most``, else None: a value no street or
+    building has (``1e308``, a typo) counts as no value, as an unreadable one does.
+    Streets' widths and lanes and footprints' heights and storeys are all read by it."""
+    if isinstance(v, bool) or v is None:
         return None
     if isinstance(v, int | float):
         x = float(v)
@@ -78,7 +81,7 @@ def _number(v: Any) -> float | None:
         if m is None:
             return None
         x = float(m.group(1).replace(",", "."))
-    return x if math.isfinite(x) and x > 0 else None
+    return x if math.isfinite(x) and 0 < x <= most else None
 
 
 MAX_WIDTH = 250.0   # m: no street is wider (the widest avenues are about 140 m)
@@ -90,7 +93,7 @@ def widest(v: Any, most: float = math.inf) -> float | None:
     way) up to ``most``, or None when none is such a number: a value past it (a width
     of 1e308, a typo of 3000 for 3.00) is read as no value, as an unreadable one is,
     and the street falls back to its next rule instead of swallowing the city."""
-    numbers = [x for x in map(_number, tag_values(v)) if x is not None and x <= most]
+    numbers = [x for x in (osm_number(t, most) for t in tag_values(v)) if x is not None]
     return max(numbers, default=None)
 
 

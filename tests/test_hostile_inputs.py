@@ -105,6 +105,8 @@ def test_a_stage_bound_of_1e308_is_refused_with_an_estimate_not_a_crash(tmp_path
     ({"width": "3000", "highway": "residential"}, True),
     ({"lanes": 1e12, "highway": "residential"}, True),
     ({"width": "20 m", "highway": "residential"}, False),
+    ({"width": "1e4", "highway": "residential"}, True),    # exponents are read, too
+    ({"width": "20,0", "highway": "residential"}, False),
 ])
 def test_a_width_or_lane_count_no_street_has_counts_as_no_value(props, fallback):
     s = Setbacks()
@@ -248,6 +250,7 @@ def test_ingest_refuses_an_attribute_called_length(tmp_path, capsys):
     ({"building:levels": 1e308, "height": 1e308}, None, None),
     ({"building:levels": "5", "height": "12.5 m"}, 5.0, 12.5),
     ({"building:levels": "2e1"}, 20.0, None),
+    ({"building:levels": "4;5", "height": "12,5"}, 4.0, 12.5),   # a decimal comma
 ])
 def test_storeys_no_building_has_count_as_no_value(props, levels, height):
     from citysynth.pipeline.city.footprints import Storeys, footprint_spec

@@ -13,7 +13,6 @@ what the kit makes near that length.
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -30,6 +29,7 @@ from citysynth.skeletons.clean import absorb_short_edges, clean_footprint
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.from_geometry import STRAIGHT_TOL
 from citysynth.skeletons.geojson import format_xy, input_xy
+from citysynth.skeletons.streets import osm_number
 
 if TYPE_CHECKING:   # the job module imports this one
     from citysynth.pipeline.city.jobs import BlockJob
@@ -83,22 +83,6 @@ MAX_LEVELS = 200     # storeys: past the tallest building (163)
 MAX_HEIGHT = 1000.0  # m: likewise (828 m)
 
 
-def _number(v: Any, most: float = math.inf) -> float | None:
-    """A tag's number: ``5``, ``"5"``, ``"12.5 m"``, ``"3;4"`` (the first), up to
-    ``most``; else None: a value no building has (``1e308``, a typo) counts as no
-    value, as an unreadable one does."""
-    if isinstance(v, bool) or v is None:
-        return None
-    if isinstance(v, int | float):
-        x = float(v)
-    else:
-        m = re.match(r"\s*([0-9]+(?:\.[0-9]+)?(?:[eE][+-]?[0-9]+)?)", str(v))
-        if m is None:
-            return None
-        x = float(m.group(1))
-    return x if math.isfinite(x) and 0 < x <= most else None
-
-
 def feature_ref(props: dict[str, Any]) -> str:
     """The feature's own id, as OSM and cadastre exports name it, or ""."""
     for k in REF_KEYS:
@@ -112,8 +96,8 @@ def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: s
     """The spec of feature ``index`` of ``source`` from its properties."""
     roof = props.get("roof:shape")
     return FootprintSpec(source, index, feature_ref(props),
-                         _number(props.get("building:levels"), MAX_LEVELS),
-                         _number(props.get("height"), MAX_HEIGHT),
+                         osm_number(props.get("building:levels"), MAX_LEVELS),
+                         osm_number(props.get("height"), MAX_HEIGHT),
                          str(roof) if roof not in (None, "") else None, source_crs,
                          stretch, tolerance, storeys)
 
