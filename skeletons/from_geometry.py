@@ -11,6 +11,7 @@ geometry is refused with a message naming the feature and the place.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from collections.abc import Callable, Iterable
 from typing import Any, cast
@@ -47,14 +48,9 @@ def _constraints(props: dict[str, Any], where: str) -> dict[str, tuple[float, fl
                             '{"doors": [1, 2]}')
     out = {}
     for k, v in c.items():
-        if (not isinstance(v, list | tuple) or len(v) != 2
-                or not all(isinstance(x, int | float) and not isinstance(x, bool) for x in v)
-                or v[0] > v[1] or v[0] < 0):
-            raise SkeletonError(f"{where}: constraint {k} must be [min, max] with "
-                                f"0 <= min <= max, got {v!r}")
-        absurd = absurd_minimum(v[0], "facade")
-        if absurd:
-            raise SkeletonError(f"{where}: constraint {k} {absurd}")
+        problem = interval_problem(v, "facade")
+        if problem:
+            raise SkeletonError(f"{where}: constraint {k} {problem}")
         out[str(k)] = (float(v[0]), float(v[1]))
     return out
 
@@ -62,13 +58,19 @@ def _constraints(props: dict[str, Any], where: str) -> dict[str, tuple[float, fl
 MAX_MINIMUM = 1e9   # doors, windows ... at the least on one side or building: past any
 
 
-def absurd_minimum(lo: float, whole: str) -> str | None:
-    """Why an interval's minimum no ``whole`` (a facade, a block) can have is refused,
-    or None: the one rule for constraints in GeoJSON and in city.toml."""
-    if lo <= MAX_MINIMUM:
-        return None
-    return (f"asks for at least {lo:g}, more than any {whole} has (at most "
-            f"{MAX_MINIMUM:g}); check the value")
+def interval_problem(v: Any, whole: str) -> str | None:
+    """What is wrong with an asked interval ``v`` (``[min, max]``, finite, 0 <= min <=
+    max, a minimum some ``whole``, a facade or a block, can have), or None: the one rule
+    for constraints in GeoJSON and intervals in city.toml."""
+    if (not isinstance(v, list | tuple) or len(v) != 2
+            or not all(isinstance(x, int | float) and not isinstance(x, bool)
+                       and math.isfinite(x) for x in v)
+            or v[0] > v[1] or v[0] < 0):
+        return f"must be [min, max] with finite numbers, 0 <= min <= max, got {v!r}"
+    if v[0] > MAX_MINIMUM:
+        return (f"asks for at least {v[0]:g}, more than any {whole} has (at most "
+                f"{MAX_MINIMUM:g}); check the value")
+    return None
 
 
 def _front(props: dict[str, Any], where: str) -> Front:

@@ -376,3 +376,18 @@ def test_a_row_round_a_gentle_bend_shares_no_ground_and_leaves_no_gap(tmp_path, 
         gap = closed.difference(ground).area       # wedges between neighbours
         assert total > 1000 and shared < 0.001 * total, (side, shared, total)
         assert gap < 0.001 * total, (side, gap, total)
+
+
+@pytest.mark.parametrize("interval", ["[0, 1e400]", "[-1e400, 3]"])
+def test_an_infinite_constraint_is_refused_in_the_features_words(tmp_path, capsys, interval):
+    """GeoJSON reads 1e400 as infinity: refused at the feature, as city.toml refuses
+    it, not later in the solver's words (``stages[0].constraints``)."""
+    d = json.loads((EX / "skeletons" / "t_building.geojson").read_text())
+    d["features"][0]["properties"]["constraints"] = "@"
+    src = _write(tmp_path / "b.geojson",
+                 json.dumps(d).replace('"@"', '{"doors": ' + interval + '}'))
+    code, err = _run(["building", str(src), "--library", str(EX / "library"),
+                      "-o", str(tmp_path / "o"), "--no-preview"], capsys)
+    assert code == 2 and "feature 0" in err and "constraint doors" in err, err
+    assert "finite" in err and "stages[" not in err, err
+    assert not (tmp_path / "o").exists()

@@ -68,7 +68,7 @@ from shapely.geometry import Polygon
 
 from citysynth.pipeline.city.footprints import Storeys
 from citysynth.pipeline.errors import ConfigError
-from citysynth.skeletons.from_geometry import absurd_minimum, why_invalid
+from citysynth.skeletons.from_geometry import interval_problem, why_invalid
 from citysynth.skeletons.streets import Setbacks
 from citysynth.solver.safe_read import read_toml
 
@@ -396,12 +396,9 @@ def _intervals(d: Any, key: str, err: _Err) -> dict[str, tuple[float, float]]:
         raise err(key, 'must be a table like { doors = [1, 3] }')
     out = {}
     for name, iv in d.items():
-        if (not isinstance(iv, list) or len(iv) != 2 or not all(_isnum(x) for x in iv)
-                or iv[0] > iv[1] or iv[0] < 0):
-            raise err(f"{key}.{name}", f"must be [min, max] with 0 <= min <= max, got {iv!r}")
-        absurd = absurd_minimum(iv[0], "block")
-        if absurd:
-            raise err(f"{key}.{name}", absurd)
+        problem = interval_problem(iv, "block")
+        if problem:
+            raise err(f"{key}.{name}", problem)
         out[str(name)] = (float(iv[0]), float(iv[1]))
     return out
 
