@@ -115,21 +115,26 @@ class Frame:
 
 def read_geojson(path: str | Path, crs: str | None = None,
                  origin: tuple[float, float] | None = None, origin_digits: int | None = None,
-                 *, accept: Accept = "any") -> tuple[Features, Frame]:
+                 *, accept: Accept = "any", within: Frame | None = None
+                 ) -> tuple[Features, Frame]:
     """A GeoJSON file's features in a local metric frame; see :func:`parse_geojson`."""
     p = Path(path)
     data = read_json(p, "GeoJSON", SkeletonError)   # encoding, depth, size: safe_read
-    return parse_geojson(data, str(p), crs, origin, origin_digits, accept=accept)
+    return parse_geojson(data, str(p), crs, origin, origin_digits, accept=accept,
+                         within=within)
 
 
 def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
                   origin: tuple[float, float] | None = None, origin_digits: int | None = None,
-                  *, accept: Accept = "any") -> tuple[Features, Frame]:
+                  *, accept: Accept = "any", within: Frame | None = None
+                  ) -> tuple[Features, Frame]:
     """Features in a local metric frame centred on the data's bounding box, or on
-    ``origin`` so that several files share one frame (lon/lat, or input coordinates for
-    projected input kept as it is). With ``origin_digits``, a lon/lat centre is rounded
-    to that many decimals (2: about 1 km), so that edits at the edge of the data do not
-    move the frame. ``crs`` (e.g. "EPSG:25832") overrides the file's ``"crs"`` member.
+    ``origin`` (lon/lat, or input coordinates for projected input kept as it is), or in
+    ``within``, the frame another file set: so that several files share one frame, each
+    read in its own CRS (streets in EPSG:3067, footprints in lon/lat). With
+    ``origin_digits``, a lon/lat centre is rounded to that many decimals (2: about 1 km),
+    so that edits at the edge of the data do not move the frame. ``crs`` (e.g.
+    "EPSG:25832") overrides the file's ``"crs"`` member.
     ``accept`` names the geometries the caller can use ("lines", "polygons"); features
     with others, or with none, are left out with a warning (:class:`Features`)."""
     raw = _raw_features(data, source)
@@ -146,8 +151,8 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
     geoms = [g for _, g, _ in kept]
     named_by = "--crs" if crs is not None else f'the file\'s "crs" member ({member})'
     project, frame = _with_member(
-        lambda: _frame(geoms, given, source, origin, origin_digits, named_by), overrides,
-        member)
+        lambda: _frame(geoms, given, source, origin, origin_digits, named_by, within),
+        overrides, member)
     if overrides:
         warnings.warn(f"{source}: the file says its coordinates are in {member}, but "
                       f"--crs says {crs}; using {crs}", InputWarning, stacklevel=2)
@@ -411,24 +416,33 @@ def _unit(crs: pyproj.CRS) -> float:
 
 def _frame(geoms: list[BaseGeometry], given: pyproj.CRS | None, source: str,
            origin: tuple[float, float] | None, origin_digits: int | None,
-           named_by: str = "--crs") -> tuple[Project, Frame]:
-    """How to project the input, and the frame it lands in (``named_by``: where the
-    CRS was given, for messages)."""
+           named_by: str = "--crs", within: Frame | None = None) -> tuple[Project, Frame]:
+    """How to project the input, and the frame it lands in: its own, or ``within``
+    (``named_by``: where the CRS was given, for messages)."""
     allc = np.vstack([shapely.get_coordinates(g) for g in geoms])
+    kept = within if within is not None and within.crs != LONLAT_FRAME else None
     to_lonlat = _to_lonlat(given, source) if given is not None else None
     if given is not None and to_lonlat is not None:
         if not given.is_geographic:
             _check_not_degrees(allc, given, source, named_by)
         _check_area(given, to_lonlat(_extent(allc)), source)
-        if not given.is_geographic and _scale_error(given, allc) <= TRUE_SCALE:
+        if kept is not None:     # another file's projected CRS, kept as it is
+            return _into_kept(allc, given, source, kept), kept
+        if within is None and not given.is_geographic and \
+                _scale_error(given, allc) <= TRUE_SCALE:
             return _kept_projected(allc, given, origin)
         allc = to_lonlat(allc)
     _check_lonlat(allc, source, given)
+    if kept is not None:
+        return _into_kept(allc, None, source, kept), kept
+    if within is not None:
+        origin, origin_digits = within.origin, None
     centre = _lonlat_centre(allc) if origin is None else (float(origin[0]), float(origin[1]))
     if origin is None and origin_digits is not None:
         centre = (round(centre[0], origin_digits), round(centre[1], origin_digits))
     to_local = _local_tmerc(centre)
-    frame = Frame(LONLAT_FRAME, centre, given.to_string() if given is not None else "")
+    frame = within or Frame(LONLAT_FRAME, centre, given.to_string() if given is not None
+                            else "")
     if to_lonlat is None:
         return to_local, frame
     first = to_lonlat
@@ -517,6 +531,27 @@ def _kept_projected(allc: Coords, given: pyproj.CRS, origin: tuple[float, float]
     shift = np.array(centre)
     return (lambda c: (c - shift) * unit), \
         Frame(f"{given.name} (projected)", centre, given.to_string())
+
+
+def _into_kept(allc: Coords, given: pyproj.CRS | None, source: str, within: Frame
+               ) -> Project:
+    """Input in ``given`` (None: lon/lat) into ``within``, a projected CRS kept as it is
+    (another file's): moved to its origin, reprojected first when its CRS differs."""
+    target = pyproj.CRS.from_user_input(within.source_crs)
+    if given is not None and given == target:
+        return _kept_projected(allc, given, within.origin)[0]
+    tf = pyproj.Transformer.from_crs(given or "EPSG:4326", target, always_xy=True)
+    shift, unit = np.array(within.origin), _unit(target)
+
+    def into(c: Coords) -> Coords:
+        out = np.column_stack(tf.transform(c[:, 0], c[:, 1]))
+        if not np.isfinite(out).all():
+            bad = c[~np.isfinite(out).all(axis=1)][0]
+            raise SkeletonError(f"{source}: coordinates such as {_num(bad[0])}, "
+                                f"{_num(bad[1])} lie outside {target.name}, the CRS the "
+                                "other input is kept in; are the two inputs of one place?")
+        return (out - shift) * unit
+    return into
 
 
 def _to_lonlat(given: pyproj.CRS, source: str) -> Project:

@@ -583,3 +583,48 @@ def test_huge_coordinates_are_said_in_three_figures():
                        r"2e\+300 are not longitude/latitude"):
         parse_geojson({"type": "LineString", "coordinates": [[1e300, 2e300], [1, 2]]},
                       "s.geojson")
+
+
+def _in_crs(src: Path, dst: Path, crs: str) -> Path:
+    """``src`` (lon/lat) reprojected to ``crs``, with its ``"crs"`` member, as GDAL's
+    GeoJSON driver writes it with RFC7946=NO."""
+    tf = pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True)
+    doc = json.loads(src.read_text())
+
+    def move(c):
+        return [*tf.transform(c[0], c[1])] if isinstance(c[0], int | float) else \
+            [move(x) for x in c]
+    for f in doc["features"]:
+        f["geometry"]["coordinates"] = move(f["geometry"]["coordinates"])
+    doc["crs"] = {"type": "name", "properties": {"name": crs.replace(":", "::").join(
+        ["urn:ogc:def:crs:", ""])}}
+    dst.write_text(json.dumps(doc))
+    return dst
+
+
+@pytest.mark.parametrize("streets_crs, footprints_crs", [
+    ("EPSG:3067", None), (None, "EPSG:3067"), ("EPSG:3857", "EPSG:3067")])
+def test_streets_and_footprints_in_different_crss_share_one_frame(tmp_path, streets_crs,
+                                                                  footprints_crs):
+    """Each file is read in its own CRS and lands in the first one's frame. Before, the
+    streets' origin was passed to the footprints as if in their CRS: projected streets
+    with lon/lat footprints crashed (a projected origin as lon/lat), and lon/lat
+    streets with projected footprints put the footprints in the Bering Sea."""
+    streets, fps = DISTRICT, CITY / "district_buildings.geojson"
+    cfg = load_config(CITY / "city.toml")
+
+    def run(s_crs, f_crs):
+        s = _in_crs(streets, tmp_path / f"s_{s_crs}.geojson", s_crs) if s_crs else streets
+        f = _in_crs(fps, tmp_path / f"f_{f_crs}.geojson", f_crs) if f_crs else fps
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", InputWarning)
+            return prepare(s, f, cfg, LIB)
+    mixed = run(streets_crs, footprints_crs)
+    same = run(streets_crs, streets_crs)          # both files in the streets' CRS
+    assert mixed.frame == same.frame
+    got, want = outlines_in(mixed), outlines_in(same)
+    assert len(got) == len(want) and len(got) > 10
+    assert sum(j.kind == "footprint" for j in mixed.jobs) == \
+        sum(j.kind == "footprint" for j in same.jobs) > 0
+    for a in got:                                 # each outline where its twin is
+        assert min(shapely.hausdorff_distance(a, b) for b in want) < 0.01, a.centroid

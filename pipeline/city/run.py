@@ -26,7 +26,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol, TextIO
 
-import pyproj
 import shapely
 
 from citysynth.export.cuts import load_kernels
@@ -65,7 +64,6 @@ from citysynth.pipeline.errors import ConfigError, UsageError
 from citysynth.pipeline.layouts import check_style, default_style
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Frame, parse_geojson, read_geojson
-from citysynth.skeletons.geojson import LONLAT_FRAME
 from citysynth.skeletons.streets import Block, highway_classes, street_blocks
 
 CONNECT_TIMEOUT = "10s"      # to reach a Dask scheduler
@@ -96,8 +94,7 @@ def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: City
     if streets is not None:
         frame = _street_outlines(streets, cfg, crs, outlines, skipped)
     if footprints is not None:
-        fframe = _footprint_outlines(footprints, cfg, crs,
-                                     frame.origin if frame else cfg.origin, outlines, skipped)
+        fframe = _footprint_outlines(footprints, cfg, crs, frame, outlines, skipped)
         frame = frame or fframe
     if streets is not None and footprints is not None:   # no two facades share ground
         outlines, reasons = cut_back_outlines(outlines, min_area=cfg.min_area,
@@ -141,12 +138,13 @@ def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
 
 
 def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None,
-                        origin: tuple[float, float] | None, outlines: list[Outline],
+                        streets: Frame | None, outlines: list[Outline],
                         skipped: list[dict]) -> Frame:
     """Every footprint polygon (invalid or small ones skipped, with reasons); the
-    frame, at the streets' origin when there are streets."""
-    feats, frame = read_geojson(footprints, crs=crs, origin=origin,
-                                origin_digits=ORIGIN_DIGITS, accept="polygons")
+    frame: the streets' when there are streets (each file read in its own CRS)."""
+    feats, frame = read_geojson(footprints, crs=crs, origin=cfg.origin,
+                                origin_digits=ORIGIN_DIGITS, accept="polygons",
+                                within=streets)
     skipped += [{"kind": "feature", "reason": r} for r in feats.skipped]
     for f in feats:
         for p in shapely.get_parts(f.geometry):
@@ -294,17 +292,11 @@ def _zone_polygons(cfg: CityConfig, frame: Frame,
         return [None] * len(cfg.zones)
     lonlat = all(-180 <= x <= 180 and -90 <= y <= 90 for _, poly in with_poly for x, y in poly)
     zone_crs = None if lonlat else (frame.source_crs or crs)
-    if frame.crs != LONLAT_FRAME:   # projected input kept as it is: zones in its CRS
-        zone_crs = frame.source_crs
-        if lonlat:
-            tf = pyproj.Transformer.from_crs("EPSG:4326", frame.source_crs, always_xy=True)
-            with_poly = [(name, tuple(tf.transform(x, y) for x, y in poly))
-                         for name, poly in with_poly]
     fc = {"type": "FeatureCollection", "features": [
         {"type": "Feature", "properties": {"name": name},
          "geometry": {"type": "Polygon", "coordinates": [[*map(list, poly), list(poly[0])]]}}
         for name, poly in with_poly]}
-    feats, _ = parse_geojson(fc, "city.toml zones", zone_crs, frame.origin)
+    feats, _ = parse_geojson(fc, "city.toml zones", zone_crs, within=frame)
     geoms = iter(f.geometry for f in feats)
     return [next(geoms) if z.polygon else None for z in cfg.zones]
 
