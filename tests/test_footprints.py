@@ -350,3 +350,24 @@ def test_a_footprint_drawn_twice_is_built_once_and_told(tmp_path):
     assert report["counts"]["built"] == 2
     assert [s["reason"] for s in report["skipped"]] == [
         f"{fp}: feature 2 (again): the same outline as feature 0 (a), built once"]
+
+
+def test_a_zero_width_spike_is_repaired_and_a_bowtie_named_where_it_crosses(tmp_path):
+    """An outline drawn out and back along one line (invalid: it touches itself) is one
+    building: made valid and built, the spike cleaned away. An outline crossing itself
+    is left out, saying where, in the input's coordinates, and in which file."""
+    spike = [(0, 0), (30, 0), (30, 20), (15, 20), (15, 40), (15, 20), (0, 20), (0, 0)]
+    bowtie = [(60, 0), (90, 20), (90, 0), (60, 20), (60, 0)]
+    feats = [{"type": "Feature", "properties": {"id": name},
+              "geometry": {"type": "Polygon",
+                           "coordinates": [lonlat_from_local(ring, (24.94, 60.17))]}}
+             for name, ring in (("spike", spike), ("bowtie", bowtie))]
+    fp = tmp_path / "odd.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+    inputs = prepare(None, fp, parse_config({"k": 1}), LIB)
+    (job,) = inputs.jobs
+    outline = shapely.from_wkt(job.wkt)
+    assert outline.is_valid and outline.area == pytest.approx(600, rel=0.01)
+    (skip,) = [s["reason"] for s in inputs.skipped if s["kind"] == "footprint"]
+    assert str(fp) in skip and "feature 1 (bowtie)" in skip, skip
+    assert re.search(r"self-intersection at \(24\.94\d+, 60\.17\d+\)", skip), skip

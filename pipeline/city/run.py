@@ -18,6 +18,7 @@ The run folder::
 from __future__ import annotations
 
 import os
+import re
 import sys
 import time
 from collections.abc import Callable, Iterable, Iterator
@@ -151,16 +152,39 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
             if p.geom_type != "Polygon":
                 raise ConfigError(f"{footprints}: {f.name}: footprints must be Polygons, "
                                   f"got {p.geom_type}")
-            if not p.is_valid or p.area < cfg.min_area:
-                skipped.append(_skip("footprint", f"{f.name}: " + (
-                    "invalid outline" if not p.is_valid else
-                    f"{p.area:.1f} m², below min_area {cfg.min_area:g}"), p))
+            if not p.is_valid:
+                fixed, why = _repaired(p, frame)
+                if fixed is None:
+                    skipped.append(_skip("footprint", f"{footprints}: {f.name}: {why}; left "
+                                         "out (fix the outline in your GIS)", p))
+                    continue
+                p = fixed
+            if p.area < cfg.min_area:
+                skipped.append(_skip("footprint", f"{footprints}: {f.name}: {p.area:.1f} m², "
+                                     f"below min_area {cfg.min_area:g}", p))
                 continue
             fp = cfg.footprints
             outlines.append(("footprint", p, (), footprint_spec(
                 str(footprints), f.index, f.properties, frame.source_crs, fp.stretch,
                 fp.tolerance, fp.storeys)))
     return frame
+
+
+def _repaired(p: shapely.Polygon, frame: Frame) -> tuple[shapely.Polygon | None, str]:
+    """An invalid footprint made valid where that leaves one polygon (a zero-width spike
+    drawn out and back, a repeated corner: the building itself is plain), else None and
+    why, at the point in the input's coordinates (an outline crossing itself, a bowtie,
+    is two buildings or a mistake: which, only the user knows)."""
+    fixed = shapely.make_valid(p)
+    polys = [g for part in shapely.get_parts(fixed) for g in shapely.get_parts(part)
+             if g.geom_type == "Polygon" and g.area > 0]
+    if len(polys) == 1:
+        return polys[0], ""
+    reason = shapely.is_valid_reason(p)
+    m = re.fullmatch(r"\s*([^\[]+?)\s*\[\s*(\S+)\s+(\S+)\s*\]\s*", reason)
+    if m is None:
+        return None, f"its outline is invalid ({reason})"
+    return None, f"its outline is invalid: {m[1].lower()} at {frame.at((float(m[2]), float(m[3])))}"
 
 
 def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry | None],
