@@ -13,7 +13,7 @@ from __future__ import annotations
 import ast
 import math
 import re
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -95,6 +95,28 @@ def widest(v: Any, most: float = math.inf) -> float | None:
     and the street falls back to its next rule instead of swallowing the city."""
     numbers = [x for x in (osm_number(t, most) for t in tag_values(v)) if x is not None]
     return max(numbers, default=None)
+
+
+NOT_STREETS = ("footway", "path", "cycleway", "steps", "bridleway", "corridor",
+               "elevator", "platform", "proposed", "construction", "abandoned", "razed",
+               "service=driveway", "service=parking_aisle", "service=drive-through")
+"""Ways of an OSM export that bound no block (paths across courtyards, sidewalks drawn
+beside their street, driveways, ways not built): a ``highway`` class, or a
+``tag=value`` any of whose values marks the way."""
+
+
+def not_a_street(props: dict[str, Any], rules: Sequence[str]) -> str | None:
+    """The rule of ``rules`` (see :data:`NOT_STREETS`) that says a line is no street:
+    a ``tag=value`` rule it has, or a class rule naming each of its highway classes (a
+    merged edge of a footway and a street is a street); else None."""
+    classes = highway_classes(props)
+    for rule in rules:
+        key, eq, value = rule.partition("=")
+        if eq and value in tag_values(props.get(key)):
+            return rule
+    if classes and all(c in rules for c in classes):
+        return "highway=" + classes[0]
+    return None
 
 
 def highway_classes(props: dict[str, Any]) -> tuple[str, ...]:

@@ -628,3 +628,44 @@ def test_streets_and_footprints_in_different_crss_share_one_frame(tmp_path, stre
         sum(j.kind == "footprint" for j in same.jobs) > 0
     for a in got:                                 # each outline where its twin is
         assert min(shapely.hausdorff_distance(a, b) for b in want) < 0.01, a.centroid
+
+
+def test_footways_sidewalks_and_driveways_bound_no_block(tmp_path):
+    """An OSM export of every way (osmnx's "all", Overpass) has paths across courtyards,
+    sidewalks drawn beside their streets and driveways: city.toml's ``not_streets``
+    (footways, paths, cycleways, driveways ... by default) leaves them out, so they
+    neither split blocks nor pull their edges in; ``not_streets = []`` keeps them."""
+    from citysynth.pipeline.city.config import parse_config
+    from citysynth.pipeline.errors import ConfigError
+    from citysynth.skeletons import lonlat_from_local
+    o = (24.94, 60.17)
+
+    def line(pts, **props):
+        return {"type": "Feature", "properties": props, "geometry": {
+            "type": "LineString", "coordinates": lonlat_from_local(pts, o)}}
+    grid = [line([(x, -10), (x, 310)], highway="residential") for x in (0, 100, 200, 300)]
+    grid += [line([(-10, y), (310, y)], highway="residential") for y in (0, 100, 200, 300)]
+    extra = [line([(100, 100), (200, 200)], highway="footway"),                # a path
+             line([(100, 150), (200, 150)], highway="service", service="driveway"),
+             line([(0, 107), (300, 107)], highway="footway", footway="sidewalk"),
+             line([(150, 200), (150, 300)], highway=["cycleway", "footway"])]
+    def write(name, feats):
+        p = tmp_path / name
+        p.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+        return p
+    plain, busy = write("plain.geojson", grid), write("busy.geojson", grid + extra)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InputWarning)
+        ref = prepare(plain, None, parse_config({}), LIB)
+        got = prepare(busy, None, parse_config({}), LIB)
+        kept = prepare(busy, None, parse_config({"not_streets": []}), LIB)
+    assert [j.wkt for j in got.jobs] == [j.wkt for j in ref.jobs] and len(ref.jobs) == 9
+    said = " ".join(s["reason"] for s in got.skipped)
+    assert "2 line(s) with highway=footway" in said and "service=driveway" in said, said
+    assert "highway=cycleway" in said                    # a merged cycleway + footway
+    assert len(kept.jobs) > len(ref.jobs)                # the path and driveway split blocks
+    paths = write("paths.geojson", extra[:1])
+    with pytest.raises(ConfigError, match="every line is one of not_streets"):
+        prepare(paths, None, parse_config({}), LIB)
+    with pytest.raises(ConfigError, match="not_streets: must be a list"):
+        parse_config({"not_streets": "footway"})

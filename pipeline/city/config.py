@@ -69,7 +69,7 @@ from shapely.geometry import Polygon
 from citysynth.pipeline.city.footprints import Storeys
 from citysynth.pipeline.errors import ConfigError
 from citysynth.skeletons.from_geometry import interval_problem, why_invalid
-from citysynth.skeletons.streets import Setbacks
+from citysynth.skeletons.streets import NOT_STREETS, Setbacks
 from citysynth.solver.safe_read import read_toml
 
 Pick = Literal["best", "vary"]   # which of a block's k layouts it keeps
@@ -145,12 +145,13 @@ class CityConfig:
     path: Path | None = None
     slack: float = 0.3
     footprints: FootprintSettings = field(default_factory=FootprintSettings)
+    not_streets: tuple[str, ...] = NOT_STREETS   # lines of the streets file left out
 
 
 _SETTINGS = {"library", "style", "k", "pick", "per_side", "per_block"}
 _TOP = _SETTINGS | {"seed", "stretch", "corner_tolerance", "mitre_cost", "min_edge",
                     "min_width", "min_area", "origin", "setback", "zone", "slack",
-                    "footprints"}
+                    "footprints", "not_streets"}
 _FOOTPRINTS = {"stretch", "tolerance", "storey_tolerance", "storey_height", "storeys",
                "roofs"}
 _SETBACK = {"default", "sidewalk", "lane_width", "highway"}
@@ -196,7 +197,18 @@ def parse_config(data: dict, path: Path | None = None) -> CityConfig:
                       _pos(data, "min_width", 8.0, "", err, zero=True),
                       _pos(data, "min_area", 50.0, "", err, zero=True),
                       origin, setbacks, zones, path,
-                      _slack(data, err), _footprints(data, err))
+                      _slack(data, err), _footprints(data, err), _not_streets(data, err))
+
+
+def _not_streets(data: dict, err: _Err) -> tuple[str, ...]:
+    """``not_streets``: highway classes (``"footway"``) and tags (``"service=driveway"``)
+    whose lines bound no block; [] keeps every line."""
+    rules = data.get("not_streets", list(NOT_STREETS))
+    if not isinstance(rules, list) or not all(
+            isinstance(r, str) and r.strip() and not r.startswith("=") for r in rules):
+        raise err("not_streets", 'must be a list of highway classes or tag=value, like '
+                                 f'["footway", "service=driveway"], got {rules!r}')
+    return tuple(rules)
 
 
 def _slack(data: dict, err: _Err) -> float:

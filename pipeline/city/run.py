@@ -21,6 +21,7 @@ import os
 import re
 import sys
 import time
+from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
@@ -64,8 +65,8 @@ from citysynth.pipeline.city.process import (
 from citysynth.pipeline.errors import ConfigError, UsageError
 from citysynth.pipeline.layouts import check_style, default_style
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
-from citysynth.skeletons import Feature, Frame, parse_geojson, read_geojson
-from citysynth.skeletons.streets import Block, highway_classes, street_blocks
+from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
+from citysynth.skeletons.streets import Block, highway_classes, not_a_street, street_blocks
 
 CONNECT_TIMEOUT = "10s"      # to reach a Dask scheduler
 ORIGIN_DIGITS = 2            # the frame's lon/lat origin, rounded: streets edited at the
@@ -122,6 +123,7 @@ def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
     feats, frame = read_geojson(streets, crs=crs, origin=cfg.origin,
                                 origin_digits=ORIGIN_DIGITS, accept="lines")
     skipped += [{"kind": "feature", "reason": r} for r in feats.skipped]
+    feats = _streets_only(feats, cfg.not_streets, streets, skipped)
     shapes: list = []
     blocks, reasons = street_blocks(feats, cfg.setbacks, min_area=cfg.min_area,
                                     skipped_shapes=shapes)
@@ -136,6 +138,27 @@ def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
             continue
         outlines.append(("block", b.polygon, _highways(b, feats), None))
     return frame
+
+
+def _streets_only(feats: Features, rules: tuple[str, ...], source: str | Path,
+                  skipped: list[dict]) -> Features:
+    """The lines that are streets: those ``rules`` (city.toml's ``not_streets``) call
+    no street (footways, driveways) are left out, one skipped entry per rule; all of
+    them left out is refused."""
+    kept, left = Features(skipped=feats.skipped), Counter[str]()
+    for f in feats:
+        rule = not_a_street(f.properties, rules)
+        if rule is None:
+            kept.append(f)
+        else:
+            left[rule] += 1
+    skipped += [{"kind": "feature", "reason": f"{source}: {n} line(s) with {rule} left out: "
+                 "not streets (not_streets in city.toml)"} for rule, n in sorted(left.items())]
+    if feats and not kept:
+        raise ConfigError(f"{source}: every line is one of not_streets ("
+                          + ", ".join(sorted(left)) + "); no street is left to bound a block. "
+                          "Give the streets, or set not_streets in city.toml")
+    return kept
 
 
 def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None,
