@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -34,6 +35,7 @@ from citysynth.parts_db import Part, PartDB
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import street_front_problem
+from citysynth.skeletons import InputWarning
 from citysynth.solver import Problem, Result, solve
 from citysynth.solver.diagnose import nearest
 
@@ -66,21 +68,86 @@ def _turns(coords: np.ndarray) -> np.ndarray:
     return (np.diff(a) + 180.0) % 360.0 - 180.0
 
 
-def facade_line(street: LineString, side: str, offset: float) -> LineString:
-    """The facade line of one side, travelled with the buildings on its left."""
-    line = street if offset == 0 else street.offset_curve(
-        offset if side == "left" else -offset, join_style="mitre", mitre_limit=10.0)
+NOISE = (0.1, 0.3, 1.0)   # m: a line whose offset folds is straightened this much first
+
+
+def facade_line(street: LineString, side: str, offset: float,
+                locate: Locate | None = None) -> LineString:
+    """The facade line of one side, travelled with the buildings on its left. Where the
+    offset of a small kink folds (digitising noise: a 5 cm bump, offset 6 m, crosses
+    itself), the line is straightened by up to :data:`NOISE` first; a real bend too
+    tight for the offset is refused, saying where."""
+    line = _offset(street, side, offset)
+    for tol in NOISE:
+        if isinstance(line, LineString) and not line.is_empty:
+            break
+        line = _offset(street.simplify(tol), side, offset)
     if not isinstance(line, LineString) or line.is_empty:
         raise UsageError(f"the street line offset by {offset:g} m to the {side} is not one "
-                         "line (a tight bend folds it); use a smaller --offset")
+                         "line (a bend tighter than the offset folds it, "
+                         f"{_fold(street, side, locate)}); use a smaller --offset, or give "
+                         "the street as two lines at the bend")
     return line if side == "left" else line.reverse()
 
 
-def runs(street: LineString, side: str, offset: float, depth: float) -> list[Run]:
+def _offset(street: LineString, side: str, offset: float) -> shapely.Geometry:
+    return street if offset == 0 else street.offset_curve(
+        offset if side == "left" else -offset, join_style="mitre", mitre_limit=10.0)
+
+
+def _fold(street: LineString, side: str, locate: Locate | None) -> str:
+    """Where a street's offset folds (``locate``: a local point in the input's
+    coordinates): its sharpest turn away from that side, where the facade line's
+    concave corners are."""
+    coords = np.asarray(street.coords)
+    turns = _turns(coords)
+    if not len(turns):
+        return "at its ends"
+    i = int(np.argmax(-turns if side == "left" else turns)) + 1
+    xy = (float(coords[i][0]), float(coords[i][1]))
+    return f"near {locate(xy)}" if locate else f"near ({xy[0]:.1f}, {xy[1]:.1f}) m"
+
+
+def runs(street: LineString, side: str, offset: float, depth: float,
+         locate: Locate | None = None) -> list[Run]:
     """The facade line of ``side`` cut at its bends, trimmed at bends toward the
-    buildings (left turns) by ``depth`` times the half-turn's tangent on each side."""
-    coords = np.asarray(facade_line(street, side, offset).coords)
+    buildings (left turns) by ``depth`` times the half-turn's tangent on each side. A
+    street that closes on itself (a loop) is a ring: its closing point is a corner like
+    the others (:func:`loop_runs`)."""
+    if street.is_closed and len(street.coords) >= 4:
+        return loop_runs(street, side, offset, depth)
+    coords = np.asarray(facade_line(street, side, offset, locate).coords)
     return _cut(coords, np.r_[0.0, _turns(coords), 0.0], side, depth)
+
+
+def loop_runs(street: LineString, side: str, offset: float, depth: float) -> list[Run]:
+    """The runs of one side of a street that closes on itself: its facade ring (the
+    loop's area shrunk or grown by ``offset``: an offset curve of a closed line drops
+    the sides at its ends) travelled with the buildings on its left and cut at its
+    bends, the closing point included."""
+    area = shapely.Polygon(street.coords)
+    inside = (side == "left") == area.exterior.is_ccw    # the buildings within the loop
+    ring = area.buffer(-offset if inside else offset, join_style="mitre", mitre_limit=10.0)
+    if not isinstance(ring, shapely.Polygon) or ring.is_empty:
+        raise UsageError(f"the street loop offset by {offset:g} m to the {side} is not one "
+                         "ring (the loop is narrower than the offset); use a smaller "
+                         "--offset")
+    pts = np.asarray(shapely.geometry.polygon.orient(ring, 1.0 if inside else -1.0)
+                     .exterior.coords)[:-1]
+    return _ring_cut(pts, side, depth, BEND)
+
+
+def _ring_cut(pts: np.ndarray, side: str, depth: float, bend: float) -> list[Run]:
+    """A closed facade line (``pts``, the first point not repeated, travelled with the
+    buildings on its left) cut at its turns of more than ``bend`` degrees, from its
+    sharpest corner, each run trimmed at its left turns."""
+    closed = np.vstack([pts, pts[:1], pts[1:2]])
+    turns = np.r_[0.0, _turns(closed)]            # turns[i]: at vertex i (i >= 1)
+    turns[0] = turns[len(pts)]
+    start = int(np.argmax(np.abs(turns[: len(pts)])))
+    order = np.r_[np.arange(start, len(pts)), np.arange(0, start + 1)]
+    return [Run(side, i, r.line)
+            for i, r in enumerate(_cut(pts[order], turns[order], side, depth, bend))]
 
 
 def _cut(coords: np.ndarray, turns: np.ndarray, side: str, depth: float,
@@ -118,13 +185,7 @@ def ring_runs(polygon: shapely.Polygon, depth: float, side: str = "ring") -> lis
     poly = shapely.geometry.polygon.orient(polygon.simplify(RING_SIMPLIFY), 1.0)
     out: list[Run] = []
     for ring in [poly.exterior, *poly.interiors]:
-        pts = np.asarray(ring.coords)[:-1]
-        closed = np.vstack([pts, pts[:1], pts[1:2]])
-        turns = np.r_[0.0, _turns(closed)]            # turns[i]: at vertex i (i >= 1)
-        turns[0] = turns[len(pts)]
-        start = int(np.argmax(np.abs(turns[: len(pts)])))
-        order = np.r_[np.arange(start, len(pts)), np.arange(0, start + 1)]
-        for r in _cut(pts[order], turns[order], side, depth, RING_BEND):
+        for r in _ring_cut(np.asarray(ring.coords)[:-1], side, depth, RING_BEND):
             out.append(Run(side, len(out), r.line))
     return out
 
@@ -219,11 +280,38 @@ def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
         raise UsageError(f"the library {db.name!r} has no complete buildings"
                          f"{f' of style {ask.style}' if ask.style else ''}")
     depth = building_depth(parts)
-    all_runs = [r for side in ask.sides for r in runs(street, side, ask.offset, depth)]
+    all_runs = _apart([r for side in ask.sides
+                       for r in runs(street, side, ask.offset, depth, locate)], depth, locate)
     if not all_runs:
         raise UsageError(f"{name}: the street line has no straight run of at least "
                          f"{MIN_RUN:g} m to build on")
     return solve_runs(name, all_runs, db, ask, frame, locate)
+
+
+def _apart(all_runs: list[Run], depth: float, locate: Locate | None) -> list[Run]:
+    """The runs with their rows kept off each other's ground (a street that turns back
+    on itself closer than two building depths, a U or a hairpin, would stack them):
+    :func:`clear_runs` on open ground, longest first; each run it shortens or leaves
+    empty is told as a warning, saying where."""
+    if not all_runs:
+        return all_runs
+    reach = 4 * depth + 10.0
+    ground = shapely.box(*shapely.bounds(shapely.union_all(
+        [r.line for r in all_runs])).tolist()).buffer(reach, join_style="mitre")
+    kept = clear_runs(all_runs, ground, depth)
+    by_name = {r.name: r for r in kept}
+    where = locate or (lambda xy: f"({xy[0]:.1f}, {xy[1]:.1f})")
+    for r in all_runs:
+        k = by_name.get(r.name)
+        if k is not None and k.line.length >= r.line.length - 0.01:
+            continue
+        mid = r.line.interpolate(0.5, normalized=True)
+        what = (f"shortened from {r.line.length:.1f} m to {k.line.length:.1f} m"
+                if k is not None else "left empty")
+        warnings.warn(f"the {r.side} side's run at {where((mid.x, mid.y))} is {what}: its "
+                      "buildings would stand on those of another run (the street comes "
+                      f"back within {2 * depth:.0f} m of itself)", InputWarning, stacklevel=3)
+    return kept
 
 
 def _blamed(problem: dict, ask: StreetAsk) -> list[str] | None:

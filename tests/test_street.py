@@ -156,3 +156,69 @@ def test_repeated_vertices_change_nothing_and_a_crossing_line_is_refused(tmp_pat
                  "--side", "right", "--no-preview", "-o", str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err
     assert "crosses itself" in err and "Traceback" not in err
+
+
+def _shared_ground(out: Path, name: str) -> tuple[float, float, int]:
+    """Ground two buildings of the row share (m²), all they cover, and how many."""
+    from citysynth.export.audit import footprint, instance_triangles
+    feet = [footprint(t) for t in instance_triangles(out / f"{name}.usda").values()]
+    shared = sum(feet[i].intersection(feet[j]).area for i in range(len(feet))
+                 for j in range(i + 1, len(feet)) if feet[i].intersects(feet[j]))
+    return shared, sum(f.area for f in feet), len(feet)
+
+
+def _at(points) -> list[list[float]]:
+    x0, y0 = COORDS[0]
+    return [[x0 + x, y0 + y] for x, y in points]
+
+
+@pytest.mark.parametrize("ring", [[(0, 0), (60, 0), (60, 60), (0, 60), (0, 0)],
+                                  [(0, 0), (0, 60), (60, 60), (60, 0), (0, 0)]])
+def test_a_street_loop_is_a_ring_on_both_sides(tmp_path, capsys, ring):
+    """A street that closes on itself: its closing point is a corner like the others
+    (the rows inside overlapped there, 131.7 m²) and the outer side keeps all four sides
+    (its offset curve dropped the two at the line's ends: 144.8 of 288 m built)."""
+    src = _line_file(tmp_path / "loop.geojson", _at(ring))
+    assert main(["street", "--line", str(src), "--side", "both", "-o", str(tmp_path / "o"),
+                 "--no-preview"]) == 0
+    lay = Layout.from_dict(json.loads((tmp_path / "o" / "loop.layout.json").read_text()))
+    sides = [st["name"].rsplit("_", 1)[0] for st in lay.structures]
+    assert sorted(sides) == ["left"] * 4 + ["right"] * 4, sides
+    built = {s: sum(st["stages"][0]["length"] for st in lay.structures
+                    if st["name"].startswith(s)) for s in ("left", "right")}
+    outer = max(built.values())
+    assert outer == pytest.approx(4 * 72.0, abs=4.0), built   # 60 + 2 × 6 m a side
+    shared, total, n = _shared_ground(tmp_path / "o", "loop")
+    assert n > 20 and shared < 0.001 * total, (shared, total)
+    assert validate(tmp_path / "o" / "loop.usda") == []
+
+
+def test_a_street_turning_back_on_itself_keeps_its_rows_apart(tmp_path, capsys):
+    """A U whose legs are closer than two building depths: the longer run keeps its
+    row, the other is shortened or left empty, with a warning saying where (its rows
+    shared 703 m², 44 % of their ground)."""
+    src = _line_file(tmp_path / "u.geojson", _at([(0, 0), (80, 0), (80, 10), (0, 10)]))
+    with pytest.warns(UserWarning, match=r"the left side's run at .* is (left empty|"
+                                         r"shortened).*comes back within"):
+        assert main(["street", "--line", str(src), "--side", "left", "-o",
+                     str(tmp_path / "o"), "--no-preview"]) == 0
+    shared, total, n = _shared_ground(tmp_path / "o", "u")
+    assert n >= 6 and shared < 0.001 * total, (shared, total)
+
+
+def test_digitising_noise_does_not_fold_the_offset_line(tmp_path, capsys):
+    """A 5 cm bump in a straight street: the 6 m offset of its concave side folded, and
+    ``--side both`` was refused; the line is straightened that little first."""
+    src = _line_file(tmp_path / "b.geojson",
+                     _at([(0, 0), (40, 0), (41, 0.05), (42, 0), (80, 0)]))
+    assert main(["street", "--line", str(src), "--side", "both", "-o", str(tmp_path / "o"),
+                 "--no-preview"]) == 0
+    shared, total, n = _shared_ground(tmp_path / "o", "b")
+    assert n >= 14 and shared < 0.001 * total, (shared, total)
+    notch = _line_file(tmp_path / "n.geojson",                 # a real fold: said where
+                       _at([(0, 0), (40, 0), (40, -10), (42, -10), (42, 0), (80, 0)]))
+    assert main(["street", "--line", str(notch), "--side", "both", "-o",
+                 str(tmp_path / "o2"), "--no-preview"]) == 2
+    err = capsys.readouterr().err
+    assert "to the right is not one line" in err and "near (690040" in err, err
+    assert not (tmp_path / "o2").exists()
