@@ -174,7 +174,8 @@ def _raw_features(data: Any, source: str) -> list[Any]:
         raise SkeletonError(f"{source}: not a GeoJSON FeatureCollection, Feature or geometry")
     raw = data.get("features") if data["type"] == "FeatureCollection" else [data]
     if not isinstance(raw, list) or not raw:
-        raise SkeletonError(f"{source}: no features")
+        raise SkeletonError(f"{source}: no features (an empty FeatureCollection); export "
+                            "the layer with its features, or leave the file out")
     return raw
 
 

@@ -147,8 +147,10 @@ def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
         data = json.loads(text, parse_constant=constant,
                           object_pairs_hook=_object_hook(twice))
     except json.JSONDecodeError as exc:
-        seq = (exc.msg == "Extra data" and exc.colno == 1 and what == "GeoJSON")
-        hint = ("; it looks like GeoJSON Text Sequence (a feature per line): give one "
+        seq = what == "GeoJSON" and ((exc.msg == "Extra data" and exc.colno == 1)
+                                     or text.lstrip("\ufeff").startswith("\x1e"))
+        hint = ("; it looks like a GeoJSON Text Sequence (a feature per line, or RFC "
+                "8142's record separators): give one "
                 "FeatureCollection, e.g. ogr2ogr -f GeoJSON out.geojson " + str(p)) if seq \
             else ""
         raise error(f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "

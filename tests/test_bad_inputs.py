@@ -724,7 +724,8 @@ def test_bad_input_end_to_end(name, tmp_path, good_db, good_run):
     (b"PK\x03\x04" + bytes(64), "a ZIP archive"),
     (b'{"type": "Feature", "properties": {}, "geometry": null}\n'
      b'{"type": "Feature", "properties": {}, "geometry": null}\n',
-     "it looks like GeoJSON Text Sequence (a feature per line): give one FeatureCollection"),
+     "it looks like a GeoJSON Text Sequence (a feature per line, or RFC 8142's record "
+     "separators): give one FeatureCollection"),
 ])
 def test_files_of_other_gis_formats_are_named_with_the_conversion(tmp_path, capsys, data,
                                                                    text):

@@ -251,6 +251,7 @@ def test_ingest_refuses_an_attribute_called_length(tmp_path, capsys):
     ({"building:levels": "5", "height": "12.5 m"}, 5.0, 12.5),
     ({"building:levels": "2e1"}, 20.0, None),
     ({"building:levels": "4;5", "height": "12,5"}, 4.0, 12.5),   # a decimal comma
+    ({"building:levels": ["4", "5"]}, 4.0, None),                # a list, as GDAL writes
 ])
 def test_storeys_no_building_has_count_as_no_value(props, levels, height):
     from citysynth.pipeline.city.footprints import Storeys, footprint_spec
@@ -391,3 +392,18 @@ def test_an_infinite_constraint_is_refused_in_the_features_words(tmp_path, capsy
     assert code == 2 and "feature 0" in err and "constraint doors" in err, err
     assert "finite" in err and "stages[" not in err, err
     assert not (tmp_path / "o").exists()
+
+
+def test_an_rfc8142_sequence_and_an_empty_collection_say_what_to_do(tmp_path, capsys):
+    """ogr2ogr -lco RS=YES writes each feature after a record separator (0x1E): named as
+    a GeoJSON Text Sequence with the conversion, not "Expecting value"; an empty
+    FeatureCollection says what to do about it."""
+    feat = json.dumps({"type": "Feature", "properties": {}, "geometry": {
+        "type": "LineString", "coordinates": [[LON, LAT], [LON + 0.001, LAT]]}})
+    rs = _write(tmp_path / "rs.geojson", "\x1e" + feat + "\n\x1e" + feat + "\n")
+    empty = _write(tmp_path / "empty.geojson", {"type": "FeatureCollection", "features": []})
+    for src, said in ((rs, "GeoJSON Text Sequence (a feature per line, or RFC 8142"),
+                      (empty, "no features (an empty FeatureCollection); export the layer")):
+        code, err = _run(["street", "--line", str(src), "-o", str(tmp_path / "o"),
+                          "--no-preview"], capsys)
+        assert code == 2 and said in err, err
