@@ -69,8 +69,9 @@ def tag_values(v: Any) -> list[Any]:
 
 def osm_number(v: Any, most: float = math.inf) -> float | None:
     """A positive number from one OSM value (``7``, ``"7"``, ``"7 m"``, ``"7,5"``,
-    ``"1e3"``; ``"3;4"`` or ``["3", "4"]``: the first) up to ``most``, else None: a value no street or
-    building has (``1e308``, a typo) counts as no value, as an unreadable one does.
+    ``"1e3"``; ``"3;4"`` or ``["3", "4"]``: the first) up to ``most``, else None: a
+    value no street or building has (``1e308``, a typo) counts as no value, as an
+    unreadable one does.
     Streets' widths and lanes and footprints' heights and storeys are all read by it."""
     if not isinstance(v, int | float):   # "3;4", a list (GDAL) or its text (osmnx): first
         v = next(iter(tag_values(v)), None)
