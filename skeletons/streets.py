@@ -122,6 +122,12 @@ def not_a_street(props: dict[str, Any], rules: Sequence[str]) -> str | None:
     return None
 
 
+def is_roundabout(props: dict[str, Any]) -> bool:
+    """Whether a way is part of a roundabout (``junction=roundabout`` or ``circular``):
+    the block its ring encloses is its island, no building ground."""
+    return bool({"roundabout", "circular"} & set(tag_values(props.get("junction"))))
+
+
 def highway_classes(props: dict[str, Any]) -> tuple[str, ...]:
     """A street's ``highway`` classes, one or several (a merged edge), in order."""
     out: list[str] = []

@@ -371,3 +371,25 @@ def test_a_zero_width_spike_is_repaired_and_a_bowtie_named_where_it_crosses(tmp_
     (skip,) = [s["reason"] for s in inputs.skipped if s["kind"] == "footprint"]
     assert str(fp) in skip and "feature 1 (bowtie)" in skip, skip
     assert re.search(r"self-intersection at \(24\.94\d+, 60\.17\d+\)", skip), skip
+
+
+def test_a_light_well_no_layout_lines_is_closed_and_the_building_built(tmp_path):
+    """A 40 x 40 m building round a 4 x 4 m light well: its sides are longer than the
+    kit's shortest (2.5 m), but no corners and modules of the kit line 4 m between two
+    concave corners, and the whole building failed ("the classic kit makes 5.4 m here").
+    A light well under 50 m² that blocks every layout is closed under the roof too."""
+    outer = [(0, 0), (40, 0), (40, 40), (0, 40), (0, 0)]
+    well = [(18, 18), (18, 22), (22, 22), (22, 18), (18, 18)]
+    rings = [lonlat_from_local(r, (24.94, 60.17)) for r in (outer, well)]
+    fp = tmp_path / "well.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": "house", "building:levels": "4"},
+         "geometry": {"type": "Polygon", "coordinates": rings}}]}))
+    assert run_city(tmp_path / "run", fp, workers=1) == 0
+    ((bid, rec),) = json.loads((tmp_path / "run" / "manifest.json").read_text())[
+        "blocks"].items()
+    assert rec["status"] == "built", rec
+    assert ("16.0 m² courtyard closed under the roof (no layout of the classic kit lines "
+            "it)") in rec["note"], rec
+    lay = json.loads((tmp_path / "run" / "blocks" / f"{bid}.layout.json").read_text())
+    assert len(lay["structures"]) == 1      # the outline only

@@ -669,3 +669,30 @@ def test_footways_sidewalks_and_driveways_bound_no_block(tmp_path):
         prepare(paths, None, parse_config({}), LIB)
     with pytest.raises(ConfigError, match="not_streets: must be a list"):
         parse_config({"not_streets": "footway"})
+
+
+def test_a_roundabouts_island_is_no_block(tmp_path):
+    """The ground inside a roundabout (a closed ring of junction=roundabout ways) is its
+    island: left out, with a reason, where it was built as a block of facades."""
+    from citysynth.pipeline.city.config import parse_config
+    from citysynth.skeletons import lonlat_from_local
+    o = (24.94, 60.17)
+
+    def line(pts, **props):
+        return {"type": "Feature", "properties": props, "geometry": {
+            "type": "LineString", "coordinates": lonlat_from_local(pts, o)}}
+    ring = [(150 + 25 * np.cos(t), 150 + 25 * np.sin(t)) for t in np.linspace(0, 2 * np.pi, 25)]
+    feats = [line([(x, -10), (x, 310)], highway="residential") for x in (0, 300)]
+    feats += [line([(-10, y), (310, y)], highway="residential") for y in (0, 300)]
+    feats += [line(ring, highway="primary", junction="roundabout"),
+              line([(0, 150), (125, 150)], highway="primary"),
+              line([(175, 150), (300, 150)], highway="primary")]
+    src = tmp_path / "rb.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InputWarning)
+        got = prepare(src, None, parse_config({}), LIB)
+    island = shapely.Point(150, 150).buffer(25)
+    assert got.jobs and not any(island.contains(shapely.from_wkt(j.wkt).representative_point())
+                                for j in got.jobs)
+    assert any("a roundabout's island" in s["reason"] for s in got.skipped), got.skipped

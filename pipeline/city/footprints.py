@@ -317,12 +317,14 @@ LIGHT_WELL = 50.0     # m²: a smaller courtyard with a side too short to build 
 RETRY_SIDE = 1.0      # m: a footprint no layout fits is cleaned again with sides this much longer
 
 
-def prepare(job: BlockJob, db: PartDB, longer: float = 0.0) -> Prepared | str:
+def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
+            close: tuple[tuple[float, float], ...] = ()) -> Prepared | str:
     """Clean the job's outline into rings (a footprint faithfully, a street block as
     before); a string says why nothing is left (the block is skipped). A footprint
     side left too short to build raises the user's error naming it. ``longer`` raises
     the shortest side kept (a retry when no layout fits the faithful outline: short
-    sides between joints fit only some lengths)."""
+    sides between joints fit only some lengths); ``close`` holds a point in each
+    light well to close (a retry when one blocks every layout, :func:`well_blocking`)."""
     poly = shapely.from_wkt(job.wkt)
     frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
     fp = job.footprint
@@ -353,6 +355,12 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0) -> Prepared | str:
         return "nothing buildable is left of its outline once cleaned"
     props = {"id": fp.ref} if fp.ref else {}
     closed: list[str] = []
+    wells = [shapely.Polygon(r) for r in clean.interiors]
+    shut = {i for i, w in enumerate(wells) if any(w.contains(shapely.Point(p)) for p in close)}
+    unlined = [f"a {wells[i].area:.1f} m² courtyard" for i in sorted(shut)]
+    if shut:   # light wells no layout can line (a 4 m side between corners): closed
+        clean = shapely.Polygon(clean.exterior, [r for i, r in enumerate(clean.interiors)
+                                                 if i not in shut])
     while True:
         rings = skeletons_from_polygons([Feature(fp.feature, clean, props)], frame)
         bad = short_side(rings, shortest)
@@ -368,9 +376,13 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0) -> Prepared | str:
         raise SkeletonError(too_short(fp.where, job.frame, fp.source_crs, bad[1], shortest,
                                       job.style))
     parts, storeys, note = choose_family(fp, db, job.style)
-    if closed:
-        well_note = (f"{fp.where}: {' and '.join(closed)} closed under the roof (sides "
-                     f"under the {shortest:.1f} m the {job.style} kit needs)")
+    why = [f"{' and '.join(closed)} closed under the roof (sides under the {shortest:.1f} "
+           f"m the {job.style} kit needs)"] if closed else []
+    if unlined:
+        why.append(f"{' and '.join(unlined)} closed under the roof (no layout of the "
+                   f"{job.style} kit lines it)")
+    if why:
+        well_note = f"{fp.where}: {'; '.join(why)}"
         note = f"{note}\n{well_note}" if note else well_note
     return Prepared(rings, fp.where, fp.stretch, job.slack, parts, storeys, note)
 
@@ -445,6 +457,21 @@ def cut_back_outlines(outlines: list, *, min_area: float, min_width: float
         out += [(o[0], p, o[2], CUT if p is not o[1] else o[3]) for p in pieces]
         why += reasons
     return out, why
+
+
+def well_blocking(prep: Prepared, blocked_at: BlockedAt | None) -> tuple[float, float] | None:
+    """A point in the light well (a courtyard under :data:`LIGHT_WELL`) a failed
+    footprint is blocked on, so a retry closes it under the roof; else None."""
+    if blocked_at is None or _courtyard(blocked_at[0]) is None:
+        return None
+    ring = next((r for r in prep.rings if r.name == blocked_at[0]), None)
+    if ring is None or len(ring.keypoints) < 3:
+        return None
+    well = shapely.Polygon([k.xy for k in ring.keypoints])
+    if not well.is_valid or well.area >= LIGHT_WELL:
+        return None
+    p = well.representative_point()
+    return (p.x, p.y)
 
 
 def prepare_again(job: BlockJob, db: PartDB) -> Prepared | None:

@@ -41,6 +41,7 @@ from citysynth.pipeline.city.footprints import (
     failure,
     prepare,
     prepare_again,
+    well_blocking,
 )
 from citysynth.pipeline.city.kinds import solve_kind
 from citysynth.pipeline.errors import USER_ERRORS
@@ -296,6 +297,16 @@ def solve_block(job: BlockJob, db: PartDB) -> str | tuple[Prepared, Built]:
     if isinstance(prep, str):
         return prep
     built = _solve(job, db, prep)
+    wells: tuple[tuple[float, float], ...] = ()
+    while built.status != "ok" and job.footprint is not None:   # light wells closed: again
+        well = well_blocking(prep, built.blocked_at)
+        if well is None:
+            break
+        wells += (well,)
+        shut = prepare(job, db, close=wells)
+        if isinstance(shut, str):
+            break
+        prep, built = shut, _solve(job, db, shut)
     if built.status != "ok" and job.footprint is not None:   # short sides absorbed: again
         again = prepare_again(job, db)
         if again is not None:

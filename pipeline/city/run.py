@@ -66,7 +66,13 @@ from citysynth.pipeline.errors import ConfigError, UsageError
 from citysynth.pipeline.layouts import check_style, default_style
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
-from citysynth.skeletons.streets import Block, highway_classes, not_a_street, street_blocks
+from citysynth.skeletons.streets import (
+    Block,
+    highway_classes,
+    is_roundabout,
+    not_a_street,
+    street_blocks,
+)
 
 CONNECT_TIMEOUT = "10s"      # to reach a Dask scheduler
 ORIGIN_DIGITS = 2            # the frame's lon/lat origin, rounded: streets edited at the
@@ -130,8 +136,13 @@ def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
     skipped += [_skip("block", r, g) for r, g in zip(reasons, shapes, strict=True)]
     for b in blocks:
         width = 2 * b.polygon.area / b.polygon.length
+        c = b.polygon.centroid
+        if b.streets and all(is_roundabout(feats[i].properties) for i in b.streets):
+            skipped.append(_skip("block", f"block at ({c.x:.1f}, {c.y:.1f}): a roundabout's "
+                                 "island (every street round it is junction=roundabout)",
+                                 b.polygon))
+            continue
         if width < cfg.min_width:
-            c = b.polygon.centroid
             skipped.append(_skip("block", f"block at ({c.x:.1f}, {c.y:.1f}): a sliver, "
                                  f"{width:.1f} m wide on average (min_width "
                                  f"{cfg.min_width:g} m)", b.polygon))
