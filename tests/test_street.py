@@ -222,3 +222,19 @@ def test_digitising_noise_does_not_fold_the_offset_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "to the right is not one line" in err and "near (690040" in err, err
     assert not (tmp_path / "o2").exists()
+
+
+def test_a_multilinestring_of_one_line_is_read_as_that_line(tmp_path, capsys):
+    """QGIS and shapefiles write a street as a MultiLineString; one whose parts join end
+    to end is that line (it was refused as "1 feature(s) (MultiLineString first)"),
+    parts apart are refused as such."""
+    one = _line_file(tmp_path / "m.geojson", [COORDS[:2], COORDS[1:]], "MultiLineString")
+    assert main(["street", "--line", str(one), "--side", "right", "-o", str(tmp_path / "o"),
+                 "--no-preview"]) == 0
+    lay = json.loads((tmp_path / "o" / "m.layout.json").read_text())
+    assert len(lay["structures"]) == 1 and lay["structures"][0]["stages"][0]["length"] > 190
+    apart = _line_file(tmp_path / "a.geojson", [COORDS[:2], _at([(0, 50), (100, 50)])],
+                       "MultiLineString")
+    capsys.readouterr()
+    assert main(["street", "--line", str(apart), "-o", str(tmp_path / "o2")]) == 2
+    assert "2 parts do not join end to end" in capsys.readouterr().err

@@ -87,11 +87,18 @@ def _ask(args) -> StreetAsk:
 def read_line(path: str, crs: str | None):
     """The one LineString of a GeoJSON file, in its local metric frame."""
     feats, frame = read_geojson(path, crs=crs, accept="lines")
-    if len(feats) != 1 or feats[0].geometry.geom_type != "LineString":
+    if len(feats) != 1:
         raise SkeletonError(f"{path}: a street line is one LineString feature; the file has "
-                            f"{len(feats)} feature(s) ({feats[0].geometry.geom_type} first)")
+                            f"{len(feats)} features: give each street its own file")
+    line = feats[0].geometry
+    if line.geom_type == "MultiLineString":   # QGIS and shapefiles write one line so
+        line = shapely.line_merge(line)
+        if line.geom_type != "LineString":
+            raise SkeletonError(f"{path}: the MultiLineString's {len(line.geoms)} parts do "
+                                "not join end to end into one line; give the street as "
+                                "one line")
     # repeated vertices (QGIS and OSM exports have them) and dense sampling go
-    line = shapely.simplify(feats[0].geometry, DENSE)
+    line = shapely.simplify(line, DENSE)
     if line.length < SNAP or len(line.coords) < 2:
         raise SkeletonError(f"{path}: the street line has no length")
     if not line.is_simple:
