@@ -97,13 +97,12 @@ def _offset(street: LineString, side: str, offset: float) -> shapely.Geometry:
 
 def _fold(street: LineString, side: str, locate: Locate | None) -> str:
     """Where a street's offset folds (``locate``: a local point in the input's
-    coordinates): its sharpest turn away from that side, where the facade line's
-    concave corners are."""
+    coordinates): its sharpest turn toward that side, whose inside the offset crosses."""
     coords = np.asarray(street.coords)
     turns = _turns(coords)
     if not len(turns):
         return "at its ends"
-    i = int(np.argmax(-turns if side == "left" else turns)) + 1
+    i = int(np.argmax(turns if side == "left" else -turns)) + 1
     xy = (float(coords[i][0]), float(coords[i][1]))
     return f"near {locate(xy)}" if locate else f"near ({xy[0]:.1f}, {xy[1]:.1f}) m"
 

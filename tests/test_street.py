@@ -220,7 +220,7 @@ def test_digitising_noise_does_not_fold_the_offset_line(tmp_path, capsys):
     assert main(["street", "--line", str(notch), "--side", "both", "-o",
                  str(tmp_path / "o2"), "--no-preview"]) == 2
     err = capsys.readouterr().err
-    assert "to the right is not one line" in err and "near (690040" in err, err
+    assert "to the right is not one line" in err and "near (690040.00, 5335000.00)" in err, err
     assert not (tmp_path / "o2").exists()
 
 
