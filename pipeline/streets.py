@@ -294,9 +294,11 @@ def _apart(all_runs: list[Run], depth: float, locate: Locate | None) -> list[Run
     empty is told as a warning, saying where."""
     if not all_runs:
         return all_runs
-    reach = 4 * depth + 10.0
-    ground = shapely.box(*shapely.bounds(shapely.union_all(
-        [r.line for r in all_runs])).tolist()).buffer(reach, join_style="mitre")
+    reach = 4 * depth + 10.0    # open ground round every run, as a box grown from the
+    # runs' bounds (the box of a straight street along an axis is flat: grown after, by
+    # buffer, it lost most of the street)
+    x0, y0, x1, y1 = shapely.bounds(shapely.union_all([r.line for r in all_runs])).tolist()
+    ground = shapely.box(x0 - reach, y0 - reach, x1 + reach, y1 + reach)
     kept = clear_runs(all_runs, ground, depth)
     by_name = {r.name: r for r in kept}
     where = locate or (lambda xy: f"({xy[0]:.1f}, {xy[1]:.1f})")
