@@ -576,10 +576,15 @@ def _check_lonlat(allc: Coords, source: str, given: pyproj.CRS | None) -> None:
     if given is not None:
         raise SkeletonError(f"{source}: coordinates in {given.name} land outside "
                             "longitude/latitude; is the CRS right?")
+    out = ~((np.abs(allc[:, 0]) <= 180) & (np.abs(allc[:, 1]) <= 90))
+    x, y = allc[int(np.argmax(out))]      # the first point outside, with the digits
+    said = (f"{x:.7g}, {y:.7g}" if abs(x) < 1e4 and abs(y) < 1e4   # that show it is
+            else f"{_num(x)}, {_num(y)}")                          # (180.0005, not 180.0)
     raise SkeletonError(
-        f"{source}: coordinates such as {_num(allc[0, 0])}, {_num(allc[0, 1])} are not "
-        "longitude/latitude (RFC 7946); give the CRS of projected input, e.g. "
-        "--crs EPSG:25832")
+        f"{source}: coordinates such as {said} are not longitude/latitude (RFC 7946); "
+        "give the CRS of projected input, e.g. --crs EPSG:25832"
+        + ("; a line across the antimeridian is written with longitudes past 180 "
+           "negative (from -180)" if 180 < abs(x) < 181 and abs(y) <= 90 else ""))
 
 
 def _local_tmerc(centre: tuple[float, float]) -> Project:

@@ -696,3 +696,12 @@ def test_a_roundabouts_island_is_no_block(tmp_path):
     assert got.jobs and not any(island.contains(shapely.from_wkt(j.wkt).representative_point())
                                 for j in got.jobs)
     assert any("a roundabout's island" in s["reason"] for s in got.skipped), got.skipped
+
+
+def test_a_line_across_the_antimeridian_is_said_with_its_digits():
+    """179.9995 to 180.0005: the longitude past 180 is said as it is (it read "180.0",
+    which looked right) and how to write such a line."""
+    with pytest.raises(SkeletonError, match=r"coordinates such as 180\.0005, 50\.73 are "
+                       r"not longitude/latitude.*antimeridian.*from -180"):
+        parse_geojson({"type": "LineString", "coordinates": [[179.9995, 50.73],
+                                                             [180.0005, 50.73]]}, "s.geojson")
