@@ -145,8 +145,7 @@ def _ring_cut(pts: np.ndarray, side: str, depth: float, bend: float) -> list[Run
     turns[0] = turns[len(pts)]
     start = int(np.argmax(np.abs(turns[: len(pts)])))
     order = np.r_[np.arange(start, len(pts)), np.arange(0, start + 1)]
-    return [Run(side, i, r.line)
-            for i, r in enumerate(_cut(pts[order], turns[order], side, depth, bend))]
+    return _cut(pts[order], turns[order], side, depth, bend)
 
 
 def _cut(coords: np.ndarray, turns: np.ndarray, side: str, depth: float,

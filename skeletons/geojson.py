@@ -541,32 +541,32 @@ def _into_kept(allc: Coords, given: pyproj.CRS | None, source: str, within: Fram
     target = pyproj.CRS.from_user_input(within.source_crs)
     if given is not None and given == target:
         return _kept_projected(allc, given, within.origin)[0]
-    tf = pyproj.Transformer.from_crs(given or "EPSG:4326", target, always_xy=True)
+    into = _transform(given or "EPSG:4326", target, source,
+                      f"lie outside {target.name}, the CRS the other input is kept in; are "
+                      "the two inputs of one place?")
     shift, unit = np.array(within.origin), _unit(target)
+    return lambda c: (into(c) - shift) * unit
 
-    def into(c: Coords) -> Coords:
+
+def _to_lonlat(given: pyproj.CRS, source: str) -> Project:
+    return _transform(given, "EPSG:4326", source,
+                      f"lie outside {given.name}; is the CRS right?")
+
+
+def _transform(src: pyproj.CRS | str, dst: pyproj.CRS | str, source: str, outside: str
+               ) -> Project:
+    """Coordinates from ``src`` to ``dst``; a point with no image there is refused,
+    named, with ``outside`` saying why."""
+    tf = pyproj.Transformer.from_crs(src, dst, always_xy=True)
+
+    def project(c: Coords) -> Coords:
         out = np.column_stack(tf.transform(c[:, 0], c[:, 1]))
         if not np.isfinite(out).all():
             bad = c[~np.isfinite(out).all(axis=1)][0]
             raise SkeletonError(f"{source}: coordinates such as {_num(bad[0])}, "
-                                f"{_num(bad[1])} lie outside {target.name}, the CRS the "
-                                "other input is kept in; are the two inputs of one place?")
-        return (out - shift) * unit
-    return into
-
-
-def _to_lonlat(given: pyproj.CRS, source: str) -> Project:
-    tf = pyproj.Transformer.from_crs(given, "EPSG:4326", always_xy=True)
-
-    def to_lonlat(c: Coords) -> Coords:
-        lon, lat = tf.transform(c[:, 0], c[:, 1])
-        out = np.column_stack([lon, lat])
-        if not np.isfinite(out).all():
-            bad = c[~np.isfinite(out).all(axis=1)][0]
-            raise SkeletonError(f"{source}: coordinates such as {_num(bad[0])}, {_num(bad[1])} "
-                                f"lie outside {given.name}; is the CRS right?")
+                                f"{_num(bad[1])} {outside}")
         return out
-    return to_lonlat
+    return project
 
 
 def _check_lonlat(allc: Coords, source: str, given: pyproj.CRS | None) -> None:

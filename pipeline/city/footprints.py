@@ -355,10 +355,12 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
         return "nothing buildable is left of its outline once cleaned"
     props = {"id": fp.ref} if fp.ref else {}
     closed: list[str] = []
-    wells = [shapely.Polygon(r) for r in clean.interiors]
-    shut = {i for i, w in enumerate(wells) if any(w.contains(shapely.Point(p)) for p in close)}
-    unlined = [f"a {wells[i].area:.1f} m² courtyard" for i in sorted(shut)]
-    if shut:   # light wells no layout can line (a 4 m side between corners): closed
+    unlined: list[str] = []
+    if close:   # light wells no layout can line (a 4 m side between corners): closed
+        wells = [shapely.Polygon(r) for r in clean.interiors]
+        shut = {i for i, w in enumerate(wells)
+                if any(w.contains(shapely.Point(p)) for p in close)}
+        unlined = [f"a {wells[i].area:.1f} m² courtyard" for i in sorted(shut)]
         clean = shapely.Polygon(clean.exterior, [r for i, r in enumerate(clean.interiors)
                                                  if i not in shut])
     while True:
