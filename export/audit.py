@@ -108,20 +108,33 @@ def footprint(tris: np.ndarray) -> BaseGeometry:
     """The plan of an instance: the union of its non-vertical faces projected on XY."""
     n, ok = _normals(tris)
     keep = ok & (np.abs(n[:, 2]) > FOOTPRINT_NZ)
-    polys = shapely.polygons(tris[keep][:, :, :2])
-    return shapely.union_all(shapely.make_valid(polys), grid_size=GRID)
+    polys = shapely.make_valid(shapely.polygons(tris[keep][:, :, :2]))
+    try:
+        return shapely.union_all(polys, grid_size=GRID)
+    except shapely.errors.GEOSException:   # snapping slivers of a cut can tangle a ring
+        return shapely.union_all(polys)
 
 
 def outline_regions(structures: list[dict], depth: float) -> BaseGeometry:
     """The ground behind the facade lines, ``depth`` deep: per stage and per pair of
     stages meeting at a key point (so corners are mitred, convex or concave). A closed
     ring facing out keeps only what lies inside it (a single-sided mitred buffer of a
-    very acute corner also grows a spike on the street side)."""
+    very acute corner also grows a spike on the street side) and outside its
+    courtyards; a courtyard's ring (facing in) only what lies inside the ring round it
+    (a wing narrower than two depths is that wide, not two depths)."""
     pieces = []
-    for st in structures:
+    rings = [_ring(st) for st in structures]
+    owners = [r for r, owns in rings if r is not None and owns]
+    yards = [r for r, owns in rings if r is not None and not owns]
+    for st, (ring, owns) in zip(structures, rings, strict=True):
         regions = shapely.union_all(_stage_regions(st["stages"], depth))
-        ring = _ring_inside(st)
-        regions = regions.intersection(ring) if ring is not None else regions
+        if ring is not None and owns:   # its courtyards are open ground
+            regions = regions.intersection(ring).difference(
+                shapely.union_all([y for y in yards if ring.contains(y)]))
+        elif ring is not None:   # a courtyard: its mass stops at the outline round it
+            round_it = [o for o in owners if o.contains(ring)]
+            regions = regions.intersection(shapely.union_all(round_it)) if round_it \
+                else regions
         tips = _nose_tips(st)
         pieces.append(regions.difference(shapely.union_all(tips)) if tips else regions)
     return shapely.union_all(pieces)
@@ -175,20 +188,28 @@ def _ring_order(stages: list[dict]) -> list[dict]:
 
 def _ring_inside(st: dict) -> Polygon | None:
     """The ground a closed ring of facades facing out encloses (a block's inside)."""
+    ring, owns = _ring(st)
+    return ring if owns else None
+
+
+def _ring(st: dict) -> tuple[Polygon | None, bool]:
+    """The polygon of a closed ring of facades (None if the structure is none), and
+    whether its facades face out (its mass inside: a block, a building's outline) rather
+    than in (a courtyard's)."""
     if not st.get("closed"):
-        return None
+        return None, False
     pts = [tuple(p) for s in _ring_order(st["stages"]) for p in s["polyline"][:-1]]
     if len(pts) < 3:
-        return None
+        return None, False
     ring = Polygon(pts)
     if not ring.is_valid or ring.area <= 0:
-        return None
+        return None, False
     (x0, y0), (x1, y1) = st["stages"][0]["polyline"][:2]
     dx, dy = x1 - x0, y1 - y0
     norm = float(np.hypot(dx, dy)) or 1.0
     side = 1.0 if st["stages"][0]["front"] == "right" else -1.0  # mass left of travel
     probe = ((x0 + x1) / 2 - side * dy / norm * 0.05, (y0 + y1) / 2 + side * dx / norm * 0.05)
-    return ring if ring.contains(shapely.Point(probe)) else None
+    return ring, bool(ring.contains(shapely.Point(probe)))
 
 
 def _rings_inside(structures: list[dict]) -> list[Polygon]:

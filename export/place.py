@@ -27,6 +27,7 @@ side (so the mass lies behind the skeleton line, never on the street side).
 
 from __future__ import annotations
 
+import itertools
 from bisect import bisect_right
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -133,13 +134,18 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
     out = Layout(name, rank, {"name": db.name, "hash": db.library_hash,
                               "quantum": db.quantum},
                  plans[0].style if plans else "", plans[0].frame if plans else "", [])
-    for si, (plan, sol) in enumerate(zip(plans, solutions, strict=True)):
-        placer = _Placer(si, plan, sol, parts)
-        instances, record = placer.place()
-        _check(plan, record, parts, instances, sol.keys,
-               [res.get("length") for res in sol.resources], db.quantum)
+    placers = [_Placer(si, plan, sol, parts)
+               for si, (plan, sol) in enumerate(zip(plans, solutions, strict=True))]
+    for placer in placers:
+        placer.place()
+    for a, b in itertools.permutations(placers, 2):   # a courtyard against its outline
+        a.medial_against(b)
+    for placer in placers:
+        instances = [p.instance() for p in placer.placed]
+        _check(placer.plan, placer.record, parts, instances, placer.sol.keys,
+               [res.get("length") for res in placer.sol.resources], db.quantum)
         out.instances.extend(instances)
-        out.structures.append(_summary(plan, sol, record))
+        out.structures.append(_summary(placer.plan, placer.sol, placer.record))
     return out
 
 
@@ -197,7 +203,8 @@ class _Placer:
         # concave mitre joint, up to the joint's plane)
         self._reach: dict[int, list[tuple[int, BaseGeometry]]] = {}
 
-    def place(self) -> tuple[list[Instance], _Record]:
+    def place(self) -> None:
+        """Every part placed and cut within its structure (``placed``, ``record``)."""
         self._stretches()
         for j in range(len(self.plan.keys)):
             self._place_key(j)
@@ -207,7 +214,6 @@ class _Placer:
             if is_joint(self.sol.keys[j]):
                 self._joint(j)
         self._medial_cuts()
-        return [p.instance() for p in self.placed], self.record
 
     def _add(self, placed: Placed) -> int:
         self.placed.append(placed)
@@ -382,6 +388,76 @@ class _Placer:
         for s in range(len(stages)):
             self._medial_runs(s)
 
+    def medial_against(self, other: _Placer) -> None:
+        """Where this structure's modules reach into the mass of another structure of
+        the same layout (a courtyard's facades and the outline's round a wing narrower
+        than two building depths, which would run through each other and out of the far
+        wall), each keeps what lies nearer its own facade, as between two sides of one
+        structure that share no corner (:meth:`_medial_cuts`)."""
+        bands = [shapely.union_all([other._mass_band(t),
+                                    *(r for _k, r in other._reach.get(t, []))])
+                 for t in range(len(other.plan.stages))]
+        tree = shapely.STRtree(bands)
+        for s in range(len(self.plan.stages)):
+            fill = self.record.stages[s].fill
+            feet = _footprints([self.placed[i] for i in fill], [self.span[i] for i in fill])
+            for i, foot in zip(fill, feet, strict=True):
+                for t in sorted(int(t) for t in tree.query(foot, predicate="intersects")):
+                    if foot.intersection(bands[t]).area <= MEDIAL_MIN_AREA:
+                        continue
+                    half = self._medial_half(i, s, t, other=other)
+                    if half is not None and half not in self.placed[i].halves:
+                        self.placed[i].halves.append(half)
+        for j in range(len(self.plan.keys)):
+            self._medial_corner(j, other, bands, tree)
+
+    def _medial_corner(self, j: int, other: _Placer, bands: list[BaseGeometry],
+                       tree: shapely.STRtree) -> None:
+        """A corner part whose legs reach into another structure's mass is split on its
+        bisector plane, and each half cut on the medial plane of its own leg: one plane
+        for the whole part would cut the other leg's arm, which runs the other way."""
+        i = self.record.keys.get((j, 0))
+        p = self.leg_part(j)
+        s_in = self.ins[j]
+        s_out = next((s for s in self.outs[j] if self.plan.branch.get(j) != s), None)
+        if i is None or p is None or p.cls != "corner" or s_in is None or s_out is None:
+            return
+        legs = self._legs(j, p)
+        key = self.kxy[j]
+        depth = max(abs(self.placed[i].y_range[0]), abs(self.placed[i].y_range[1]))
+        units = {leg: legs[leg] / float(np.hypot(*legs[leg])) for leg in (0, 1)}
+        split = units[0] + units[1]
+        if float(np.hypot(*split)) < 1e-6:
+            return
+        w = np.array([-split[1], split[0]]) / float(np.hypot(*split))
+        sides = {0: w if float(w @ units[0]) < 0 else -w}     # keeps leg 0's side
+        sides[1] = -sides[0]
+        halves: dict[int, list[HalfPlane]] = {0: [], 1: []}
+        for leg, s in ((0, s_in), (1, s_out)):
+            v, u = legs[leg], units[leg]
+            size = 10.0 * (float(np.hypot(*v)) + depth + 1.0)
+            m = _mass_normal(-u if leg == 0 else u, self.plan.stages[s].front)
+            # the leg's arm, and at a concave corner the square past the key point too
+            back = 0.0 if float(m @ units[1 - leg]) > 0 else depth
+            arm = shapely.Polygon([key - u * back, key + v, key + v + m * depth,
+                                   key - u * back + m * depth]).intersection(
+                half_polygon(sides[leg], key, size))
+            facade = np.array([key, key + v])
+            for t in sorted(int(t) for t in tree.query(arm, predicate="intersects")):
+                if arm.intersection(bands[t]).area <= MEDIAL_MIN_AREA:
+                    continue
+                half = _medial_plane(m, key, facade, other.paths[t],
+                                     other.plan.stages[t].front)
+                if half is not None and half not in halves[leg]:
+                    halves[leg].append(half)
+        if not (halves[0] or halves[1]):
+            return
+        first = self.placed[i]
+        second = replace(first, halves=list(first.halves))
+        first.halves += [HalfPlane(tuple(sides[0]), tuple(key), extends=False), *halves[0]]
+        second.halves += [HalfPlane(tuple(sides[1]), tuple(key), extends=False), *halves[1]]
+        self.record.keys[(j, 1)] = self._add(second)
+
     def _medial_reach(self, i: int, s: int, foot: BaseGeometry, apart: set[int]) -> None:
         """Module i against the ground a stage t extends over past a concave mitre
         joint (outside t's band: a narrow wing's inner corner, whose end module reaches
@@ -428,6 +504,19 @@ class _Placer:
             self._bands[s] = behind(st.points, st.front, self._stage_depth(s))
         return self._bands[s]
 
+    def _mass_band(self, s: int) -> BaseGeometry:
+        """Stage s's band (:meth:`_stage_band`), or where it has no module (a side two
+        long-legged corners make) the ground behind it as deep as those corners. (With
+        what its end modules cover past a concave mitre joint, ``_reach``, the ground
+        another structure's modules meet it on.)"""
+        if self.record.stages[s].fill:
+            return self._stage_band(s)
+        st = self.plan.stages[s]
+        ends = [self.record.keys.get((st.start, st.start_leg)),
+                self.record.keys.get((st.end, st.end_leg))]
+        depth = max((self.placed[i].y_range[1] for i in ends if i is not None), default=0.0)
+        return behind(st.points, st.front, depth)
+
     def _far_band(self, s: int) -> BaseGeometry:
         """The ground behind every stage that shares no key point with stage s."""
         if s not in self._far:
@@ -471,9 +560,8 @@ class _Placer:
         """The plan of module i (as cut so far) on the far side of ``half``."""
         placed = self.placed[i]
         foot = _clipped_footprint(placed, self.span[i])
-        size = 10.0 * (placed.length + abs(placed.y_range[0]) + abs(placed.y_range[1]) + 1.0)
         return foot.intersection(half_polygon(-np.asarray(half.normal),
-                                               np.asarray(half.point), size))
+                                               np.asarray(half.point), _reach(placed, half)))
 
     def _facade(self, i: int) -> np.ndarray:
         """The world end points of module i's facade line as its cuts so far leave it (a
@@ -499,29 +587,20 @@ class _Placer:
         if half is not None:
             self.placed[i].halves.append(half)
 
-    def _medial_half(self, i: int, s: int, t: int, k: int | None = None
-                     ) -> HalfPlane | None:
+    def _medial_half(self, i: int, s: int, t: int, k: int | None = None,
+                     other: _Placer | None = None) -> HalfPlane | None:
         """The plane of :meth:`_medial` (None where there is none, or where it would
-        cut module i's facade)."""
+        cut module i's facade); stage t of ``other`` structure, if given."""
         placed = self.placed[i]
         centre = placed.origin + placed.a @ np.array([placed.length / 2, 0.0])
-        path_t = self.paths[t]
+        of_t = other if other is not None else self
+        path_t = of_t.paths[t]
         if k is None:
             k = int(np.argmin([_seg_distance(centre, path_t.p[n], path_t.p[n + 1])
                                for n in range(len(path_t.len))]))
-        m_s = _mass_normal(placed.a[:, 0], self.plan.stages[s].front)
-        m_t = _mass_normal(path_t.dir[k], self.plan.stages[t].front)
-        n = m_s - m_t
-        norm = float(np.hypot(*n))
-        if norm < 1e-6:
-            return None
-        p_s, p_t = placed.origin, path_t.p[k]
-        c = (float(p_s @ m_s) - float(p_t @ m_t)) / norm
-        n = n / norm
-        facade = self._facade(i)
-        if (facade @ n > c - TOL).any():   # it would cut the facade itself: leave it
-            return None
-        return HalfPlane(tuple(n), tuple(n * c), extends=False)
+        return _medial_plane(_mass_normal(placed.a[:, 0], self.plan.stages[s].front),
+                             placed.origin, self._facade(i), path_t,
+                             of_t.plan.stages[t].front, k)
 
     # -- mitre joints ---------------------------------------------------------------------
 
@@ -610,6 +689,28 @@ def _fold_at_ends(pieces: list[Placed], path: _Path, runs: list[int],
         pieces[-1].halves.append(HalfPlane(tuple(fold), tuple(path.p[nxt])))
 
 
+def _medial_plane(m_s: np.ndarray, p_s: np.ndarray, facade: np.ndarray, path_t: _Path,
+                  front_t: Front, k: int | None = None) -> HalfPlane | None:
+    """The plane of equal depth behind a facade (through ``p_s``, its mass normal
+    ``m_s``, its end points ``facade``) and segment k of stage path ``path_t`` (by
+    default the one nearest the facade's middle), keeping the first's side; None where
+    the facades are parallel and face the same way, or where it would cut the facade."""
+    if k is None:
+        mid = facade.mean(axis=0)
+        k = int(np.argmin([_seg_distance(mid, path_t.p[n], path_t.p[n + 1])
+                           for n in range(len(path_t.len))]))
+    m_t = _mass_normal(path_t.dir[k], front_t)
+    n = m_s - m_t
+    norm = float(np.hypot(*n))
+    if norm < 1e-6:
+        return None
+    c = (float(p_s @ m_s) - float(path_t.p[k] @ m_t)) / norm
+    n = n / norm
+    if (facade @ n > c - TOL).any():   # it would cut the facade itself: leave it
+        return None
+    return HalfPlane(tuple(n), tuple(n * c), extends=False)
+
+
 def _mass_normal(direction: np.ndarray, front: Front) -> np.ndarray:
     """The unit normal of a facade running along ``direction``, into its mass."""
     u = np.asarray(direction, dtype=float)
@@ -639,11 +740,19 @@ def _footprints(placed: Sequence[Placed], spans: Sequence[tuple[float, float]]
 def _clipped_footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
     """A module's plan rectangle less what its half-planes cut away so far."""
     foot = _footprint(placed, span)
-    size = 10.0 * (placed.length + abs(placed.y_range[0]) + abs(placed.y_range[1]) + 1.0)
     for h in placed.halves:
         foot = foot.intersection(half_polygon(np.asarray(h.normal, dtype=float),
-                                               np.asarray(h.point, dtype=float), size))
+                                               np.asarray(h.point, dtype=float),
+                                               _reach(placed, h)))
     return foot
+
+
+def _reach(placed: Placed, half: HalfPlane) -> float:
+    """How large a square round the half-plane's point covers the module: its own size
+    and its distance from that point (a medial plane's point is where the plane passes
+    nearest the frame's origin, which in a city is hundreds of metres away)."""
+    return 10.0 * (placed.length + abs(placed.y_range[0]) + abs(placed.y_range[1]) + 1.0) \
+        + 2.0 * float(np.hypot(*(np.asarray(half.point, dtype=float) - placed.origin)))
 
 
 def _seg_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:

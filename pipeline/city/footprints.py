@@ -69,6 +69,7 @@ class FootprintSpec:
     stretch: float                   # a side may be met within this fraction
     tolerance: float                 # metres the cleaned outline may stray
     storeys: Storeys
+    trimmed: str = ""                # why the outline is less than the feature's (overlaps.py)
 
     @property
     def label(self) -> str:
@@ -386,6 +387,8 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
     if why:
         well_note = f"{fp.where}: {'; '.join(why)}"
         note = f"{note}\n{well_note}" if note else well_note
+    if fp.trimmed:
+        note = f"{note}\n{fp.trimmed}" if note else fp.trimmed
     return Prepared(rings, fp.where, fp.stretch, job.slack, parts, storeys, note)
 
 

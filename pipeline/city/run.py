@@ -56,6 +56,7 @@ from citysynth.pipeline.city.jobs import (
     worker_library,
 )
 from citysynth.pipeline.city.outputs import Report, write_summary
+from citysynth.pipeline.city.overlaps import Footprint, separate
 from citysynth.pipeline.city.process import (
     run_lock,
     stop_pool,
@@ -181,6 +182,8 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
                                 origin_digits=ORIGIN_DIGITS, accept="polygons",
                                 within=streets)
     skipped += [{"kind": "feature", "reason": r} for r in feats.skipped]
+    found: list[Footprint] = []
+    fp = cfg.footprints
     for f in feats:
         for p in shapely.get_parts(f.geometry):
             if p.geom_type != "Polygon":
@@ -197,10 +200,12 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
                 skipped.append(_skip("footprint", f"{footprints}: {f.name}: {p.area:.1f} m², "
                                      f"below min_area {cfg.min_area:g}", p))
                 continue
-            fp = cfg.footprints
-            outlines.append(("footprint", p, (), footprint_spec(
+            found.append(Footprint(p, footprint_spec(
                 str(footprints), f.index, f.properties, frame.source_crs, fp.stretch,
                 fp.tolerance, fp.storeys)))
+    built, left = separate(found, cfg.min_area)     # one building's facades per ground
+    outlines += [("footprint", f.polygon, (), f.spec) for f in built]
+    skipped += [_skip("footprint", why, p) for why, p in left]
     return frame
 
 

@@ -1,0 +1,109 @@
+"""Footprints that overlap (pipeline/city/overlaps.py): each piece of ground gets one
+building's facades. A tower mapped inside its building is left out and told; a
+neighbour whose shared wall was drawn past the other's is trimmed to the ground left,
+with a note; a wall shared exactly and an outline drawn twice are as before."""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import pytest
+import shapely
+
+from citysynth.pipeline.city.config import parse_config
+from citysynth.pipeline.city.overlaps import TOUCH
+from citysynth.pipeline.city.run import prepare
+from citysynth.pipeline.cli import main
+from citysynth.skeletons.geojson import lonlat_from_local
+
+ROOT = Path(__file__).resolve().parent.parent
+LIB = ROOT / "examples" / "library"
+HELSINKI = ROOT / "examples" / "city" / "district_buildings.geojson"
+ORIGIN = (24.94, 60.17)
+
+SCENE = {   # local metres
+    "hall": [(0, 0), (30, 0), (30, 20), (0, 20)],
+    "tower": [(10, 5), (18, 5), (18, 13), (10, 13)],          # inside the hall
+    "east": [(29.7, 0), (49.7, 0), (49.7, 20), (29.7, 20)],    # 0.3 m into the hall
+    "north": [(0, 20), (30, 20), (30, 35), (0, 35)],           # shares a wall exactly
+}
+
+
+def write(path: Path, names: list[str]) -> Path:
+    feats = [{"type": "Feature", "properties": {"id": n},
+              "geometry": {"type": "Polygon",
+                           "coordinates": [lonlat_from_local(SCENE[n] + SCENE[n][:1],
+                                                             ORIGIN)]}}
+             for n in names]
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+    return path
+
+
+def outlines(fp: Path):
+    inputs = prepare(None, fp, parse_config({"k": 1}), LIB)
+    return inputs, {j.footprint.ref: shapely.from_wkt(j.wkt) for j in inputs.jobs}
+
+
+def worst_overlap(polys) -> float:
+    return max((a.intersection(b).area for a, b in itertools.combinations(polys, 2)),
+               default=0.0)
+
+
+def test_a_tower_inside_is_left_out_and_a_neighbour_drawn_over_is_trimmed(tmp_path):
+    fp = write(tmp_path / "scene.geojson", list(SCENE))
+    inputs, built = outlines(fp)
+    assert sorted(built) == ["east", "hall", "north"]
+    (skip,) = [s["reason"] for s in inputs.skipped]
+    assert skip == (f"{fp}: feature 1 (tower): 100 % of it lies inside feature 0 (hall), "
+                    "larger and built; left out (a part of that building, or the same "
+                    "building drawn twice)")
+    # the larger is whole, the exact neighbour untouched, the other trimmed to the wall
+    assert built["hall"].area == pytest.approx(600, abs=0.05)
+    assert built["north"].area == pytest.approx(450, abs=0.05)
+    assert built["east"].area == pytest.approx(394, abs=0.05)
+    assert built["east"].bounds[0] == pytest.approx(30, abs=0.01)
+    assert worst_overlap(list(built.values())) <= TOUCH
+    (east,) = [j for j in inputs.jobs if j.footprint.ref == "east"]
+    assert east.footprint.trimmed == (f"{fp}: feature 2 (east): trimmed by 6.00 m² where "
+                                      "it overlapped feature 0 (hall), larger and built whole")
+
+
+def test_the_rule_does_not_depend_on_the_order_of_the_file(tmp_path):
+    a, _ = outlines(write(tmp_path / "a.geojson", list(SCENE)))
+    b, _ = outlines(write(tmp_path / "b.geojson", list(reversed(SCENE))))
+    assert sorted(j.wkt for j in a.jobs) == sorted(j.wkt for j in b.jobs)
+
+
+def test_the_trim_is_told_in_the_blocks_note(tmp_path):
+    fp = write(tmp_path / "pair.geojson", ["hall", "east"])
+    cfg = tmp_path / "run.toml"
+    cfg.write_text('k = 1\npick = "best"\n')
+    assert main(["city", "--footprints", str(fp), "--library", str(LIB), "-o",
+                 str(tmp_path / "run"), "--config", str(cfg), "--workers", "1",
+                 "--no-overview"]) == 0
+    blocks = json.loads((tmp_path / "run" / "manifest.json").read_text())["blocks"]
+    notes = [r.get("note", "") for r in blocks.values()]
+    assert all(r["status"] == "built" for r in blocks.values()), blocks
+    assert sum("trimmed by 6.00 m² where it overlapped feature 0 (hall)" in n
+               for n in notes) == 1, notes
+
+
+def test_helsinki_footprints_share_no_ground():
+    """The shipped district: the cathedral's towers (features 265-266, mapped as
+    churches inside it) and a wing inside the university's main building are left out;
+    two neighbours drawn into theirs are trimmed; no two built footprints overlap."""
+    inputs = prepare(None, HELSINKI, parse_config({"k": 1}), LIB)
+    polys = [shapely.from_wkt(j.wkt) for j in inputs.jobs]
+    tree = shapely.STRtree(polys)
+    pairs = [(i, j) for i, j in zip(*tree.query(polys, predicate="intersects"), strict=True)
+             if i < j]
+    worst = max(polys[i].intersection(polys[j]).area for i, j in pairs)
+    print(f"\nworst overlap of two built Helsinki footprints: {worst:.4f} m²")
+    assert worst <= TOUCH
+    inside = sorted(s["reason"].split(": ")[1] for s in inputs.skipped
+                    if "lies inside" in s["reason"])
+    assert inside == ["feature 157", "feature 265", "feature 266"]
+    trimmed = sorted(j.footprint.feature for j in inputs.jobs if j.footprint.trimmed)
+    assert trimmed == [14, 86]
