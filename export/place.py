@@ -402,9 +402,7 @@ class _Placer:
             fill = self.record.stages[s].fill
             feet = _footprints([self.placed[i] for i in fill], [self.span[i] for i in fill])
             for i, foot in zip(fill, feet, strict=True):
-                for t in sorted(int(t) for t in tree.query(foot, predicate="intersects")):
-                    if foot.intersection(bands[t]).area <= MEDIAL_MIN_AREA:
-                        continue
+                for t in _overlapping(tree, bands, foot):
                     half = self._medial_half(i, s, t, other=other)
                     if half is not None and half not in self.placed[i].halves:
                         self.placed[i].halves.append(half)
@@ -443,9 +441,7 @@ class _Placer:
                                    key - u * back + m * depth]).intersection(
                 half_polygon(sides[leg], key, size))
             facade = np.array([key, key + v])
-            for t in sorted(int(t) for t in tree.query(arm, predicate="intersects")):
-                if arm.intersection(bands[t]).area <= MEDIAL_MIN_AREA:
-                    continue
+            for t in _overlapping(tree, bands, arm):
                 half = _medial_plane(m, key, facade, other.paths[t],
                                      other.plan.stages[t].front)
                 if half is not None and half not in halves[leg]:
@@ -576,9 +572,7 @@ class _Placer:
         return np.array([[lo, 0.0], [max(lo, hi), 0.0]]) @ placed.a.T + placed.origin
 
     def _run_of(self, i: int, path: _Path) -> int:
-        mid = self._facade(i).mean(axis=0)
-        return int(np.argmin([_seg_distance(mid, path.p[n], path.p[n + 1])
-                              for n in range(len(path.len))]))
+        return _nearest_segment(self._facade(i).mean(axis=0), path)
 
     def _medial(self, i: int, s: int, t: int, k: int | None = None) -> None:
         """Cut module i (of stage s) where it lies deeper behind its facade than behind
@@ -596,8 +590,7 @@ class _Placer:
         of_t = other if other is not None else self
         path_t = of_t.paths[t]
         if k is None:
-            k = int(np.argmin([_seg_distance(centre, path_t.p[n], path_t.p[n + 1])
-                               for n in range(len(path_t.len))]))
+            k = _nearest_segment(centre, path_t)
         return _medial_plane(_mass_normal(placed.a[:, 0], self.plan.stages[s].front),
                              placed.origin, self._facade(i), path_t,
                              of_t.plan.stages[t].front, k)
@@ -696,9 +689,7 @@ def _medial_plane(m_s: np.ndarray, p_s: np.ndarray, facade: np.ndarray, path_t: 
     default the one nearest the facade's middle), keeping the first's side; None where
     the facades are parallel and face the same way, or where it would cut the facade."""
     if k is None:
-        mid = facade.mean(axis=0)
-        k = int(np.argmin([_seg_distance(mid, path_t.p[n], path_t.p[n + 1])
-                           for n in range(len(path_t.len))]))
+        k = _nearest_segment(facade.mean(axis=0), path_t)
     m_t = _mass_normal(path_t.dir[k], front_t)
     n = m_s - m_t
     norm = float(np.hypot(*n))
@@ -753,6 +744,20 @@ def _reach(placed: Placed, half: HalfPlane) -> float:
     nearest the frame's origin, which in a city is hundreds of metres away)."""
     return 10.0 * (placed.length + abs(placed.y_range[0]) + abs(placed.y_range[1]) + 1.0) \
         + 2.0 * float(np.hypot(*(np.asarray(half.point, dtype=float) - placed.origin)))
+
+
+def _overlapping(tree: shapely.STRtree, bands: list[BaseGeometry],
+                 region: BaseGeometry) -> list[int]:
+    """The bands (indices into ``bands``, which ``tree`` holds, in order) that
+    ``region`` reaches into by more than MEDIAL_MIN_AREA."""
+    return [t for t in sorted(int(t) for t in tree.query(region, predicate="intersects"))
+            if region.intersection(bands[t]).area > MEDIAL_MIN_AREA]
+
+
+def _nearest_segment(q: np.ndarray, path: _Path) -> int:
+    """The index of the segment of ``path`` nearest point ``q`` (the first, on a tie)."""
+    return int(np.argmin([_seg_distance(q, path.p[n], path.p[n + 1])
+                          for n in range(len(path.len))]))
 
 
 def _seg_distance(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:

@@ -103,6 +103,13 @@ def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: s
                          stretch, tolerance, storeys)
 
 
+def polygons_in(geom: shapely.Geometry) -> list[shapely.Polygon]:
+    """The polygons of a geometry with area, however nested (what ``make_valid`` or a
+    difference returns: a polygon, a multipolygon, a collection of them and lines)."""
+    return [g for part in shapely.get_parts(geom) for g in shapely.get_parts(part)
+            if g.geom_type == "Polygon" and g.area > 0]
+
+
 # --- storeys ---------------------------------------------------------------------------
 
 def part_families(part_id: str, known: Iterable[str]) -> frozenset[str]:
@@ -384,12 +391,9 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
     if unlined:
         why.append(f"{' and '.join(unlined)} closed under the roof (no layout of the "
                    f"{job.style} kit lines it)")
-    if why:
-        well_note = f"{fp.where}: {'; '.join(why)}"
-        note = f"{note}\n{well_note}" if note else well_note
-    if fp.trimmed:
-        note = f"{note}\n{fp.trimmed}" if note else fp.trimmed
-    return Prepared(rings, fp.where, fp.stretch, job.slack, parts, storeys, note)
+    notes = [note, f"{fp.where}: {'; '.join(why)}" if why else None, fp.trimmed or None]
+    return Prepared(rings, fp.where, fp.stretch, job.slack, parts, storeys,
+                    "\n".join(n for n in notes if n) or None)
 
 
 def _courtyard(ring_name: str) -> int | None:

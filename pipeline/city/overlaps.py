@@ -25,7 +25,7 @@ from dataclasses import dataclass, replace
 
 import shapely
 
-from citysynth.pipeline.city.footprints import FootprintSpec
+from citysynth.pipeline.city.footprints import FootprintSpec, polygons_in
 from citysynth.pipeline.city.jobs import outline_wkt
 
 TOUCH = 0.01      # m²: smaller overlaps are noise along a shared wall
@@ -91,5 +91,4 @@ def _pieces(rest: shapely.Geometry, min_area: float) -> list[shapely.Polygon]:
     opened = shapely.buffer(shapely.buffer(rest, -OPEN, join_style="mitre"), OPEN,
                             join_style="mitre")
     opened = shapely.intersection(opened, rest)    # the opening never grows the ground
-    return [g for part in shapely.get_parts(shapely.make_valid(opened))
-            for g in shapely.get_parts(part) if g.geom_type == "Polygon" and g.area >= min_area]
+    return [g for g in polygons_in(shapely.make_valid(opened)) if g.area >= min_area]

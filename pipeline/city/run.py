@@ -39,6 +39,7 @@ from citysynth.pipeline.city.footprints import (
     FootprintSpec,
     cut_back_outlines,
     footprint_spec,
+    polygons_in,
 )
 from citysynth.pipeline.city.jobs import (
     BLOCKS_DIR,
@@ -215,8 +216,7 @@ def _repaired(p: shapely.Polygon, frame: Frame) -> tuple[shapely.Polygon | None,
     why, at the point in the input's coordinates (an outline crossing itself, a bowtie,
     is two buildings or a mistake: which, only the user knows)."""
     fixed = shapely.make_valid(p)
-    polys = [g for part in shapely.get_parts(fixed) for g in shapely.get_parts(part)
-             if g.geom_type == "Polygon" and g.area > 0]
+    polys = polygons_in(fixed)
     if len(polys) == 1:
         return polys[0], ""
     reason = shapely.is_valid_reason(p)
