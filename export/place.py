@@ -199,9 +199,13 @@ class _Placer:
         self.solved: list[float] = []
         self._bands: dict[int, BaseGeometry] = {}     # once every module is placed
         self._far: dict[int, BaseGeometry] = {}
+        self._street: dict[int, BaseGeometry] = {}
         # stage -> (its segment at the joint, the ground its end module covers past a
         # concave mitre joint, up to the joint's plane)
         self._reach: dict[int, list[tuple[int, BaseGeometry]]] = {}
+        # module -> the ground it covers past its concave mitre joint (its share of the
+        # stage's ``_reach``), which its plan rectangle stops short of
+        self._extension: dict[int, list[BaseGeometry]] = {}
 
     def place(self) -> None:
         """Every part placed and cut within its structure (``placed``, ``record``)."""
@@ -384,6 +388,7 @@ class _Placer:
                     if foot.intersection(bands[t]).area > MEDIAL_MIN_AREA:
                         met.add(int(t))
                         self._medial(i, s, int(t))
+                self._stop_at_facades(i, s, self, [t for t in range(len(stages)) if t != s])
                 self._medial_reach(i, s, foot, apart - met)
         for s in range(len(stages)):
             self._medial_runs(s)
@@ -402,6 +407,7 @@ class _Placer:
             fill = self.record.stages[s].fill
             feet = _footprints([self.placed[i] for i in fill], [self.span[i] for i in fill])
             for i, foot in zip(fill, feet, strict=True):
+                self._stop_at_facades(i, s, other, range(len(other.plan.stages)))
                 for t in _overlapping(tree, bands, foot):
                     half = self._medial_half(i, s, t, other=other)
                     if half is not None and half not in self.placed[i].halves:
@@ -480,6 +486,81 @@ class _Placer:
                 if past.intersection(mass).area >= REACH_SHARE * past.area:
                     self.placed[i].halves.append(half)
                     clipped = None
+
+    def _stop_at_facades(self, i: int, s: int, other: _Placer, stages: Sequence[int]
+                         ) -> None:
+        """Cut the extension of module i (of stage s) past its concave mitre joint where
+        it runs out through a facade of ``other`` (this structure or another): at a
+        sharp inner corner the extension runs tens of metres on, through a narrow wing
+        and out of its far wall into the street (a Helsinki building had a 13 m blade
+        standing out of its east wall). It is cut on the medial plane of its own facade
+        and the one it runs out of, as where two sides' modules meet
+        (:meth:`_medial_cuts`), so it also stops standing through that wing's modules;
+        where that plane would cut its own facade, just behind the far facade
+        (:data:`FACADE_INSET`, so the cut's cap hides behind that wall instead of
+        z-fighting with it), if that leaves the module's own plan rectangle whole.
+        Only an extension that runs out of the building is cut: one that stays within
+        it may be all that covers the ground behind the corner, and a cut there would
+        open the roof."""
+        ext = self._extension.get(i)
+        if not ext:
+            return
+        placed = self.placed[i]
+        own = self.plan.stages[s].front
+        mass = _clipped(shapely.union_all(ext), placed)     # as its cuts so far leave it
+        for t in stages:
+            if mass.is_empty or not mass.intersects(other._street_band(t)):
+                continue
+            path, front = other.paths[t], other.plan.stages[t].front
+            for k in range(len(path.len)):
+                m = _mass_normal(path.dir[k], front)
+                half = HalfPlane(tuple(-m), tuple(path.p[k] + m * FACADE_INSET),
+                                 extends=False)
+                out = mass.intersection(half_polygon(m, np.asarray(half.point),
+                                                     _reach(placed, half)))   # past it
+                strip = behind(path.p[k:k + 2], "left" if front == "right" else "right",
+                               max(other._stage_depth(t), 1.0))
+                if out.intersection(strip).area <= MEDIAL_MIN_AREA:
+                    continue
+                cut = _medial_plane(_mass_normal(placed.a[:, 0], own), placed.origin,
+                                    self._facade(i), path, front, k)
+                if cut is not None and not other._covers(t, self._removed(i, cut, mass)):
+                    cut = None
+                if cut is None:               # the facade itself, just behind it
+                    n = np.asarray(half.normal)
+                    if (self._facade(i) @ n > float(np.asarray(half.point) @ n) - TOL).any() \
+                            or self._past(i, half).area > MEDIAL_MIN_AREA:
+                        continue              # it would cut the module itself
+                    cut = half
+                if cut not in placed.halves:
+                    placed.halves.append(cut)
+                mass = _clipped(mass, replace(placed, halves=[cut]))
+
+    def _removed(self, i: int, half: HalfPlane, ext: BaseGeometry) -> BaseGeometry:
+        """What ``half`` would cut off module i: of its plan as cut so far and of its
+        extension ``ext`` (as cut so far)."""
+        placed = self.placed[i]
+        mass = shapely.union_all([_clipped_footprint(placed, self.span[i]), ext])
+        return mass.intersection(half_polygon(-np.asarray(half.normal),
+                                              np.asarray(half.point), _reach(placed, half)))
+
+    def _covers(self, t: int, ground: BaseGeometry) -> bool:
+        """Whether stage t's modules (as cut so far) or the street in front of it
+        cover nearly all of ``ground`` (:data:`COVER_SHARE`): a medial plane against t
+        may then take it off another module without opening the roof."""
+        fill = self.record.stages[t].fill
+        cover = shapely.union_all([self._street_band(t), *(
+            _clipped_footprint(self.placed[j], self.span[j]) for j in fill)])
+        return ground.difference(cover).area <= max(MEDIAL_MIN_AREA,
+                                                    (1 - COVER_SHARE) * ground.area)
+
+    def _street_band(self, t: int) -> BaseGeometry:
+        """The ground in front of stage t's facades (as deep as its mass behind)."""
+        if t not in self._street:
+            st = self.plan.stages[t]
+            self._street[t] = behind(st.points, "left" if st.front == "right" else "right",
+                                     max(self._stage_depth(t), 1.0))
+        return self._street[t]
 
     def _apart(self, s: int) -> list[int]:
         """The stages that share no key point with stage s."""
@@ -655,14 +736,20 @@ class _Placer:
             for s, u, half, incoming in ((s_in, u_in, before[0], True),
                                          (s_out, u_out, after[0], False)):
                 k = len(self.paths[s].len) - 1 if incoming else 0
-                self._reach.setdefault(s, []).append((k, concave_reach(
-                    self.kxy[j], u, half, self.plan.stages[s].front, self._stage_depth(s),
-                    incoming)))
+                reach = concave_reach(self.kxy[j], u, half, self.plan.stages[s].front,
+                                      self._stage_depth(s), incoming)
+                self._reach.setdefault(s, []).append((k, reach))
+                end = fill_in[-1] if incoming else fill_out[0]
+                self._extension.setdefault(end, []).append(reach)
         self.record.joints[j] = how
         self.record.joint_ends[j] = (self.kxy[j] - u_in * trim, self.kxy[j] + u_out * trim)
 
 
 MEDIAL_MIN_AREA = 0.05   # m²: a module reaching less into another stage's mass is left
+COVER_SHARE = 0.9        # of what a medial plane takes off an extension that runs out
+                         # of a facade, the share that facade's modules must cover
+FACADE_INSET = 0.05      # m: an extension running out through a facade stops this far
+                         # behind it (see _Placer._stop_at_facades)
 REACH_SHARE = 0.5        # a medial plane against a concave extension must remove mostly
                          # ground that extension (or its stage's band) covers
 
@@ -730,7 +817,11 @@ def _footprints(placed: Sequence[Placed], spans: Sequence[tuple[float, float]]
 
 def _clipped_footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
     """A module's plan rectangle less what its half-planes cut away so far."""
-    foot = _footprint(placed, span)
+    return _clipped(_footprint(placed, span), placed)
+
+
+def _clipped(foot: BaseGeometry, placed: Placed) -> BaseGeometry:
+    """Ground ``foot`` of a module less what its half-planes cut away so far."""
     for h in placed.halves:
         foot = foot.intersection(half_polygon(np.asarray(h.normal, dtype=float),
                                                np.asarray(h.point, dtype=float),
