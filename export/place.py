@@ -496,9 +496,11 @@ class _Placer:
         standing out of its east wall). It is cut on the medial plane of its own facade
         and the one it runs out of, as where two sides' modules meet
         (:meth:`_medial_cuts`), so it also stops standing through that wing's modules;
-        where that plane would cut its own facade, just behind the far facade
-        (:data:`FACADE_INSET`, so the cut's cap hides behind that wall instead of
-        z-fighting with it), if that leaves the module's own plan rectangle whole.
+        where that plane would cut its own facade, or take off ground the wing's modules
+        do not cover (:meth:`_covers`: a short step's modules stop at its corners, and
+        the roof would open), just behind the far facade (:data:`FACADE_INSET`, so the
+        cut's cap hides behind that wall instead of z-fighting with it), if that leaves
+        the module's own plan rectangle whole.
         Only an extension that runs out of the building is cut: one that stays within
         it may be all that covers the ground behind the corner, and a cut there would
         open the roof."""
@@ -518,8 +520,7 @@ class _Placer:
                                  extends=False)
                 out = mass.intersection(half_polygon(m, np.asarray(half.point),
                                                      _reach(placed, half)))   # past it
-                strip = behind(path.p[k:k + 2], "left" if front == "right" else "right",
-                               max(other._stage_depth(t), 1.0))
+                strip = _in_front(path.p[k:k + 2], front, other._stage_depth(t))
                 if out.intersection(strip).area <= MEDIAL_MIN_AREA:
                     continue
                 cut = _medial_plane(_mass_normal(placed.a[:, 0], own), placed.origin,
@@ -558,8 +559,7 @@ class _Placer:
         """The ground in front of stage t's facades (as deep as its mass behind)."""
         if t not in self._street:
             st = self.plan.stages[t]
-            self._street[t] = behind(st.points, "left" if st.front == "right" else "right",
-                                     max(self._stage_depth(t), 1.0))
+            self._street[t] = _in_front(st.points, st.front, self._stage_depth(t))
         return self._street[t]
 
     def _apart(self, s: int) -> list[int]:
@@ -787,6 +787,12 @@ def _medial_plane(m_s: np.ndarray, p_s: np.ndarray, facade: np.ndarray, path_t: 
     if (facade @ n > c - TOL).any():   # it would cut the facade itself: leave it
         return None
     return HalfPlane(tuple(n), tuple(n * c), extends=False)
+
+
+def _in_front(points, front: Front, depth: float) -> BaseGeometry:
+    """The ground in front of a facade polyline (the street side), ``depth`` deep
+    (at least 1 m): :func:`~citysynth.export.joints.behind` turned round."""
+    return behind(points, "left" if front == "right" else "right", max(depth, 1.0))
 
 
 def _mass_normal(direction: np.ndarray, front: Front) -> np.ndarray:
