@@ -523,27 +523,20 @@ class _Placer:
                 strip = _in_front(path.p[k:k + 2], front, other._stage_depth(t))
                 if out.intersection(strip).area <= MEDIAL_MIN_AREA:
                     continue
+                facade = self._facade(i)
                 cut = _medial_plane(_mass_normal(placed.a[:, 0], own), placed.origin,
-                                    self._facade(i), path, front, k)
-                if cut is not None and not other._covers(t, self._removed(i, cut, mass)):
+                                    facade, path, front, k)
+                if cut is not None and not other._covers(t, self._past(i, cut, mass)):
                     cut = None
                 if cut is None:               # the facade itself, just behind it
                     n = np.asarray(half.normal)
-                    if (self._facade(i) @ n > float(np.asarray(half.point) @ n) - TOL).any() \
+                    if (facade @ n > float(np.asarray(half.point) @ n) - TOL).any() \
                             or self._past(i, half).area > MEDIAL_MIN_AREA:
                         continue              # it would cut the module itself
                     cut = half
                 if cut not in placed.halves:
                     placed.halves.append(cut)
                 mass = _clipped(mass, replace(placed, halves=[cut]))
-
-    def _removed(self, i: int, half: HalfPlane, ext: BaseGeometry) -> BaseGeometry:
-        """What ``half`` would cut off module i: of its plan as cut so far and of its
-        extension ``ext`` (as cut so far)."""
-        placed = self.placed[i]
-        mass = shapely.union_all([_clipped_footprint(placed, self.span[i]), ext])
-        return mass.intersection(half_polygon(-np.asarray(half.normal),
-                                              np.asarray(half.point), _reach(placed, half)))
 
     def _covers(self, t: int, ground: BaseGeometry) -> bool:
         """Whether stage t's modules (as cut so far) or the street in front of it
@@ -633,10 +626,14 @@ class _Placer:
             return False
         return self._past(i, half).area > MEDIAL_MIN_AREA
 
-    def _past(self, i: int, half: HalfPlane) -> BaseGeometry:
-        """The plan of module i (as cut so far) on the far side of ``half``."""
+    def _past(self, i: int, half: HalfPlane, extra: BaseGeometry | None = None
+              ) -> BaseGeometry:
+        """The plan of module i (as cut so far), with ``extra`` ground of it (its
+        extension past a concave joint, as cut so far), on the far side of ``half``."""
         placed = self.placed[i]
         foot = _clipped_footprint(placed, self.span[i])
+        if extra is not None:
+            foot = shapely.union_all([foot, extra])
         return foot.intersection(half_polygon(-np.asarray(half.normal),
                                                np.asarray(half.point), _reach(placed, half)))
 
