@@ -140,6 +140,8 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
         placer.place()
     for a, b in itertools.permutations(placers, 2):   # a courtyard against its outline
         a.medial_against(b)
+    if len(placers) > 1:
+        _reopen(placers)
     for placer in placers:
         instances = [p.instance() for p in placer.placed]
         _check(placer.plan, placer.record, parts, instances, placer.sol.keys,
@@ -180,6 +182,19 @@ class _Record:
     joint_ends: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
 
 
+@dataclass(frozen=True)
+class _Arm:
+    """One leg of a corner part: the vector it spans from the key point, its unit, the
+    normal into its mass, its ground (at a concave corner with the square past the key
+    point) and a size a half-plane square must have to hold it."""
+
+    leg: np.ndarray
+    unit: np.ndarray
+    mass: np.ndarray
+    ground: BaseGeometry
+    size: float
+
+
 class _Placer:
     """Places one structure's solution on its plan: one stretch per stage, then the key
     parts, the fillers (folded at bends), and the cuts at mitre joints."""
@@ -206,6 +221,10 @@ class _Placer:
         # module -> the ground it covers past its concave mitre joint (its share of the
         # stage's ``_reach``), which its plan rectangle stops short of
         self._extension: dict[int, list[BaseGeometry]] = {}
+        # (module, plane) of each medial plane against another structure (_reopen)
+        self._against: list[tuple[int, HalfPlane]] = []
+        # corner instance split on its bisector -> the ground of both its arms
+        self._corners: dict[int, BaseGeometry] = {}
 
     def place(self) -> None:
         """Every part placed and cut within its structure (``placed``, ``record``)."""
@@ -412,6 +431,7 @@ class _Placer:
                     half = self._medial_half(i, s, t, other=other)
                     if half is not None and half not in self.placed[i].halves:
                         self.placed[i].halves.append(half)
+                        self._against.append((i, half))
         for j in range(len(self.plan.keys)):
             self._medial_corner(j, other, bands, tree)
 
@@ -426,26 +446,20 @@ class _Placer:
         s_out = next((s for s in self.outs[j] if self.plan.branch.get(j) != s), None)
         if i is None or p is None or p.cls != "corner" or s_in is None or s_out is None:
             return
-        legs = self._legs(j, p)
         key = self.kxy[j]
-        depth = max(abs(self.placed[i].y_range[0]), abs(self.placed[i].y_range[1]))
-        units = {leg: legs[leg] / float(np.hypot(*legs[leg])) for leg in (0, 1)}
-        split = units[0] + units[1]
+        arms = self._arms(j, p, i, s_in, s_out)
+        self._corners[i] = arms[0].ground.union(arms[1].ground)
+        split = arms[0].unit + arms[1].unit
         if float(np.hypot(*split)) < 1e-6:
             return
         w = np.array([-split[1], split[0]]) / float(np.hypot(*split))
-        sides = {0: w if float(w @ units[0]) < 0 else -w}     # keeps leg 0's side
+        sides = {0: w if float(w @ arms[0].unit) < 0 else -w}     # keeps leg 0's side
         sides[1] = -sides[0]
         halves: dict[int, list[HalfPlane]] = {0: [], 1: []}
-        for leg, s in ((0, s_in), (1, s_out)):
-            v, u = legs[leg], units[leg]
-            size = 10.0 * (float(np.hypot(*v)) + depth + 1.0)
-            m = _mass_normal(-u if leg == 0 else u, self.plan.stages[s].front)
-            # the leg's arm, and at a concave corner the square past the key point too
-            back = 0.0 if float(m @ units[1 - leg]) > 0 else depth
-            arm = shapely.Polygon([key - u * back, key + v, key + v + m * depth,
-                                   key - u * back + m * depth]).intersection(
-                half_polygon(sides[leg], key, size))
+        for leg in (0, 1):
+            v, m = arms[leg].leg, arms[leg].mass
+            arm = arms[leg].ground.intersection(half_polygon(sides[leg], key,
+                                                             arms[leg].size))
             facade = np.array([key, key + v])
             for t in _overlapping(tree, bands, arm):
                 half = _medial_plane(m, key, facade, other.paths[t],
@@ -459,6 +473,25 @@ class _Placer:
         first.halves += [HalfPlane(tuple(sides[0]), tuple(key), extends=False), *halves[0]]
         second.halves += [HalfPlane(tuple(sides[1]), tuple(key), extends=False), *halves[1]]
         self.record.keys[(j, 1)] = self._add(second)
+        self._corners[self.record.keys[(j, 1)]] = self._corners[i]
+
+    def _arms(self, j: int, p: Part, i: int, s_in: int, s_out: int) -> dict[int, _Arm]:
+        """The arms of corner part p (instance i) at key j, leg 0 along stage s_in and
+        leg 1 along s_out."""
+        legs = self._legs(j, p)
+        key = self.kxy[j]
+        depth = max(abs(self.placed[i].y_range[0]), abs(self.placed[i].y_range[1]))
+        units = {leg: legs[leg] / float(np.hypot(*legs[leg])) for leg in (0, 1)}
+        arms = {}
+        for leg, s in ((0, s_in), (1, s_out)):
+            v, u = legs[leg], units[leg]
+            m = _mass_normal(-u if leg == 0 else u, self.plan.stages[s].front)
+            # the leg's arm, and at a concave corner the square past the key point too
+            back = 0.0 if float(m @ units[1 - leg]) > 0 else depth
+            arms[leg] = _Arm(v, u, m, shapely.Polygon([
+                key - u * back, key + v, key + v + m * depth, key - u * back + m * depth]),
+                10.0 * (float(np.hypot(*v)) + depth + 1.0))
+        return arms
 
     def _medial_reach(self, i: int, s: int, foot: BaseGeometry, apart: set[int]) -> None:
         """Module i against the ground a stage t extends over past a concave mitre
@@ -537,6 +570,15 @@ class _Placer:
                 if cut not in placed.halves:
                     placed.halves.append(cut)
                 mass = _clipped(mass, replace(placed, halves=[cut]))
+
+    def _covered(self, i: int, without: HalfPlane | None = None) -> BaseGeometry:
+        """The ground module i covers as cut so far (less the plane ``without``): its
+        plan rectangle and its extension past a concave mitre joint."""
+        placed = self.placed[i]
+        if without is not None:
+            placed = replace(placed, halves=[h for h in placed.halves if h != without])
+        return _clipped(shapely.union_all([_footprint(placed, self.span[i]),
+                                           *self._extension.get(i, [])]), placed)
 
     def _covers(self, t: int, ground: BaseGeometry) -> bool:
         """Whether stage t's modules (as cut so far) or the street in front of it
@@ -747,8 +789,50 @@ COVER_SHARE = 0.9        # of what a medial plane takes off an extension that ru
                          # of a facade, the share that facade's modules must cover
 FACADE_INSET = 0.05      # m: an extension running out through a facade stops this far
                          # behind it (see _Placer._stop_at_facades)
+REOPEN_SHARE = 0.8       # of what dropping a medial plane gives back, the share that
+                         # must be open ground inside the building (see _reopen)
 REACH_SHARE = 0.5        # a medial plane against a concave extension must remove mostly
                          # ground that extension (or its stage's band) covers
+
+
+def _reopen(placers: Sequence[_Placer]) -> None:
+    """Give back ground a medial plane against another structure took off a module
+    and no module now covers. The plane is the one of equal depth behind the module's
+    facade and the other facade's infinite line; past the end of that facade (where a
+    courtyard's wing meets one of another width) it takes off ground that belongs to
+    no one, and the roof opens in a triangle. The plane is dropped where what that
+    gives back lies mostly (:data:`REOPEN_SHARE`) on such open ground inside the
+    building, so a module never takes back much ground another already covers.
+    (Ownership by the nearest facade segment instead of its line would need no repair,
+    but is not convex: a module would need two pieces.)"""
+    inside, street = [], []
+    for p in placers:
+        for s in range(len(p.plan.stages)):
+            inside.append(p._stage_band(s))
+            street.append(p._street_band(s))
+    building = shapely.union_all(inside).difference(shapely.union_all(street))
+    feet = {(n, i): p._covered(i) for n, p in enumerate(placers)
+            for s in p.record.stages.values() for i in s.fill}
+    cover = shapely.union_all([*feet.values(), *(
+        _clipped(ground, p.placed[i]) for p in placers for i, ground in p._corners.items())])
+    gaps = building.difference(cover)
+    if gaps.area <= MEDIAL_MIN_AREA:
+        return
+    for n, p in enumerate(placers):
+        for i, half in p._against:
+            if i not in p.span or half not in p.placed[i].halves:
+                continue
+            whole = p._covered(i, without=half)
+            if not gaps.intersects(whole):
+                continue
+            placed = p.placed[i]
+            back = whole.difference(feet[(n, i)])
+            if back.area <= MEDIAL_MIN_AREA:
+                continue
+            if back.intersection(gaps).area >= REOPEN_SHARE * back.area:
+                placed.halves.remove(half)
+                feet[(n, i)] = p._covered(i)
+                gaps = gaps.difference(back)
 
 
 def _fold_at_ends(pieces: list[Placed], path: _Path, runs: list[int],
