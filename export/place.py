@@ -140,8 +140,7 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
         placer.place()
     for a, b in itertools.permutations(placers, 2):   # a courtyard against its outline
         a.medial_against(b)
-    if len(placers) > 1:
-        _reopen(placers)
+    _reopen(placers)
     for placer in placers:
         instances = [p.instance() for p in placer.placed]
         _check(placer.plan, placer.record, parts, instances, placer.sol.keys,
@@ -221,7 +220,8 @@ class _Placer:
         # module -> the ground it covers past its concave mitre joint (its share of the
         # stage's ``_reach``), which its plan rectangle stops short of
         self._extension: dict[int, list[BaseGeometry]] = {}
-        # (module, plane) of each medial plane against another structure (_reopen)
+        # (instance, plane) of each medial plane against another structure, or of a
+        # corner against a stage of its own past a narrow wing (what _reopen may undo)
         self._against: list[tuple[int, HalfPlane]] = []
         # corner instance split on its bisector -> the ground of both its arms
         self._corners: dict[int, BaseGeometry] = {}
@@ -409,6 +409,10 @@ class _Placer:
                         self._medial(i, s, int(t))
                 self._stop_at_facades(i, s, self, [t for t in range(len(stages)) if t != s])
                 self._medial_reach(i, s, foot, apart - met)
+        masses = self._masses()
+        tree = shapely.STRtree(masses)
+        for j in range(len(self.plan.keys)):
+            self._medial_corner(j, self, masses, tree)
         for s in range(len(stages)):
             self._medial_runs(s)
 
@@ -418,9 +422,7 @@ class _Placer:
         than two building depths, which would run through each other and out of the far
         wall), each keeps what lies nearer its own facade, as between two sides of one
         structure that share no corner (:meth:`_medial_cuts`)."""
-        bands = [shapely.union_all([other._mass_band(t),
-                                    *(r for _k, r in other._reach.get(t, []))])
-                 for t in range(len(other.plan.stages))]
+        bands = other._masses()
         tree = shapely.STRtree(bands)
         for s in range(len(self.plan.stages)):
             fill = self.record.stages[s].fill
@@ -435,17 +437,29 @@ class _Placer:
         for j in range(len(self.plan.keys)):
             self._medial_corner(j, other, bands, tree)
 
+    def _masses(self) -> list[BaseGeometry]:
+        """Each stage's mass as another structure's modules (or a corner part of this
+        one) meet it: its band (:meth:`_mass_band`) and what its end modules cover past
+        a concave mitre joint."""
+        return [shapely.union_all([self._mass_band(t), *(r for _k, r in self._reach.get(t, []))])
+                for t in range(len(self.plan.stages))]
+
     def _medial_corner(self, j: int, other: _Placer, bands: list[BaseGeometry],
                        tree: shapely.STRtree) -> None:
-        """A corner part whose legs reach into another structure's mass is split on its
-        bisector plane, and each half cut on the medial plane of its own leg: one plane
-        for the whole part would cut the other leg's arm, which runs the other way."""
+        """A corner part whose legs reach into the mass of another structure's stages
+        (or of its own that share no key point with either leg's stage: the far side of
+        a wing narrower than the part is deep) is split on its bisector plane, and each
+        half cut on the medial plane of its own leg: one plane for the whole part would
+        cut the other leg's arm, which runs the other way. A corner split before (by
+        another structure) only takes the new planes."""
         i = self.record.keys.get((j, 0))
         p = self.leg_part(j)
         s_in = self.ins[j]
         s_out = next((s for s in self.outs[j] if self.plan.branch.get(j) != s), None)
         if i is None or p is None or p.cls != "corner" or s_in is None or s_out is None:
             return
+        allowed = (set(range(len(other.plan.stages))) if other is not self
+                   else set(self._apart(s_in)) & set(self._apart(s_out)))
         key = self.kxy[j]
         arms = self._arms(j, p, i, s_in, s_out)
         self._corners[i] = arms[0].ground.union(arms[1].ground)
@@ -462,18 +476,27 @@ class _Placer:
                                                              arms[leg].size))
             facade = np.array([key, key + v])
             for t in _overlapping(tree, bands, arm):
+                if t not in allowed:
+                    continue
                 half = _medial_plane(m, key, facade, other.paths[t],
                                      other.plan.stages[t].front)
                 if half is not None and half not in halves[leg]:
                     halves[leg].append(half)
         if not (halves[0] or halves[1]):
             return
-        first = self.placed[i]
-        second = replace(first, halves=list(first.halves))
-        first.halves += [HalfPlane(tuple(sides[0]), tuple(key), extends=False), *halves[0]]
-        second.halves += [HalfPlane(tuple(sides[1]), tuple(key), extends=False), *halves[1]]
-        self.record.keys[(j, 1)] = self._add(second)
-        self._corners[self.record.keys[(j, 1)]] = self._corners[i]
+        if self.record.keys[(j, 1)] == i:           # split on the bisector, once
+            first = self.placed[i]
+            second = replace(first, halves=list(first.halves))
+            first.halves.append(HalfPlane(tuple(sides[0]), tuple(key), extends=False))
+            second.halves.append(HalfPlane(tuple(sides[1]), tuple(key), extends=False))
+            self.record.keys[(j, 1)] = self._add(second)
+            self._corners[self.record.keys[(j, 1)]] = self._corners[i]
+        for leg in (0, 1):
+            n = self.record.keys[(j, leg)]
+            for h in halves[leg]:
+                if h not in self.placed[n].halves:
+                    self.placed[n].halves.append(h)
+                    self._against.append((n, h))
 
     def _arms(self, j: int, p: Part, i: int, s_in: int, s_out: int) -> dict[int, _Arm]:
         """The arms of corner part p (instance i) at key j, leg 0 along stage s_in and
@@ -572,13 +595,18 @@ class _Placer:
                 mass = _clipped(mass, replace(placed, halves=[cut]))
 
     def _covered(self, i: int, without: HalfPlane | None = None) -> BaseGeometry:
-        """The ground module i covers as cut so far (less the plane ``without``): its
-        plan rectangle and its extension past a concave mitre joint."""
+        """The ground instance i covers as cut so far (less the plane ``without``): a
+        module's plan rectangle and its extension past a concave mitre joint, a corner
+        part's arms."""
         placed = self.placed[i]
         if without is not None:
             placed = replace(placed, halves=[h for h in placed.halves if h != without])
-        return _clipped(shapely.union_all([_footprint(placed, self.span[i]),
-                                           *self._extension.get(i, [])]), placed)
+        ground = self._corners[i] if i in self._corners else _footprint(placed, self.span[i])
+        return _clipped(shapely.union_all([ground, *self._extension.get(i, [])]), placed)
+
+    def _coverers(self) -> list[int]:
+        """The instances whose ground :meth:`_covered` knows: modules, corner parts."""
+        return [*(i for st in self.record.stages.values() for i in st.fill), *self._corners]
 
     def _covers(self, t: int, ground: BaseGeometry) -> bool:
         """Whether stage t's modules (as cut so far) or the street in front of it
@@ -804,23 +832,23 @@ def _reopen(placers: Sequence[_Placer]) -> None:
     gives back lies mostly (:data:`REOPEN_SHARE`) on such open ground inside the
     building, so a module never takes back much ground another already covers.
     (Ownership by the nearest facade segment instead of its line would need no repair,
-    but is not convex: a module would need two pieces.)"""
+    but is not convex: a module would need two pieces.) The same holds for a corner
+    part cut against its own ring's far side across a narrow wing."""
+    if not any(p._against for p in placers):
+        return
     inside, street = [], []
     for p in placers:
         for s in range(len(p.plan.stages)):
             inside.append(p._stage_band(s))
             street.append(p._street_band(s))
     building = shapely.union_all(inside).difference(shapely.union_all(street))
-    feet = {(n, i): p._covered(i) for n, p in enumerate(placers)
-            for s in p.record.stages.values() for i in s.fill}
-    cover = shapely.union_all([*feet.values(), *(
-        _clipped(ground, p.placed[i]) for p in placers for i, ground in p._corners.items())])
-    gaps = building.difference(cover)
+    feet = {(n, i): p._covered(i) for n, p in enumerate(placers) for i in p._coverers()}
+    gaps = building.difference(shapely.union_all(list(feet.values())))
     if gaps.area <= MEDIAL_MIN_AREA:
         return
     for n, p in enumerate(placers):
         for i, half in p._against:
-            if i not in p.span or half not in p.placed[i].halves:
+            if (n, i) not in feet or half not in p.placed[i].halves:
                 continue
             whole = p._covered(i, without=half)
             if not gaps.intersects(whole):
