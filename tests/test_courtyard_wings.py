@@ -15,18 +15,13 @@ back (``export/place.py``, ``_reopen``)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
 
 from citysynth.export.audit import audit_usd
-from citysynth.pipeline.cli import main
 from citysynth.skeletons.geojson import lonlat_from_local
-
-ROOT = Path(__file__).resolve().parent.parent
-LIB = ROOT / "examples" / "library"
-DEPTH = 14.0             # the sample library's building depth
+from tests.footprint_build import DEPTH, build_feature, helsinki_feature
 
 
 def build(tmp_path: Path, outer, yard) -> tuple[Path, dict]:
@@ -34,20 +29,6 @@ def build(tmp_path: Path, outer, yard) -> tuple[Path, dict]:
     return build_feature(tmp_path, {
         "type": "Feature", "properties": {"id": "yard", "building:levels": "4"},
         "geometry": {"type": "Polygon", "coordinates": rings}})
-
-
-def build_feature(tmp_path: Path, feature: dict) -> tuple[Path, dict]:
-    fp = tmp_path / "yard.geojson"
-    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [feature]}))
-    cfg = tmp_path / "c.toml"
-    cfg.write_text('k = 1\npick = "best"\n')
-    out = tmp_path / "run"
-    assert main(["city", "--footprints", str(fp), "--library", str(LIB), "-o", str(out),
-                 "--config", str(cfg), "--workers", "1", "--no-overview"]) == 0
-    ((bid, rec),) = json.loads((out / "manifest.json").read_text())["blocks"].items()
-    assert rec["status"] == "built", rec
-    return out / "blocks" / f"{bid}.usda", json.loads(
-        (out / "blocks" / f"{bid}.layout.json").read_text())
 
 
 @pytest.mark.parametrize("outer, yard", [
@@ -71,8 +52,7 @@ def test_narrow_wings_stay_inside_the_outline(tmp_path, outer, yard):
 def test_helsinki_courtyard_roofs_close(tmp_path, feature, gap_before):
     """Two of the shipped Helsinki footprints with courtyards whose roofs were open
     where wings of two widths meet (the band gap the audit measured before, m²)."""
-    src = json.loads((ROOT / "examples" / "city" / "district_buildings.geojson").read_text())
-    usd, lay = build_feature(tmp_path, src["features"][feature])
+    usd, lay = build_feature(tmp_path, helsinki_feature(feature))
     a = audit_usd(usd, lay["structures"], DEPTH)
     print(f"\nfeature {feature}: overlap {a.overlap:.2f} m², beyond {a.beyond_max:.2f} m, "
           f"band gap {a.band_gap:.1f} of {a.band:.1f} m² (was {gap_before})")

@@ -9,31 +9,10 @@ given back as for courtyards (``_reopen``)."""
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
 import pytest
 
 from citysynth.export.audit import audit_usd
-from citysynth.pipeline.cli import main
-
-ROOT = Path(__file__).resolve().parent.parent
-LIB = ROOT / "examples" / "library"
-DEPTH = 14.0             # the sample library's building depth
-
-
-def build(tmp_path: Path, feature: dict) -> tuple[Path, dict]:
-    fp = tmp_path / "b.geojson"
-    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [feature]}))
-    cfg = tmp_path / "c.toml"
-    cfg.write_text('k = 1\npick = "best"\n')
-    out = tmp_path / "run"
-    assert main(["city", "--footprints", str(fp), "--library", str(LIB), "-o", str(out),
-                 "--config", str(cfg), "--workers", "1", "--no-overview"]) == 0
-    ((bid, rec),) = json.loads((out / "manifest.json").read_text())["blocks"].items()
-    assert rec["status"] == "built", rec
-    return out / "blocks" / f"{bid}.usda", json.loads(
-        (out / "blocks" / f"{bid}.layout.json").read_text())
+from tests.footprint_build import DEPTH, build_feature, helsinki_feature
 
 
 @pytest.mark.parametrize("feature, shared_before, gap_before",
@@ -42,8 +21,7 @@ def test_corner_parts_stop_at_the_far_side_of_a_narrow_wing(tmp_path, feature,
                                                             shared_before, gap_before):
     """Shipped Helsinki footprints whose corner parts overlapped the far side of their
     wing (ground two instances shared, and the roof-band gap, before, m²)."""
-    src = json.loads((ROOT / "examples" / "city" / "district_buildings.geojson").read_text())
-    usd, lay = build(tmp_path, src["features"][feature])
+    usd, lay = build_feature(tmp_path, helsinki_feature(feature))
     assert any(i["class"] == "corner" for i in lay["instances"])
     a = audit_usd(usd, lay["structures"], DEPTH)
     print(f"\nfeature {feature}: overlap {a.overlap:.2f} m² (was {shared_before}), band gap "

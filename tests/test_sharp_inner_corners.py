@@ -8,31 +8,16 @@ an extension that runs out through a facade stops just behind it
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
 import shapely
 
 from citysynth.export.audit import audit_usd, footprint, instance_triangles
-from citysynth.pipeline.cli import main
 from citysynth.skeletons.geojson import lonlat_from_local
+from tests.footprint_build import DEPTH, build_feature, helsinki_feature
 
-ROOT = Path(__file__).resolve().parent.parent
-LIB = ROOT / "examples" / "library"
-DEPTH = 14.0             # the sample library's building depth
 ORIGIN = (24.94, 60.17)
-
-
-def build(tmp_path: Path, features: list[dict]) -> Path:
-    fp = tmp_path / "b.geojson"
-    fp.write_text(json.dumps({"type": "FeatureCollection", "features": features}))
-    cfg = tmp_path / "c.toml"
-    cfg.write_text('k = 1\npick = "best"\n')
-    out = tmp_path / "run"
-    assert main(["city", "--footprints", str(fp), "--library", str(LIB), "-o", str(out),
-                 "--config", str(cfg), "--workers", "1", "--no-overview"]) == 0
-    return out
 
 
 def outside(usd: Path, outline) -> float:
@@ -53,11 +38,7 @@ def test_notch_tip_does_not_run_out_of_the_far_wall(tmp_path, ring):
     feature = {"type": "Feature", "properties": {"id": "slot", "building:levels": "4"},
                "geometry": {"type": "Polygon",
                             "coordinates": [lonlat_from_local(ring + ring[:1], ORIGIN)]}}
-    out = build(tmp_path, [feature])
-    ((bid, rec),) = json.loads((out / "manifest.json").read_text())["blocks"].items()
-    assert rec["status"] == "built", rec
-    usd = out / "blocks" / f"{bid}.usda"
-    lay = json.loads((out / "blocks" / f"{bid}.layout.json").read_text())
+    usd, lay = build_feature(tmp_path, feature)
     a = audit_usd(usd, lay["structures"], DEPTH)
     past = outside(usd, shapely.Polygon(ring))
     print(f"\nbeyond {a.beyond_max:.2f} m, {past:.1f} m² more than 1 m outside, overlap "
@@ -68,11 +49,7 @@ def test_notch_tip_does_not_run_out_of_the_far_wall(tmp_path, ring):
 
 def test_helsinki_feature_61_stays_inside(tmp_path):
     """The shipped Helsinki footprints' feature 61, where the blade was seen."""
-    src = json.loads((ROOT / "examples" / "city" / "district_buildings.geojson").read_text())
-    out = build(tmp_path, [src["features"][61]])
-    ((bid, rec),) = json.loads((out / "manifest.json").read_text())["blocks"].items()
-    assert rec["status"] == "built", rec
-    lay = json.loads((out / "blocks" / f"{bid}.layout.json").read_text())
-    a = audit_usd(out / "blocks" / f"{bid}.usda", lay["structures"], DEPTH)
+    usd, lay = build_feature(tmp_path, helsinki_feature(61))
+    a = audit_usd(usd, lay["structures"], DEPTH)
     print(f"\nbeyond {a.beyond_max:.2f} m")
     assert a.beyond_max <= 0.7
