@@ -478,8 +478,7 @@ class _Placer:
             for t in _overlapping(tree, bands, arm):
                 if t not in allowed:
                     continue
-                half = _medial_plane(m, key, facade, other.paths[t],
-                                     other.plan.stages[t].front)
+                half = _wing_plane(m, key, facade, other, t, None, arm)
                 if half is not None and half not in halves[leg]:
                     halves[leg].append(half)
         if not (halves[0] or halves[1]):
@@ -652,10 +651,17 @@ class _Placer:
         if self.record.stages[s].fill:
             return self._stage_band(s)
         st = self.plan.stages[s]
+        return behind(st.points, st.front, self._mass_depth(s))
+
+    def _mass_depth(self, s: int) -> float:
+        """How deep stage s's mass reaches behind its facade: its deepest module, or
+        where it has none its end corners."""
+        if self.record.stages[s].fill:
+            return self._stage_depth(s)
+        st = self.plan.stages[s]
         ends = [self.record.keys.get((st.start, st.start_leg)),
                 self.record.keys.get((st.end, st.end_leg))]
-        depth = max((self.placed[i].y_range[1] for i in ends if i is not None), default=0.0)
-        return behind(st.points, st.front, depth)
+        return max((self.placed[i].y_range[1] for i in ends if i is not None), default=0.0)
 
     def _far_band(self, s: int) -> BaseGeometry:
         """The ground behind every stage that shares no key point with stage s."""
@@ -739,9 +745,9 @@ class _Placer:
         path_t = of_t.paths[t]
         if k is None:
             k = _nearest_segment(centre, path_t)
-        return _medial_plane(_mass_normal(placed.a[:, 0], self.plan.stages[s].front),
-                             placed.origin, self._facade(i), path_t,
-                             of_t.plan.stages[t].front, k)
+        return _wing_plane(_mass_normal(placed.a[:, 0], self.plan.stages[s].front),
+                           placed.origin, self._facade(i), of_t, t, k,
+                           _clipped_footprint(placed, self.span[i]))
 
     # -- mitre joints ---------------------------------------------------------------------
 
@@ -817,6 +823,7 @@ COVER_SHARE = 0.9        # of what a medial plane takes off an extension that ru
                          # of a facade, the share that facade's modules must cover
 FACADE_INSET = 0.05      # m: an extension running out through a facade stops this far
                          # behind it (see _Placer._stop_at_facades)
+FACING_AWAY = 0.985      # cos 10°: two facades this near back to back across a wing
 REOPEN_SHARE = 0.8       # of what dropping a medial plane gives back, the share that
                          # must be open ground inside the building (see _reopen)
 REACH_SHARE = 0.5        # a medial plane against a concave extension must remove mostly
@@ -896,6 +903,37 @@ def _medial_plane(m_s: np.ndarray, p_s: np.ndarray, facade: np.ndarray, path_t: 
     if (facade @ n > c - TOL).any():   # it would cut the facade itself: leave it
         return None
     return HalfPlane(tuple(n), tuple(n * c), extends=False)
+
+
+def _wing_plane(m_s: np.ndarray, p_s: np.ndarray, facade: np.ndarray, of_t: _Placer,
+                t: int, k: int | None, ground: BaseGeometry) -> HalfPlane | None:
+    """The plane a facade's mass (its mass normal ``m_s``, a point ``p_s`` and the end
+    points ``facade`` of the facade; what it covers, ``ground``) is cut on against stage
+    t of ``of_t``: the plane of equal depth behind both (:func:`_medial_plane`, at
+    segment k of t, by default the one nearest the facade's middle). Where the two stand
+    back to back across a wing and t's mass is shallower than half the wing, that middle
+    would leave a slit of open roof behind t's mass: there the back of t's mass, if it
+    leaves more of ``ground``."""
+    path_t, front_t = of_t.paths[t], of_t.plan.stages[t].front
+    if k is None:
+        k = _nearest_segment(facade.mean(axis=0), path_t)
+    half = _medial_plane(m_s, p_s, facade, path_t, front_t, k)
+    m_t = _mass_normal(path_t.dir[k], front_t)
+    depth = of_t._mass_depth(t)
+    if half is None or float(m_s @ m_t) > -FACING_AWAY or depth <= 0.0 or ground.is_empty:
+        return half
+    back = HalfPlane(tuple(-m_t), tuple(path_t.p[k] + m_t * depth), extends=False)
+    return back if _beyond(ground, back).area < _beyond(ground, half).area else half
+
+
+def _beyond(ground: BaseGeometry, half: HalfPlane) -> BaseGeometry:
+    """What of ``ground`` lies on the far side of ``half``."""
+    x0, y0, x1, y1 = ground.bounds
+    point = np.asarray(half.point, dtype=float)
+    size = 10.0 * (x1 - x0 + y1 - y0 + 1.0) + 2.0 * float(
+        np.hypot(*(point - np.array([(x0 + x1) / 2, (y0 + y1) / 2]))))
+    return ground.intersection(half_polygon(-np.asarray(half.normal, dtype=float), point,
+                                            size))
 
 
 def _in_front(points, front: Front, depth: float) -> BaseGeometry:

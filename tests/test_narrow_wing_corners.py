@@ -5,13 +5,21 @@ z-fighting (60 m² shared on feature 45). Corner parts were split and cut on med
 planes only against another ring (a courtyard); now also against the stages of their
 own ring that share no key point with either of their legs (export/place.py,
 ``_Placer._medial_cuts`` -> ``_medial_corner``), and a plane that opens the roof is
-given back as for courtyards (``_reopen``)."""
+given back as for courtyards (``_reopen``).
+
+Two facades back to back across a wing, one side's modules shallower than half the
+wing, left a slit of open roof behind the shallow ones: the other side's modules were
+cut in the middle of the wing; now at the shallow modules' back."""
 
 from __future__ import annotations
 
-import pytest
+from pathlib import Path
 
-from citysynth.export.audit import audit_usd
+import numpy as np
+import pytest
+import shapely
+
+from citysynth.export.audit import audit_usd, footprint, instance_triangles, outline_regions
 from tests.footprint_build import DEPTH, build_feature, helsinki_feature
 
 
@@ -28,4 +36,39 @@ def test_corner_parts_stop_at_the_far_side_of_a_narrow_wing(tmp_path, feature,
           f"{a.band_gap:.1f} m² (was {gap_before}), beyond {a.beyond_max:.2f} m")
     assert a.overlap <= 0.25 * shared_before
     assert a.band_gap <= gap_before + 20.0      # a triangle may open where planes cross
+    assert a.beyond_max <= 0.7
+
+
+def slits(usd: Path, structures: list[dict], least: float = 4.0) -> list[float]:
+    """The lengths of the roof-band gaps longer than ``least`` metres and on average
+    narrower than 0.6 m (of 0.2 m² or more: not a seam between two modules): the slits
+    of open roof seen from above as a line."""
+    feet = [footprint(t) for t in instance_triangles(usd).values()]
+    gap = outline_regions(structures, DEPTH).difference(shapely.union_all(feet, grid_size=1e-4),
+                                                         grid_size=1e-4)
+    out = []
+    for piece in shapely.get_parts(gap):
+        if piece.area < 0.2:
+            continue
+        c = np.asarray(shapely.minimum_rotated_rectangle(piece).exterior.coords)
+        long = float(max(np.hypot(*(c[1] - c[0])), np.hypot(*(c[2] - c[1]))))
+        if long > least and piece.area / long < 0.6:
+            out.append(long)
+    return sorted(out)
+
+
+@pytest.mark.parametrize("feature, before, shared_before",
+                         [(162, [7.0, 15.8, 25.3, 43.1], 69.2), (23, [5.9, 21.0], 0.1)])
+def test_no_long_slit_behind_shallow_modules(tmp_path, feature, before, shared_before):
+    """Two facades back to back across a wing, one side's modules shallower than half
+    the wing: the other side's modules were cut in the middle of the wing, and a slit of
+    open roof ran behind the shallow ones (the lengths of the slits before, m); they
+    now reach the shallow modules' back (``export/place.py``, ``_wing_plane``)."""
+    usd, lay = build_feature(tmp_path, helsinki_feature(feature))
+    a = audit_usd(usd, lay["structures"], DEPTH)
+    found = slits(usd, lay["structures"])
+    print(f"\nfeature {feature}: slits {[round(x, 1) for x in found]} m (were {before}), "
+          f"overlap {a.overlap:.1f} m², beyond {a.beyond_max:.2f} m")
+    assert max(found, default=0.0) <= 20.0
+    assert a.overlap <= shared_before + 1.0
     assert a.beyond_max <= 0.7
