@@ -409,10 +409,13 @@ class _Placer:
                         self._medial(i, s, int(t))
                 self._stop_at_facades(i, s, self, [t for t in range(len(stages)) if t != s])
                 self._medial_reach(i, s, foot, apart - met)
-        masses = self._masses()
-        tree = shapely.STRtree(masses)
-        for j in range(len(self.plan.keys)):
-            self._medial_corner(j, self, masses, tree)
+        corners = [j for j in range(len(self.plan.keys))
+                   if (p := self.leg_part(j)) is not None and p.cls == "corner"]
+        if corners:         # a city block's joints are mostly mitres: no masses to build
+            masses = self._masses()
+            tree = shapely.STRtree(masses)
+            for j in corners:
+                self._medial_corner(j, self, masses, tree)
         for s in range(len(stages)):
             self._medial_runs(s)
 
@@ -478,7 +481,7 @@ class _Placer:
             for t in _overlapping(tree, bands, arm):
                 if t not in allowed:
                     continue
-                half = _wing_plane(m, key, facade, other, t, None, arm)
+                half = _wing_plane(m, key, facade, other, t, None, arm, self.placed[i])
                 if half is not None and half not in halves[leg]:
                     halves[leg].append(half)
         if not (halves[0] or halves[1]):
@@ -573,8 +576,7 @@ class _Placer:
                 m = _mass_normal(path.dir[k], front)
                 half = HalfPlane(tuple(-m), tuple(path.p[k] + m * FACADE_INSET),
                                  extends=False)
-                out = mass.intersection(half_polygon(m, np.asarray(half.point),
-                                                     _reach(placed, half)))   # past it
+                out = _beyond(mass, half, placed)
                 strip = _in_front(path.p[k:k + 2], front, other._stage_depth(t))
                 if out.intersection(strip).area <= MEDIAL_MIN_AREA:
                     continue
@@ -710,8 +712,7 @@ class _Placer:
         foot = _clipped_footprint(placed, self.span[i])
         if extra is not None:
             foot = shapely.union_all([foot, extra])
-        return foot.intersection(half_polygon(-np.asarray(half.normal),
-                                               np.asarray(half.point), _reach(placed, half)))
+        return _beyond(foot, half, placed)
 
     def _facade(self, i: int) -> np.ndarray:
         """The world end points of module i's facade line as its cuts so far leave it (a
@@ -747,7 +748,7 @@ class _Placer:
             k = _nearest_segment(centre, path_t)
         return _wing_plane(_mass_normal(placed.a[:, 0], self.plan.stages[s].front),
                            placed.origin, self._facade(i), of_t, t, k,
-                           _clipped_footprint(placed, self.span[i]))
+                           _clipped_footprint(placed, self.span[i]), placed)
 
     # -- mitre joints ---------------------------------------------------------------------
 
@@ -906,11 +907,13 @@ def _medial_plane(m_s: np.ndarray, p_s: np.ndarray, facade: np.ndarray, path_t: 
 
 
 def _wing_plane(m_s: np.ndarray, p_s: np.ndarray, facade: np.ndarray, of_t: _Placer,
-                t: int, k: int | None, ground: BaseGeometry) -> HalfPlane | None:
+                t: int, k: int | None, ground: BaseGeometry, placed: Placed
+                ) -> HalfPlane | None:
     """The plane a facade's mass (its mass normal ``m_s``, a point ``p_s`` and the end
-    points ``facade`` of the facade; what it covers, ``ground``) is cut on against stage
-    t of ``of_t``: the plane of equal depth behind both (:func:`_medial_plane`, at
-    segment k of t, by default the one nearest the facade's middle). Where the two stand
+    points ``facade`` of the facade; what it covers, ``ground``, of instance ``placed``)
+    is cut on against stage t of ``of_t``: the plane of equal depth behind both
+    (:func:`_medial_plane`, at segment k of t, by default the one nearest the facade's
+    middle). Where the two stand
     back to back across a wing and t's mass is shallower than half the wing, that middle
     would leave a slit of open roof behind t's mass: there the back of t's mass, if it
     leaves more of ``ground``."""
@@ -923,17 +926,14 @@ def _wing_plane(m_s: np.ndarray, p_s: np.ndarray, facade: np.ndarray, of_t: _Pla
     if half is None or float(m_s @ m_t) > -FACING_AWAY or depth <= 0.0 or ground.is_empty:
         return half
     back = HalfPlane(tuple(-m_t), tuple(path_t.p[k] + m_t * depth), extends=False)
-    return back if _beyond(ground, back).area < _beyond(ground, half).area else half
+    return back if (_beyond(ground, back, placed).area
+                    < _beyond(ground, half, placed).area) else half
 
 
-def _beyond(ground: BaseGeometry, half: HalfPlane) -> BaseGeometry:
-    """What of ``ground`` lies on the far side of ``half``."""
-    x0, y0, x1, y1 = ground.bounds
-    point = np.asarray(half.point, dtype=float)
-    size = 10.0 * (x1 - x0 + y1 - y0 + 1.0) + 2.0 * float(
-        np.hypot(*(point - np.array([(x0 + x1) / 2, (y0 + y1) / 2]))))
-    return ground.intersection(half_polygon(-np.asarray(half.normal, dtype=float), point,
-                                            size))
+def _beyond(ground: BaseGeometry, half: HalfPlane, placed: Placed) -> BaseGeometry:
+    """What of ``ground`` (of instance ``placed``) lies on the far side of ``half``."""
+    return ground.intersection(half_polygon(-np.asarray(half.normal),
+                                            np.asarray(half.point), _reach(placed, half)))
 
 
 def _in_front(points, front: Front, depth: float) -> BaseGeometry:
