@@ -841,13 +841,15 @@ def _reopen(placers: Sequence[_Placer]) -> None:
     building, so a module never takes back much ground another already covers.
     (Ownership by the nearest facade segment instead of its line would need no repair,
     but is not convex: a module would need two pieces.) The same holds for a corner
-    part cut against its own ring's far side across a narrow wing."""
+    part cut against its own ring's far side across a narrow wing. The building's
+    ground is every side's mass band: a side only two corner parts build has no module,
+    and its ground is as deep as their legs (a zero-deep band hid the gap behind it)."""
     if not any(p._against for p in placers):
         return
     inside, street = [], []
     for p in placers:
         for s in range(len(p.plan.stages)):
-            inside.append(p._stage_band(s))
+            inside.append(p._mass_band(s))
             street.append(p._street_band(s))
     building = shapely.union_all(inside).difference(shapely.union_all(street))
     feet = {(n, i): p._covered(i) for n, p in enumerate(placers) for i in p._coverers()}

@@ -11,7 +11,8 @@ Where wings of two widths meet at a courtyard corner, a module's medial plane ag
 the other ring's facade (its infinite line, past that facade's end) took off a
 triangle no module covered, and the roof opened there: 7.7 m² on the square building,
 31.9 m² on the skewed one, 243 m² on Helsinki's feature 23. Such a plane is now given
-back (``export/place.py``, ``_reopen``)."""
+back (``export/place.py``, ``_reopen``), also behind a side only two corner parts
+build (11 m² on feature 8)."""
 
 from __future__ import annotations
 
@@ -48,14 +49,21 @@ def test_narrow_wings_stay_inside_the_outline(tmp_path, outer, yard):
     assert a.band_gap <= 0.002 * a.band       # no triangle where wings of two widths meet
 
 
-@pytest.mark.parametrize("feature, gap_before", [(23, 243.3), (25, 172.4)])
-def test_helsinki_courtyard_roofs_close(tmp_path, feature, gap_before):
-    """Two of the shipped Helsinki footprints with courtyards whose roofs were open
-    where wings of two widths meet (the band gap the audit measured before, m²)."""
+@pytest.mark.parametrize("feature, gap_before, share, shared", [
+    (23, 243.3, 0.7, 0.005), (25, 172.4, 0.7, 0.005),
+    # an 11 m² triangle behind a side made only of two corner parts (no module): the
+    # building's ground there is as deep as the corners' legs, not zero. (Its 32 m² of
+    # shared ground, 1.4 %, where three courtyards' wings meet, is older.)
+    (8, 95.4, 0.92, 0.015)])
+def test_helsinki_courtyard_roofs_close(tmp_path, feature, gap_before, share, shared):
+    """Shipped Helsinki footprints with courtyards whose roofs were open where wings of
+    two widths meet (the band gap the audit measured before, m²; ``share`` of it may
+    stay: deep-plan ground no module reaches is not these triangles; ``shared``: the
+    share of the footprint two instances may share)."""
     usd, lay = build_feature(tmp_path, helsinki_feature(feature))
     a = audit_usd(usd, lay["structures"], DEPTH)
     print(f"\nfeature {feature}: overlap {a.overlap:.2f} m², beyond {a.beyond_max:.2f} m, "
           f"band gap {a.band_gap:.1f} of {a.band:.1f} m² (was {gap_before})")
-    assert a.band_gap <= 0.7 * gap_before
-    assert a.overlap <= 0.005 * a.footprint
+    assert a.band_gap <= share * gap_before
+    assert a.overlap <= shared * a.footprint
     assert a.beyond_max <= 0.7
