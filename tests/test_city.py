@@ -185,6 +185,40 @@ def test_diff_says_when_the_runs_used_different_libraries(district, tmp_path, ca
     assert all(c["library"][1] == "other kit (abababab)" for c in d["changed"])
 
 
+def test_diff_sees_changes_outside_the_kept_layout(district, tmp_path, capsys):
+    """A block whose kept layout is the same can still look different: another of its k
+    layouts, or the geometry cut at its joints (an export change moves no layout). The
+    diff lists such blocks and the files that differ, and exits 1."""
+    import shutil
+
+    other = tmp_path / "other"
+    shutil.copytree(district, other)
+    blocks = json.loads((other / "manifest.json").read_text())["blocks"]
+    cut, layer, gone = sorted(
+        (b, r) for b, r in blocks.items() if r["status"] == "built"
+        and any(f.endswith(".cuts.usdc") for f in r["files"]))[:3]
+    with open(other / "blocks" / f"{cut[0]}.cuts.usdc", "ab") as f:
+        f.write(b"\0")
+    unkept = next(r for r in range(1, layer[1]["of"] + 1) if r != layer[1]["rank"])
+    path = other / "blocks" / f"{layer[0]}_{unkept}.usda"
+    path.write_text(path.read_text().replace("xformOp:transform", "xformOp:transform ", 1))
+    (other / "blocks" / f"{gone[0]}_{gone[1]['rank']}.usda").unlink()
+    capsys.readouterr()
+    assert main(["diff", str(district), str(other)]) == 1
+    out = capsys.readouterr().out
+    assert "0 changed, 3 with the same layout but other files" in out
+    assert f"files {cut[0]}: the kept layout is the same; differ: the parts cut at its " \
+        "joints" in out
+    assert f"files {layer[0]}: the kept layout is the same; differ: layout #{unkept}'s " \
+        "USD layer" in out
+    assert main(["diff", str(district), str(other), "--json"]) == 1
+    d = json.loads(capsys.readouterr().out)
+    assert not d["identical"] and not d["changed"]
+    assert {g["id"]: g["files"] for g in d["files_changed"]} == {
+        cut[0]: [f"blocks/{cut[0]}.cuts.usdc"], layer[0]: [f"blocks/{layer[0]}_{unkept}.usda"],
+        gone[0]: [f"blocks/{gone[0]}_{gone[1]['rank']}.usda"]}
+
+
 def test_zones_and_constraints_from_the_config(tmp_path, capsys):
     cfg = tmp_path / "city.toml"
     cfg.write_text("""

@@ -1,15 +1,20 @@
 """``citysynth diff RUN_A RUN_B [--json]``: compare two city runs, block by block.
 
-Layout JSON is byte-identical for identical inputs, so "changed" is exact: a block
-changed when its layout file differs. For each changed block the diff gives the cost
-delta, the resources met that moved (per structure and stage) and the parts that
-differ; blocks added, removed or whose status changed are listed too. Exit 0 when the
-runs are identical, 1 when not, 2 when a folder is not a run.
+Layout JSON and USD are byte-identical for identical inputs, so "changed" is exact: a
+block changed when its layout file differs. For each changed block the diff gives the
+cost delta, the resources met that moved (per structure and stage) and the parts that
+differ; blocks added, removed or whose status changed are listed too. A block whose
+kept layout is the same can still look different: another of its k layouts changed,
+or the geometry of the parts cut at its joints (an export change). Those blocks are
+listed with the files that differ, so a regression shows even when no layout moved.
+Exit 0 when the runs are identical, 1 when not, 2 when a folder is not a run.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -23,8 +28,9 @@ def register(sub) -> None:
     p = sub.add_parser("diff", help="compare two city runs",
                        description="Compare the blocks of two run folders (written by "
                                    "citysynth city): which layouts changed, cost deltas, "
-                                   "constraint values, blocks added or removed. Exit 0 when "
-                                   "identical, 1 when not.")
+                                   "constraint values, blocks whose other files (another of "
+                                   "the k layouts, the cut geometry) differ, blocks added or "
+                                   "removed. Exit 0 when identical, 1 when not.")
     p.add_argument("run_a", metavar="RUN_A")
     p.add_argument("run_b", metavar="RUN_B")
     p.add_argument("--json", action="store_true", help="print the differences as JSON")
@@ -55,16 +61,22 @@ def _manifest(run: Path) -> dict:
     return m
 
 
+def _inside(run: Path, bid: str, f: str) -> Path:
+    """The path of file ``f`` a block's record names, refused outside ``run``."""
+    path = (run / f).resolve()
+    if not path.is_relative_to(run.resolve()) or Path(f).is_absolute():
+        raise UsageError(f"{run / MANIFEST}: block {bid} names {f!r}, outside the run "
+                         "folder; the manifest is not citysynth's")
+    return path
+
+
 def _layout(run: Path, bid: str, rec: dict) -> tuple[bytes, dict] | None:
     """A block's layout (bytes and parsed), read only from inside ``run``."""
     f = next((f for f in rec.get("files", []) if isinstance(f, str)
               and f.endswith(".layout.json")), None)
     if f is None:
         return None
-    path = (run / f).resolve()
-    if not path.is_relative_to(run.resolve()) or Path(f).is_absolute():
-        raise UsageError(f"{run / MANIFEST}: block {bid} names {f!r}, outside the run "
-                         "folder; the manifest is not citysynth's")
+    path = _inside(run, bid, f)
     data = read_bytes(path, "layout", UsageError)
     lay = parse_json(decode(data, path, "layout", UsageError), path, "layout", UsageError)
     if not isinstance(lay, dict) or not _layout_shape(lay):
@@ -92,6 +104,7 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
     added, removed = sorted(set(bb) - set(ba)), sorted(set(ba) - set(bb))
     status: list[dict[str, Any]] = []
     changed: list[dict[str, Any]] = []
+    geometry: list[dict[str, Any]] = []   # the kept layout the same, other files not
     same = 0
     libraries: dict[str, set[str]] = {"a": set(), "b": set()}
     for bid in sorted(set(ba) & set(bb)):
@@ -105,13 +118,61 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
         for side, lay in (("a", la), ("b", lb)):
             if lay is not None:
                 libraries[side].add(_library(lay[1]))
+        files = _files_differing(a, b, bid, ra, rb)
         if la is None or lb is None or la[0] == lb[0]:
-            same += 1
+            if files:
+                geometry.append({"id": bid, "files": files})
+            else:
+                same += 1
             continue
-        changed.append(_block_change(bid, la[1], lb[1]))
+        changed.append({**_block_change(bid, la[1], lb[1]), "files": files})
     return {"added": added, "removed": removed, "status": status, "changed": changed,
-            "same": same, "identical": not (added or removed or status or changed),
+            "files_changed": geometry, "same": same,
+            "identical": not (added or removed or status or changed or geometry),
             "libraries": {k: sorted(v) for k, v in libraries.items()}}
+
+
+def _files_differing(a: Path, b: Path, bid: str, ra: dict, rb: dict) -> list[str]:
+    """The block's output files (names within the run) that differ between the runs:
+    in one record and not the other, or with other bytes. Its marker is left out (it
+    holds timings)."""
+    fa, fb = (sorted({f for f in r.get("files", []) if isinstance(f, str)}) for r in (ra, rb))
+    out = sorted(set(fa) ^ set(fb))
+    for f in sorted(set(fa) & set(fb)):
+        if _digest(_inside(a, bid, f)) != _digest(_inside(b, bid, f)):
+            out.append(f)
+    return sorted(out)
+
+
+def _digest(path: Path) -> str:
+    """The file's SHA-256 ("missing" when it is gone: the other run's is then different
+    unless it is gone too), read in chunks (a block's cut parts can be megabytes)."""
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for chunk in iter(lambda: f.read(1 << 20), b""):
+                h.update(chunk)
+    except FileNotFoundError:
+        return "missing"
+    except OSError as exc:
+        raise UsageError(f"{path}: cannot read it ({exc.strerror or exc}); check that "
+                         "you may read the run folder") from None
+    return h.hexdigest()
+
+
+def describe_file(name: str, bid: str) -> str:
+    """What a block's output file is, in words: "layout #2's USD layer", "the parts cut
+    at its joints"..."""
+    base = Path(name).name
+    if base == f"{bid}.layout.json":
+        return "its kept layout"
+    if base == f"{bid}.usda":
+        return "its USD (the layouts' variant set)"
+    if base.endswith(".cuts.usdc"):
+        return "the parts cut at its joints"
+    if m := re.fullmatch(re.escape(bid) + r"_(\d+)\.usda", base):
+        return f"layout #{m.group(1)}'s USD layer"
+    return base
 
 
 def _library(lay: dict) -> str:
@@ -154,8 +215,11 @@ def run(args) -> int:
         print(json.dumps(d, indent=1, sort_keys=True))
         return 0 if d["identical"] else 1
     print(f"{args.run_a} -> {args.run_b}: {d['same']} blocks the same, "
-          f"{len(d['changed'])} changed, {len(d['added'])} added, {len(d['removed'])} "
-          f"removed, {len(d['status'])} changed status")
+          f"{len(d['changed'])} changed, " + (
+              f"{len(d['files_changed'])} with the same layout but other files, "
+              if d["files_changed"] else "") +
+          f"{len(d['added'])} added, {len(d['removed'])} removed, {len(d['status'])} "
+          "changed status")
     if d["libraries"]["a"] != d["libraries"]["b"]:
         print(f"  the runs used different part libraries: {', '.join(d['libraries']['a'])} "
               f"-> {', '.join(d['libraries']['b'])}; blocks differ in their parts even where "
@@ -170,6 +234,12 @@ def run(args) -> int:
         if c["parts"]:
             moved = ", ".join(f"{p} {n:+d}" for p, n in c["parts"].items())
             print(f"      parts: {moved}")
+        if others := [describe_file(f, c["id"]) for f in c["files"]
+                      if not f.endswith(".layout.json")]:
+            print(f"      files that differ: {', '.join(others)}")
+    for g in d["files_changed"]:
+        print(f"  files {g['id']}: the kept layout is the same; differ: " + ", ".join(
+            describe_file(f, g["id"]) for f in g["files"]))
     for s in d["status"]:
         print(f"  status {s['id']}: {s['a']} -> {s['b']}" +
               (f" ({s['reason']})" if s["reason"] else ""))
