@@ -98,6 +98,7 @@ def test_a_dask_cluster_gives_the_same_city(district, tmp_path):
                       dashboard_address=None) as cluster:
         assert city(tmp_path, "--scheduler", cluster.scheduler_address, "--no-overview") == 0
     assert layouts(tmp_path) == layouts(district)
+    assert main(["diff", str(district), str(tmp_path)]) == 0   # every USD file too
 
 
 def test_a_rerun_skips_unchanged_blocks(district, tmp_path, capsys):
