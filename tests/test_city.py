@@ -220,6 +220,41 @@ def test_diff_sees_changes_outside_the_kept_layout(district, tmp_path, capsys):
         gone[0]: [f"blocks/{gone[0]}_{gone[1]['rank']}.usda"]}
 
 
+def test_diff_draws_a_plan_of_what_changed(district, tmp_path, capsys):
+    """``--png``: the blocks' outlines coloured by what happened to each; the three
+    blocks whose other files differ are drawn in that colour, and nothing in the colour
+    of a changed layout; the same two runs give the same bytes."""
+    import shutil
+
+    from PIL import Image
+
+    from citysynth.pipeline.commands.diff_map import COLOURS
+
+    other = tmp_path / "other"
+    shutil.copytree(district, other)
+    built = sorted(b for b, r in json.loads((other / "manifest.json").read_text())
+                   ["blocks"].items() if r["status"] == "built")
+    for bid in built[:3]:
+        with open(other / "blocks" / f"{bid}.usda", "a") as f:
+            f.write("\n")
+    png = tmp_path / "map.png"
+    assert main(["diff", str(district), str(other), "--png", str(png)]) == 1
+    assert f"wrote {png}" in capsys.readouterr().out
+    pixels = Image.open(png).convert("RGB").getcolors(1 << 24)
+    count = {c: n for n, c in pixels}
+    assert count.get(COLOURS["files"][0], 0) > 500          # three blocks, filled
+    assert count.get(COLOURS["same"][0], 0) > 3 * count[COLOURS["files"][0]]
+    assert count.get(COLOURS["changed"][0], 0) <= 17 * 15     # its legend swatch only
+    first = png.read_bytes()
+    assert main(["diff", str(district), str(other), "--png", str(png)]) == 1
+    assert png.read_bytes() == first
+    (other / "blocks.geojson").unlink()
+    capsys.readouterr()
+    assert main(["diff", str(district), str(other), "--png", str(tmp_path / "x.png")]) == 2
+    assert "blocks.geojson: missing" in capsys.readouterr().err
+    assert not (tmp_path / "x.png").exists()
+
+
 def test_zones_and_constraints_from_the_config(tmp_path, capsys):
     cfg = tmp_path / "city.toml"
     cfg.write_text("""

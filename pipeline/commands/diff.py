@@ -34,6 +34,8 @@ def register(sub) -> None:
     p.add_argument("run_a", metavar="RUN_A")
     p.add_argument("run_b", metavar="RUN_B")
     p.add_argument("--json", action="store_true", help="print the differences as JSON")
+    p.add_argument("--png", metavar="FILE", help="also draw the diff as a plan: every "
+                   "block's outline coloured by what changed")
     p.set_defaults(run=run)
 
 
@@ -211,6 +213,10 @@ def _part_counts(lay: dict) -> dict[str, int]:
 
 def run(args) -> int:
     d = diff_runs(args.run_a, args.run_b)
+    if args.png:
+        from citysynth.pipeline.commands.diff_map import write_map
+
+        write_map(d, Path(args.run_a), Path(args.run_b), Path(args.png))
     if args.json:
         print(json.dumps(d, indent=1, sort_keys=True))
         return 0 if d["identical"] else 1
@@ -247,5 +253,7 @@ def run(args) -> int:
         print(f"  added {bid}")
     for bid in d["removed"]:
         print(f"  removed {bid}")
+    if args.png:
+        print(f"wrote {args.png}")
     sys.stdout.flush()
     return 0 if d["identical"] else 1

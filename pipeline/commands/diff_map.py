@@ -1,0 +1,139 @@
+"""``citysynth diff A B --png MAP.png``: the diff as a plan, block outlines coloured by
+what changed, so a regression is seen where it is before it is read block by block.
+
+The outlines come from each run's ``blocks.geojson`` (lon/lat, or the run's CRS: every
+block of a run shares one frame), drawn from above with Pillow: no GPU, no window, the
+same bytes for the same two runs. Blocks of run B are drawn in their state; blocks only
+run A has (removed) are drawn from A, hatched. Pieces a run skipped are outlines only.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import shapely
+import shapely.errors
+import shapely.geometry
+from PIL import Image, ImageDraw, ImageFont
+
+from citysynth.parts_db.files import atomic_path
+from citysynth.pipeline.errors import UsageError
+from citysynth.solver.safe_read import read_json
+
+BLOCKS = "blocks.geojson"
+SIZE = 1600                 # px: the longer side of the map
+MARGIN = 40                 # px round the blocks
+LEGEND = 280                # px: the legend column on the right
+MARK = 9                    # px: the radius of the ring round a block that differs
+# what happened to a block -> (fill, legend text); drawn in this order
+COLOURS: dict[str, tuple[tuple[int, int, int], str]] = {
+    "same": ((212, 212, 212), "the same"),
+    "files": ((240, 196, 40), "same layout, other files"),
+    "changed": ((230, 110, 20), "layout changed"),
+    "status": ((150, 80, 200), "status changed"),
+    "added": ((50, 165, 80), "added"),
+    "removed": ((215, 45, 45), "removed (run A's outline)"),
+}
+NOT_BUILT = (248, 248, 248)
+EDGE = (90, 90, 90)
+
+
+def _outlines(run: Path) -> dict[str, tuple[shapely.Geometry, str]]:
+    """Block id -> (outline, status) from the run's ``blocks.geojson``."""
+    path = run / BLOCKS
+    if not path.exists():
+        raise UsageError(f"{path}: missing; --png draws the blocks citysynth city lists "
+                         f"there: rerun citysynth city into {run}")
+    data = read_json(path, "block outlines", UsageError)
+    out: dict[str, tuple[shapely.Geometry, str]] = {}
+    for i, f in enumerate(data.get("features", []) if isinstance(data, dict) else []):
+        if isinstance(f, dict) and f.get("geometry") is None:
+            continue        # a piece skipped with nothing to draw
+        try:
+            props, geom = f["properties"], shapely.geometry.shape(f["geometry"])
+            bid = str(props.get("id", f"piece {i}"))
+        except (KeyError, TypeError, ValueError, AttributeError,
+                shapely.errors.GEOSException):
+            raise UsageError(f"{path}: feature {i} is not a block outline (damaged?); "
+                             f"rerun citysynth city into {run}") from None
+        if not geom.is_empty:
+            out[bid] = (geom, str(props.get("status", "")))
+    return out
+
+
+def _state(bid: str, d: dict[str, Any]) -> str | None:
+    """What the diff ``d`` says happened to block ``bid`` (None: not a built block)."""
+    for key, state in (("added", "added"), ("removed", "removed")):
+        if bid in d[key]:
+            return state
+    for key, state in (("changed", "changed"), ("files_changed", "files"),
+                       ("status", "status")):
+        if any(c["id"] == bid for c in d[key]):
+            return state
+    return None
+
+
+def write_map(d: dict[str, Any], run_a: Path, run_b: Path, png: Path) -> Path:
+    """Draw the diff ``d`` of ``run_a`` and ``run_b`` (:func:`..diff.diff_runs`) as a
+    plan at ``png`` (written whole or not at all)."""
+    a, b = _outlines(run_a), _outlines(run_b)
+    shapes: list[tuple[shapely.Geometry, tuple[int, int, int], bool]] = []
+    marks: list[tuple[shapely.Point, tuple[int, int, int]]] = []   # small changes show
+    for bid, (geom, status) in sorted(b.items()):
+        state = _state(bid, d) or ("same" if status == "built" else None)
+        shapes.append((geom, COLOURS[state][0] if state else NOT_BUILT, False))
+        if state not in (None, "same"):
+            marks.append((geom.representative_point(), COLOURS[state][0]))
+    for bid in d["removed"]:
+        if bid in a:
+            shapes.append((a[bid][0], COLOURS["removed"][0], True))
+            marks.append((a[bid][0].representative_point(), COLOURS["removed"][0]))
+    if not shapes:
+        raise UsageError(f"{run_b / BLOCKS}: no block outlines to draw")
+    x0, y0, x1, y1 = shapely.total_bounds([g for g, _, _ in shapes])
+    squash = math.cos(math.radians((y0 + y1) / 2)) if -90 <= y0 <= y1 <= 90 and \
+        -180 <= x0 <= x1 <= 180 else 1.0     # lon/lat: metres east shrink with latitude
+    w, h = max((x1 - x0) * squash, 1e-9), max(y1 - y0, 1e-9)
+    scale = (SIZE - 2 * MARGIN) / max(w, h)
+    size = (int(w * scale) + 2 * MARGIN + LEGEND, max(int(h * scale) + 2 * MARGIN, 260))
+    img = Image.new("RGB", size, (255, 255, 255))
+    draw = ImageDraw.Draw(img)
+
+    def px(coords) -> list[tuple[float, float]]:
+        return [(MARGIN + (x - x0) * squash * scale, size[1] - MARGIN - (y - y0) * scale)
+                for x, y, *_ in coords]
+
+    for geom, fill, hatched in shapes:
+        for poly in shapely.get_parts(geom):
+            if poly.geom_type != "Polygon":
+                continue
+            draw.polygon(px(poly.exterior.coords), fill=fill if not hatched else None,
+                         outline=EDGE if not hatched else fill, width=1 if not hatched else 3)
+            for ring in poly.interiors:
+                draw.polygon(px(ring.coords), fill=(255, 255, 255), outline=EDGE)
+    for point, colour in marks:    # a ring round each block that differs, however small
+        ((x, y),) = px(point.coords)
+        draw.ellipse((x - MARK - 2, y - MARK - 2, x + MARK + 2, y + MARK + 2),
+                     outline=(0, 0, 0), width=2)
+        draw.ellipse((x - MARK, y - MARK, x + MARK, y + MARK), outline=colour, width=3)
+    _legend(draw, d, size, run_a, run_b)
+    with atomic_path(png) as tmp:
+        img.save(tmp, format="PNG")
+    return png
+
+
+def _legend(draw: ImageDraw.ImageDraw, d: dict[str, Any], size: tuple[int, int],
+            run_a: Path, run_b: Path) -> None:
+    font = ImageFont.load_default(size=15)
+    counts = {"same": d["same"], "files": len(d["files_changed"]),
+              "changed": len(d["changed"]), "status": len(d["status"]),
+              "added": len(d["added"]), "removed": len(d["removed"])}
+    x = size[0] - LEGEND + 10
+    draw.text((x, 12), f"A: {run_a.name}", fill=(0, 0, 0), font=font)
+    draw.text((x, 32), f"B: {run_b.name}", fill=(0, 0, 0), font=font)
+    for i, (key, (fill, text)) in enumerate(COLOURS.items()):
+        y = 64 + 26 * i
+        draw.rectangle((x, y, x + 16, y + 14), fill=fill, outline=EDGE)
+        draw.text((x + 24, y + 1), f"{text}: {counts[key]}", fill=(0, 0, 0), font=font)
