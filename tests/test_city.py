@@ -252,6 +252,8 @@ def test_diff_draws_a_plan_of_what_changed(district, tmp_path, capsys):
     capsys.readouterr()
     assert main(["diff", str(district), str(other), "--png", str(tmp_path / "x.png")]) == 2
     assert "blocks.geojson: missing" in capsys.readouterr().err
+    assert main(["diff", str(district), str(other), "--png", str(tmp_path)]) == 2
+    assert f"--png {tmp_path}: a folder; give the map's file name" in capsys.readouterr().err
     assert not (tmp_path / "x.png").exists()
 
 

@@ -212,6 +212,9 @@ def _part_counts(lay: dict) -> dict[str, int]:
 
 
 def run(args) -> int:
+    if args.png and Path(args.png).is_dir():
+        raise UsageError(f"--png {args.png}: a folder; give the map's file name, e.g. "
+                         f"{Path(args.png) / 'diff.png'}")
     d = diff_runs(args.run_a, args.run_b)
     if args.png:
         from citysynth.pipeline.commands.diff_map import write_map
