@@ -36,6 +36,7 @@ from shapely.geometry import shape
 from shapely.geometry.base import BaseGeometry
 
 from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.gis_files import gis_format, read_gis_file
 from citysynth.solver.safe_read import read_json
 
 TRUE_SCALE = 1e-3      # a projected CRS whose scale strays more from 1 is reprojected
@@ -117,10 +118,16 @@ def read_geojson(path: str | Path, crs: str | None = None,
                  origin: tuple[float, float] | None = None, origin_digits: int | None = None,
                  *, accept: Accept = "any", within: Frame | None = None
                  ) -> tuple[Features, Frame]:
-    """A GeoJSON file's features in a local metric frame; see :func:`parse_geojson`."""
-    p = Path(path)
-    data = read_json(p, "GeoJSON", SkeletonError)   # encoding, depth, size: safe_read
-    return parse_geojson(data, str(p), crs, origin, origin_digits, accept=accept,
+    """A GeoJSON file's features in a local metric frame; see :func:`parse_geojson`.
+    A GeoPackage, Shapefile or FlatGeobuf file (``FILE::LAYER`` for one of several
+    layers) is read as the GeoJSON export of its layer would be
+    (:mod:`.gis_files`)."""
+    gis = gis_format(path)
+    if gis is not None:
+        data = read_gis_file(*gis, accept)
+    else:
+        data = read_json(Path(path), "GeoJSON", SkeletonError)   # encoding, depth, size
+    return parse_geojson(data, str(path), crs, origin, origin_digits, accept=accept,
                          within=within)
 
 

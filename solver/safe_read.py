@@ -50,6 +50,18 @@ def _limit_mb() -> float:
 def read_bytes(path: str | Path, what: str, error: type[Exception]) -> bytes:
     """The bytes of the ``what`` file at ``path`` (e.g. "GeoJSON", "problem")."""
     p = Path(path)
+    check_file(p, what, error)
+    try:
+        return p.read_bytes()
+    except OSError as exc:
+        raise _unreadable(p, what, exc, error) from None
+
+
+def check_file(path: str | Path, what: str, error: type[Exception]) -> int:
+    """The size of the ``what`` file at ``path``, once it is known to be a regular file
+    no larger than the limit (:data:`MAX_MB`): what any reader checks before it reads,
+    this module's or another library's (GDAL's, for a GeoPackage)."""
+    p = Path(path)
     try:
         if p.is_dir():
             raise error(f"{p}: a folder, not a {what} file; give the file's path")
@@ -62,13 +74,16 @@ def read_bytes(path: str | Path, what: str, error: type[Exception]) -> bytes:
             raise error(f"{p}: {size / 1e6:.0f} MB, larger than the {limit:g} MB a {what} "
                         f"file may have (reading it would take about {size * 20 / 1e9:.1f}"
                         f" GB of memory); split it, or raise ${SIZE_ENV}")
-        return p.read_bytes()
-    except FileNotFoundError:
-        raise error(f"{p}: cannot read the {what} file: no such file; check the "
-                    "path") from None
+        return size
     except OSError as exc:
-        raise error(f"{p}: cannot read the {what} file ({exc.strerror or exc}); check that "
-                    "it exists and that you may read it") from None
+        raise _unreadable(p, what, exc, error) from None
+
+
+def _unreadable(p: Path, what: str, exc: OSError, error: type[Exception]) -> Exception:
+    if isinstance(exc, FileNotFoundError):
+        return error(f"{p}: cannot read the {what} file: no such file; check the path")
+    return error(f"{p}: cannot read the {what} file ({exc.strerror or exc}); check that "
+                 "it exists and that you may read it")
 
 
 BINARY_FORMATS = (   # the signatures of files GIS and other tools write instead of text

@@ -1,0 +1,156 @@
+"""GIS files that are not GeoJSON, read as they are: GeoPackage (QGIS's own format),
+ESRI Shapefile (also zipped) and FlatGeobuf, through pyogrio (GDAL). (GeoParquet is
+not: pyogrio's GDAL has no Parquet driver; the GeoJSON reader says to convert it.)
+
+A layer becomes the same FeatureCollection a GeoJSON export of it would be: its CRS as
+the legacy ``"crs"`` member, every attribute as a property (numbers as numbers, dates
+as ISO text, missing values left out), geometries in 2D. So everything after reading
+(the CRS rules, the checks, the messages naming a feature by its index) is
+:mod:`.geojson`'s, and the same layer gives the same city in either format.
+
+A file with several layers (a GeoPackage holding streets and buildings) gives the one
+layer whose geometry the caller reads (lines for streets, polygons for footprints);
+where that is not one layer, ``FILE::LAYER`` names it, and the message lists them.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import shapely
+
+from citysynth.skeletons.errors import SkeletonError
+from citysynth.solver.safe_read import check_file
+
+LAYER_SEP = "::"                    # FILE::LAYER picks one layer of a file
+FORMATS = {                         # file signature -> format name
+    b"SQLite format 3\x00": "GeoPackage",
+    b"\x00\x00\x27\x0a": "Shapefile",
+    b"fgb\x03": "FlatGeobuf",
+    b"PK\x03\x04": "zipped Shapefile",
+}
+SUFFIXES = {".gpkg": "GeoPackage", ".shp": "Shapefile", ".fgb": "FlatGeobuf",
+            ".zip": "zipped Shapefile"}
+GEOMETRIES = {                      # what the caller reads -> the layer types it takes
+    "lines": ("LineString", "MultiLineString"),
+    "polygons": ("Polygon", "MultiPolygon"),
+}
+
+
+def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
+    """``(file, layer, format)`` when ``path`` (optionally ``FILE::LAYER``) names a GIS
+    file of a format this module reads; None for anything else (GeoJSON, or a file the
+    GeoJSON reader refuses with its own message)."""
+    text = str(path)
+    file, _, layer = text.partition(LAYER_SEP) if LAYER_SEP in text else (text, "", "")
+    p = Path(file)
+    head = b""
+    try:
+        if p.is_file():   # not a FIFO (opening one waits for a writer) nor a folder
+            with open(p, "rb") as f:
+                head = f.read(16)
+    except OSError:
+        pass              # the reader names what is wrong with it
+    fmt = next((name for magic, name in FORMATS.items() if head.startswith(magic)), None)
+    if fmt is None:      # damaged or unreadable: named by its suffix, refused by GDAL
+        fmt = SUFFIXES.get(p.suffix.lower())
+    if fmt is None:
+        if layer:
+            raise SkeletonError(f"{text}: {LAYER_SEP}{layer} names a layer, but {file} is "
+                                "not a GeoPackage, Shapefile or FlatGeobuf file; a GeoJSON "
+                                "file has one layer: give its path alone")
+        return None
+    return p, layer or None, fmt
+
+
+def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[str, Any]:
+    """The layer of the GIS file at ``path`` as a GeoJSON FeatureCollection (a dict);
+    ``accept`` ("lines", "polygons" or "any") picks the layer when ``layer`` is None."""
+    import pyogrio  # GDAL: loaded only when such a file is given
+    from pyogrio.errors import DataLayerError, DataSourceError
+
+    check_file(path, fmt, SkeletonError)
+    unreadable = (DataSourceError, DataLayerError, OSError, RuntimeError)
+    try:
+        layers = pyogrio.list_layers(path)
+    except unreadable as exc:
+        raise _cannot_read(path, fmt, exc) from None
+    name = _layer(path, layer, fmt, accept, layers)
+    try:
+        meta, _, wkb, fields = pyogrio.raw.read(path, layer=name, force_2d=True,
+                                                datetime_as_string=True)
+    except unreadable as exc:
+        raise _cannot_read(path, fmt, exc) from None
+    if wkb is None or len(wkb) == 0:
+        raise SkeletonError(f"{path}: layer {name!r} has no features; export the layer "
+                            "with its features, or leave the file out")
+    geoms = shapely.from_wkb(np.asarray(wkb, dtype=object), on_invalid="ignore")
+    texts = shapely.to_geojson(geoms)      # lists, as a GeoJSON file holds them
+    names = [str(n) for n in meta["fields"]]
+    columns = [_values(c) for c in fields]
+    features = []
+    for i, g in enumerate(geoms):
+        props = {k: col[i] for k, col in zip(names, columns, strict=True)
+                 if col[i] is not None}
+        geometry = None if g is None or g.is_empty else json.loads(texts[i])
+        features.append({"type": "Feature", "properties": props, "geometry": geometry})
+    data: dict[str, Any] = {"type": "FeatureCollection", "features": features}
+    if meta.get("crs"):
+        data["crs"] = {"type": "name", "properties": {"name": str(meta["crs"])}}
+    return data
+
+
+def _cannot_read(path: Path, fmt: str, exc: Exception) -> SkeletonError:
+    detail = " ".join(str(exc).split()).split("; It might help")[0]
+    detail = detail.rsplit("failed: ", 1)[-1].split("; ")[0]   # SQLite: its own words
+    whole = " (a Shapefile needs its .shx and .dbf beside it)" if "Shapefile" in fmt else ""
+    return SkeletonError(f"{path}: cannot read this {fmt} ({detail}); check that it is "
+                         f"whole{whole}, or export the layer as GeoJSON")
+
+
+def _layer(path: Path, layer: str | None, fmt: str, accept: str, layers: np.ndarray) -> str:
+    """The layer to read: the one named, else the one whose geometry the caller reads."""
+    found = [(str(n), str(t)) for n, t in layers]
+    if not found:
+        raise SkeletonError(f"{path}: this {fmt} holds no layer (damaged, or saved "
+                            "empty); export the layer again")
+    listed = ", ".join(f"{n} ({t})" for n, t in found)
+    if layer is not None:
+        if layer not in {n for n, _ in found}:
+            raise SkeletonError(f"{path}: no layer {layer!r}; its layers are {listed}")
+        return layer
+    fits = GEOMETRIES.get(accept)
+    usable = [n for n, t in found if (_plain(t) in fits if fits else t not in ("", "None"))]
+    if len(usable) == 1 or (len(found) == 1 and not usable):
+        return usable[0] if usable else found[0][0]   # one layer: its features are checked
+    what = {"lines": "line", "polygons": "polygon"}.get(accept, "geometry")
+    if not usable:
+        raise SkeletonError(f"{path}: no {what} layer; its layers are {listed}; give "
+                            f"the {fmt} that holds the {what} layer")
+    raise SkeletonError(f"{path}: {len(usable)} {what} layers ({', '.join(usable)}); "
+                        f"name the one to read as {path}{LAYER_SEP}{usable[0]}")
+
+
+def _plain(kind: str) -> str:
+    """A layer's geometry type without its dimensions ("LineString Z" -> "LineString")."""
+    return kind.removeprefix("3D ").removesuffix(" ZM").removesuffix(" Z").removesuffix(" M")
+
+
+def _values(column: np.ndarray) -> list[Any]:
+    """A field's values as JSON would hold them: Python numbers and text, None for
+    missing (NaN, NaT, null), dates as ISO text, bytes as hex."""
+    out: list[Any] = []
+    for v in column.tolist():
+        if isinstance(v, float) and not math.isfinite(v):
+            v = None
+        elif isinstance(v, dt.date | dt.datetime | dt.time):
+            v = v.isoformat()
+        elif isinstance(v, bytes):
+            v = v.hex()
+        out.append(v)
+    return out

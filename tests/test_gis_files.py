@@ -1,0 +1,123 @@
+"""GeoPackage, Shapefile and FlatGeobuf read as they are (skeletons/gis_files.py): the
+same layer gives the same city as its GeoJSON export, byte for byte in every block file
+(``citysynth diff`` exits 0); a file with several layers gives the one the option reads,
+or says how to name it; a damaged file is one line.
+
+The files are written by geopandas through GDAL (pyogrio), as a GIS user's would be."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import zipfile
+from pathlib import Path
+
+import geopandas as gpd
+import pytest
+
+from citysynth.pipeline.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+LIB = ROOT / "examples" / "library"
+CITY = ROOT / "examples" / "city"
+STREETS = CITY / "district_streets.geojson"
+BUILDINGS = CITY / "district_buildings.geojson"
+
+
+def city(out: Path, *args: str) -> int:
+    return main(["city", *args, "--library", str(LIB), "-o", str(out), "--workers", "2",
+                 "--no-overview"])
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("gis")
+    streets, buildings = gpd.read_file(STREETS), gpd.read_file(BUILDINGS)
+    streets.to_file(d / "city.gpkg", layer="streets", driver="GPKG")
+    buildings.to_file(d / "city.gpkg", layer="buildings", driver="GPKG")
+    metric = streets.to_crs(3067)
+    metric.to_file(d / "streets.geojson", driver="GeoJSON")   # the reference, in EPSG:3067
+    metric.to_file(d / "streets.shp")
+    with zipfile.ZipFile(d / "streets.zip", "w") as z:
+        for ext in ("shp", "shx", "dbf", "prj", "cpg"):
+            if (d / f"streets.{ext}").exists():
+                z.write(d / f"streets.{ext}", f"streets.{ext}")
+    few = buildings.iloc[:12]
+    few.to_file(d / "few.geojson", driver="GeoJSON")
+    # no spatial index: with one, GDAL stores the features in Hilbert order, and a
+    # feature's index (which messages and structure names use) is its place in the file
+    few.to_file(d / "few.fgb", driver="FlatGeobuf", SPATIAL_INDEX="NO")
+    return d
+
+
+def test_a_geopackage_of_two_layers_builds_the_city_its_geojson_does(files, tmp_path,
+                                                                   capsys):
+    """``--streets city.gpkg --footprints city.gpkg``: the line layer for the streets,
+    the polygon layer for the footprints, and every block file as from the GeoJSON."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("k = 1\n")
+    assert city(tmp_path / "a", "--streets", str(STREETS), "--footprints", str(BUILDINGS),
+                "--config", str(cfg)) in (0, 1)
+    gpkg = str(files / "city.gpkg")
+    assert city(tmp_path / "b", "--streets", gpkg, "--footprints", gpkg,
+                "--config", str(cfg)) in (0, 1)
+    capsys.readouterr()
+    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    assert " 0 changed" in capsys.readouterr().out
+    built = json.loads((tmp_path / "b" / "report.json").read_text())["counts"]["built"]
+    assert built >= 250
+
+
+@pytest.mark.parametrize("name", ["streets.shp", "streets.zip"])
+def test_a_projected_shapefile_builds_the_city_its_geojson_does(files, tmp_path, name):
+    """Streets in EPSG:3067 (the .prj says so), plain or zipped, against the same layer
+    exported as GeoJSON."""
+    assert city(tmp_path / "a", "--streets", str(files / "streets.geojson")) == 0
+    assert city(tmp_path / "b", "--streets", str(files / name)) == 0
+    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    frame = json.loads((tmp_path / "b" / "manifest.json").read_text())["frame"]
+    assert "3067" in json.dumps(frame) or "TM35FIN" in json.dumps(frame)
+
+
+def test_flatgeobuf_footprints(files, tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('k = 1\npick = "best"\n')
+    for run, name in (("a", "few.geojson"), ("b", "few.fgb")):
+        assert city(tmp_path / run, "--footprints", str(files / name), "--config",
+                    str(cfg)) in (0, 1)
+    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+
+
+def test_layers_are_chosen_or_named(files, tmp_path, capsys):
+    two = tmp_path / "two.gpkg"
+    b = gpd.read_file(files / "city.gpkg", layer="buildings")
+    b.iloc[:5].to_file(two, layer="houses", driver="GPKG")
+    b.iloc[5:9].to_file(two, layer="sheds", driver="GPKG")
+    assert city(tmp_path / "o", "--footprints", str(two)) == 2
+    err = capsys.readouterr().err
+    assert f"{two}: 2 polygon layers (houses, sheds); name the one to read as " \
+           f"{two}::houses" in err and len(err.strip().splitlines()) == 1
+    assert city(tmp_path / "o", "--footprints", f"{two}::sheds") in (0, 1)
+    built = json.loads((tmp_path / "o" / "manifest.json").read_text())["blocks"]
+    assert 1 <= len(built) <= 4
+    capsys.readouterr()
+    assert city(tmp_path / "p", "--footprints", f"{two}::barns") == 2
+    assert "no layer 'barns'; its layers are houses (Polygon), sheds (Polygon)" in \
+        capsys.readouterr().err
+    assert city(tmp_path / "p", "--streets", str(two)) == 2
+    assert "no line layer; its layers are houses (Polygon), sheds (Polygon)" in \
+        capsys.readouterr().err
+    assert city(tmp_path / "p", "--streets", f"{STREETS}::x") == 2
+    assert "names a layer, but" in capsys.readouterr().err
+    assert not (tmp_path / "p").exists()
+
+
+def test_a_shapefile_without_its_index_is_one_line(files, tmp_path, capsys):
+    lone = tmp_path / "lone.shp"
+    shutil.copy(files / "streets.shp", lone)
+    assert city(tmp_path / "o", "--streets", str(lone)) == 2
+    err = capsys.readouterr().err
+    assert f"{lone}: cannot read this Shapefile (" in err
+    assert "a Shapefile needs its .shx and .dbf beside it" in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
