@@ -47,7 +47,8 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     file of a format this module reads; None for anything else (GeoJSON, or a file the
     GeoJSON reader refuses with its own message)."""
     text = str(path)
-    file, _, layer = text.partition(LAYER_SEP) if LAYER_SEP in text else (text, "", "")
+    named = LAYER_SEP in text and not Path(text).exists()   # a file may have :: in its name
+    file, _, layer = text.rpartition(LAYER_SEP) if named else (text, "", "")
     p = Path(file)
     head = b""
     try:
