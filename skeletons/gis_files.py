@@ -1,5 +1,6 @@
 """GIS files that are not GeoJSON, read as they are: GeoPackage (QGIS's own format),
-ESRI Shapefile (also zipped) and FlatGeobuf, through pyogrio (GDAL). (GeoParquet is
+ESRI Shapefile (also zipped), FlatGeobuf and KML/KMZ (Google Earth), through pyogrio
+(GDAL). (GeoParquet is
 not: pyogrio's GDAL has no Parquet driver; the GeoJSON reader says to convert it.)
 
 A layer becomes the same FeatureCollection a GeoJSON export of it would be: its CRS as
@@ -35,7 +36,8 @@ FORMATS = {                         # file signature -> format name
     b"PK\x03\x04": "zipped Shapefile",
 }
 SUFFIXES = {".gpkg": "GeoPackage", ".shp": "Shapefile", ".fgb": "FlatGeobuf",
-            ".zip": "zipped Shapefile"}
+            ".zip": "zipped Shapefile", ".kml": "KML", ".kmz": "KMZ"}
+SNIFF = 1024                        # bytes read to tell a format (KML is XML text)
 GEOMETRIES = {                      # what the caller reads -> the layer types it takes
     "lines": ("LineString", "MultiLineString"),
     "polygons": ("Polygon", "MultiPolygon"),
@@ -54,17 +56,21 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     try:
         if p.is_file():   # not a FIFO (opening one waits for a writer) nor a folder
             with open(p, "rb") as f:
-                head = f.read(16)
+                head = f.read(SNIFF)
     except OSError:
         pass              # the reader names what is wrong with it
     fmt = next((name for magic, name in FORMATS.items() if head.startswith(magic)), None)
-    if fmt is None:      # damaged or unreadable: named by its suffix, refused by GDAL
+    if fmt == "zipped Shapefile" and p.suffix.lower() == ".kmz":
+        fmt = "KMZ"       # Google Earth's zipped KML
+    elif fmt is None and b"<kml" in head:
+        fmt = "KML"
+    elif fmt is None:    # damaged or unreadable: named by its suffix, refused by GDAL
         fmt = SUFFIXES.get(p.suffix.lower())
     if fmt is None:
         if layer:
             raise SkeletonError(f"{text}: {LAYER_SEP}{layer} names a layer, but {file} is "
-                                "not a GeoPackage, Shapefile or FlatGeobuf file; a GeoJSON "
-                                "file has one layer: give its path alone")
+                                "not a GeoPackage, Shapefile, FlatGeobuf or KML file; a "
+                                "GeoJSON file has one layer: give its path alone")
         return None
     return p, layer or None, fmt
 

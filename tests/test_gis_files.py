@@ -1,4 +1,4 @@
-"""GeoPackage, Shapefile and FlatGeobuf read as they are (skeletons/gis_files.py): the
+"""GeoPackage, Shapefile, FlatGeobuf and KML/KMZ read as they are (skeletons/gis_files.py): the
 same layer gives the same city as its GeoJSON export, byte for byte in every block file
 (``citysynth diff`` exits 0); a file with several layers gives the one the option reads,
 or says how to name it; a damaged file is one line.
@@ -42,6 +42,8 @@ def files(tmp_path_factory) -> Path:
         for ext in ("shp", "shx", "dbf", "prj", "cpg"):
             if (d / f"streets.{ext}").exists():
                 z.write(d / f"streets.{ext}", f"streets.{ext}")
+    streets.to_file(d / "streets.kml", driver="LIBKML")     # Google Earth's formats
+    streets.to_file(d / "streets.kmz", driver="LIBKML")
     few = buildings.iloc[:12]
     few.to_file(d / "few.geojson", driver="GeoJSON")
     # no spatial index: with one, GDAL stores the features in Hilbert order, and a
@@ -77,6 +79,13 @@ def test_a_projected_shapefile_builds_the_city_its_geojson_does(files, tmp_path,
     assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
     frame = json.loads((tmp_path / "b" / "manifest.json").read_text())["frame"]
     assert "3067" in json.dumps(frame) or "TM35FIN" in json.dumps(frame)
+
+
+@pytest.mark.parametrize("name", ["streets.kml", "streets.kmz"])
+def test_kml_streets_build_the_city_their_geojson_does(files, tmp_path, name):
+    assert city(tmp_path / "a", "--streets", str(STREETS)) == 0
+    assert city(tmp_path / "b", "--streets", str(files / name)) == 0
+    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
 
 
 def test_flatgeobuf_footprints(files, tmp_path):

@@ -28,10 +28,11 @@ def register(sub) -> None:
                                    "city USD stage, an overview PNG, manifest.json and "
                                    "report.json. Reruns skip unchanged blocks.")
     p.add_argument("--streets", metavar="FILE", help="street centre lines (GeoJSON, or a "
-                   "GeoPackage, Shapefile or FlatGeobuf layer: FILE::LAYER picks one)")
+                   "GeoPackage, Shapefile, FlatGeobuf or KML layer: FILE::LAYER picks one)")
     p.add_argument("--footprints", metavar="FILE",
                    help="building footprints to wrap (Polygons: GeoJSON, GeoPackage, "
-                        "Shapefile or FlatGeobuf), instead of or beside the street blocks")
+                        "Shapefile, FlatGeobuf or KML), instead of or beside the street "
+                        "blocks")
     p.add_argument("--library", metavar="DIR", help="part library (or set library in the "
                                                     "config)")
     p.add_argument("--config", metavar="city.toml", help="run settings (see README)")
