@@ -1,6 +1,6 @@
 """GIS files that are not GeoJSON, read as they are: GeoPackage (QGIS's own format),
-ESRI Shapefile (also zipped), FlatGeobuf and KML/KMZ (Google Earth), through pyogrio
-(GDAL). (GeoParquet is
+ESRI Shapefile (also zipped), FlatGeobuf, KML/KMZ (Google Earth) and Esri JSON (what
+an ArcGIS server's query returns), through pyogrio (GDAL). (GeoParquet is
 not: pyogrio's GDAL has no Parquet driver; the GeoJSON reader says to convert it.)
 
 A layer becomes the same FeatureCollection a GeoJSON export of it would be: its CRS as
@@ -64,13 +64,16 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
         fmt = "KMZ"       # Google Earth's zipped KML
     elif fmt is None and b"<kml" in head:
         fmt = "KML"
+    elif fmt is None and (b'"esriGeometry' in head or b'"spatialReference"' in head and (
+            b'"rings"' in head or b'"paths"' in head or b'"attributes"' in head)):
+        fmt = "Esri JSON"   # ArcGIS's own JSON (a REST query's f=json), not GeoJSON
     elif fmt is None:    # damaged or unreadable: named by its suffix, refused by GDAL
         fmt = SUFFIXES.get(p.suffix.lower())
     if fmt is None:
         if layer:
             raise SkeletonError(f"{text}: {LAYER_SEP}{layer} names a layer, but {file} is "
-                                "not a GeoPackage, Shapefile, FlatGeobuf or KML file; a "
-                                "GeoJSON file has one layer: give its path alone")
+                                "not a GeoPackage, Shapefile, FlatGeobuf, KML or Esri JSON "
+                                "file; a GeoJSON file has one layer: give its path alone")
         return None
     return p, layer or None, fmt
 

@@ -1,5 +1,6 @@
-"""GeoPackage, Shapefile, FlatGeobuf and KML/KMZ read as they are (skeletons/gis_files.py): the
-same layer gives the same city as its GeoJSON export, byte for byte in every block file
+"""GeoPackage, Shapefile, FlatGeobuf, KML/KMZ and Esri JSON read as they are
+(skeletons/gis_files.py): the same layer gives the same city as its GeoJSON export, byte
+for byte in every block file
 (``citysynth diff`` exits 0); a file with several layers gives the one the option reads,
 or says how to name it; a damaged file is one line.
 
@@ -46,10 +47,28 @@ def files(tmp_path_factory) -> Path:
     streets.to_file(d / "streets.kmz", driver="LIBKML")
     few = buildings.iloc[:12]
     few.to_file(d / "few.geojson", driver="GeoJSON")
+    web = few.to_crs(3857)     # as an ArcGIS server serves it (wkid 102100)
+    web.to_file(d / "few3857.geojson", driver="GeoJSON")
+    (d / "few.esri.json").write_text(json.dumps(esri_json(web)))
     # no spatial index: with one, GDAL stores the features in Hilbert order, and a
     # feature's index (which messages and structure names use) is its place in the file
     few.to_file(d / "few.fgb", driver="FlatGeobuf", SPATIAL_INDEX="NO")
     return d
+
+
+def esri_json(frame: gpd.GeoDataFrame) -> dict:
+    """Polygons as an ArcGIS REST query returns them (``f=json``; GDAL cannot write it)."""
+    feats = []
+    for _, row in frame.iterrows():
+        g = row.geometry
+        rings = [list(map(list, r.coords)) for p in getattr(g, "geoms", [g])
+                 for r in (p.exterior, *p.interiors)]
+        attrs = {k: v for k, v in row.items() if k != "geometry" and isinstance(v, str)}
+        feats.append({"attributes": attrs, "geometry": {"rings": rings}})
+    return {"displayFieldName": "", "geometryType": "esriGeometryPolygon",
+            "spatialReference": {"wkid": 102100, "latestWkid": 3857},
+            "fields": [{"name": k, "type": "esriFieldTypeString"} for k in frame.columns
+                       if k != "geometry"], "features": feats}
 
 
 def test_a_geopackage_of_two_layers_builds_the_city_its_geojson_does(files, tmp_path,
@@ -95,6 +114,17 @@ def test_flatgeobuf_footprints(files, tmp_path):
         assert city(tmp_path / run, "--footprints", str(files / name), "--config",
                     str(cfg)) in (0, 1)
     assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+
+
+def test_esri_json_footprints(files, tmp_path):
+    """ArcGIS's JSON in Web Mercator against the same polygons as GeoJSON in EPSG:3857."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('k = 1\npick = "best"\n')
+    for run, name in (("a", "few3857.geojson"), ("b", "few.esri.json")):
+        assert city(tmp_path / run, "--footprints", str(files / name), "--config",
+                    str(cfg)) in (0, 1)
+    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    assert len(json.loads((tmp_path / "b" / "manifest.json").read_text())["blocks"]) >= 10
 
 
 def test_layers_are_chosen_or_named(files, tmp_path, capsys):

@@ -27,12 +27,12 @@ def register(sub) -> None:
                                    "part library, and write per-block layout JSON and USD, a "
                                    "city USD stage, an overview PNG, manifest.json and "
                                    "report.json. Reruns skip unchanged blocks.")
-    p.add_argument("--streets", metavar="FILE", help="street centre lines (GeoJSON, or a "
-                   "GeoPackage, Shapefile, FlatGeobuf or KML layer: FILE::LAYER picks one)")
+    p.add_argument("--streets", metavar="FILE", help="street centre lines: GeoJSON, "
+                   "GeoPackage, Shapefile, FlatGeobuf, KML or Esri JSON (FILE::LAYER picks "
+                   "one layer of several)")
     p.add_argument("--footprints", metavar="FILE",
-                   help="building footprints to wrap (Polygons: GeoJSON, GeoPackage, "
-                        "Shapefile, FlatGeobuf or KML), instead of or beside the street "
-                        "blocks")
+                   help="building footprints to wrap (polygons, in the same formats), "
+                        "instead of or beside the street blocks")
     p.add_argument("--library", metavar="DIR", help="part library (or set library in the "
                                                     "config)")
     p.add_argument("--config", metavar="city.toml", help="run settings (see README)")
