@@ -64,8 +64,9 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
         fmt = "KMZ"       # Google Earth's zipped KML
     elif fmt is None and b"<kml" in head:
         fmt = "KML"
-    elif fmt is None and (b'"esriGeometry' in head or b'"spatialReference"' in head and (
-            b'"rings"' in head or b'"paths"' in head or b'"attributes"' in head)):
+    elif fmt is None and b'"FeatureCollection"' not in head and (
+            b'"esriGeometry' in head or b'"spatialReference"' in head and (
+                b'"rings"' in head or b'"paths"' in head)):
         fmt = "Esri JSON"   # ArcGIS's own JSON (a REST query's f=json), not GeoJSON
     elif fmt is None:    # damaged or unreadable: named by its suffix, refused by GDAL
         fmt = SUFFIXES.get(p.suffix.lower())
