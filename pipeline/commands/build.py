@@ -69,14 +69,16 @@ def register(sub) -> None:
                        description="Solve a building skeleton (GeoJSON LineStrings meeting at "
                                    "shared ends) with a part library and write layout JSON, "
                                    "USD, GLB and a PNG preview for each of the k best layouts.")
-    p.add_argument("file", help="GeoJSON FeatureCollection of LineStrings")
+    p.add_argument("file", help="LineStrings: GeoJSON, or a GeoPackage, Shapefile, "
+                   "FlatGeobuf, KML or Esri JSON layer (FILE::LAYER)")
     _common(p)
     p.set_defaults(run=run_building)
     p = sub.add_parser("block", help="lay out blocks from polygons",
                        description="Wrap facades around each block (or footprint) polygon of "
                                    "a GeoJSON file, courtyards included, and write layout "
                                    "JSON, USD, GLB and a PNG preview for each of the k best.")
-    p.add_argument("file", help="GeoJSON FeatureCollection of Polygons")
+    p.add_argument("file", help="Polygons: GeoJSON, or a GeoPackage, Shapefile, "
+                   "FlatGeobuf, KML or Esri JSON layer (FILE::LAYER)")
     _common(p)
     p.set_defaults(run=run_block)
 

@@ -37,7 +37,8 @@ def register(sub) -> None:
                                    "intervals, and write layout JSON, USD, GLB and a PNG "
                                    "preview for each of the k best rows.")
     p.add_argument("--line", required=True, metavar="FILE",
-                   help="GeoJSON with the street's one LineString")
+                   help="the street's one LineString (GeoJSON or another GIS "
+                   "file: see citysynth city --help)")
     p.add_argument("--side", choices=(*SIDES, "both"), default="both",
                    help="which side of the line to build (default both)")
     p.add_argument("--offset", type=float, default=None, metavar="M",

@@ -43,7 +43,9 @@ def register(sub) -> None:
     p.add_argument("--far-tolerance", type=float, default=FAR_TOLERANCE, metavar="SHARE",
                    help=f"--far X accepts X times 1 +- SHARE (default {FAR_TOLERANCE})")
     lot = p.add_mutually_exclusive_group(required=True)
-    lot.add_argument("--lot", metavar="FILE", help="GeoJSON with the lot's polygon")
+    lot.add_argument("--lot", metavar="FILE",
+                     help="the lot's polygon (GeoJSON or another GIS file: see citysynth "
+                          "city --help)")
     lot.add_argument("--lot-area", type=float, metavar="M2",
                      help="a square lot of this many m²")
     p.add_argument("--library", default=str(SAMPLE_LIBRARY), metavar="DIR",
