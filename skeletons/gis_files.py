@@ -1,6 +1,7 @@
 """GIS files that are not GeoJSON, read as they are: GeoPackage (QGIS's own format),
-ESRI Shapefile (also zipped), FlatGeobuf, KML/KMZ (Google Earth) and Esri JSON (what
-an ArcGIS server's query returns), through pyogrio (GDAL). (GeoParquet is
+ESRI Shapefile (also zipped), FlatGeobuf, KML/KMZ (Google Earth), Esri JSON (what an
+ArcGIS server's query returns) and OpenStreetMap files (the website's Export, .osm XML,
+or a .osm.pbf extract), through pyogrio (GDAL). (GeoParquet is
 not: pyogrio's GDAL has no Parquet driver; the GeoJSON reader says to convert it.)
 
 A layer becomes the same FeatureCollection a GeoJSON export of it would be: its CRS as
@@ -19,6 +20,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +38,13 @@ FORMATS = {                         # file signature -> format name
     b"PK\x03\x04": "zipped Shapefile",
 }
 SUFFIXES = {".gpkg": "GeoPackage", ".shp": "Shapefile", ".fgb": "FlatGeobuf",
-            ".zip": "zipped Shapefile", ".kml": "KML", ".kmz": "KMZ"}
+            ".zip": "zipped Shapefile", ".kml": "KML", ".kmz": "KMZ",
+            ".osm": "OpenStreetMap file", ".pbf": "OpenStreetMap file"}
+OSM = "OpenStreetMap file"
+# an OpenStreetMap file holds everything in a few layers: what each option reads of it
+OSM_LAYERS = {"lines": ("lines", "highway IS NOT NULL"),
+              "polygons": ("multipolygons", "building IS NOT NULL")}
+_HSTORE = re.compile(r'"((?:[^"\\]|\\.)*)"=>"((?:[^"\\]|\\.)*)"')   # other_tags
 SNIFF = 1024                        # bytes read to tell a format (KML is XML text)
 GEOMETRIES = {                      # what the caller reads -> the layer types it takes
     "lines": ("LineString", "MultiLineString"),
@@ -62,8 +70,10 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     fmt = next((name for magic, name in FORMATS.items() if head.startswith(magic)), None)
     if fmt == "zipped Shapefile" and p.suffix.lower() == ".kmz":
         fmt = "KMZ"       # Google Earth's zipped KML
-    elif fmt is None and b"<kml" in head:
+    elif fmt is None and _xml(head) and b"<kml" in head:
         fmt = "KML"
+    elif fmt is None and (_xml(head) and b"<osm" in head or b"OSMHeader" in head[:64]):
+        fmt = OSM        # the XML the website's Export button gives, or a PBF extract
     elif fmt is None and b'"FeatureCollection"' not in head and (
             b'"esriGeometry' in head or b'"spatialReference"' in head and (
                 b'"rings"' in head or b'"paths"' in head)):
@@ -73,10 +83,16 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     if fmt is None:
         if layer:
             raise SkeletonError(f"{text}: {LAYER_SEP}{layer} names a layer, but {file} is "
-                                "not a GeoPackage, Shapefile, FlatGeobuf, KML or Esri JSON "
-                                "file; a GeoJSON file has one layer: give its path alone")
+                                "not a GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON "
+                                "or OpenStreetMap file; a GeoJSON file has one layer: give "
+                                "its path alone")
         return None
     return p, layer or None, fmt
+
+
+def _xml(head: bytes) -> bool:
+    """Whether a file starts as XML (a GeoJSON property may hold "<kml" or "<osm")."""
+    return head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<")
 
 
 def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[str, Any]:
@@ -91,10 +107,18 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
         layers = pyogrio.list_layers(path)
     except unreadable as exc:
         raise _cannot_read(path, fmt, exc) from None
-    name = _layer(path, layer, fmt, accept, layers)
+    where = None
+    if fmt == OSM and layer is None:
+        if accept not in OSM_LAYERS:
+            raise SkeletonError(f"{path}: an OpenStreetMap file holds every kind of map "
+                                f"feature; name the layer to read: {path}{LAYER_SEP}lines "
+                                f"or {path}{LAYER_SEP}multipolygons")
+        name, where = OSM_LAYERS[accept]   # streets: ways with highway=*; buildings
+    else:
+        name = _layer(path, layer, fmt, accept, layers)
     try:
         meta, _, wkb, fields = pyogrio.raw.read(path, layer=name, force_2d=True,
-                                                datetime_as_string=True)
+                                                datetime_as_string=True, where=where)
     except unreadable as exc:
         raise _cannot_read(path, fmt, exc) from None
     if wkb is None or len(wkb) == 0:
@@ -108,6 +132,8 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
     for i, g in enumerate(geoms):
         props = {k: col[i] for k, col in zip(names, columns, strict=True)
                  if col[i] is not None}
+        if fmt == OSM and isinstance(props.get("other_tags"), str):
+            props = {**_tags(props.pop("other_tags")), **props}   # lanes, width, levels
         geometry = None if g is None or g.is_empty else json.loads(texts[i])
         features.append({"type": "Feature", "properties": props, "geometry": geometry})
     data: dict[str, Any] = {"type": "FeatureCollection", "features": features}
@@ -145,6 +171,12 @@ def _layer(path: Path, layer: str | None, fmt: str, accept: str, layers: np.ndar
                             f"the {fmt} that holds the {what} layer")
     raise SkeletonError(f"{path}: {len(usable)} {what} layers ({', '.join(usable)}); "
                         f"name the one to read as {path}{LAYER_SEP}{usable[0]}")
+
+
+def _tags(hstore: str) -> dict[str, str]:
+    """GDAL's ``other_tags`` of an OpenStreetMap feature (``"lanes"=>"2","width"=>"7"``)
+    as properties, as a GeoJSON export of the same ways would have them."""
+    return {k.replace('\\"', '"'): v.replace('\\"', '"') for k, v in _HSTORE.findall(hstore)}
 
 
 def _plain(kind: str) -> str:

@@ -47,6 +47,12 @@ def files(tmp_path_factory) -> Path:
     streets.to_file(d / "streets.kmz", driver="LIBKML")
     few = buildings.iloc[:12]
     few.to_file(d / "few.geojson", driver="GeoJSON")
+    solid = buildings[buildings.geometry.apply(
+        lambda g: g.geom_type == "Polygon" and not g.interiors)].iloc[:12]
+    (d / "map.osm").write_text(osm_xml(streets, solid))   # no relations: no holes
+    # the reference names each building by its way's id, as the OpenStreetMap file does
+    solid = solid.assign(osm_way_id=[str(1000 + len(streets) + j) for j in range(len(solid))])
+    solid.to_file(d / "solid.geojson", driver="GeoJSON")
     web = few.to_crs(3857)     # as an ArcGIS server serves it (wkid 102100)
     web.to_file(d / "few3857.geojson", driver="GeoJSON")
     (d / "few.esri.json").write_text(json.dumps(esri_json(web)))
@@ -69,6 +75,32 @@ def esri_json(frame: gpd.GeoDataFrame) -> dict:
             "spatialReference": {"wkid": 102100, "latestWkid": 3857},
             "fields": [{"name": k, "type": "esriFieldTypeString"} for k in frame.columns
                        if k != "geometry"], "features": feats}
+
+
+def osm_xml(lines: gpd.GeoDataFrame, polygons: gpd.GeoDataFrame) -> str:
+    """Ways in the XML the OpenStreetMap website's Export button gives: one node per
+    distinct point (shared where lines meet), tags from the columns."""
+    nodes: dict[tuple[float, float], int] = {}
+    ways = []
+
+    def refs(coords) -> list[int]:
+        return [nodes.setdefault((float(x), float(y)), len(nodes) + 1) for x, y, *_ in coords]
+
+    for frame, ring in ((lines, False), (polygons, True)):
+        for _, row in frame.iterrows():
+            coords = row.geometry.exterior.coords if ring else row.geometry.coords
+            tags = {k: str(v) for k, v in row.items() if k != "geometry" and v is not None
+                    and v == v}
+            ways.append((refs(coords), tags))
+    out = ['<?xml version="1.0" encoding="UTF-8"?>', '<osm version="0.6" generator="test">']
+    out += [f'<node id="{i}" lat="{y!r}" lon="{x!r}" version="1"/>'
+            for (x, y), i in nodes.items()]
+    for k, (nds, tags) in enumerate(ways):
+        out.append(f'<way id="{1000 + k}" version="1">')
+        out += [f'<nd ref="{n}"/>' for n in nds]
+        out += [f'<tag k="{a}" v="{v}"/>' for a, v in tags.items()]
+        out.append("</way>")
+    return "\n".join([*out, "</osm>"])
 
 
 def test_a_geopackage_of_two_layers_builds_the_city_its_geojson_does(files, tmp_path,
@@ -125,6 +157,24 @@ def test_esri_json_footprints(files, tmp_path):
                     str(cfg)) in (0, 1)
     assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
     assert len(json.loads((tmp_path / "b" / "manifest.json").read_text())["blocks"]) >= 10
+
+
+def test_an_openstreetmap_export_builds_the_city_its_geojson_does(files, tmp_path, capsys):
+    """``--streets map.osm --footprints map.osm``: the ways with highway=* as streets
+    (their other tags, lanes and oneway, read as properties), the buildings as
+    footprints; every block file as from the GeoJSON of the same streets and buildings."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("k = 1\n")
+    osm = str(files / "map.osm")
+    assert city(tmp_path / "a", "--streets", str(STREETS), "--footprints",
+                str(files / "solid.geojson"), "--config", str(cfg)) in (0, 1)
+    assert city(tmp_path / "b", "--streets", osm, "--footprints", osm,
+                "--config", str(cfg)) in (0, 1)
+    capsys.readouterr()
+    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    assert main(["skeleton", osm]) == 2
+    assert f"name the layer to read: {osm}::lines or {osm}::multipolygons" in \
+        capsys.readouterr().err
 
 
 def test_layers_are_chosen_or_named(files, tmp_path, capsys):

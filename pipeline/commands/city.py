@@ -28,10 +28,11 @@ def register(sub) -> None:
                                    "city USD stage, an overview PNG, manifest.json and "
                                    "report.json. Reruns skip unchanged blocks.")
     p.add_argument("--streets", metavar="FILE", help="street centre lines: GeoJSON, "
-                   "GeoPackage, Shapefile, FlatGeobuf, KML or Esri JSON (FILE::LAYER picks "
-                   "one layer of several)")
+                   "GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON or OpenStreetMap (.osm, "
+                   ".osm.pbf: its highway ways); FILE::LAYER picks one layer of several")
     p.add_argument("--footprints", metavar="FILE",
-                   help="building footprints to wrap (polygons, in the same formats), "
+                   help="building footprints to wrap (polygons, in the same formats; "
+                        "an OpenStreetMap file's buildings), "
                         "instead of or beside the street blocks")
     p.add_argument("--library", metavar="DIR", help="part library (or set library in the "
                                                     "config)")
