@@ -102,6 +102,8 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
     from pyogrio.errors import DataLayerError, DataSourceError
 
     check_file(path, fmt, SkeletonError)
+    if fmt == OSM:   # node ids out of order (JOSM's new objects, merged extracts) too
+        pyogrio.set_gdal_config_options({"OSM_USE_CUSTOM_INDEXING": "NO"})
     unreadable = (DataSourceError, DataLayerError, OSError, RuntimeError)
     try:
         layers = pyogrio.list_layers(path)
