@@ -116,15 +116,16 @@ class Frame:
 
 def read_geojson(path: str | Path, crs: str | None = None,
                  origin: tuple[float, float] | None = None, origin_digits: int | None = None,
-                 *, accept: Accept = "any", within: Frame | None = None
-                 ) -> tuple[Features, Frame]:
+                 *, accept: Accept = "any", within: Frame | None = None,
+                 layer_of: Accept | None = None) -> tuple[Features, Frame]:
     """A GeoJSON file's features in a local metric frame; see :func:`parse_geojson`.
-    A GeoPackage, Shapefile or FlatGeobuf file (``FILE::LAYER`` for one of several
-    layers) is read as the GeoJSON export of its layer would be
-    (:mod:`.gis_files`)."""
+    Another GIS file (GeoPackage, Shapefile, ...; ``FILE::LAYER`` for one of several
+    layers) is read as the GeoJSON export of its layer would be (:mod:`.gis_files`):
+    the layer of the geometry ``layer_of`` names (by default ``accept``'s), where a
+    caller that takes any geometry still knows which layer it wants."""
     gis = gis_format(path)
     if gis is not None:
-        data = read_gis_file(*gis, accept)
+        data = read_gis_file(*gis, layer_of or accept)
     else:
         data = read_json(Path(path), "GeoJSON", SkeletonError)   # encoding, depth, size
     return parse_geojson(data, str(path), crs, origin, origin_digits, accept=accept,

@@ -217,6 +217,30 @@ def test_layers_are_chosen_or_named(files, tmp_path, capsys):
     assert not (tmp_path / "p").exists()
 
 
+def test_block_and_building_read_their_layer_of_a_geopackage(tmp_path, capsys):
+    """``block`` takes the polygon layer, ``building`` the line layer of one file."""
+    import shapely
+
+    from citysynth.skeletons.geojson import lonlat_from_local
+
+    origin = (24.94, 60.17)
+    lot = shapely.Polygon(lonlat_from_local([(0, 0), (36, 0), (36, 24), (0, 24)], origin))
+    lines = [shapely.LineString(lonlat_from_local(p, origin))
+             for p in ([(0, 40), (30, 40)], [(30, 40), (30, 60)])]
+    both = tmp_path / "both.gpkg"
+    gpd.GeoDataFrame({"id": ["lot"]}, geometry=[lot], crs=4326).to_file(
+        both, layer="lots", driver="GPKG")
+    gpd.GeoDataFrame({"id": ["a", "b"]}, geometry=lines, crs=4326).to_file(
+        both, layer="skeleton", driver="GPKG")
+    for command, out in (("block", "b"), ("building", "l")):
+        assert main([command, str(both), "--library", str(LIB), "-o", str(tmp_path / out),
+                     "--k", "1", "--no-preview"]) == 0, capsys.readouterr().err
+        lay = json.loads(next((tmp_path / out).glob("*.layout.json")).read_text())
+        sides = [len(st["stages"]) for st in lay["structures"]]
+        # the 36 x 24 m lot's four sides; the skeleton's two lines
+        assert sides == ([4] if command == "block" else [2]), sides
+
+
 def test_a_shapefile_without_its_index_is_one_line(files, tmp_path, capsys):
     lone = tmp_path / "lone.shp"
     shutil.copy(files / "streets.shp", lone)

@@ -72,7 +72,7 @@ def register(sub) -> None:
     p.add_argument("file", help="LineStrings: GeoJSON, or a GeoPackage, Shapefile, "
                    "FlatGeobuf, KML or Esri JSON layer (FILE::LAYER)")
     _common(p)
-    p.set_defaults(run=run_building)
+    p.set_defaults(run=run_building, geometry="lines")   # the layer of a GIS file it reads
     p = sub.add_parser("block", help="lay out blocks from polygons",
                        description="Wrap facades around each block (or footprint) polygon of "
                                    "a GeoJSON file, courtyards included, and write layout "
@@ -80,7 +80,7 @@ def register(sub) -> None:
     p.add_argument("file", help="Polygons: GeoJSON, or a GeoPackage, Shapefile, "
                    "FlatGeobuf, KML or Esri JSON layer (FILE::LAYER)")
     _common(p)
-    p.set_defaults(run=run_block)
+    p.set_defaults(run=run_block, geometry="polygons")
 
 
 MAX_NAME = 100   # characters of a name kept as they are; its files add up to 20 more
@@ -111,7 +111,7 @@ def _prepare(args):
                          f"{args.slack:g}")
     db = load_library(args.library)
     style = args.style or default_style(db)
-    feats, frame = read_geojson(args.file, crs=args.crs)
+    feats, frame = read_geojson(args.file, crs=args.crs, layer_of=args.geometry)
     return db, style, feats, frame
 
 
