@@ -139,21 +139,15 @@ def test_kml_streets_build_the_city_their_geojson_does(files, tmp_path, name):
     assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
 
 
-def test_flatgeobuf_footprints(files, tmp_path):
+@pytest.mark.parametrize("reference, name", [
+    ("few.geojson", "few.fgb"),
+    # ArcGIS's JSON in Web Mercator against the same polygons as GeoJSON in EPSG:3857
+    ("few3857.geojson", "few.esri.json")])
+def test_footprints_of_other_formats(files, tmp_path, reference, name):
     cfg = tmp_path / "c.toml"
     cfg.write_text('k = 1\npick = "best"\n')
-    for run, name in (("a", "few.geojson"), ("b", "few.fgb")):
-        assert city(tmp_path / run, "--footprints", str(files / name), "--config",
-                    str(cfg)) in (0, 1)
-    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
-
-
-def test_esri_json_footprints(files, tmp_path):
-    """ArcGIS's JSON in Web Mercator against the same polygons as GeoJSON in EPSG:3857."""
-    cfg = tmp_path / "c.toml"
-    cfg.write_text('k = 1\npick = "best"\n')
-    for run, name in (("a", "few3857.geojson"), ("b", "few.esri.json")):
-        assert city(tmp_path / run, "--footprints", str(files / name), "--config",
+    for run, given in (("a", reference), ("b", name)):
+        assert city(tmp_path / run, "--footprints", str(files / given), "--config",
                     str(cfg)) in (0, 1)
     assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
     assert len(json.loads((tmp_path / "b" / "manifest.json").read_text())["blocks"]) >= 10
