@@ -63,26 +63,24 @@ def _outlines(run: Path) -> dict[str, tuple[shapely.Geometry, str]]:
     return out
 
 
-def _state(bid: str, d: dict[str, Any]) -> str | None:
-    """What the diff ``d`` says happened to block ``bid`` (None: not a built block)."""
-    for key, state in (("added", "added"), ("removed", "removed")):
-        if bid in d[key]:
-            return state
-    for key, state in (("changed", "changed"), ("files_changed", "files"),
-                       ("status", "status")):
-        if any(c["id"] == bid for c in d[key]):
-            return state
-    return None
+def _states(d: dict[str, Any]) -> dict[str, str]:
+    """Block id -> what the diff ``d`` says happened to it (blocks not named: the same,
+    or not built), looked up once per block instead of a scan of each list."""
+    out = {c["id"]: state for key, state in (("status", "status"), ("files_changed", "files"),
+                                             ("changed", "changed")) for c in d[key]}
+    out.update({bid: state for key, state in (("removed", "removed"), ("added", "added"))
+                for bid in d[key]})
+    return out
 
 
 def write_map(d: dict[str, Any], run_a: Path, run_b: Path, png: Path) -> Path:
     """Draw the diff ``d`` of ``run_a`` and ``run_b`` (:func:`..diff.diff_runs`) as a
     plan at ``png`` (written whole or not at all)."""
-    a, b = _outlines(run_a), _outlines(run_b)
+    a, b, states = _outlines(run_a), _outlines(run_b), _states(d)
     shapes: list[tuple[shapely.Geometry, tuple[int, int, int], bool]] = []
     marks: list[tuple[shapely.Point, tuple[int, int, int]]] = []   # small changes show
     for bid, (geom, status) in sorted(b.items()):
-        state = _state(bid, d) or ("same" if status == "built" else None)
+        state = states.get(bid) or ("same" if status == "built" else None)
         shapes.append((geom, COLOURS[state][0] if state else NOT_BUILT, False))
         if state not in (None, "same"):
             marks.append((geom.representative_point(), COLOURS[state][0]))
