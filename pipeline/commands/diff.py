@@ -138,12 +138,9 @@ def _files_differing(a: Path, b: Path, bid: str, ra: dict, rb: dict) -> list[str
     """The block's output files (names within the run) that differ between the runs:
     in one record and not the other, or with other bytes. Its marker is left out (it
     holds timings)."""
-    fa, fb = (sorted({f for f in r.get("files", []) if isinstance(f, str)}) for r in (ra, rb))
-    out = sorted(set(fa) ^ set(fb))
-    for f in sorted(set(fa) & set(fb)):
-        if _digest(_inside(a, bid, f)) != _digest(_inside(b, bid, f)):
-            out.append(f)
-    return sorted(out)
+    fa, fb = ({f for f in r.get("files", []) if isinstance(f, str)} for r in (ra, rb))
+    return sorted(fa ^ fb | {f for f in sorted(fa & fb)   # sorted: the same first error
+                             if _digest(_inside(a, bid, f)) != _digest(_inside(b, bid, f))})
 
 
 def _digest(path: Path) -> str:
