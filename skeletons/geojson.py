@@ -37,7 +37,8 @@ from shapely.geometry.base import BaseGeometry
 
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.gis_files import gis_format, read_gis_file
-from citysynth.solver.safe_read import read_json
+from citysynth.skeletons.overture import osm_tags
+from citysynth.solver.safe_read import parse_json, read_text
 
 TRUE_SCALE = 1e-3      # a projected CRS whose scale strays more from 1 is reprojected
 LONLAT_FRAME = "WGS 84 lon/lat, local transverse Mercator"
@@ -127,9 +128,52 @@ def read_geojson(path: str | Path, crs: str | None = None,
     if gis is not None:
         data = read_gis_file(*gis, layer_of or accept)
     else:
-        data = read_json(Path(path), "GeoJSON", SkeletonError)   # encoding, depth, size
+        data = _read_json_or_sequence(Path(path))
     return parse_geojson(data, str(path), crs, origin, origin_digits, accept=accept,
                          within=within)
+
+
+RS = "\x1e"   # RFC 8142's record separator, before each text of a GeoJSON Text Sequence
+
+
+def _read_json_or_sequence(path: Path) -> Any:
+    """A GeoJSON file's JSON (its encoding, depth, size and numbers checked); or a GeoJSON
+    Text Sequence (RFC 8142, ``ogr2ogr -f GeoJSONSeq``; or a feature per line, as
+    Overture's and tippecanoe's tools write) as the FeatureCollection of its features."""
+    text = read_text(path, "GeoJSON", SkeletonError)
+    if not _is_sequence(text):
+        return parse_json(text, path, "GeoJSON", SkeletonError)
+    body = text.lstrip("\ufeff")
+    sep = RS if RS in body else "\n"    # with separators, a record may span lines
+    features: list[Any] = []
+    line = 1
+    for chunk in body.split(sep):
+        if chunk.strip(" \t\r\n"):
+            at = line + chunk[:len(chunk) - len(chunk.lstrip())].count("\n")
+            record = parse_json(chunk, f"{path}, line {at}", "GeoJSON", SkeletonError)
+            kind = record.get("type") if isinstance(record, dict) else None
+            if kind in GEOMETRY_TYPES:   # a bare geometry, as a Feature of it
+                record = {"type": "Feature", "properties": {}, "geometry": record}
+            got = record.get("features") if kind == "FeatureCollection" else [record]
+            features.extend(got if isinstance(got, list) else [got])
+        line += chunk.count("\n") + (sep == "\n")
+    return {"type": "FeatureCollection", "features": features}
+
+
+def _is_sequence(text: str) -> bool:
+    """Whether ``text`` is a GeoJSON Text Sequence: record separators, or a complete
+    JSON object on its first line with another one starting on a later line (a
+    FeatureCollection on one line, or pretty-printed, is not)."""
+    body = text.lstrip("\ufeff \t\r\n")
+    if body.startswith(RS):
+        return True
+    first, _, rest = body.partition("\n")
+    if not rest.lstrip(" \t\r\n").startswith("{") or not first.rstrip().endswith("}"):
+        return False
+    try:
+        return isinstance(json.loads(first), dict)
+    except ValueError:
+        return False
 
 
 def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
@@ -164,7 +208,7 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
     if overrides:
         warnings.warn(f"{source}: the file says its coordinates are in {member}, but "
                       f"--crs says {crs}; using {crs}", InputWarning, stacklevel=2)
-    feats = Features((Feature(i, shapely.transform(g, project), props, source)
+    feats = Features((Feature(i, shapely.transform(g, project), osm_tags(props), source)
                       for i, g, props in kept), skipped)
     return feats, frame
 

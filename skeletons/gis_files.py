@@ -1,8 +1,8 @@
 """GIS files that are not GeoJSON, read as they are: GeoPackage (QGIS's own format),
 ESRI Shapefile (also zipped), FlatGeobuf, KML/KMZ (Google Earth), Esri JSON (what an
 ArcGIS server's query returns) and OpenStreetMap files (the website's Export, .osm XML,
-or a .osm.pbf extract), through pyogrio (GDAL). (GeoParquet is
-not: pyogrio's GDAL has no Parquet driver; the GeoJSON reader says to convert it.)
+or a .osm.pbf extract), through pyogrio (GDAL); GeoParquet (geopandas, DuckDB, Overture
+Maps) through pyarrow (:mod:`.geoparquet`: pyogrio's GDAL has no Parquet driver).
 
 A layer becomes the same FeatureCollection a GeoJSON export of it would be: its CRS as
 the legacy ``"crs"`` member, every attribute as a property (numbers as numbers, dates
@@ -12,14 +12,13 @@ as ISO text, missing values left out), geometries in 2D. So everything after rea
 
 A file with several layers (a GeoPackage holding streets and buildings) gives the one
 layer whose geometry the caller reads (lines for streets, polygons for footprints);
-where that is not one layer, ``FILE::LAYER`` names it, and the message lists them.
+where that is not one layer, ``FILE::LAYER`` names it, and the message lists them (in
+a GeoParquet file, ``FILE::COLUMN`` names one of several geometry columns).
 """
 
 from __future__ import annotations
 
-import datetime as dt
 import json
-import math
 import re
 from pathlib import Path
 from typing import Any
@@ -28,6 +27,8 @@ import numpy as np
 import shapely
 
 from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.geoparquet import FORMAT as PARQUET
+from citysynth.skeletons.geoparquet import json_value, read_geoparquet
 from citysynth.solver.safe_read import check_file
 
 LAYER_SEP = "::"                    # FILE::LAYER picks one layer of a file
@@ -36,10 +37,12 @@ FORMATS = {                         # file signature -> format name
     b"\x00\x00\x27\x0a": "Shapefile",
     b"fgb\x03": "FlatGeobuf",
     b"PK\x03\x04": "zipped Shapefile",
+    b"PAR1": PARQUET,
 }
 SUFFIXES = {".gpkg": "GeoPackage", ".shp": "Shapefile", ".fgb": "FlatGeobuf",
             ".zip": "zipped Shapefile", ".kml": "KML", ".kmz": "KMZ",
-            ".osm": "OpenStreetMap file", ".pbf": "OpenStreetMap file"}
+            ".osm": "OpenStreetMap file", ".pbf": "OpenStreetMap file",
+            ".parquet": PARQUET, ".geoparquet": PARQUET}
 OSM = "OpenStreetMap file"
 # an OpenStreetMap file holds everything in a few layers: what each option reads of it
 OSM_LAYERS = {"lines": ("lines", "highway IS NOT NULL"),
@@ -83,9 +86,9 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     if fmt is None:
         if layer:
             raise SkeletonError(f"{text}: {LAYER_SEP}{layer} names a layer, but {file} is "
-                                "not a GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON "
-                                "or OpenStreetMap file; a GeoJSON file has one layer: give "
-                                "its path alone")
+                                "not a GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON, "
+                                "OpenStreetMap or GeoParquet file; a GeoJSON file has one "
+                                "layer: give its path alone")
         return None
     return p, layer or None, fmt
 
@@ -97,7 +100,10 @@ def _xml(head: bytes) -> bool:
 
 def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[str, Any]:
     """The layer of the GIS file at ``path`` as a GeoJSON FeatureCollection (a dict);
-    ``accept`` ("lines", "polygons" or "any") picks the layer when ``layer`` is None."""
+    ``accept`` ("lines", "polygons" or "any") picks the layer when ``layer`` is None
+    (a GeoParquet file's ``layer`` is a geometry column; it has one table)."""
+    if fmt == PARQUET:
+        return read_geoparquet(path, layer)
     import pyogrio  # GDAL: loaded only when such a file is given
     from pyogrio.errors import DataLayerError, DataSourceError
 
@@ -187,15 +193,5 @@ def _plain(kind: str) -> str:
 
 
 def _values(column: np.ndarray) -> list[Any]:
-    """A field's values as JSON would hold them: Python numbers and text, None for
-    missing (NaN, NaT, null), dates as ISO text, bytes as hex."""
-    out: list[Any] = []
-    for v in column.tolist():
-        if isinstance(v, float) and not math.isfinite(v):
-            v = None
-        elif isinstance(v, dt.date | dt.datetime | dt.time):
-            v = v.isoformat()
-        elif isinstance(v, bytes):
-            v = v.hex()
-        out.append(v)
-    return out
+    """A field's values as JSON would hold them (:func:`.geoparquet.json_value`)."""
+    return [json_value(v) for v in column.tolist()]

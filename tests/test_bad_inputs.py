@@ -723,12 +723,11 @@ def test_bad_input_end_to_end(name, tmp_path, good_db, good_run):
     (b"\x00\x00\x27\x0a" + bytes(96), "cannot read this Shapefile ("),
     (b"fgb\x03fgb\x00" + bytes(64), "this FlatGeobuf holds no layer (damaged, or saved"),
     (b"PK\x03\x04" + bytes(64), "cannot read this zipped Shapefile ("),
-    (b"PAR1" + bytes(64), "a (Geo)Parquet file, not a GeoJSON file; convert it, e.g. "
-                          "ogr2ogr -f GeoJSON"),
+    (b"PAR1" + bytes(64), "cannot read this GeoParquet ("),
     (b'{"type": "Feature", "properties": {}, "geometry": null}\n'
      b'{"type": "Feature", "properties": {}, "geometry": null}\n',
-     "it looks like a GeoJSON Text Sequence (a feature per line, or RFC 8142's record "
-     "separators): give one FeatureCollection"),
+     # read as a GeoJSON Text Sequence now, whose features are then checked as any are
+     "no usable features: all 2 left out (feature 0: no geometry (null)"),
 ])
 def test_files_of_other_gis_formats_are_named_with_the_conversion(tmp_path, capsys, data,
                                                                    text):

@@ -1,10 +1,12 @@
-"""GeoPackage, Shapefile, FlatGeobuf, KML/KMZ and Esri JSON read as they are
-(skeletons/gis_files.py): the same layer gives the same city as its GeoJSON export, byte
-for byte in every block file
+"""GeoPackage, Shapefile, FlatGeobuf, KML/KMZ, Esri JSON, GeoParquet and GeoJSON Text
+Sequences read as they are (skeletons/gis_files.py, geoparquet.py, geojson.py): the same
+layer gives the same city as its GeoJSON export, byte for byte in every block file
 (``citysynth diff`` exits 0); a file with several layers gives the one the option reads,
-or says how to name it; a damaged file is one line.
+or says how to name it; a damaged file is one line; Overture Maps' attributes work as
+the OpenStreetMap tags they mean.
 
-The files are written by geopandas through GDAL (pyogrio), as a GIS user's would be."""
+The files are written by geopandas through GDAL (pyogrio) or pyarrow, as a GIS user's
+would be."""
 
 from __future__ import annotations
 
@@ -59,6 +61,11 @@ def files(tmp_path_factory) -> Path:
     # no spatial index: with one, GDAL stores the features in Hilbert order, and a
     # feature's index (which messages and structure names use) is its place in the file
     few.to_file(d / "few.fgb", driver="FlatGeobuf", SPATIAL_INDEX="NO")
+    metric.to_parquet(d / "streets.parquet")                   # WKB, PROJJSON of 3067
+    few.to_parquet(d / "few.parquet", geometry_encoding="geoarrow")   # native encoding
+    streets.to_file(d / "streets.geojsons", driver="GeoJSONSeq")      # RFC 8142's RS
+    (d / "streets.geojsonl").write_text("\n".join(                 # a feature per line
+        json.dumps(f) for f in json.loads(STREETS.read_text())["features"]) + "\n")
     return d
 
 
@@ -121,26 +128,29 @@ def test_a_geopackage_of_two_layers_builds_the_city_its_geojson_does(files, tmp_
     assert built >= 250
 
 
-@pytest.mark.parametrize("name", ["streets.shp", "streets.zip"])
-def test_a_projected_shapefile_builds_the_city_its_geojson_does(files, tmp_path, name):
-    """Streets in EPSG:3067 (the .prj says so), plain or zipped, against the same layer
-    exported as GeoJSON."""
-    assert city(tmp_path / "a", "--streets", str(files / "streets.geojson")) == 0
-    assert city(tmp_path / "b", "--streets", str(files / name)) == 0
+@pytest.mark.parametrize("reference, name", [
+    (STREETS, "streets.kml"), (STREETS, "streets.kmz"),
+    # in EPSG:3067 (the .prj, the PROJJSON say so): Shapefile plain or zipped, GeoParquet
+    ("streets.geojson", "streets.shp"), ("streets.geojson", "streets.zip"),
+    ("streets.geojson", "streets.parquet"),
+    (STREETS, "streets.geojsons"), (STREETS, "streets.geojsonl")])   # GeoJSON sequences
+def test_streets_of_other_formats_build_the_city_their_geojson_does(files, tmp_path,
+                                                                    reference, name):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("k = 1\n")
+    assert city(tmp_path / "a", "--streets", str(files / reference), "--config",
+                str(cfg)) == 0
+    assert city(tmp_path / "b", "--streets", str(files / name), "--config", str(cfg)) == 0
     assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
-    frame = json.loads((tmp_path / "b" / "manifest.json").read_text())["frame"]
-    assert "3067" in json.dumps(frame) or "TM35FIN" in json.dumps(frame)
-
-
-@pytest.mark.parametrize("name", ["streets.kml", "streets.kmz"])
-def test_kml_streets_build_the_city_their_geojson_does(files, tmp_path, name):
-    assert city(tmp_path / "a", "--streets", str(STREETS)) == 0
-    assert city(tmp_path / "b", "--streets", str(files / name)) == 0
-    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    manifest = json.loads((tmp_path / "b" / "manifest.json").read_text())
+    assert len(manifest["blocks"]) >= 20
+    if reference == "streets.geojson":
+        assert "3067" in json.dumps(manifest["frame"]) or "TM35FIN" in json.dumps(
+            manifest["frame"])
 
 
 @pytest.mark.parametrize("reference, name", [
-    ("few.geojson", "few.fgb"),
+    ("few.geojson", "few.fgb"), ("few.geojson", "few.parquet"),
     # ArcGIS's JSON in Web Mercator against the same polygons as GeoJSON in EPSG:3857
     ("few3857.geojson", "few.esri.json")])
 def test_footprints_of_other_formats(files, tmp_path, reference, name):
@@ -244,3 +254,146 @@ def test_a_shapefile_without_its_index_is_one_line(files, tmp_path, capsys):
     assert "a Shapefile needs its .shx and .dbf beside it" in err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not (tmp_path / "o").exists()
+
+
+def test_overture_maps_attributes_work_as_the_osm_tags_they_mean(tmp_path, capsys):
+    """An Overture Maps download as GeoParquet: transportation segments (``subtype``
+    road, the street class in ``class``, a sidewalk as class footway, names and bounding
+    boxes as structs) and buildings (``num_floors``, ``roof_shape``) give the city the
+    same streets and buildings tagged the OpenStreetMap way give: the setbacks by class,
+    the footway left out, the storeys and roofs chosen from the data (30 buildings and
+    the streets round them, in the middle of the demo district)."""
+    import pandas as pd
+    import shapely
+
+    buildings = gpd.read_file(BUILDINGS)[["geometry"]]
+    x0, y0, x1, y1 = buildings.total_bounds
+    centre = shapely.Point((x0 + x1) / 2, (y0 + y1) / 2)
+    near = shapely.distance(shapely.centroid(buildings.geometry.to_numpy()), centre)
+    buildings = buildings.iloc[sorted(range(len(near)), key=near.__getitem__)[:30]]
+    x0, y0, x1, y1 = buildings.total_bounds
+    streets = gpd.read_file(STREETS)[["highway", "geometry"]]   # setbacks by class alone
+    streets = streets[streets.intersects(shapely.box(x0 - 0.0015, y0 - 0.0008,
+                                                     x1 + 0.0015, y1 + 0.0008))]
+    streets = gpd.GeoDataFrame(pd.concat([streets, streets.iloc[[0]].assign(
+        highway="footway")], ignore_index=True), crs=4326)
+    ids = [f"08b1f{i:011x}" for i in range(len(streets))]
+    streets.assign(id=ids).to_file(tmp_path / "osm_streets.geojson", driver="GeoJSON")
+    gpd.GeoDataFrame({
+        "id": ids, "subtype": "road", "class": streets["highway"].to_numpy(),
+        "subclass": [None] * (len(streets) - 1) + ["sidewalk"],
+        "names": [{"primary": f"street {i}"} for i in range(len(streets))],
+        "bbox": [dict(zip(("xmin", "ymin", "xmax", "ymax"), map(float, b), strict=True))
+                 for b in streets.geometry.bounds.to_numpy()]},
+        geometry=streets.geometry.to_numpy(), crs=4326).to_parquet(tmp_path / "segments.parquet")
+    levels = [(4, 5, 3, 6)[i % 4] for i in range(len(buildings))]   # families a, b, c, d
+    roofs = [("gabled", "mansard", None)[i % 3] for i in range(len(buildings))]
+    bids = [f"08b2f{i:011x}" for i in range(len(buildings))]
+    buildings.assign(id=bids, **{"building:levels": levels, "roof:shape": roofs}).to_file(
+        tmp_path / "osm_buildings.geojson", driver="GeoJSON")
+    buildings.assign(id=bids, num_floors=levels, roof_shape=roofs, subtype="residential",
+                     height=None).to_parquet(tmp_path / "buildings.parquet")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('k = 1\npick = "best"\n')
+    for run, (s, b) in (("a", ("osm_streets.geojson", "osm_buildings.geojson")),
+                        ("b", ("segments.parquet", "buildings.parquet"))):
+        assert city(tmp_path / run, "--streets", str(tmp_path / s), "--footprints",
+                    str(tmp_path / b), "--config", str(cfg)) in (0, 1)
+    capsys.readouterr()
+    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    report = json.loads((tmp_path / "b" / "report.json").read_text())
+    reasons = " ".join(s["reason"] for s in report["skipped"])
+    assert "with highway=footway left out: not streets" in reasons
+    families = set()
+    for p in (tmp_path / "b" / "blocks").glob("*.layout.json"):
+        lay = json.loads(p.read_text())
+        if "08b2f" in lay["structures"][0]["name"]:   # a building, storeys from num_floors
+            families |= {part.split("_")[3][0] for part in lay["parts_used"]
+                         if part.startswith("classic_mid_")}
+    assert families >= {"a", "b", "c", "d"}, families
+
+
+def _parquet(path: Path, table_columns: dict, geo: dict | str | None) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pa.table(table_columns)
+    if geo is not None:
+        table = table.replace_schema_metadata(
+            {"geo": geo if isinstance(geo, str) else json.dumps(geo)})
+    pq.write_table(table, path)
+
+
+_LINE = bytes.fromhex("010200000002000000713d0ad7a3f03840f6285c8fc2154e403333333333f33840"
+                      "f6285c8fc2154e40")   # LINESTRING (24.94 60.17, 24.95 60.17)
+
+
+def _wkb_geo(**column) -> dict:
+    return {"version": "1.1.0", "primary_column": "geometry",
+            "columns": {"geometry": {"encoding": "WKB", "geometry_types": [], **column}}}
+
+
+@pytest.mark.parametrize("columns, geo, text", [
+    ({"a": [1]}, None, "a Parquet table with no geometry column (no GeoParquet \"geo\" "
+                       "metadata, no binary \"geometry\" column)"),
+    ({"geometry": [_LINE]}, "{not json", "its \"geo\" metadata is not GeoParquet's"),
+    ({"geometry": [1]}, _wkb_geo(), "the geometry column is said to be WKB but holds int64"),
+    ({"geometry": [_LINE]}, _wkb_geo(encoding="ewkb"),
+     "geometry encoding 'ewkb' is not one GeoParquet defines"),
+    ({"geometry": [_LINE]}, _wkb_geo(crs={"type": "nonsense"}),
+     "cannot read the CRS of geometry column 'geometry'; give the CRS with --crs"),
+    ({"geometry": [b"\x01\x02", b"zz"]}, _wkb_geo(),
+     "no usable features: all 2 left out (feature 0: no geometry (null)"),
+    ({"geometry": [[1.0, 2.0]]}, _wkb_geo(encoding="linestring"),
+     "row 0: its geometry is not a LineString as GeoArrow lays one out"),
+    ({"geometry": [_LINE]}, {"primary_column": "geom", "columns": {"geom": {}}},
+     "its \"geo\" metadata names geometry column 'geom', which the table does not hold"),
+])
+def test_hostile_geoparquet_is_one_line(tmp_path, capsys, columns, geo, text):
+    """A GeoParquet file that is not one, or not a well-formed one: one line naming what
+    is wrong, exit 2, nothing written."""
+    bad = tmp_path / "bad.parquet"
+    _parquet(bad, columns, geo)
+    assert city(tmp_path / "o", "--streets", str(bad)) == 2
+    err = capsys.readouterr().err
+    assert text in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_parquet_table_with_a_wkb_column_and_no_metadata_is_lon_lat(tmp_path, capsys):
+    """DuckDB's older exports: a binary ``geometry`` column of WKB, no "geo" metadata:
+    read as lon/lat; ``FILE::COLUMN`` names a geometry column, or the message lists
+    them; a truncated file is one line."""
+    from citysynth.skeletons.geojson import read_geojson
+
+    plain = tmp_path / "duck.parquet"
+    _parquet(plain, {"name": ["a"], "geometry": [_LINE]}, None)
+    feats, frame = read_geojson(plain, accept="lines")
+    assert feats[0].properties == {"name": "a"} and round(feats[0].geometry.length) == 555
+    assert frame.source_crs == ""
+    assert city(tmp_path / "o", "--streets", f"{plain}::geom") == 2
+    assert "no geometry column 'geom'; its geometry columns are geometry" in \
+        capsys.readouterr().err
+    cut = tmp_path / "cut.parquet"
+    cut.write_bytes(plain.read_bytes()[:60])
+    assert city(tmp_path / "o", "--streets", str(cut)) == 2
+    assert f"{cut}: cannot read this GeoParquet (" in capsys.readouterr().err
+
+
+def test_geojson_text_sequences_are_read_record_by_record(tmp_path, capsys):
+    """RFC 8142 records (a bare geometry among features, a record over several lines)
+    and a feature per line are read as one FeatureCollection; a broken record is named
+    by its line, one message, exit 2."""
+    from citysynth.skeletons.geojson import read_geojson
+
+    line = {"type": "LineString", "coordinates": [[24.94, 60.17], [24.95, 60.17]]}
+    feat = {"type": "Feature", "properties": {"a": 1}, "geometry": line}
+    rs = tmp_path / "rs.geojsons"
+    rs.write_text("\x1e" + json.dumps(line) + "\n\x1e" + json.dumps(feat, indent=2) + "\n")
+    feats, _ = read_geojson(rs, accept="lines")
+    assert [f.properties for f in feats] == [{}, {"a": 1}]
+    lines = tmp_path / "lines.geojsonl"
+    lines.write_text(json.dumps(feat) + "\n\n" + json.dumps(feat)[:-3] + "\n")
+    assert main(["skeleton", str(lines)]) == 2
+    err = capsys.readouterr().err
+    assert f"{lines}, line 3: not valid JSON" in err and len(err.strip().splitlines()) == 1

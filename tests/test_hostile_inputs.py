@@ -245,18 +245,27 @@ def test_ingest_refuses_an_attribute_called_length(tmp_path, capsys):
     assert code == 2 and "may not be called length" in err, err
 
 
-@pytest.mark.parametrize("props, levels, height", [
-    ({"building:levels": "1e308"}, None, None),
-    ({"building:levels": 1e308, "height": 1e308}, None, None),
-    ({"building:levels": "5", "height": "12.5 m"}, 5.0, 12.5),
-    ({"building:levels": "2e1"}, 20.0, None),
-    ({"building:levels": "4;5", "height": "12,5"}, 4.0, 12.5),   # a decimal comma
-    ({"building:levels": ["4", "5"]}, 4.0, None),                # a list, as GDAL writes
+@pytest.mark.parametrize("props, levels, height, unread", [
+    ({"building:levels": "1e308"}, None, None, "building:levels '1e308' is no storey count"),
+    ({"building:levels": 1e308, "height": 1e308}, None, None,
+     "building:levels 1e+308 is no storey count (1 to 200) and height 1e+308 is no height "
+     "(metres, up to 1000): left out, the storeys chosen as without it"),
+    ({"building:levels": -2}, None, None, "building:levels -2 is no storey count"),
+    ({"height": "tall"}, None, None, "height 'tall' is no height"),
+    ({"building:levels": "5", "height": "12.5 m"}, 5.0, 12.5, ""),
+    ({"building:levels": "2e1"}, 20.0, None, ""),
+    ({"building:levels": "4;5", "height": "12,5"}, 4.0, 12.5, ""),   # a decimal comma
+    ({"building:levels": ["4", "5"]}, 4.0, None, ""),                # a list, as GDAL writes
+    ({"building:levels": "", "height": None}, None, None, ""),       # no value: no note
 ])
-def test_storeys_no_building_has_count_as_no_value(props, levels, height):
+def test_storeys_no_building_has_count_as_no_value(props, levels, height, unread):
+    """A storey count or height no building has counts as none, and the building's
+    notes (the report's, its layout's) say so."""
     from citysynth.pipeline.city.footprints import Storeys, footprint_spec
     spec = footprint_spec("f.geojson", 0, props, "", 0.05, 0.3, Storeys())
     assert (spec.levels, spec.height) == (levels, height)
+    assert (unread in spec.unread and spec.unread.startswith("f.geojson: feature 0: ")) \
+        if unread else spec.unread == ""
 
 
 def test_duplicated_building_lines_are_named_as_such(tmp_path, capsys):
@@ -394,16 +403,18 @@ def test_an_infinite_constraint_is_refused_in_the_features_words(tmp_path, capsy
     assert not (tmp_path / "o").exists()
 
 
-def test_an_rfc8142_sequence_and_an_empty_collection_say_what_to_do(tmp_path, capsys):
-    """ogr2ogr -lco RS=YES writes each feature after a record separator (0x1E): named as
-    a GeoJSON Text Sequence with the conversion, not "Expecting value"; an empty
+def test_an_rfc8142_sequence_is_read_and_an_empty_collection_says_what_to_do(tmp_path,
+                                                                           capsys):
+    """ogr2ogr -lco RS=YES writes each feature after a record separator (0x1E): read as
+    the GeoJSON Text Sequence it is (it was "Expecting value"); an empty
     FeatureCollection says what to do about it."""
     feat = json.dumps({"type": "Feature", "properties": {}, "geometry": {
         "type": "LineString", "coordinates": [[LON, LAT], [LON + 0.001, LAT]]}})
-    rs = _write(tmp_path / "rs.geojson", "\x1e" + feat + "\n\x1e" + feat + "\n")
+    rs = _write(tmp_path / "rs.geojson", "\x1e" + feat + "\n")
+    code, err = _run(["street", "--line", str(rs), "-o", str(tmp_path / "s"),
+                      "--no-preview"], capsys)
+    assert code == 0 and list((tmp_path / "s").glob("*.layout.json")), err
     empty = _write(tmp_path / "empty.geojson", {"type": "FeatureCollection", "features": []})
-    for src, said in ((rs, "GeoJSON Text Sequence (a feature per line, or RFC 8142"),
-                      (empty, "no features (an empty FeatureCollection); export the layer")):
-        code, err = _run(["street", "--line", str(src), "-o", str(tmp_path / "o"),
-                          "--no-preview"], capsys)
-        assert code == 2 and said in err, err
+    code, err = _run(["street", "--line", str(empty), "-o", str(tmp_path / "o"),
+                      "--no-preview"], capsys)
+    assert code == 2 and "no features (an empty FeatureCollection); export the layer" in err

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -70,6 +70,7 @@ class FootprintSpec:
     tolerance: float                 # metres the cleaned outline may stray
     storeys: Storeys
     trimmed: str = ""                # why the outline is less than the feature's (overlaps.py)
+    unread: str = ""                 # data the feature gives that no building can have
 
     @property
     def label(self) -> str:
@@ -94,13 +95,32 @@ def feature_ref(props: dict[str, Any]) -> str:
 
 def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: str,
                    stretch: float, tolerance: float, storeys: Storeys) -> FootprintSpec:
-    """The spec of feature ``index`` of ``source`` from its properties."""
+    """The spec of feature ``index`` of ``source`` from its properties; a storey count
+    or height no building has (``-2``, ``1e9``, ``"tall"``) counts as none, and the
+    building's notes say so."""
     roof = props.get("roof:shape")
-    return FootprintSpec(source, index, feature_ref(props),
-                         osm_number(props.get("building:levels"), MAX_LEVELS),
-                         osm_number(props.get("height"), MAX_HEIGHT),
+    levels = osm_number(props.get("building:levels"), MAX_LEVELS)
+    height = osm_number(props.get("height"), MAX_HEIGHT)
+    spec = FootprintSpec(source, index, feature_ref(props), levels, height,
                          str(roof) if roof not in (None, "") else None, source_crs,
                          stretch, tolerance, storeys)
+    unread = []
+    if levels is None and props.get("building:levels") not in (None, ""):
+        unread.append(f"building:levels {_shown(props['building:levels'])} is no storey "
+                      f"count (1 to {MAX_LEVELS})")
+    if height is None and props.get("height") not in (None, ""):
+        unread.append(f"height {_shown(props['height'])} is no height (metres, up to "
+                      f"{MAX_HEIGHT:g})")
+    if not unread:
+        return spec
+    return replace(spec, unread=f"{spec.where}: {' and '.join(unread)}: left out, the "
+                                "storeys chosen as without it")
+
+
+def _shown(v: Any) -> str:
+    """A property's value as a note quotes it (short)."""
+    text = repr(v)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def polygons_in(geom: shapely.Geometry) -> list[shapely.Polygon]:
@@ -391,7 +411,8 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
     if unlined:
         why.append(f"{' and '.join(unlined)} closed under the roof (no layout of the "
                    f"{job.style} kit lines it)")
-    notes = [note, f"{fp.where}: {'; '.join(why)}" if why else None, fp.trimmed or None]
+    notes = [fp.unread or None, note, f"{fp.where}: {'; '.join(why)}" if why else None,
+             fp.trimmed or None]
     return Prepared(rings, fp.where, fp.stretch, job.slack, parts, storeys,
                     "\n".join(n for n in notes if n) or None)
 

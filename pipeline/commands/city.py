@@ -28,8 +28,9 @@ def register(sub) -> None:
                                    "city USD stage, an overview PNG, manifest.json and "
                                    "report.json. Reruns skip unchanged blocks.")
     p.add_argument("--streets", metavar="FILE", help="street centre lines: GeoJSON, "
-                   "GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON or OpenStreetMap (.osm, "
-                   ".osm.pbf: its highway ways); FILE::LAYER picks one layer of several")
+                   "GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON, GeoParquet (Overture Maps "
+                   "too) or OpenStreetMap (.osm, .osm.pbf: its highway ways); FILE::LAYER "
+                   "picks one layer of several")
     p.add_argument("--footprints", metavar="FILE",
                    help="building footprints to wrap (polygons, in the same formats; "
                         "an OpenStreetMap file's buildings), "

@@ -1,0 +1,216 @@
+"""GeoParquet files (what geopandas' ``to_parquet``, DuckDB, QGIS and Overture Maps
+write), read through pyarrow as :mod:`.gis_files` reads the formats GDAL knows: the
+table becomes the FeatureCollection a GeoJSON export of it would be.
+
+GeoParquet is a Parquet table with a ``geo`` entry in its metadata naming its geometry
+columns, their encoding and their CRS (version 1.0 and 1.1 of the specification). The
+geometry is the primary column (or the one ``FILE::COLUMN`` names), as WKB or in one of
+GeoArrow's native encodings (``point`` ... ``multipolygon``, coordinates as x/y structs
+or interleaved); every other column is a property, nested ones (Overture's ``names``,
+``bbox``, ``sources``) as JSON objects and lists. The CRS is the column's PROJJSON, as
+its authority code where it has one; a column without one is lon/lat (OGC:CRS84), as
+the specification says, and one whose CRS is null (unknown) is read as a GeoJSON file
+without a ``crs`` member is: lon/lat, or refused with the advice to give ``--crs``.
+A Parquet table without ``geo`` metadata but with a binary ``geometry`` (or ``geom``,
+``wkb_geometry``) column, as older DuckDB exports are, is read as WKB in lon/lat.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import decimal
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyproj
+import shapely
+
+from citysynth.skeletons.errors import SkeletonError
+from citysynth.solver.safe_read import check_file
+
+FORMAT = "GeoParquet"
+WKB_NAMES = ("geometry", "geom", "wkb_geometry", "the_geom")   # columns read as WKB
+NATIVE = {   # GeoArrow encoding -> (GeoJSON type, nesting depth of its coordinates)
+    "point": ("Point", 0), "linestring": ("LineString", 1), "polygon": ("Polygon", 2),
+    "multipoint": ("MultiPoint", 1), "multilinestring": ("MultiLineString", 2),
+    "multipolygon": ("MultiPolygon", 3),
+}
+
+
+def read_geoparquet(path: Path, column: str | None) -> dict[str, Any]:
+    """The GeoParquet file at ``path`` as a GeoJSON FeatureCollection (a dict): the
+    geometry column ``column`` (by default the primary one), the others as properties."""
+    import pyarrow as pa  # loaded only when such a file is given
+    import pyarrow.parquet as pq
+
+    check_file(path, FORMAT, SkeletonError)
+    try:
+        table = pq.read_table(path)
+    except (pa.ArrowException, OSError, ValueError) as exc:
+        detail = " ".join(str(exc).split())[:200]
+        raise SkeletonError(f"{path}: cannot read this {FORMAT} ({detail}); check that "
+                            "it is whole, or export the layer as GeoJSON") from None
+    geo = _geo_metadata(path, table.schema.metadata or {})
+    name = _geometry_column(path, table, geo, column)
+    meta = geo.get("columns", {}).get(name, {}) if geo else {}
+    if not isinstance(meta, dict):
+        meta = {}
+    encoding = str(meta.get("encoding", "WKB")).lower()
+    geometries = _geometries(path, table.column(name), encoding)
+    skip = set(geo.get("columns", {})) if geo else {name}
+    names = [n for n in table.column_names if n not in skip and n != name]
+    columns = [[json_value(v) for v in table.column(n).to_pylist()] for n in names]
+    features = []
+    for i, geometry in enumerate(geometries):
+        props = {k: col[i] for k, col in zip(names, columns, strict=True)
+                 if col[i] is not None}
+        features.append({"type": "Feature", "properties": props, "geometry": geometry})
+    if not features:
+        raise SkeletonError(f"{path}: this {FORMAT} has no rows; export the layer with its "
+                            "features, or leave the file out")
+    data: dict[str, Any] = {"type": "FeatureCollection", "features": features}
+    crs = _crs_name(path, name, meta) if geo else None
+    if crs is not None:
+        data["crs"] = {"type": "name", "properties": {"name": crs}}
+    return data
+
+
+def _geo_metadata(path: Path, metadata: dict[bytes, bytes]) -> dict[str, Any] | None:
+    raw = metadata.get(b"geo")
+    if raw is None:
+        return None
+    try:
+        geo = json.loads(raw)
+    except ValueError:
+        geo = None
+    if not isinstance(geo, dict) or not isinstance(geo.get("columns", {}), dict):
+        raise SkeletonError(f"{path}: its \"geo\" metadata is not GeoParquet's (a JSON "
+                            "object naming the geometry columns); write it again with "
+                            "geopandas' to_parquet or ogr2ogr, or export it as GeoJSON")
+    return geo
+
+
+def _geometry_column(path: Path, table, geo: dict[str, Any] | None, column: str | None
+                     ) -> str:
+    """The geometry column to read: the one named, else the primary one (or, without
+    GeoParquet metadata, the first binary column of a usual geometry name)."""
+    import pyarrow as pa
+
+    def binary(n: str) -> bool:
+        kind = table.schema.field(n).type
+        return pa.types.is_binary(kind) or pa.types.is_large_binary(kind)
+
+    declared = list(geo.get("columns", {})) if geo else [
+        n for n in WKB_NAMES if n in table.column_names and binary(n)]
+    listed = ", ".join(declared) or "none"
+    if column is not None:
+        if column not in declared:
+            raise SkeletonError(f"{path}: no geometry column {column!r}; its geometry "
+                                f"columns are {listed}")
+        return column
+    primary = geo.get("primary_column") if geo else None
+    if isinstance(primary, str) and primary in table.column_names:
+        return primary
+    if declared and declared[0] in table.column_names:
+        return declared[0]
+    named = primary if isinstance(primary, str) else (declared or [None])[0]
+    if named is not None:
+        raise SkeletonError(f"{path}: its \"geo\" metadata names geometry column "
+                            f"{named!r}, which the table does not hold; write the file "
+                            "again, or export it as GeoJSON")
+    raise SkeletonError(f"{path}: a Parquet table with no geometry column (no GeoParquet "
+                        "\"geo\" metadata, no binary \"geometry\" column); write it with "
+                        "geopandas' to_parquet, or export it as GeoJSON")
+
+
+def _geometries(path: Path, column, encoding: str) -> list[dict[str, Any] | None]:
+    """Each row's geometry as a GeoJSON geometry (2D), None where it has none."""
+    import pyarrow as pa
+
+    if encoding == "wkb":
+        if not (pa.types.is_binary(column.type) or pa.types.is_large_binary(column.type)):
+            raise SkeletonError(f"{path}: the geometry column is said to be WKB but holds "
+                                f"{column.type}; write the file again, or export it as "
+                                "GeoJSON")
+        wkb = np.array(column.to_pylist(), dtype=object)
+        geoms = shapely.from_wkb(wkb, on_invalid="ignore")
+        geoms = shapely.force_2d(geoms)
+        texts = shapely.to_geojson(geoms)
+        return [None if g is None or g.is_empty else json.loads(t)
+                for g, t in zip(geoms, texts, strict=True)]
+    if encoding not in NATIVE:
+        raise SkeletonError(f"{path}: geometry encoding {encoding!r} is not one GeoParquet "
+                            f"defines (WKB, {', '.join(NATIVE)}); write the file again, or "
+                            "export it as GeoJSON")
+    kind, depth = NATIVE[encoding]
+    out = []
+    for i, value in enumerate(column.to_pylist()):
+        try:
+            coords = _native(value, depth)
+        except TypeError:
+            raise SkeletonError(f"{path}: row {i}: its geometry is not a {kind} as GeoArrow "
+                                f"lays one out ({encoding} encoding: coordinates {depth} "
+                                "lists deep, each an x/y struct or [x, y]); write the file "
+                                "again, or export it as GeoJSON") from None
+        out.append(None if coords is None or coords == [] else
+                   {"type": kind, "coordinates": coords})
+    return out
+
+
+def _native(value: Any, depth: int) -> Any:
+    """GeoArrow's nested coordinates (x/y structs or [x, y, ...] lists at ``depth``
+    list levels down) as GeoJSON's, in 2D; None for a null. TypeError where the value
+    is not nested so."""
+    if value is None:
+        return None
+    if depth == 0:
+        if isinstance(value, dict):
+            return [value.get("x"), value.get("y")]
+        if isinstance(value, list) and len(value) >= 2:
+            return value[:2]
+        raise TypeError(value)
+    if not isinstance(value, list):
+        raise TypeError(value)
+    return [c for c in (_native(v, depth - 1) for v in value) if c is not None]
+
+
+def _crs_name(path: Path, column: str, meta: dict[str, Any]) -> str | None:
+    """The CRS of the geometry column as a name the GeoJSON reader takes (its authority
+    code, else its WKT); None for lon/lat (no ``crs`` key: OGC:CRS84) or unknown (null)."""
+    if "crs" not in meta or meta["crs"] is None:
+        return None
+    crs = meta["crs"]
+    try:
+        parsed = pyproj.CRS.from_json_dict(crs) if isinstance(crs, dict) else \
+            pyproj.CRS.from_user_input(str(crs))
+    except (pyproj.exceptions.CRSError, TypeError, ValueError):
+        raise SkeletonError(f"{path}: cannot read the CRS of geometry column {column!r}; "
+                            "give the CRS with --crs, e.g. --crs EPSG:25832") from None
+    authority = parsed.to_authority(min_confidence=100)
+    return ":".join(authority) if authority else parsed.to_wkt()
+
+
+def json_value(v: Any) -> Any:
+    """A value as JSON would hold it: Python numbers and text, None for missing (NaN,
+    NaT, null), dates as ISO text, durations in seconds, bytes as hex, decimals as
+    floats; lists and objects likewise, element by element."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dt.date | dt.datetime | dt.time):
+        return v.isoformat()
+    if isinstance(v, dt.timedelta):
+        return v.total_seconds()
+    if isinstance(v, bytes):
+        return v.hex()
+    if isinstance(v, decimal.Decimal):
+        return json_value(float(v))
+    if isinstance(v, dict):
+        return {str(k): json_value(x) for k, x in v.items()}
+    if isinstance(v, list | tuple):
+        return [json_value(x) for x in v]
+    if isinstance(v, np.generic):
+        return json_value(v.item())
+    return v
