@@ -102,10 +102,12 @@ def widest(v: Any, most: float = math.inf) -> float | None:
 
 NOT_STREETS = ("footway", "path", "cycleway", "steps", "bridleway", "corridor",
                "elevator", "platform", "proposed", "construction", "abandoned", "razed",
-               "service=driveway", "service=parking_aisle", "service=drive-through")
+               "service=driveway", "service=parking_aisle", "service=drive-through",
+               "tunnel=yes", "railway=subway", "railway=tram", "route=ferry")
 """Ways of an OSM export that bound no block (paths across courtyards, sidewalks drawn
-beside their street, driveways, ways not built): a ``highway`` class, or a
-``tag=value`` any of whose values marks the way."""
+beside their street, driveways, ways not built; roads in tunnels, which run under the
+blocks; subways; tram lines, which run down their street's middle; ferry routes): a
+``highway`` class, or a ``tag=value`` any of whose values marks the way."""
 
 
 def not_a_street(props: dict[str, Any], rules: Sequence[str]) -> str | None:

@@ -397,3 +397,67 @@ def test_geojson_text_sequences_are_read_record_by_record(tmp_path, capsys):
     assert main(["skeleton", str(lines)]) == 2
     err = capsys.readouterr().err
     assert f"{lines}, line 3: not valid JSON" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("props, added", [
+    ({"subtype": "road", "class": "primary"}, {"highway": "primary"}),
+    ({"subtype": "road", "class": "service", "subclass": "driveway"},
+     {"highway": "service", "service": "driveway"}),
+    ({"subtype": "road", "class": "primary",
+      "road_flags": [{"values": ["is_tunnel"], "between": None}]},
+     {"highway": "primary", "tunnel": "yes"}),
+    ({"subtype": "road", "class": "primary",     # a tunnel under a stretch only: a street
+      "road_flags": [{"values": ["is_tunnel"], "between": [0.2, 0.6]}]},
+     {"highway": "primary"}),
+    ({"subtype": "rail", "class": "tram"}, {"railway": "tram"}),
+    ({"subtype": "water"}, {"route": "ferry"}),
+    ({"num_floors": 5, "roof_shape": "gabled", "is_underground": False},
+     {"building:levels": 5, "roof:shape": "gabled"}),
+    ({"is_underground": True}, {"location": "underground"}),
+    ({"subtype": "road", "class": "primary", "highway": "secondary"}, {}),   # its own wins
+    ({"class": "residential"}, {}),               # a class without Overture's subtype
+])
+def test_overture_attributes_as_osm_tags(props, added):
+    from citysynth.skeletons.overture import osm_tags
+
+    assert osm_tags(props) == {**props, **added}
+
+
+def test_tunnels_tram_lines_ferries_and_underground_buildings_bound_and_build_nothing(
+        tmp_path, capsys):
+    """Lines that run under the blocks (a road tunnel), down a street's middle (a tram
+    line) or over water (a ferry route) bound no block: the city is the one without
+    them, each kind one entry in the report; a footprint under the ground (an Overture
+    garage, ``location=underground``) is left out with that reason."""
+    data = json.loads(STREETS.read_text())
+    plain = tmp_path / "plain.geojson"
+    plain.write_text(json.dumps(data))
+    feats = data["features"]
+    xs = [c[0] for f in feats for c in f["geometry"]["coordinates"]]
+    ys = [c[1] for f in feats for c in f["geometry"]["coordinates"]]
+    across = [[min(xs), (min(ys) + max(ys)) / 2], [max(xs), (min(ys) + max(ys)) / 2]]
+    for props in ({"highway": "primary", "tunnel": "yes"}, {"railway": "tram"},
+                  {"route": "ferry"}):
+        feats.append({"type": "Feature", "properties": props,
+                      "geometry": {"type": "LineString", "coordinates": across}})
+    extra = tmp_path / "extra.geojson"
+    extra.write_text(json.dumps(data))
+    buildings = json.loads(BUILDINGS.read_text())
+    buildings["features"] = buildings["features"][:3]
+    buildings["features"][1]["properties"]["location"] = "underground"
+    fp = tmp_path / "fp.geojson"
+    fp.write_text(json.dumps(buildings))
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("k = 1\n")
+    assert city(tmp_path / "a", "--streets", str(plain), "--config", str(cfg)) == 0
+    assert city(tmp_path / "b", "--streets", str(extra), "--config", str(cfg)) == 0
+    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    reasons = [s["reason"] for s in
+               json.loads((tmp_path / "b" / "report.json").read_text())["skipped"]]
+    for rule in ("tunnel=yes", "railway=tram", "route=ferry"):
+        assert f"1 line(s) with {rule} left out: not streets" in " ".join(reasons), reasons
+    assert city(tmp_path / "f", "--footprints", str(fp), "--config", str(cfg)) == 0
+    report = json.loads((tmp_path / "f" / "report.json").read_text())
+    assert report["counts"]["built"] == 2
+    assert any("feature 1" in s["reason"] and "underground (location=underground)" in
+               s["reason"] for s in report["skipped"]), report["skipped"]

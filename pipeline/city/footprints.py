@@ -29,7 +29,7 @@ from citysynth.skeletons.clean import absorb_short_edges, clean_footprint
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.from_geometry import STRAIGHT_TOL
 from citysynth.skeletons.geojson import format_xy, input_xy
-from citysynth.skeletons.streets import osm_number
+from citysynth.skeletons.streets import osm_number, tag_values
 
 if TYPE_CHECKING:   # the job module imports this one
     from citysynth.pipeline.city.jobs import BlockJob
@@ -121,6 +121,12 @@ def _shown(v: Any) -> str:
     """A property's value as a note quotes it (short)."""
     text = repr(v)
     return text if len(text) <= 40 else text[:37] + "..."
+
+
+def underground(props: dict[str, Any]) -> bool:
+    """Whether a footprint is of a building under the ground (``location=underground``,
+    Overture's ``is_underground``): a car park under a square has no facade to build."""
+    return "underground" in tag_values(props.get("location"))
 
 
 def polygons_in(geom: shapely.Geometry) -> list[shapely.Polygon]:

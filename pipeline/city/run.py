@@ -40,6 +40,7 @@ from citysynth.pipeline.city.footprints import (
     cut_back_outlines,
     footprint_spec,
     polygons_in,
+    underground,
 )
 from citysynth.pipeline.city.jobs import (
     BLOCKS_DIR,
@@ -186,6 +187,11 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
     found: list[Footprint] = []
     fp = cfg.footprints
     for f in feats:
+        if underground(f.properties):
+            skipped.append(_skip("footprint", f"{footprints}: {f.name}: underground "
+                                 "(location=underground): no facade to build; left out",
+                                 f.geometry))
+            continue
         for p in shapely.get_parts(f.geometry):
             if p.geom_type != "Polygon":
                 raise ConfigError(f"{footprints}: {f.name}: footprints must be Polygons, "
