@@ -393,3 +393,34 @@ def test_a_light_well_no_layout_lines_is_closed_and_the_building_built(tmp_path)
             "it)") in rec["note"], rec
     lay = json.loads((tmp_path / "run" / "blocks" / f"{bid}.layout.json").read_text())
     assert len(lay["structures"]) == 1      # the outline only
+
+
+def test_a_footprint_across_a_street_is_remarked_on(tmp_path):
+    """A footprint a street's centre line runs through (a misdrawn building or street:
+    an artist sees a house in the road) is built as given, with a remark naming the
+    street and how much of it is inside; a building passage (tunnel=building_passage)
+    is no such error, and the district's own 304 buildings cross none."""
+    streets = json.loads((ROOT / "examples" / "city" / "district_streets.geojson").read_text())
+    buildings = json.loads(HELSINKI.read_text())
+    g = shapely.geometry.shape(buildings["features"][2]["geometry"])
+    (x0, y0, x1, y1), c = g.bounds, g.centroid
+    streets["features"] += [
+        {"type": "Feature", "properties": {"highway": "service", "name": "Through"},
+         "geometry": {"type": "LineString",
+                      "coordinates": [[x0 - 3e-4, c.y], [x1 + 3e-4, c.y]]}},
+        {"type": "Feature", "properties": {"highway": "service",
+                                           "tunnel": "building_passage"},
+         "geometry": {"type": "LineString",
+                      "coordinates": [[c.x, y0 - 2e-4], [c.x, y1 + 2e-4]]}}]
+    s = tmp_path / "streets.geojson"
+    s.write_text(json.dumps(streets))
+    cfg = parse_config({"k": 1})
+    jobs = prepare(s, HELSINKI, cfg, LIB).jobs
+    remarks = {j.footprint.feature: j.footprint.remarks for j in jobs if j.footprint}
+    assert len(remarks) > 250
+    assert [f for f, r in remarks.items() if r] == [2], remarks
+    text = remarks[2]
+    assert text.startswith(f"{HELSINKI}: feature 2") and len(text.splitlines()) == 1
+    assert "stands across the centre line of street feature 489 (Through) of " in text
+    inside = float(re.search(r"\((\d+\.\d) m of it inside", text).group(1))
+    assert inside > 5   # metres in the local frame, not degrees

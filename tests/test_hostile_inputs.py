@@ -264,8 +264,8 @@ def test_storeys_no_building_has_count_as_no_value(props, levels, height, unread
     from citysynth.pipeline.city.footprints import Storeys, footprint_spec
     spec = footprint_spec("f.geojson", 0, props, "", 0.05, 0.3, Storeys())
     assert (spec.levels, spec.height) == (levels, height)
-    assert (unread in spec.unread and spec.unread.startswith("f.geojson: feature 0: ")) \
-        if unread else spec.unread == ""
+    assert (unread in spec.remarks and spec.remarks.startswith("f.geojson: feature 0: ")) \
+        if unread else spec.remarks == ""
 
 
 def test_duplicated_building_lines_are_named_as_such(tmp_path, capsys):

@@ -14,7 +14,7 @@ what the kit makes near that length.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
@@ -70,7 +70,7 @@ class FootprintSpec:
     tolerance: float                 # metres the cleaned outline may stray
     storeys: Storeys
     trimmed: str = ""                # why the outline is less than the feature's (overlaps.py)
-    unread: str = ""                 # data the feature gives that no building can have
+    remarks: str = ""                # what of its data it is not built as (see remark)
 
     @property
     def label(self) -> str:
@@ -113,8 +113,39 @@ def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: s
                       f"{MAX_HEIGHT:g})")
     if not unread:
         return spec
-    return replace(spec, unread=f"{spec.where}: {' and '.join(unread)}: left out, the "
-                                "storeys chosen as without it")
+    return remark(spec, f"{' and '.join(unread)}: left out, the storeys chosen as "
+                        "without it")
+
+
+def remark(spec: FootprintSpec, text: str) -> FootprintSpec:
+    """``spec`` with a remark on its data added (one line of the building's note: what
+    of the feature it is not built as, or what looks wrong with it)."""
+    line = f"{spec.where}: {text}"
+    return replace(spec, remarks=f"{spec.remarks}\n{line}" if spec.remarks else line)
+
+
+PASSAGE = ("building_passage",)   # tunnel=*: a street under a building, as it should be
+CROSSING_MIN = 0.5                # m of a street's centre line inside a footprint
+
+
+def street_crossings(spec: FootprintSpec, polygon: shapely.Polygon,
+                     streets: Sequence[Feature], tree: shapely.STRtree) -> FootprintSpec:
+    """``spec`` with a remark for each street whose centre line runs through the
+    footprint (more than :data:`CROSSING_MIN` of it), but for building passages: a
+    building standing in a street is a data error an artist would see first (the
+    footprint or the street is misdrawn), and it is built as given."""
+    for i in sorted(int(i) for i in tree.query(polygon, predicate="intersects")):
+        street = streets[i]
+        if set(tag_values(street.properties.get("tunnel"))) & set(PASSAGE):
+            continue
+        inside = street.geometry.intersection(polygon).length
+        if inside > CROSSING_MIN:
+            of = f" of {street.source}" if street.source else ""
+            spec = remark(spec, f"stands across the centre line of street {street.name}{of} "
+                                f"({inside:.1f} m of it inside the footprint): built as "
+                                "given; check the footprint or the street (a street under "
+                                "a building is tagged tunnel=building_passage)")
+    return spec
 
 
 def _shown(v: Any) -> str:
@@ -417,7 +448,7 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
     if unlined:
         why.append(f"{' and '.join(unlined)} closed under the roof (no layout of the "
                    f"{job.style} kit lines it)")
-    notes = [fp.unread or None, note, f"{fp.where}: {'; '.join(why)}" if why else None,
+    notes = [fp.remarks or None, note, f"{fp.where}: {'; '.join(why)}" if why else None,
              fp.trimmed or None]
     return Prepared(rings, fp.where, fp.stretch, job.slack, parts, storeys,
                     "\n".join(n for n in notes if n) or None)

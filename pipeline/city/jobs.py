@@ -124,7 +124,7 @@ class BlockJob:
         del d["library"]          # where the library lives does not change the output
         if self.zone_kind is None:   # perimeter blocks keep their hashes (and caches)
             del d["zone_kind"]
-        for key in ("trimmed", "unread"):   # likewise footprints with no such note
+        for key in ("trimmed", "remarks"):   # likewise footprints with no such note
             if d["footprint"] is not None and not d["footprint"][key]:
                 del d["footprint"][key]
         text = json.dumps(d, sort_keys=True, separators=(",", ":"))

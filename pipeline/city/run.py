@@ -40,6 +40,7 @@ from citysynth.pipeline.city.footprints import (
     cut_back_outlines,
     footprint_spec,
     polygons_in,
+    street_crossings,
     underground,
 )
 from citysynth.pipeline.city.jobs import (
@@ -102,10 +103,11 @@ def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: City
     outlines: list[Outline] = []
     skipped: list[dict] = []
     frame = None
+    lines: Features = Features()
     if streets is not None:
-        frame = _street_outlines(streets, cfg, crs, outlines, skipped)
+        frame, lines = _street_outlines(streets, cfg, crs, outlines, skipped)
     if footprints is not None:
-        fframe = _footprint_outlines(footprints, cfg, crs, frame, outlines, skipped)
+        fframe = _footprint_outlines(footprints, cfg, crs, frame, lines, outlines, skipped)
         frame = frame or fframe
     if streets is not None and footprints is not None:   # no two facades share ground
         outlines, reasons = cut_back_outlines(outlines, min_area=cfg.min_area,
@@ -127,8 +129,9 @@ def _skip(kind: str, reason: str, outline: shapely.Geometry | None) -> dict:
 
 
 def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
-                     outlines: list[Outline], skipped: list[dict]) -> Frame:
-    """The blocks between the streets (slivers skipped, with reasons); the frame."""
+                     outlines: list[Outline], skipped: list[dict]) -> tuple[Frame, Features]:
+    """The blocks between the streets (slivers skipped, with reasons); the frame and the
+    streets (the lines that are streets, in it)."""
     feats, frame = read_geojson(streets, crs=crs, origin=cfg.origin,
                                 origin_digits=ORIGIN_DIGITS, accept="lines")
     skipped += [{"kind": "feature", "reason": r} for r in feats.skipped]
@@ -151,7 +154,7 @@ def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
                                  f"{cfg.min_width:g} m)", b.polygon))
             continue
         outlines.append(("block", b.polygon, _highways(b, feats), None))
-    return frame
+    return frame, feats
 
 
 def _streets_only(feats: Features, rules: tuple[str, ...], source: str | Path,
@@ -176,16 +179,18 @@ def _streets_only(feats: Features, rules: tuple[str, ...], source: str | Path,
 
 
 def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None,
-                        streets: Frame | None, outlines: list[Outline],
+                        streets: Frame | None, lines: Features, outlines: list[Outline],
                         skipped: list[dict]) -> Frame:
-    """Every footprint polygon (invalid or small ones skipped, with reasons); the
-    frame: the streets' when there are streets (each file read in its own CRS)."""
+    """Every footprint polygon (invalid or small ones skipped, with reasons; one across
+    a street's centre line, ``lines``, remarked on); the frame: the streets' when there
+    are streets (each file read in its own CRS)."""
     feats, frame = read_geojson(footprints, crs=crs, origin=cfg.origin,
                                 origin_digits=ORIGIN_DIGITS, accept="polygons",
                                 within=streets)
     skipped += [{"kind": "feature", "reason": r} for r in feats.skipped]
     found: list[Footprint] = []
     fp = cfg.footprints
+    tree = shapely.STRtree([f.geometry for f in lines])
     for f in feats:
         if underground(f.properties):
             skipped.append(_skip("footprint", f"{footprints}: {f.name}: underground "
@@ -207,9 +212,11 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
                 skipped.append(_skip("footprint", f"{footprints}: {f.name}: {p.area:.1f} m², "
                                      f"below min_area {cfg.min_area:g}", p))
                 continue
-            found.append(Footprint(p, footprint_spec(
-                str(footprints), f.index, f.properties, frame.source_crs, fp.stretch,
-                fp.tolerance, fp.storeys)))
+            spec = footprint_spec(str(footprints), f.index, f.properties, frame.source_crs,
+                                  fp.stretch, fp.tolerance, fp.storeys)
+            if lines:
+                spec = street_crossings(spec, p, lines, tree)
+            found.append(Footprint(p, spec))
     built, left = separate(found, cfg.min_area)     # one building's facades per ground
     outlines += [("footprint", f.polygon, (), f.spec) for f in built]
     skipped += [_skip("footprint", why, p) for why, p in left]
