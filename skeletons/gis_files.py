@@ -1,8 +1,14 @@
 """GIS files that are not GeoJSON, read as they are: GeoPackage (QGIS's own format),
 ESRI Shapefile (also zipped), FlatGeobuf, KML/KMZ (Google Earth), Esri JSON (what an
-ArcGIS server's query returns) and OpenStreetMap files (the website's Export, .osm XML,
-or a .osm.pbf extract), through pyogrio (GDAL); GeoParquet (geopandas, DuckDB, Overture
+ArcGIS server's query returns), OpenStreetMap files (the website's Export, .osm XML, or
+a .osm.pbf extract), GML (cadastres, INSPIRE, WFS downloads), MapInfo (.tab, .mif) and
+CAD drawings (DXF), through pyogrio (GDAL); GeoParquet (geopandas, DuckDB, Overture
 Maps) through pyarrow (:mod:`.geoparquet`: pyogrio's GDAL has no Parquet driver).
+
+A DXF drawing has one layer of every entity, told apart by their CAD layer: ``FILE::
+LAYER`` names a CAD layer; its entities of the geometry the caller reads are kept (closed
+polylines as polygons for footprints and blocks), each named by its entity handle. It
+has no CRS: ``--crs`` says which one its coordinates are in.
 
 A layer becomes the same FeatureCollection a GeoJSON export of it would be: its CRS as
 the legacy ``"crs"`` member, every attribute as a property (numbers as numbers, dates
@@ -20,6 +26,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -42,8 +49,11 @@ FORMATS = {                         # file signature -> format name
 SUFFIXES = {".gpkg": "GeoPackage", ".shp": "Shapefile", ".fgb": "FlatGeobuf",
             ".zip": "zipped Shapefile", ".kml": "KML", ".kmz": "KMZ",
             ".osm": "OpenStreetMap file", ".pbf": "OpenStreetMap file",
-            ".parquet": PARQUET, ".geoparquet": PARQUET}
+            ".parquet": PARQUET, ".geoparquet": PARQUET, ".gml": "GML", ".dxf": "DXF",
+            ".tab": "MapInfo table", ".mif": "MapInfo table"}
 OSM = "OpenStreetMap file"
+DXF = "DXF"
+_DXF = re.compile(rb"\s*0\s*\n\s*SECTION\s*\n")   # a DXF drawing's first group
 # an OpenStreetMap file holds everything in a few layers: what each option reads of it
 OSM_LAYERS = {"lines": ("lines", "highway IS NOT NULL"),
               "polygons": ("multipolygons", "building IS NOT NULL")}
@@ -77,6 +87,14 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
         fmt = "KML"
     elif fmt is None and (_xml(head) and b"<osm" in head or b"OSMHeader" in head[:64]):
         fmt = OSM        # the XML the website's Export button gives, or a PBF extract
+    elif fmt is None and _xml(head) and b"opengis.net/gml" in head:
+        fmt = "GML"      # a cadastre's, INSPIRE's or a WFS server's GML
+    elif fmt is None and (_DXF.match(head.replace(b"\r", b"")) or
+                          head.startswith(b"AutoCAD Binary DXF")):
+        fmt = DXF        # a CAD drawing
+    elif fmt is None and (head.startswith(b"!table") or head.startswith(b"Version") and
+                          b"\nCoordSys" in head):
+        fmt = "MapInfo table"
     elif fmt is None and b'"FeatureCollection"' not in head and (
             b'"esriGeometry' in head or b'"spatialReference"' in head and (
                 b'"rings"' in head or b'"paths"' in head)):
@@ -87,8 +105,8 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
         if layer:
             raise SkeletonError(f"{text}: {LAYER_SEP}{layer} names a layer, but {file} is "
                                 "not a GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON, "
-                                "OpenStreetMap or GeoParquet file; a GeoJSON file has one "
-                                "layer: give its path alone")
+                                "OpenStreetMap, GML, MapInfo, DXF or GeoParquet file; a "
+                                "GeoJSON file has one layer: give its path alone")
         return None
     return p, layer or None, fmt
 
@@ -110,6 +128,9 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
     check_file(path, fmt, SkeletonError)
     if fmt == OSM:   # node ids out of order (JOSM's new objects, merged extracts) too
         pyogrio.set_gdal_config_options({"OSM_USE_CUSTOM_INDEXING": "NO"})
+    if fmt == DXF:   # a footprint drawn as a closed polyline is a polygon
+        pyogrio.set_gdal_config_options(
+            {"DXF_CLOSED_LINE_AS_POLYGON": "TRUE" if accept == "polygons" else "FALSE"})
     unreadable = (DataSourceError, DataLayerError, OSError, RuntimeError)
     try:
         layers = pyogrio.list_layers(path)
@@ -122,6 +143,8 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
                                 f"feature; name the layer to read: {path}{LAYER_SEP}lines "
                                 f"or {path}{LAYER_SEP}multipolygons")
         name, where = OSM_LAYERS[accept]   # streets: ways with highway=*; buildings
+    elif fmt == DXF:
+        name, where = str(layers[0][0]), _cad_layer(path, layer)
     else:
         name = _layer(path, layer, fmt, accept, layers)
     try:
@@ -136,8 +159,16 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
     texts = shapely.to_geojson(geoms)      # lists, as a GeoJSON file holds them
     names = [str(n) for n in meta["fields"]]
     columns = [_values(c) for c in fields]
+    rows: Sequence[int] = range(len(geoms))
+    if fmt == DXF:   # its texts, dimensions and hatches are no streets or buildings
+        rows = _cad_entities(path, geoms, accept, layer)
+        names.append("id")
+        handles = columns[names.index("EntityHandle")] if "EntityHandle" in names else \
+            [None] * len(geoms)
+        columns.append(handles)
     features = []
-    for i, g in enumerate(geoms):
+    for i in rows:
+        g = geoms[i]
         props = {k: col[i] for k, col in zip(names, columns, strict=True)
                  if col[i] is not None}
         if fmt == OSM and isinstance(props.get("other_tags"), str):
@@ -150,10 +181,47 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
     return data
 
 
+def _cad_layer(path: Path, layer: str | None) -> str | None:
+    """The attribute filter picking a DXF drawing's CAD layer ``layer`` (checked to be
+    one of its layers), or None for every entity."""
+    import pyogrio
+
+    if layer is None:
+        return None
+    _, _, _, fields = pyogrio.raw.read(path, columns=["Layer"], read_geometry=False)
+    found = sorted({str(v) for v in fields[0].tolist()}) if fields else []
+    if layer not in found:
+        listed = ", ".join(found[:30]) + (", ..." if len(found) > 30 else "")
+        raise SkeletonError(f"{path}: no CAD layer {layer!r}; its layers are "
+                            f"{listed or 'none'}")
+    return "Layer = '" + layer.replace("'", "''") + "'"
+
+
+def _cad_entities(path: Path, geoms: np.ndarray, accept: str, layer: str | None
+                  ) -> list[int]:
+    """The entities of a DXF drawing with the geometry the caller reads (all with a
+    line or polygon geometry for "any")."""
+    fits = GEOMETRIES.get(accept, GEOMETRIES["lines"] + GEOMETRIES["polygons"])
+    kinds = shapely.get_type_id(geoms)
+    wanted = {shapely.GeometryType[f.upper()].value for f in fits}   # "LINESTRING", ...
+    rows = [i for i, k in enumerate(kinds) if int(k) in wanted]
+    if not rows:
+        what = {"lines": "lines (streets)", "polygons": "closed polylines or polygons "
+                "(footprints)"}.get(accept, "lines or polygons")
+        on = f" on CAD layer {layer!r}" if layer else ""
+        raise SkeletonError(f"{path}: no {what}{on} in this drawing; name the CAD layer "
+                            f"that holds them as {path}{LAYER_SEP}LAYER")
+    return rows
+
+
+
 def _cannot_read(path: Path, fmt: str, exc: Exception) -> SkeletonError:
     detail = " ".join(str(exc).split()).split("; It might help")[0]
     detail = detail.rsplit("failed: ", 1)[-1].split("; ")[0]   # SQLite: its own words
-    whole = " (a Shapefile needs its .shx and .dbf beside it)" if "Shapefile" in fmt else ""
+    detail = re.sub(r"^\S+\.cpp, \d+: ", "", detail)   # GDAL's source file and line
+    whole = {"Shapefile": " (a Shapefile needs its .shx and .dbf beside it)",
+             "MapInfo table": " (a .tab needs its .dat, .map and .id beside it)"}.get(
+        fmt.removeprefix("zipped "), "")
     return SkeletonError(f"{path}: cannot read this {fmt} ({detail}); check that it is "
                          f"whole{whole}, or export the layer as GeoJSON")
 

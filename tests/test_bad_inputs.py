@@ -724,6 +724,9 @@ def test_bad_input_end_to_end(name, tmp_path, good_db, good_run):
     (b"fgb\x03fgb\x00" + bytes(64), "this FlatGeobuf holds no layer (damaged, or saved"),
     (b"PK\x03\x04" + bytes(64), "cannot read this zipped Shapefile ("),
     (b"PAR1" + bytes(64), "cannot read this GeoParquet ("),
+    (b"  0\nSECTION\n  2\nENTITIES\n  0\nLWPOLYLINE\n 10\nabc\n",
+     "cannot read this DXF (error at line 10 of "),
+    (b"!table\n!version 300\n", "cannot read this MapInfo table ("),
     (b'{"type": "Feature", "properties": {}, "geometry": null}\n'
      b'{"type": "Feature", "properties": {}, "geometry": null}\n',
      # read as a GeoJSON Text Sequence now, whose features are then checked as any are

@@ -66,6 +66,13 @@ def files(tmp_path_factory) -> Path:
     streets.to_file(d / "streets.geojsons", driver="GeoJSONSeq")      # RFC 8142's RS
     (d / "streets.geojsonl").write_text("\n".join(                 # a feature per line
         json.dumps(f) for f in json.loads(STREETS.read_text())["features"]) + "\n")
+    for name, options in (("streets.gml", {"driver": "GML"}),
+                          ("streets.tab", {"driver": "MapInfo File"}),
+                          ("streets.mif", {"driver": "MapInfo File", "FORMAT": "MIF"})):
+        metric.to_file(d / name, **options)
+        # the reference: the same file read by GDAL and written as GeoJSON (GML keeps 15
+        # digits, MapInfo names TM35FIN as UTM 35N: the same lines, other bits)
+        gpd.read_file(d / name).to_file(d / f"{name}.geojson", driver="GeoJSON")
     return d
 
 
@@ -133,7 +140,9 @@ def test_a_geopackage_of_two_layers_builds_the_city_its_geojson_does(files, tmp_
     # in EPSG:3067 (the .prj, the PROJJSON say so): Shapefile plain or zipped, GeoParquet
     ("streets.geojson", "streets.shp"), ("streets.geojson", "streets.zip"),
     ("streets.geojson", "streets.parquet"),
-    (STREETS, "streets.geojsons"), (STREETS, "streets.geojsonl")])   # GeoJSON sequences
+    (STREETS, "streets.geojsons"), (STREETS, "streets.geojsonl"),   # GeoJSON sequences
+    ("streets.gml.geojson", "streets.gml"), ("streets.tab.geojson", "streets.tab"),
+    ("streets.mif.geojson", "streets.mif")])
 def test_streets_of_other_formats_build_the_city_their_geojson_does(files, tmp_path,
                                                                     reference, name):
     cfg = tmp_path / "c.toml"
@@ -461,3 +470,62 @@ def test_tunnels_tram_lines_ferries_and_underground_buildings_bound_and_build_no
     assert report["counts"]["built"] == 2
     assert any("feature 1" in s["reason"] and "underground (location=underground)" in
                s["reason"] for s in report["skipped"]), report["skipped"]
+
+
+
+def _dxf(polygons, lines, path: Path) -> None:
+    """A CAD drawing as a draughtsman's would be: footprints as closed LWPOLYLINEs on
+    CAD layer BUILDINGS, street centre lines on STREETS, a note and a curb besides."""
+    out = ["0", "SECTION", "2", "ENTITIES"]
+    for layer, shapes, closed in (("BUILDINGS", polygons, 1), ("STREETS", lines, 0)):
+        for n, pts in enumerate(shapes):
+            out += ["0", "LWPOLYLINE", "5", f"{layer[0]}{n:X}", "8", layer,
+                    "90", str(len(pts)), "70", str(closed)]
+            for x, y in pts:
+                out += ["10", repr(x), "20", repr(y)]
+    out += ["0", "TEXT", "8", "NOTES", "10", "0", "20", "0", "40", "2", "1", "north",
+            "0", "LINE", "8", "CURB", "10", "0", "20", "0", "11", "9", "21", "0",
+            "0", "ENDSEC", "0", "EOF"]
+    path.write_text("\n".join(out) + "\n")
+
+
+def test_a_cad_drawing_builds_the_city_its_geojson_does(files, tmp_path, capsys):
+    """A DXF drawing in EPSG:3067 (``--crs``: a drawing has no CRS): its STREETS layer's
+    polylines are the streets, its BUILDINGS layer's closed polylines the footprints,
+    each named by its entity handle; the city is the GeoJSON one, byte for byte. A CAD
+    layer it lacks, or no CRS, is one line."""
+    metric = gpd.read_file(files / "streets.geojson")
+    buildings = gpd.read_file(BUILDINGS).to_crs(3067).iloc[:20]
+    polygons = [list(getattr(g, "geoms", [g])[0].exterior.coords)[:-1]
+                for g in buildings.geometry]
+    lines = [list(g.coords) for g in metric.geometry]
+    drawing = tmp_path / "city.dxf"
+    _dxf(polygons, lines, drawing)
+    import shapely
+
+    gpd.GeoDataFrame({"id": [f"B{n:X}" for n in range(len(polygons))]},
+                     geometry=[shapely.Polygon(p) for p in polygons], crs=3067).to_file(
+        tmp_path / "b.geojson", driver="GeoJSON")
+    gpd.GeoDataFrame(geometry=[shapely.LineString(p) for p in lines], crs=3067).to_file(
+        tmp_path / "s.geojson", driver="GeoJSON")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('k = 1\npick = "best"\n')
+    assert city(tmp_path / "a", "--streets", str(tmp_path / "s.geojson"), "--footprints",
+                str(tmp_path / "b.geojson"), "--config", str(cfg)) in (0, 1)
+    assert city(tmp_path / "b", "--streets", f"{drawing}::STREETS", "--footprints",
+                f"{drawing}::BUILDINGS", "--crs", "EPSG:3067", "--config", str(cfg)) in (0, 1)
+    capsys.readouterr()
+    assert main(["diff", str(tmp_path / "a"), str(tmp_path / "b")]) == 0
+    built = json.loads((tmp_path / "b" / "report.json").read_text())["counts"]["built"]
+    assert built >= 30
+    assert city(tmp_path / "c", "--footprints", f"{drawing}::WALLS", "--crs",
+                "EPSG:3067") == 2
+    assert "no CAD layer 'WALLS'; its layers are BUILDINGS, CURB, NOTES, STREETS" in \
+        capsys.readouterr().err
+    assert city(tmp_path / "c", "--footprints", f"{drawing}::NOTES", "--crs",
+                "EPSG:3067") == 2
+    assert "no closed polylines or polygons (footprints) on CAD layer 'NOTES'" in \
+        capsys.readouterr().err
+    assert city(tmp_path / "c", "--footprints", str(drawing)) == 2
+    assert "are not longitude/latitude" in capsys.readouterr().err
+    assert not (tmp_path / "c").exists()

@@ -70,7 +70,8 @@ def register(sub) -> None:
                                    "shared ends) with a part library and write layout JSON, "
                                    "USD, GLB and a PNG preview for each of the k best layouts.")
     p.add_argument("file", help="LineStrings: GeoJSON, or a GeoPackage, Shapefile, "
-                   "FlatGeobuf, KML, Esri JSON or GeoParquet layer (FILE::LAYER)")
+                   "FlatGeobuf, KML, Esri JSON, GML, MapInfo, GeoParquet or DXF layer "
+                   "(FILE::LAYER)")
     _common(p)
     p.set_defaults(run=run_building, geometry="lines")   # the layer of a GIS file it reads
     p = sub.add_parser("block", help="lay out blocks from polygons",
@@ -78,7 +79,8 @@ def register(sub) -> None:
                                    "a GeoJSON file, courtyards included, and write layout "
                                    "JSON, USD, GLB and a PNG preview for each of the k best.")
     p.add_argument("file", help="Polygons: GeoJSON, or a GeoPackage, Shapefile, "
-                   "FlatGeobuf, KML, Esri JSON or GeoParquet layer (FILE::LAYER)")
+                   "FlatGeobuf, KML, Esri JSON, GML, MapInfo, GeoParquet or DXF layer "
+                   "(FILE::LAYER)")
     _common(p)
     p.set_defaults(run=run_block, geometry="polygons")
 

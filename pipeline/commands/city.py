@@ -28,9 +28,10 @@ def register(sub) -> None:
                                    "city USD stage, an overview PNG, manifest.json and "
                                    "report.json. Reruns skip unchanged blocks.")
     p.add_argument("--streets", metavar="FILE", help="street centre lines: GeoJSON, "
-                   "GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON, GeoParquet (Overture Maps "
-                   "too) or OpenStreetMap (.osm, .osm.pbf: its highway ways); FILE::LAYER "
-                   "picks one layer of several")
+                   "GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON, GML, MapInfo, GeoParquet "
+                   "(Overture Maps too), OpenStreetMap (.osm, .osm.pbf: its highway ways) or "
+                   "DXF (with --crs); FILE::LAYER picks one layer of several (a DXF's CAD "
+                   "layer)")
     p.add_argument("--footprints", metavar="FILE",
                    help="building footprints to wrap (polygons, in the same formats; "
                         "an OpenStreetMap file's buildings), "
