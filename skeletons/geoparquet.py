@@ -29,7 +29,7 @@ import pyproj
 import shapely
 
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.solver.safe_read import check_file
+from citysynth.solver.safe_read import SIZE_ENV, check_file, limit_mb
 
 FORMAT = "GeoParquet"
 WKB_NAMES = ("geometry", "geom", "wkb_geometry", "the_geom")   # columns read as WKB
@@ -48,7 +48,9 @@ def read_geoparquet(path: Path, column: str | None) -> dict[str, Any]:
 
     check_file(path, FORMAT, SkeletonError)
     try:
-        table = pq.read_table(path)
+        parquet = pq.ParquetFile(path)
+        _check_size(path, parquet.metadata)
+        table = parquet.read()
     except (pa.ArrowException, OSError, ValueError) as exc:
         detail = " ".join(str(exc).split())[:200]
         raise SkeletonError(f"{path}: cannot read this {FORMAT} ({detail}); check that "
@@ -76,6 +78,20 @@ def read_geoparquet(path: Path, column: str | None) -> dict[str, Any]:
     if crs is not None:
         data["crs"] = {"type": "name", "properties": {"name": crs}}
     return data
+
+
+def _check_size(path: Path, metadata) -> None:
+    """Refuse a table whose data, uncompressed, is past the input size limit: Parquet
+    compresses several times over, and its rows become Python objects as a GeoJSON
+    file's do, so the file's size alone says too little."""
+    raw = sum(metadata.row_group(i).total_byte_size for i in range(metadata.num_row_groups))
+    limit = limit_mb()
+    if raw > limit * 1e6:
+        raise SkeletonError(f"{path}: {raw / 1e6:,.0f} MB of data uncompressed, more than "
+                            f"the {limit:g} MB an input may hold (reading it would take "
+                            f"about {raw * 20 / 1e9:.1f} GB of memory); keep the area you "
+                            f"build (e.g. ogr2ogr -spat, or DuckDB with a bounding box), "
+                            f"or raise ${SIZE_ENV}")
 
 
 def _geo_metadata(path: Path, metadata: dict[bytes, bytes]) -> dict[str, Any] | None:

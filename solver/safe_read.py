@@ -39,7 +39,9 @@ UTF16_BOMS = (b"\xff\xfe", b"\xfe\xff")
 UTF8_BOM = b"\xef\xbb\xbf"
 
 
-def _limit_mb() -> float:
+def limit_mb() -> float:
+    """The size limit of one input file in MB (``$CITYSYNTH_MAX_INPUT_MB``, else
+    :data:`MAX_MB`)."""
     try:
         v = float(os.environ.get(SIZE_ENV, MAX_MB))
     except ValueError:
@@ -69,7 +71,7 @@ def check_file(path: str | Path, what: str, error: type[Exception]) -> int:
         if not stat.S_ISREG(st.st_mode):   # a FIFO or a device would block or never end
             raise error(f"{p}: not a regular file; give the path of a {what} file")
         size = st.st_size
-        limit = _limit_mb()
+        limit = limit_mb()
         if size > limit * 1e6:
             raise error(f"{p}: {size / 1e6:.0f} MB, larger than the {limit:g} MB a {what} "
                         f"file may have (reading it would take about {size * 20 / 1e9:.1f}"
