@@ -47,14 +47,16 @@ def read_geoparquet(path: Path, column: str | None) -> dict[str, Any]:
     import pyarrow.parquet as pq
 
     check_file(path, FORMAT, SkeletonError)
+    unreadable = (pa.ArrowException, OSError, ValueError)
     try:
         parquet = pq.ParquetFile(path)
-        _check_size(path, parquet.metadata)
+    except unreadable as exc:
+        raise _cannot_read(path, exc) from None
+    _check_size(path, parquet.metadata)
+    try:
         table = parquet.read()
-    except (pa.ArrowException, OSError, ValueError) as exc:
-        detail = " ".join(str(exc).split())[:200]
-        raise SkeletonError(f"{path}: cannot read this {FORMAT} ({detail}); check that "
-                            "it is whole, or export the layer as GeoJSON") from None
+    except unreadable as exc:
+        raise _cannot_read(path, exc) from None
     geo = _geo_metadata(path, table.schema.metadata or {})
     name = _geometry_column(path, table, geo, column)
     meta = geo.get("columns", {}).get(name, {}) if geo else {}
@@ -78,6 +80,12 @@ def read_geoparquet(path: Path, column: str | None) -> dict[str, Any]:
     if crs is not None:
         data["crs"] = {"type": "name", "properties": {"name": crs}}
     return data
+
+
+def _cannot_read(path: Path, exc: Exception) -> SkeletonError:
+    detail = " ".join(str(exc).split())[:200]
+    return SkeletonError(f"{path}: cannot read this {FORMAT} ({detail}); check that it is "
+                         "whole, or export the layer as GeoJSON")
 
 
 def _check_size(path: Path, metadata) -> None:

@@ -529,3 +529,23 @@ def test_a_cad_drawing_builds_the_city_its_geojson_does(files, tmp_path, capsys)
     assert city(tmp_path / "c", "--footprints", str(drawing)) == 2
     assert "are not longitude/latitude" in capsys.readouterr().err
     assert not (tmp_path / "c").exists()
+
+
+def test_a_geoparquet_past_the_limit_uncompressed_is_refused_before_reading(
+        tmp_path, capsys, monkeypatch):
+    """Parquet compresses many times over: a 20 MB table in a file of a few kB is
+    refused on its uncompressed size, with the estimate, before it is read."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    n = 200_000
+    table = pa.table({"note": ["x" * 100] * n, "geometry": [_LINE] * n})
+    table = table.replace_schema_metadata({"geo": json.dumps(_wkb_geo())})
+    small = tmp_path / "small.parquet"
+    pq.write_table(table, small, compression="zstd", use_dictionary=False)
+    assert small.stat().st_size < 1e6
+    monkeypatch.setenv("CITYSYNTH_MAX_INPUT_MB", "1")
+    assert city(tmp_path / "o", "--streets", str(small)) == 2
+    err = capsys.readouterr().err
+    assert "MB of data uncompressed, more than the 1 MB an input may hold" in err, err
+    assert "raise $CITYSYNTH_MAX_INPUT_MB" in err and not (tmp_path / "o").exists()
