@@ -35,7 +35,7 @@ import shapely
 from shapely.geometry import shape
 from shapely.geometry.base import BaseGeometry
 
-from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.errors import InputWarning, SkeletonError
 from citysynth.skeletons.gis_files import gis_format, read_gis_file
 from citysynth.skeletons.overture import osm_tags
 from citysynth.solver.safe_read import parse_json, read_text
@@ -54,11 +54,6 @@ _GEOD = pyproj.Geod(ellps="WGS84")
 
 Coords = np.ndarray
 Project = Callable[[Coords], Coords]
-
-
-class InputWarning(UserWarning):
-    """Something in the input was left out (a feature) or overridden (its CRS member);
-    the message names the file, what and why."""
 
 
 def feature_label(index: int, properties: dict[str, Any]) -> str:

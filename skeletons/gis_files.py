@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import json
 import re
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -33,7 +34,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.errors import InputWarning, SkeletonError
 from citysynth.skeletons.geoparquet import FORMAT as PARQUET
 from citysynth.skeletons.geoparquet import json_value, read_geoparquet
 from citysynth.solver.safe_read import check_file
@@ -161,7 +162,9 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
     columns = [_values(c) for c in fields]
     rows: Sequence[int] = range(len(geoms))
     if fmt == DXF:   # its texts, dimensions and hatches are no streets or buildings
-        rows = _cad_entities(path, geoms, accept, layer)
+        rows = _cad_entities(path, geoms, accept, layer,
+                             columns[names.index("Layer")] if "Layer" in names
+                             else [""] * len(geoms))
         names.append("id")
         handles = columns[names.index("EntityHandle")] if "EntityHandle" in names else \
             [None] * len(geoms)
@@ -197,14 +200,21 @@ def _cad_layer(path: Path, layer: str | None) -> str | None:
     return "Layer = '" + layer.replace("'", "''") + "'"
 
 
-def _cad_entities(path: Path, geoms: np.ndarray, accept: str, layer: str | None
-                  ) -> list[int]:
+def _cad_entities(path: Path, geoms: np.ndarray, accept: str, layer: str | None,
+                  cad_layers: list[Any]) -> list[int]:
     """The entities of a DXF drawing with the geometry the caller reads (all with a
-    line or polygon geometry for "any")."""
+    line or polygon geometry for "any"); with no CAD layer named, a warning when they
+    come from several (a drawing's frame or its plot border is a closed polyline too)."""
     fits = GEOMETRIES.get(accept, GEOMETRIES["lines"] + GEOMETRIES["polygons"])
     kinds = shapely.get_type_id(geoms)
     wanted = {shapely.GeometryType[f.upper()].value for f in fits}   # "LINESTRING", ...
     rows = [i for i, k in enumerate(kinds) if int(k) in wanted]
+    several = sorted({str(cad_layers[i]) for i in rows})
+    if layer is None and len(several) > 1:
+        shown = ", ".join(several[:10]) + (", ..." if len(several) > 10 else "")
+        warnings.warn(f"{path}: read the entities of {len(several)} CAD layers ({shown}); "
+                      f"name the one to read as {path}{LAYER_SEP}{several[0]}",
+                      InputWarning, stacklevel=2)
     if not rows:
         what = {"lines": "lines (streets)", "polygons": "closed polylines or polygons "
                 "(footprints)"}.get(accept, "lines or polygons")

@@ -529,6 +529,14 @@ def test_a_cad_drawing_builds_the_city_its_geojson_does(files, tmp_path, capsys)
     assert city(tmp_path / "c", "--footprints", str(drawing)) == 2
     assert "are not longitude/latitude" in capsys.readouterr().err
     assert not (tmp_path / "c").exists()
+    from citysynth.skeletons import InputWarning
+    from citysynth.skeletons.geojson import read_geojson
+
+    with pytest.warns(InputWarning, match=r"read the entities of 3 CAD layers \(BUILDINGS, "
+                      r"CURB, STREETS\); name the one to read as .*::BUILDINGS"):
+        feats, _ = read_geojson(drawing, crs="EPSG:3067", accept="lines")
+    assert len(feats) == len(lines) + len(polygons) + 1
+    assert feats[0].name == "feature 0 (B0)"       # named by its entity handle
 
 
 def test_a_geoparquet_past_the_limit_uncompressed_is_refused_before_reading(
