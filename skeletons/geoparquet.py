@@ -121,14 +121,8 @@ def _geometry_column(path: Path, table, geo: dict[str, Any] | None, column: str 
                      ) -> str:
     """The geometry column to read: the one named, else the primary one (or, without
     GeoParquet metadata, the first binary column of a usual geometry name)."""
-    import pyarrow as pa
-
-    def binary(n: str) -> bool:
-        kind = table.schema.field(n).type
-        return pa.types.is_binary(kind) or pa.types.is_large_binary(kind)
-
     declared = list(geo.get("columns", {})) if geo else [
-        n for n in WKB_NAMES if n in table.column_names and binary(n)]
+        n for n in WKB_NAMES if n in table.column_names and _binary(table.schema.field(n).type)]
     listed = ", ".join(declared) or "none"
     if column is not None:
         if column not in declared:
@@ -150,21 +144,22 @@ def _geometry_column(path: Path, table, geo: dict[str, Any] | None, column: str 
                         "geopandas' to_parquet, or export it as GeoJSON")
 
 
-def _geometries(path: Path, column, encoding: str) -> list[dict[str, Any] | None]:
-    """Each row's geometry as a GeoJSON geometry (2D), None where it has none."""
+def _binary(kind) -> bool:
+    """Whether an Arrow type holds bytes (WKB)."""
     import pyarrow as pa
 
+    return bool(pa.types.is_binary(kind) or pa.types.is_large_binary(kind))
+
+
+def _geometries(path: Path, column, encoding: str) -> list[dict[str, Any] | None]:
+    """Each row's geometry as a GeoJSON geometry (2D), None where it has none."""
     if encoding == "wkb":
-        if not (pa.types.is_binary(column.type) or pa.types.is_large_binary(column.type)):
+        if not _binary(column.type):
             raise SkeletonError(f"{path}: the geometry column is said to be WKB but holds "
                                 f"{column.type}; write the file again, or export it as "
                                 "GeoJSON")
         wkb = np.array(column.to_pylist(), dtype=object)
-        geoms = shapely.from_wkb(wkb, on_invalid="ignore")
-        geoms = shapely.force_2d(geoms)
-        texts = shapely.to_geojson(geoms)
-        return [None if g is None or g.is_empty else json.loads(t)
-                for g, t in zip(geoms, texts, strict=True)]
+        return geojson_geometries(shapely.force_2d(shapely.from_wkb(wkb, on_invalid="ignore")))
     if encoding not in NATIVE:
         raise SkeletonError(f"{path}: geometry encoding {encoding!r} is not one GeoParquet "
                             f"defines (WKB, {', '.join(NATIVE)}); write the file again, or "
@@ -182,6 +177,15 @@ def _geometries(path: Path, column, encoding: str) -> list[dict[str, Any] | None
         out.append(None if coords is None or coords == [] else
                    {"type": kind, "coordinates": coords})
     return out
+
+
+def geojson_geometries(geoms: np.ndarray) -> list[dict[str, Any] | None]:
+    """Shapely geometries as GeoJSON geometries (lists, as a GeoJSON file holds them),
+    None for a missing or empty one: how every reader of another format hands its
+    geometries to the GeoJSON reader."""
+    texts = shapely.to_geojson(geoms)
+    return [None if g is None or g.is_empty else json.loads(t)
+            for g, t in zip(geoms, texts, strict=True)]
 
 
 def _native(value: Any, depth: int) -> Any:

@@ -24,7 +24,6 @@ a GeoParquet file, ``FILE::COLUMN`` names one of several geometry columns).
 
 from __future__ import annotations
 
-import json
 import re
 import warnings
 from collections.abc import Sequence
@@ -36,7 +35,7 @@ import shapely
 
 from citysynth.skeletons.errors import InputWarning, SkeletonError
 from citysynth.skeletons.geoparquet import FORMAT as PARQUET
-from citysynth.skeletons.geoparquet import json_value, read_geoparquet
+from citysynth.skeletons.geoparquet import geojson_geometries, json_value, read_geoparquet
 from citysynth.solver.safe_read import check_file
 
 LAYER_SEP = "::"                    # FILE::LAYER picks one layer of a file
@@ -157,7 +156,7 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
         raise SkeletonError(f"{path}: layer {name!r} has no features; export the layer "
                             "with its features, or leave the file out")
     geoms = shapely.from_wkb(np.asarray(wkb, dtype=object), on_invalid="ignore")
-    texts = shapely.to_geojson(geoms)      # lists, as a GeoJSON file holds them
+    geometries = geojson_geometries(geoms)
     names = [str(n) for n in meta["fields"]]
     columns = [_values(c) for c in fields]
     rows: Sequence[int] = range(len(geoms))
@@ -171,13 +170,12 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
         columns.append(handles)
     features = []
     for i in rows:
-        g = geoms[i]
         props = {k: col[i] for k, col in zip(names, columns, strict=True)
                  if col[i] is not None}
         if fmt == OSM and isinstance(props.get("other_tags"), str):
             props = {**_tags(props.pop("other_tags")), **props}   # lanes, width, levels
-        geometry = None if g is None or g.is_empty else json.loads(texts[i])
-        features.append({"type": "Feature", "properties": props, "geometry": geometry})
+        features.append({"type": "Feature", "properties": props,
+                         "geometry": geometries[i]})
     data: dict[str, Any] = {"type": "FeatureCollection", "features": features}
     if meta.get("crs"):
         data["crs"] = {"type": "name", "properties": {"name": str(meta["crs"])}}
@@ -222,7 +220,6 @@ def _cad_entities(path: Path, geoms: np.ndarray, accept: str, layer: str | None,
         raise SkeletonError(f"{path}: no {what}{on} in this drawing; name the CAD layer "
                             f"that holds them as {path}{LAYER_SEP}LAYER")
     return rows
-
 
 
 def _cannot_read(path: Path, fmt: str, exc: Exception) -> SkeletonError:

@@ -173,12 +173,12 @@ def _check_crossings(lines: list, feats: list[Feature]) -> None:
     tree = shapely.STRtree(arr)
     picked = np.unique(np.linspace(0, len(arr) - 1, min(len(arr), SAMPLE_LINES)).astype(int))
     met, tested, crossed = 0, 0, 0
+    per_chunk = CROSSING_SAMPLE // max(1, len(picked) // CHUNK_LINES)   # pairs tested
     for at in range(0, len(picked), CHUNK_LINES):
         some = picked[at:at + CHUNK_LINES]
         pairs = tree.query(arr[some])           # boxes that meet: fast, an upper bound
         met += pairs.shape[1]
-        keep = np.arange(0, pairs.shape[1], max(1, pairs.shape[1] // (
-            CROSSING_SAMPLE // max(1, len(picked) // CHUNK_LINES))))
+        keep = np.arange(0, pairs.shape[1], max(1, pairs.shape[1] // per_chunk))
         tested += len(keep)
         crossed += int(shapely.crosses(arr[some][pairs[0, keep]], arr[pairs[1, keep]]).sum())
     pairs_all = met * len(arr) / len(picked)
