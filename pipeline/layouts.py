@@ -29,7 +29,7 @@ from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
 from citysynth.skeletons import Skeleton
 from citysynth.solver.errors import TooLargeError
-from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
+from citysynth.solver.methods import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.structures import solve_structure
 from citysynth.solver.structures.blocked import Blocked
 
@@ -142,6 +142,11 @@ def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
 def output_stem(lay: Layout, k: int) -> str:
     """``name`` for a single result, ``name_<rank>`` when there are several."""
     return lay.name if k == 1 else f"{lay.name}_{lay.rank}"
+
+
+def chosen_formats(preview: bool) -> list[Format]:
+    """Every output format, or all but the PNG preview (a command's --no-preview)."""
+    return [f for f in FORMATS if preview or f != "png"]
 
 
 def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,

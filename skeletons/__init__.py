@@ -8,28 +8,38 @@ it cannot use are left out with an ``InputWarning``); ``skeleton_from_lines`` (b
 package knows nothing of part libraries or the solver.
 """
 
-from citysynth.skeletons.angles import match_corner_angles
-from citysynth.skeletons.errors import SkeletonError
-from citysynth.skeletons.from_geometry import (
-    blocks_from_streets,
-    describe,
-    skeleton_from_lines,
-    skeletons_from_polygons,
-)
-from citysynth.skeletons.geojson import (
-    Feature,
-    Features,
-    Frame,
-    InputWarning,
-    lonlat_from_local,
-    parse_geojson,
-    read_geojson,
-)
-from citysynth.skeletons.model import Edge, Front, KeyPoint, KeyPointKind, Skeleton
+from typing import TYPE_CHECKING
 
-__all__ = ["Edge", "Feature", "Features", "Frame", "Front", "InputWarning", "KeyPoint",
-           "KeyPointKind", "Skeleton", "SkeletonError",
-           "blocks_from_streets", "describe", "lonlat_from_local", "match_corner_angles",
-           "parse_geojson",
-           "read_geojson",
-           "skeleton_from_lines", "skeletons_from_polygons"]
+from citysynth.skeletons.errors import InputWarning, SkeletonError
+from citysynth.solver.exports import lazy_exports
+
+# shapely and pyproj load only when one of these names is first used
+if TYPE_CHECKING:   # what type checkers and editors read
+    from citysynth.skeletons.angles import match_corner_angles as match_corner_angles
+    from citysynth.skeletons.from_geometry import blocks_from_streets as blocks_from_streets
+    from citysynth.skeletons.from_geometry import describe as describe
+    from citysynth.skeletons.from_geometry import skeleton_from_lines as skeleton_from_lines
+    from citysynth.skeletons.from_geometry import (
+        skeletons_from_polygons as skeletons_from_polygons,
+    )
+    from citysynth.skeletons.geojson import Feature as Feature
+    from citysynth.skeletons.geojson import Features as Features
+    from citysynth.skeletons.geojson import Frame as Frame
+    from citysynth.skeletons.geojson import lonlat_from_local as lonlat_from_local
+    from citysynth.skeletons.geojson import parse_geojson as parse_geojson
+    from citysynth.skeletons.geojson import read_geojson as read_geojson
+    from citysynth.skeletons.model import Edge as Edge
+    from citysynth.skeletons.model import Front as Front
+    from citysynth.skeletons.model import KeyPoint as KeyPoint
+    from citysynth.skeletons.model import KeyPointKind as KeyPointKind
+    from citysynth.skeletons.model import Skeleton as Skeleton
+else:   # what runs: the same names, imported when first used (solver.exports)
+    __getattr__, __dir__, _lazy = lazy_exports(__name__, {
+        "angles": ("match_corner_angles",),
+        "from_geometry": ("blocks_from_streets", "describe", "skeleton_from_lines",
+                          "skeletons_from_polygons"),
+        "geojson": ("Feature", "Features", "Frame", "lonlat_from_local", "parse_geojson",
+                    "read_geojson"),
+        "model": ("Edge", "Front", "KeyPoint", "KeyPointKind", "Skeleton"),
+    })
+    __all__ = ["InputWarning", "SkeletonError", *_lazy]

@@ -35,9 +35,23 @@ length = 20.6 is out of reach even ignoring the other minimums
 nearest achievable: 20.4 (below), 22.6 (above)
 """
 
-from citysynth.solver.errors import ProblemError, TooLargeError
-from citysynth.solver.problem import Element, Problem
-from citysynth.solver.solve import METHODS, Result, Solution, solve
+from typing import TYPE_CHECKING
 
-__all__ = ["Element", "Problem", "ProblemError", "Result", "Solution", "TooLargeError",
-           "METHODS", "solve"]
+from citysynth.solver.errors import ProblemError, TooLargeError
+from citysynth.solver.exports import lazy_exports
+
+# numba and the kernels load only when one of these names is first used
+if TYPE_CHECKING:   # what type checkers and editors read
+    from citysynth.solver.entry import Result as Result
+    from citysynth.solver.entry import Solution as Solution
+    from citysynth.solver.entry import solve as solve
+    from citysynth.solver.methods import METHODS as METHODS
+    from citysynth.solver.problem import Element as Element
+    from citysynth.solver.problem import Problem as Problem
+else:   # what runs: the same names, imported when first used (solver.exports)
+    __getattr__, __dir__, _lazy = lazy_exports(__name__, {
+        "problem": ("Element", "Problem"),
+        "entry": ("Result", "Solution", "solve"),
+        "methods": ("METHODS",),
+    })
+    __all__ = ["ProblemError", "TooLargeError", *_lazy]

@@ -16,9 +16,9 @@ import numpy as np
 
 from citysynth.solver.compiled import Compiled
 from citysynth.solver.errors import TooLargeError
+from citysynth.solver.methods import DEFAULT_MAX_MEMORY_MB
 
 DENSE_TABLE_MAX_BYTES = 1 << 28    # rows indexed by state up to this size, else hashed
-DEFAULT_MAX_MEMORY_MB = 2048
 
 
 @dataclass(frozen=True)

@@ -21,8 +21,8 @@ from citysynth.solver.bounded import bounds_for
 from citysynth.solver.bounds import Bounds, most_is_exact, range_tables, relaxed_cost_to_go
 from citysynth.solver.compiled import compile_problem
 from citysynth.solver.diagnose import reach_given
+from citysynth.solver.entry import choose_method
 from citysynth.solver.samples import street_front
-from citysynth.solver.solve import choose_method
 from tests.bruteforce import EPS, enumerate_feasible
 from tests.test_solver_bruteforce import problems
 

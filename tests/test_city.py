@@ -220,6 +220,35 @@ def test_diff_sees_changes_outside_the_kept_layout(district, tmp_path, capsys):
         gone[0]: [f"blocks/{gone[0]}_{gone[1]['rank']}.usda"]}
 
 
+def test_diff_sees_a_byte_changed_in_place_and_loads_no_solver(district, tmp_path):
+    """A cut file with one byte changed and its size kept differs (the diff compares
+    bytes, not sizes or times); a missing file on both sides is no difference. The diff
+    reads JSON and bytes only: it loads neither the solver nor any geometry library."""
+    import shutil
+
+    other = tmp_path / "other"
+    shutil.copytree(district, other)
+    blocks = json.loads((other / "manifest.json").read_text())["blocks"]
+    bid = min(b for b, r in blocks.items() if r["status"] == "built"
+              and any(f.endswith(".cuts.usdc") for f in r["files"]))
+    cut = other / "blocks" / f"{bid}.cuts.usdc"
+    data = bytearray(cut.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    cut.write_bytes(bytes(data))
+    heavy = ("numba", "numpy", "trimesh", "shapely", "pxr", "pyproj", "PIL")
+    code = ("import json, sys\nfrom citysynth.pipeline.cli import main\n"
+            f"code = main(['diff', '--json', {str(district)!r}, {str(other)!r}])\n"
+            f"print(json.dumps([code, sorted(m for m in {heavy!r} if m in sys.modules)]))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=300)
+    lines = p.stdout.strip().splitlines()
+    exit_code, loaded = json.loads(lines[-1])
+    d = json.loads("\n".join(lines[:-1]))
+    assert exit_code == 1 and loaded == [], (p.stderr, loaded)
+    assert d["files_changed"] == [{"id": bid, "files": [f"blocks/{bid}.cuts.usdc"]}]
+    assert d["same"] == sum(r["status"] == "built" for r in blocks.values()) - 1
+
+
 def test_diff_draws_a_plan_of_what_changed(district, tmp_path, capsys):
     """``--png``: the blocks' outlines coloured by what happened to each; the three
     blocks whose other files differ are drawn in that colour, and nothing in the colour

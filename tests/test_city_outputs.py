@@ -16,9 +16,9 @@ import shapely
 from shapely.geometry import shape
 
 from citysynth.pipeline.city.config import load_config
+from citysynth.pipeline.city.folder import BLOCKS_GEOJSON
 from citysynth.pipeline.city.jobs import run_block
 from citysynth.pipeline.city.outputs import (
-    BLOCKS_GEOJSON,
     write_blocks_geojson,
     write_city_glb,
     write_summary,

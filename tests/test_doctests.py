@@ -29,7 +29,7 @@ SKIP = {
 
 # The public entry points: each has a runnable example in its own docstring.
 ENTRY_POINTS = [
-    "citysynth.solver.solve",
+    "citysynth.solver.entry.solve",
     "citysynth.solver.problem.Problem.from_dict",
     "citysynth.solver.structures.solve.solve_structure",
     "citysynth.solver.structures.model.Structure.from_dict",
@@ -83,9 +83,7 @@ def test_docstring_examples_run(name, tmp_path, monkeypatch):
 
 
 def _resolve(dotted: str):
-    """The object a dotted name names, importing submodules on the way (a package's
-    attribute wins over its submodule of the same name: ``citysynth.solver.solve`` is
-    the function the package exports)."""
+    """The object a dotted name names, importing submodules on the way."""
     parts = dotted.split(".")
     obj = importlib.import_module(parts[0])
     for i, part in enumerate(parts[1:], start=2):

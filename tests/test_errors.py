@@ -129,8 +129,8 @@ def test_a_city_run_reports_a_bug_with_its_traceback(tmp_path, capsys, monkeypat
 def test_any_other_bug_exits_3_with_its_traceback_never_1(tmp_path, capsys, monkeypatch):
     """Exit 1 means "no layout exists": a pipeline branching on it must never see a
     crash there (a building whose solve raised a stray exception exited 1)."""
-    from citysynth.pipeline.commands import build
-    monkeypatch.setattr(build, "solve_layouts", _raises(ZeroDivisionError("oops")))
+    from citysynth.pipeline import layouts  # the command imports it when it runs
+    monkeypatch.setattr(layouts, "solve_layouts", _raises(ZeroDivisionError("oops")))
     code = main(["building", str(ROOT / "examples" / "skeletons" / "t_building.geojson"),
                  "--library", str(LIB), "-o", str(tmp_path), "--no-preview"])
     assert code == EXIT_INTERNAL

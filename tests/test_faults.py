@@ -385,14 +385,14 @@ def test_sigterm_after_the_blocks_still_exits_143(clean, tmp_path, monkeypatch, 
     """SIGTERM while the city stage is written (every block built, the workers gone)
     stops the command as Ctrl-C does, exit 143, not a kill by the signal's default
     action (it was, once two workers built a small city in under half a second)."""
-    import citysynth.pipeline.commands.city as city_cmd
+    import citysynth.pipeline.city.outputs as outputs  # the command imports it when run
 
     def finish(*args, **kwargs):
         os.kill(os.getpid(), signal.SIGTERM)
         time.sleep(5)            # the handler raises before this ends
         raise AssertionError("SIGTERM was not handled")
 
-    monkeypatch.setattr(city_cmd, "finish_city", finish)
+    monkeypatch.setattr(outputs, "finish_city", finish)
     streets, _ref, _snap = clean
     assert main(city_args(streets, tmp_path / "run", "--workers", "1")) == 143
     assert "terminated" in capsys.readouterr().err

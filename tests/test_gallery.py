@@ -9,7 +9,7 @@ from PIL import Image
 from citysynth import examples
 from citysynth.parts_db import load_library
 from citysynth.pipeline.cli import main
-from citysynth.pipeline.commands.gallery import FIGURES
+from citysynth.pipeline.commands.gallery_figures import FIGURES
 from citysynth.pipeline.commands.gallery_joints import (
     JOINTS,
     STYLES,

@@ -129,7 +129,7 @@ def test_many_elements_with_few_transitions_need_no_dense_table():
 
 
 def test_an_absurd_k_is_said_in_three_figures():
-    from citysynth.solver.solve import check_k
+    from citysynth.solver.entry import check_k
     with pytest.raises(TooLargeError, match=r"^k = 1e\+30: keeping that many solutions takes "
                        r"at least 1\.91e\+24 GB, over the memory budget of 2,048 MB"):
         check_k(10**30, 2048)

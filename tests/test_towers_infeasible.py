@@ -22,8 +22,7 @@ from citysynth.solver import diagnose as diagnosis
 from citysynth.solver.compiled import compile_problem
 from citysynth.solver.diagnose import reach_given
 
-solve_module = importlib.import_module("citysynth.solver.solve")   # the package's solve is
-#                                                                   the function
+solve_module = importlib.import_module("citysynth.solver.entry")
 
 
 @pytest.fixture(scope="module")

@@ -35,6 +35,7 @@ from citysynth.export.usd import CUTS_SUFFIX
 from citysynth.parts_db import LibraryError, PartDB, load_library
 from citysynth.parts_db.files import write_text
 from citysynth.pipeline.city.config import Pick, ZoneKind
+from citysynth.pipeline.city.folder import BLOCKS_DIR
 from citysynth.pipeline.city.footprints import (
     FootprintSpec,
     Prepared,
@@ -51,7 +52,6 @@ from citysynth.skeletons import Frame
 JOB_VERSION = 4          # bump when a block's output changes for the same inputs
 VARIANTS_VERSION = 1     # the same, for what only k > 1 writes (the layout variantSet)
 CITY_SLACK = 0.3         # m: any block side may be met this closely (city.toml slack)
-BLOCKS_DIR = "blocks"
 
 BlockKind = Literal["block", "footprint"]    # a street block, or a building footprint
 BlockStatus = Literal["built", "failed", "skipped", "error"]

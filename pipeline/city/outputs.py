@@ -22,7 +22,14 @@ import numpy as np
 
 from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.files import write_text
-from citysynth.pipeline.city.jobs import BLOCKS_DIR, STATUSES, BlockRecord, frame_tuple
+from citysynth.pipeline.city.folder import (
+    BLOCKS_DIR,
+    BLOCKS_GEOJSON,
+    MANIFEST,
+    REPORT,
+    RUN_SCHEMA,
+)
+from citysynth.pipeline.city.jobs import STATUSES, BlockRecord, frame_tuple
 from citysynth.skeletons import Frame
 from citysynth.skeletons.geojson import LONLAT_FRAME
 
@@ -30,10 +37,6 @@ if TYPE_CHECKING:   # the run imports this module to write its summary
     from citysynth.export.layout import Layout
     from citysynth.pipeline.city.run import CityInputs
 
-MANIFEST = "manifest.json"
-BLOCKS_GEOJSON = "blocks.geojson"
-REPORT = "report.json"
-RUN_SCHEMA = "citysynth.run"
 _MANIFEST_KEYS = ("kind", "zone", "input_hash", "status", "reason", "error", "files", "cost",
                   "rank", "of", "style", "feature", "storeys", "note")
 

@@ -37,6 +37,13 @@ PR_SET_PDEATHSIG = 1          # <linux/prctl.h>
 EXIT_TERMINATED = 128 + signal.SIGTERM
 
 
+def cpu_count() -> int:
+    """The cores this process may run on (its affinity, as a container or taskset
+    limits it), which the local workers default to."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else \
+        (os.cpu_count() or 1)
+
+
 def _holder(path: Path) -> str:
     try:
         text = path.read_text(encoding="utf-8").split()

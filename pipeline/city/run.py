@@ -34,6 +34,7 @@ from citysynth.export.cuts import load_kernels
 from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.files import sweep_temporaries
 from citysynth.pipeline.city.config import BuildSettings, CityConfig, ZoneKind
+from citysynth.pipeline.city.folder import BLOCKS_DIR
 from citysynth.pipeline.city.footprints import (
     CUT,
     FootprintSpec,
@@ -44,7 +45,6 @@ from citysynth.pipeline.city.footprints import (
     underground,
 )
 from citysynth.pipeline.city.jobs import (
-    BLOCKS_DIR,
     STATUSES,
     BlockJob,
     BlockKind,
@@ -560,10 +560,5 @@ def progress_printer(stream: TextIO | None = None, pieces: int = 0) -> Progress:
             state["step"] = done * 10 // total
             print(line, file=stream, flush=True)
     return show
-
-
-def cpu_count() -> int:
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else \
-        (os.cpu_count() or 1)
 
 

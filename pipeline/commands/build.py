@@ -13,31 +13,18 @@ import hashlib
 import re
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from citysynth.export.writers import FORMATS
-from citysynth.parts_db import load_library
 from citysynth.parts_db.files import all_or_nothing
-from citysynth.pipeline.city.config import MAX_SLACK
-from citysynth.pipeline.city.footprints import describe_side, explain, stage_side
-from citysynth.pipeline.city.jobs import frame_tuple
 from citysynth.pipeline.errors import UsageError
-from citysynth.pipeline.layouts import (
-    BlockedAt,
-    Built,
-    default_style,
-    solve_layouts,
-    summary_line,
-    write_outputs,
-)
-from citysynth.skeletons import (
-    Frame,
-    Skeleton,
-    read_geojson,
-    skeleton_from_lines,
-    skeletons_from_polygons,
-)
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.solver.diagnose import nearest
+
+if TYPE_CHECKING:
+    from citysynth.pipeline.layouts import BlockedAt, Built
+    from citysynth.skeletons import Frame, Skeleton
+
+# What the commands run (the solver, shapely, USD) is imported in the functions that
+# run it, so the command line starts without it (see pipeline.cli).
 
 MAX_STRETCH = 0.05   # as city.toml: more would stretch parts visibly
 
@@ -105,6 +92,11 @@ def safe_name(text: str) -> str:
 
 
 def _prepare(args):
+    from citysynth.parts_db import load_library
+    from citysynth.pipeline.city.config import MAX_SLACK
+    from citysynth.pipeline.layouts import default_style
+    from citysynth.skeletons import read_geojson
+
     if args.k < 1:
         raise UsageError(f"--k must be a positive integer, got {args.k}")
     if not (0 <= args.stretch <= MAX_STRETCH) or not (0 <= args.slack <= MAX_SLACK):
@@ -120,6 +112,9 @@ def _prepare(args):
 def _why(args, db, style: str, frame: Frame, rings: list[Skeleton], built: Built) -> str:
     """Why a building or block has no layout, in its user's words: which side, how long,
     where (in the input's coordinates), and what to change; never stages or keys."""
+    from citysynth.pipeline.city.footprints import describe_side, explain, stage_side
+    from citysynth.pipeline.city.jobs import frame_tuple
+
     at = frame_tuple(frame)
     side = stage_side(rings, built.blocked_at)
     unmet = _unmet(built.blocked_at)
@@ -147,6 +142,8 @@ def _unmet(blocked_at: BlockedAt | None) -> tuple[str, float, float, list[float]
     """The interval the blocked stage's diagnosis finds out of reach on its own (its last
     blocking constraint, when nothing else is to blame), and what the parts make nearest
     it: ("doors", 60, 60, [12]); or None."""
+    from citysynth.solver.diagnose import nearest
+
     if blocked_at is None or not blocked_at[1].details:
         return None
     d = blocked_at[1].details[-1]
@@ -160,7 +157,9 @@ def _finish(args, db, style: str, frame: Frame,
             built_all: list[tuple[Built, list[Skeleton]]]) -> int:
     """Write every layout (after all were solved and checked: a bad one writes
     nothing), report, and choose the exit code."""
-    formats = [f for f in FORMATS if f != "png" or not args.no_preview]
+    from citysynth.pipeline.layouts import chosen_formats, summary_line, write_outputs
+
+    formats = chosen_formats(preview=not args.no_preview)
     status = 0
     for built, rings in built_all:
         if built.status != "ok":
@@ -182,6 +181,9 @@ def _finish(args, db, style: str, frame: Frame,
 
 
 def run_building(args) -> int:
+    from citysynth.pipeline.layouts import solve_layouts
+    from citysynth.skeletons import skeleton_from_lines
+
     db, style, feats, frame = _prepare(args)
     name = safe_name(Path(args.file).stem)
     sk = skeleton_from_lines(feats, frame, name=name, min_edge=_smallest(db, style))
@@ -190,6 +192,9 @@ def run_building(args) -> int:
 
 
 def run_block(args) -> int:
+    from citysynth.pipeline.layouts import solve_layouts
+    from citysynth.skeletons import skeletons_from_polygons
+
     db, style, feats, frame = _prepare(args)
     stem = safe_name(Path(args.file).stem)
     names, ids = [], []

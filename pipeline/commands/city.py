@@ -13,11 +13,13 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from citysynth.pipeline.city.config import load_config
-from citysynth.pipeline.city.outputs import Report, finish_city
-from citysynth.pipeline.city.run import cpu_count, prepare, progress_printer, run_city
+from citysynth.pipeline.city.process import cpu_count
 from citysynth.pipeline.errors import EXIT_INFEASIBLE, EXIT_INTERNAL, EXIT_OK, UsageError
+
+if TYPE_CHECKING:
+    from citysynth.pipeline.city.outputs import Report
 
 
 def register(sub) -> None:
@@ -68,6 +70,10 @@ def run(args) -> int:
             f"{args.workers * WORKER_MB / 1024:,.1f} GB in all, and more than "
             f"{MAX_WORKERS_PER_CORE} per core only wait for each other; use at most "
             f"{MAX_WORKERS_PER_CORE * cpu_count()} (or --scheduler for a cluster)")
+    from citysynth.pipeline.city.config import load_config  # when run (see pipeline.cli)
+    from citysynth.pipeline.city.outputs import finish_city
+    from citysynth.pipeline.city.run import prepare, progress_printer, run_city
+
     t0 = time.perf_counter()
     cfg = load_config(args.config)
     inputs = prepare(args.streets, args.footprints, cfg, args.library, args.crs)

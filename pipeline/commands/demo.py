@@ -20,17 +20,9 @@ from pathlib import Path
 
 from citysynth import examples
 from citysynth.export.errors import ExportError
-from citysynth.export.usd import validate
-from citysynth.parts_db import load_library
-from citysynth.pipeline.city.config import load_config
-from citysynth.pipeline.city.outputs import finish_city
-from citysynth.pipeline.city.run import cpu_count, prepare, progress_printer, run_city
+from citysynth.pipeline.city.process import cpu_count
 from citysynth.pipeline.commands.city import report_bugs
 from citysynth.pipeline.commands.results_text import format_result
-from citysynth.pipeline.layouts import solve_layouts, summary_line, write_outputs
-from citysynth.skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
-from citysynth.solver import Problem, solve
-from citysynth.solver.samples import street_front
 
 DEMO_LENGTH_M = 83.4
 DEMO_K = 3
@@ -61,6 +53,9 @@ def strip(sequence: list[str], widths: dict[str, float], scale: float = 1.0) -> 
 
 
 def street_front_step() -> int:
+    from citysynth.solver import Problem, solve  # numba: when run (see pipeline.cli)
+    from citysynth.solver.samples import street_front
+
     problem = Problem.from_dict(street_front(DEMO_LENGTH_M, k=DEMO_K))
     result = solve(problem)
     print(f"1. a {DEMO_LENGTH_M} m street front from {len(problem.elements)} complete "
@@ -74,6 +69,14 @@ def street_front_step() -> int:
 
 
 def run(args) -> int:
+    from citysynth.export.usd import validate  # when run (see pipeline.cli)
+    from citysynth.parts_db import load_library
+    from citysynth.pipeline.city.config import load_config
+    from citysynth.pipeline.city.outputs import finish_city
+    from citysynth.pipeline.city.run import prepare, progress_printer, run_city
+    from citysynth.pipeline.layouts import solve_layouts, summary_line, write_outputs
+    from citysynth.skeletons import read_geojson, skeleton_from_lines, skeletons_from_polygons
+
     status = street_front_step()
     out = Path(args.out)
     db = load_library(EXAMPLES / "library")

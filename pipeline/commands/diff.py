@@ -12,14 +12,13 @@ Exit 0 when the runs are identical, 1 when not, 2 when a folder is not a run.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import re
 import sys
 from pathlib import Path
 from typing import Any
 
-from citysynth.pipeline.city.outputs import MANIFEST, RUN_SCHEMA
+from citysynth.pipeline.city.folder import MANIFEST, RUN_SCHEMA
 from citysynth.pipeline.errors import UsageError
 from citysynth.solver.safe_read import decode, parse_json, read_bytes, read_json
 
@@ -72,19 +71,24 @@ def _inside(run: Path, bid: str, f: str) -> Path:
     return path
 
 
-def _layout(run: Path, bid: str, rec: dict) -> tuple[bytes, dict] | None:
-    """A block's layout (bytes and parsed), read only from inside ``run``."""
+def _layout(run: Path, bid: str, rec: dict) -> tuple[str, Path, bytes] | None:
+    """A block's layout file: its name in the record, its path (only inside ``run``)
+    and its bytes."""
     f = next((f for f in rec.get("files", []) if isinstance(f, str)
               and f.endswith(".layout.json")), None)
     if f is None:
         return None
     path = _inside(run, bid, f)
-    data = read_bytes(path, "layout", UsageError)
+    return f, path, read_bytes(path, "layout", UsageError)
+
+
+def _parsed(run: Path, path: Path, data: bytes) -> dict:
+    """A layout's bytes parsed, checked for the fields the diff reads."""
     lay = parse_json(decode(data, path, "layout", UsageError), path, "layout", UsageError)
     if not isinstance(lay, dict) or not _layout_shape(lay):
         raise UsageError(f"{path}: not a citysynth layout (damaged?); rerun citysynth city "
                          f"into {run}")
-    return data, lay
+    return lay
 
 
 def _layout_shape(lay: dict) -> bool:
@@ -117,46 +121,62 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
                            or rb.get("error") or ra.get("error")})
             continue
         la, lb = _layout(a, bid, ra), _layout(b, bid, rb)
-        for side, lay in (("a", la), ("b", lb)):
+        alike = la is not None and lb is not None and la[0] == lb[0] and la[2] == lb[2]
+        pa = _parsed(a, la[1], la[2]) if la is not None else None
+        pb = pa if alike else _parsed(b, lb[1], lb[2]) if lb is not None else None
+        for side, lay in (("a", pa), ("b", pb)):
             if lay is not None:
-                libraries[side].add(_library(lay[1]))
-        files = _files_differing(a, b, bid, ra, rb)
-        if la is None or lb is None or la[0] == lb[0]:
+                libraries[side].add(_library(lay))
+        # the layouts were read and compared above: their bytes are not read again
+        files = _files_differing(a, b, bid, ra, rb, {la[0]} if alike and la else set())
+        if pa is None or pb is None or alike:
             if files:
                 geometry.append({"id": bid, "files": files})
             else:
                 same += 1
             continue
-        changed.append({**_block_change(bid, la[1], lb[1]), "files": files})
+        changed.append({**_block_change(bid, pa, pb), "files": files})
     return {"added": added, "removed": removed, "status": status, "changed": changed,
             "files_changed": geometry, "same": same,
             "identical": not (added or removed or status or changed or geometry),
             "libraries": {k: sorted(v) for k, v in libraries.items()}}
 
 
-def _files_differing(a: Path, b: Path, bid: str, ra: dict, rb: dict) -> list[str]:
+def _files_differing(a: Path, b: Path, bid: str, ra: dict, rb: dict,
+                     alike: set[str]) -> list[str]:
     """The block's output files (names within the run) that differ between the runs:
-    in one record and not the other, or with other bytes. Its marker is left out (it
-    holds timings)."""
+    in one record and not the other, or with other bytes (``alike``: files already
+    found the same). Its marker is left out (it holds timings)."""
     fa, fb = ({f for f in r.get("files", []) if isinstance(f, str)} for r in (ra, rb))
-    return sorted(fa ^ fb | {f for f in sorted(fa & fb)   # sorted: the same first error
-                             if _digest(_inside(a, bid, f)) != _digest(_inside(b, bid, f))})
+    return sorted(fa ^ fb | {f for f in sorted(fa & fb - alike)   # sorted: same first error
+                             if not _same_bytes(_inside(a, bid, f), _inside(b, bid, f))})
 
 
-def _digest(path: Path) -> str:
-    """The file's SHA-256 ("missing" when it is gone: the other run's is then different
-    unless it is gone too), read in chunks (a block's cut parts can be megabytes)."""
-    h = hashlib.sha256()
+def _same_bytes(pa: Path, pb: Path) -> bool:
+    """Whether two files hold the same bytes (two missing files do; one missing does
+    not): sizes first, then 1 MB at a time (a block's cut parts can be megabytes)."""
     try:
-        with open(path, "rb") as f:
-            for chunk in iter(lambda: f.read(1 << 20), b""):
-                h.update(chunk)
-    except FileNotFoundError:
-        return "missing"
+        sa, sb = _size(pa), _size(pb)
+        if sa is None or sb is None or sa != sb:
+            return sa is None and sb is None
+        with open(pa, "rb") as fa, open(pb, "rb") as fb:
+            while True:
+                chunk = fa.read(1 << 20)
+                if chunk != fb.read(1 << 20):
+                    return False
+                if not chunk:
+                    return True
     except OSError as exc:
-        raise UsageError(f"{path}: cannot read it ({exc.strerror or exc}); check that "
-                         "you may read the run folder") from None
-    return h.hexdigest()
+        raise UsageError(f"{exc.filename}: cannot read it ({exc.strerror or exc}); check "
+                         "that you may read the run folder") from None
+
+
+def _size(path: Path) -> int | None:
+    """The file's size in bytes; None when it is gone."""
+    try:
+        return path.stat().st_size
+    except FileNotFoundError:
+        return None
 
 
 def describe_file(name: str, bid: str) -> str:

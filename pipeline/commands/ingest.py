@@ -5,9 +5,6 @@ from __future__ import annotations
 import sys
 import time
 
-from citysynth.parts_db import ingest
-from citysynth.parts_db.summary import summary
-
 
 def register(sub) -> None:
     p = sub.add_parser("ingest", help="ingest a part library into a part database",
@@ -23,6 +20,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from citysynth.parts_db import ingest  # trimesh: when run (see pipeline.cli)
+    from citysynth.parts_db.summary import summary
+
     t = time.perf_counter()
     interactive = sys.stderr.isatty()
 

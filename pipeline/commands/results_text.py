@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from citysynth.solver import Result
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from citysynth.solver import Result
 
 
 def _num(x: float) -> str:

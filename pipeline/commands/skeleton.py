@@ -6,14 +6,6 @@ from __future__ import annotations
 import json
 
 from citysynth.pipeline.errors import UsageError
-from citysynth.skeletons import (
-    Feature,
-    blocks_from_streets,
-    describe,
-    read_geojson,
-    skeleton_from_lines,
-    skeletons_from_polygons,
-)
 
 KINDS = ("auto", "lines", "polygons", "streets")
 
@@ -37,6 +29,15 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from citysynth.skeletons import (  # shapely, pyproj: when run (see pipeline.cli)
+        Feature,
+        blocks_from_streets,
+        describe,
+        read_geojson,
+        skeleton_from_lines,
+        skeletons_from_polygons,
+    )
+
     if not 0 <= args.setback < 1000:
         raise UsageError(f"--setback must be a distance in metres from 0 to 1000, got "
                          f"{args.setback:g}")

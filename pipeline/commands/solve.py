@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import json
 import sys
+from typing import TYPE_CHECKING
 
 from citysynth.pipeline.commands.results_text import format_result
 from citysynth.pipeline.errors import UsageError
-from citysynth.solver import METHODS, Problem, solve
 from citysynth.solver.errors import ProblemError
-from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
-from citysynth.solver.problem import load_json
-from citysynth.solver.structures import Structure, solve_structure
+from citysynth.solver.methods import DEFAULT_MAX_MEMORY_MB, METHODS
+
+if TYPE_CHECKING:
+    from citysynth.solver.structures import Structure
 
 
 def register(sub) -> None:
@@ -43,6 +44,10 @@ def run(args) -> int:
 
 
 def _run(args) -> int:
+    from citysynth.solver import Problem, solve  # numba: when run (see pipeline.cli)
+    from citysynth.solver.problem import load_json
+    from citysynth.solver.structures import Structure
+
     if args.k is not None and args.k < 1:
         raise UsageError(f"--k must be a positive integer, got {args.k}")
     data = load_json(args.file)
@@ -62,6 +67,8 @@ def _run(args) -> int:
 
 def run_structure(args, st: Structure) -> int:
     """A structure file (it has "stages"): chains and cycles of substructures."""
+    from citysynth.solver.structures import solve_structure
+
     result = solve_structure(st, args.k, method=args.method, max_memory_mb=args.max_memory)
     if args.json:
         print(json.dumps({"status": result.status, "reason": result.reason,

@@ -10,21 +10,20 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-
-import shapely
+from typing import TYPE_CHECKING
 
 from citysynth.examples import SAMPLE_LIBRARY
-from citysynth.export.writers import FORMATS
-from citysynth.parts_db import load_library
 from citysynth.parts_db.files import all_or_nothing
-from citysynth.pipeline.city.config import MAX_SLACK
 from citysynth.pipeline.commands.build import safe_name
 from citysynth.pipeline.errors import UsageError
-from citysynth.pipeline.layouts import Built, summary_line, write_outputs
-from citysynth.pipeline.streets import SIDES, StreetAsk, solve_street
-from citysynth.skeletons import read_geojson
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.skeletons.from_geometry import DENSE, SNAP
+
+if TYPE_CHECKING:
+    from citysynth.pipeline.layouts import Built
+    from citysynth.pipeline.streets import StreetAsk
+
+# What the command runs (the solver, shapely, USD) is imported in the functions that
+# run it, so the command line starts without it (see pipeline.cli).
 
 ATTRIBUTES = ("doors", "balconies", "windows")
 
@@ -39,7 +38,7 @@ def register(sub) -> None:
     p.add_argument("--line", required=True, metavar="FILE",
                    help="the street's one LineString (GeoJSON or another GIS "
                    "file: see citysynth city --help)")
-    p.add_argument("--side", choices=(*SIDES, "both"), default="both",
+    p.add_argument("--side", choices=("left", "right", "both"), default="both",
                    help="which side of the line to build (default both)")
     p.add_argument("--offset", type=float, default=None, metavar="M",
                    help="facade lines this far from the line (default 0 for one side, "
@@ -63,6 +62,9 @@ def register(sub) -> None:
 
 
 def _ask(args) -> StreetAsk:
+    from citysynth.pipeline.city.config import MAX_SLACK
+    from citysynth.pipeline.streets import SIDES, StreetAsk
+
     if args.k < 1:
         raise UsageError(f"--k must be a positive integer, got {args.k}")
     sides = SIDES if args.side == "both" else (args.side,)
@@ -87,6 +89,11 @@ def _ask(args) -> StreetAsk:
 
 def read_line(path: str, crs: str | None):
     """The one LineString of a GeoJSON file, in its local metric frame."""
+    import shapely
+
+    from citysynth.skeletons import read_geojson
+    from citysynth.skeletons.from_geometry import DENSE, SNAP
+
     feats, frame = read_geojson(path, crs=crs, accept="lines")
     if len(feats) != 1:
         raise SkeletonError(f"{path}: a street line is one LineString feature; the file has "
@@ -109,6 +116,9 @@ def read_line(path: str, crs: str | None):
 
 
 def run(args) -> int:
+    from citysynth.parts_db import load_library
+    from citysynth.pipeline.streets import solve_street
+
     ask = _ask(args)
     line, frame = read_line(args.line, args.crs)
     db = load_library(args.library)
@@ -121,7 +131,9 @@ def run(args) -> int:
 
 
 def _write(args, db, built: Built) -> int:
-    formats = [f for f in FORMATS if f != "png" or not args.no_preview]
+    from citysynth.pipeline.layouts import chosen_formats, summary_line, write_outputs
+
+    formats = chosen_formats(preview=not args.no_preview)
     with all_or_nothing(args.out):
         paths = write_outputs(built, db, args.out, formats=formats, k=args.k)
     print(f"{built.name}: {len(built.layouts)} row(s)")

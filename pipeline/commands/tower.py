@@ -12,18 +12,20 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from citysynth.examples import SAMPLE_LIBRARY
-from citysynth.export.writers import FORMATS
-from citysynth.parts_db import load_library
 from citysynth.parts_db.files import all_or_nothing
 from citysynth.pipeline.commands.build import safe_name
 from citysynth.pipeline.errors import UsageError
-from citysynth.pipeline.layouts import Built, summary_line, write_outputs
-from citysynth.pipeline.towers import Lot, far_interval, solve_tower
-from citysynth.skeletons import read_geojson
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.skeletons.from_geometry import why_invalid
+
+if TYPE_CHECKING:
+    from citysynth.pipeline.layouts import Built
+    from citysynth.pipeline.towers import Lot
+
+# What the command runs (the solver, shapely, USD) is imported in the functions that
+# run it, so the command line starts without it (see pipeline.cli).
 
 FAR_TOLERANCE = 0.02   # --far X: within 2 % of X either side
 MAX_LOT_AREA = 1e12   # m²: a million km², past any lot (larger ones lose the metre to rounding)
@@ -64,6 +66,10 @@ def register(sub) -> None:
 
 def read_lot(path: str, crs: str | None) -> Lot:
     """The one polygon of a GeoJSON file, as a lot in its local metric frame."""
+    from citysynth.pipeline.towers import Lot
+    from citysynth.skeletons import read_geojson
+    from citysynth.skeletons.from_geometry import why_invalid
+
     feats, frame = read_geojson(path, crs=crs, accept="polygons")
     geom = feats[0].geometry
     if geom.geom_type == "MultiPolygon" and len(geom.geoms) == 1:   # as QGIS writes them
@@ -85,6 +91,9 @@ def _name(args, far: tuple[float, float]) -> str:
 
 
 def run(args) -> int:
+    from citysynth.parts_db import load_library
+    from citysynth.pipeline.towers import Lot, far_interval, solve_tower
+
     if args.k < 1:
         raise UsageError(f"--k must be a positive integer, got {args.k}")
     far = far_interval(args.far, args.far_tolerance)
@@ -103,7 +112,9 @@ def run(args) -> int:
 
 
 def _write(args, db, built: Built) -> int:
-    formats = [f for f in FORMATS if f != "png" or not args.no_preview]
+    from citysynth.pipeline.layouts import chosen_formats, summary_line, write_outputs
+
+    formats = chosen_formats(preview=not args.no_preview)
     with all_or_nothing(args.out):
         paths = write_outputs(built, db, args.out, formats=formats, k=args.k)
     print(f"{built.name}: {len(built.layouts)} tower(s)")

@@ -3,9 +3,9 @@
 The first structure solver, kept as the reference the shared stage graphs
 (:mod:`citysynth.solver.structures.stage_graphs`) are tested against, as the baseline
 that runs stages with FGS, and as the fallback for rounding quanta (one-stage solves
-re-check totals in original units, see :func:`citysynth.solver.solve._truly_feasible`).
+re-check totals in original units, see :func:`citysynth.solver.entry._truly_feasible`).
 For every stage i and every pair (a, b) of key elements at its ends,
-:func:`citysynth.solver.solve` gives the k best fillings of a problem whose first and
+:func:`citysynth.solver.entry.solve` gives the k best fillings of a problem whose first and
 last elements are a's and b's legs; with structure-wide intervals it does so once per
 share of each structure-wide resource (an equality added to the stage's constraints).
 Exact, and slow: a 40-corner block with three corner parts is 360 problems.
@@ -16,8 +16,8 @@ from __future__ import annotations
 import itertools
 from typing import Any
 
+from citysynth.solver.entry import solve
 from citysynth.solver.problem import Element, Problem
-from citysynth.solver.solve import solve
 from citysynth.solver.structures.blocked import Blocked
 from citysynth.solver.structures.combine import Share, StageList
 from citysynth.solver.structures.model import Interval, Stage, Structure

@@ -17,10 +17,10 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Literal, get_args
 
+from citysynth.solver.entry import Status, check_budget, check_k
 from citysynth.solver.errors import ProblemError, TooLargeError
-from citysynth.solver.estimate import DEFAULT_MAX_MEMORY_MB
+from citysynth.solver.methods import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.quantize import exact_divisor, is_multiple
-from citysynth.solver.solve import Status, check_budget, check_k
 from citysynth.solver.structures.blocked import Blocked
 from citysynth.solver.structures.chain_kbest import Read, Rows
 from citysynth.solver.structures.combine import (
@@ -186,8 +186,8 @@ def solve_structure(st: Structure, k: int | None = None, method: StructureMethod
     "auto"). Structure-wide intervals are exact: stage fillings are kept per
     share of each structure-wide resource. Raises :class:`TooLargeError` when a stage
     graph would exceed ``max_memory_mb``. ``table`` forces the graphs' row tables
-    ("dense" or "hash", as in :func:`citysynth.solver.solve`); ``solve_kw`` go to the one-stage
-    solves. ``stats["stages_by"]`` says which way the stages were filled.
+    ("dense" or "hash", as in :func:`citysynth.solver.entry.solve`); ``solve_kw`` go to
+    the one-stage solves. ``stats["stages_by"]`` says which way the stages were filled.
 
     A rectangle of 10 x 7 with a corner part at every corner, walls and windows
     between (a window costs 0.25, two windows side by side 0.5 more, and no window

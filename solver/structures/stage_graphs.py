@@ -30,11 +30,11 @@ from typing import Any
 
 import numpy as np
 
+from citysynth.solver.entry import solve
 from citysynth.solver.errors import ProblemError, TooLargeError
 from citysynth.solver.estimate import DENSE_TABLE_MAX_BYTES, row_bytes
 from citysynth.solver.graph import STATUS_OK, _grow_graph
 from citysynth.solver.quantize import bounds_in_quanta, exact_divisor, is_multiple
-from citysynth.solver.solve import solve
 from citysynth.solver.structures import stage_kbest
 from citysynth.solver.structures.blocked import Blocked
 from citysynth.solver.structures.buffers import give_back, take

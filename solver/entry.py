@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Literal, get_args
+from typing import Any, Literal
 
 import numpy as np
 
@@ -21,22 +21,14 @@ from citysynth.solver.bounded import bounded_k_best, bounds_for
 from citysynth.solver.compiled import HI_CAP, Compiled, compile_problem
 from citysynth.solver.diagnose import diagnose
 from citysynth.solver.errors import ProblemError, TooLargeError
-from citysynth.solver.estimate import (
-    DEFAULT_MAX_MEMORY_MB,
-    dense_rows,
-    estimate,
-    row_bytes,
-    too_large,
-)
+from citysynth.solver.estimate import dense_rows, estimate, row_bytes, too_large
 from citysynth.solver.fgs import fgs
 from citysynth.solver.graph import build_graph
 from citysynth.solver.kbest import k_best
+from citysynth.solver.methods import DEFAULT_MAX_MEMORY_MB, METHODS, Method
 from citysynth.solver.problem import Problem
 from citysynth.solver.quantize import quanta_text
 
-# the one-stage methods (see solve); the CLI offers METHODS
-Method = Literal["auto", "bounded", "rcksp", "fgs"]
-METHODS: tuple[Method, ...] = get_args(Method)
 # a result holds the k best sequences, or none and the reason
 Status = Literal["ok", "infeasible"]
 
