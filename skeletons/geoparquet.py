@@ -52,7 +52,7 @@ def read_geoparquet(path: Path, column: str | None) -> dict[str, Any]:
         parquet = pq.ParquetFile(path)
     except unreadable as exc:
         raise _cannot_read(path, exc) from None
-    _check_size(path, parquet.metadata)
+    _check_size(path, parquet, pq, unreadable)
     try:
         table = parquet.read()
     except unreadable as exc:
@@ -88,18 +88,65 @@ def _cannot_read(path: Path, exc: Exception) -> SkeletonError:
                          "whole, or export the layer as GeoJSON")
 
 
-def _check_size(path: Path, metadata) -> None:
-    """Refuse a table whose data, uncompressed, is past the input size limit: Parquet
-    compresses several times over, and its rows become Python objects as a GeoJSON
-    file's do, so the file's size alone says too little."""
+def _check_size(path: Path, parquet, pq, unreadable: tuple[type[Exception], ...]) -> None:
+    """Refuse a table whose data, written out, is past the input size limit, before it
+    is: Parquet compresses several times over, and stores a repeated text or WKB once
+    in a dictionary, so a file of a few kB can hold gigabytes (its rows become Python
+    objects as a GeoJSON file's do). In three steps, each cheap: cells (a count of
+    rows of cells of 8 bytes at least), the data as stored uncompressed, then the data
+    with every dictionary written out, measured on a read that keeps the dictionaries
+    (text and binary columns, nested ones too)."""
+    metadata = parquet.metadata
+    cells = metadata.num_rows * max(metadata.num_columns, 1) * 8
     raw = sum(metadata.row_group(i).total_byte_size for i in range(metadata.num_row_groups))
+    _refuse_past_limit(path, max(cells, raw), "uncompressed")
+    texts = [metadata.schema.column(j).path for j in range(metadata.num_columns)
+             if metadata.schema.column(j).physical_type == "BYTE_ARRAY"]
+    if not texts:
+        return
+    try:
+        kept = pq.ParquetFile(path, read_dictionary=texts).read()
+    except unreadable as exc:
+        raise _cannot_read(path, exc) from None
+    _refuse_past_limit(path, sum(_written_out(c) for c in kept.columns),
+                       "with its repeated values written out")
+
+
+def _refuse_past_limit(path: Path, size: int, how: str) -> None:
     limit = limit_mb()
-    if raw > limit * 1e6:
-        raise SkeletonError(f"{path}: {raw / 1e6:,.0f} MB of data uncompressed, more than "
-                            f"the {limit:g} MB an input may hold (reading it would take "
-                            f"about {raw * 20 / 1e9:.1f} GB of memory); keep the area you "
+    if size > limit * 1e6:
+        raise SkeletonError(f"{path}: {size / 1e6:,.0f} MB of data {how}, more than the "
+                            f"{limit:g} MB an input may hold (reading it would take "
+                            f"about {size * 20 / 1e9:.1f} GB of memory); keep the area you "
                             f"build (e.g. ogr2ogr -spat, or DuckDB with a bounding box), "
                             f"or raise ${SIZE_ENV}")
+
+
+def _written_out(array) -> int:
+    """The bytes of an Arrow array (or chunked array) with its dictionaries written
+    out: a dictionary-encoded value counts once per row that refers to it."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    if isinstance(array, pa.ChunkedArray):
+        return sum(_written_out(chunk) for chunk in array.chunks)
+    kind = array.type
+    if pa.types.is_dictionary(kind):
+        values = kind.value_type
+        if not any(test(values) for test in (pa.types.is_string, pa.types.is_binary,
+                                             pa.types.is_large_string,
+                                             pa.types.is_large_binary)):
+            return 8 * len(array)   # numbers (a pandas category): counted as cells
+        lengths = pc.binary_length(array.dictionary)
+        return int(pc.sum(pc.take(lengths, array.indices)).as_py() or 0) + 8 * len(array)
+    if pa.types.is_struct(kind):
+        return sum(_written_out(array.field(i)) for i in range(kind.num_fields)) + len(array)
+    if pa.types.is_map(kind):
+        return _written_out(array.keys) + _written_out(array.items) + 8 * len(array)
+    if pa.types.is_list(kind) or pa.types.is_large_list(kind) or \
+            pa.types.is_fixed_size_list(kind):
+        return _written_out(array.flatten()) + 8 * len(array)
+    return int(array.nbytes)
 
 
 def _geo_metadata(path: Path, metadata: dict[bytes, bytes]) -> dict[str, Any] | None:

@@ -16,6 +16,7 @@ import zipfile
 from pathlib import Path
 
 import geopandas as gpd
+import numpy as np
 import pytest
 
 from citysynth.pipeline.cli import main
@@ -557,3 +558,33 @@ def test_a_geoparquet_past_the_limit_uncompressed_is_refused_before_reading(
     err = capsys.readouterr().err
     assert "MB of data uncompressed, more than the 1 MB an input may hold" in err, err
     assert "raise $CITYSYNTH_MAX_INPUT_MB" in err and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("nested", [False, True])
+def test_a_geoparquet_whose_dictionary_repeats_a_megabyte_is_refused(tmp_path, capsys,
+                                                                     nested):
+    """Parquet stores a repeated value once in a dictionary: 2,000 rows of one 1 MB text
+    fit a file of 2 kB and are 2 GB once read (a MemoryError, or the machine's memory,
+    before). The data are measured with the dictionaries kept, nested columns too, and
+    refused like any input past the limit."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    n, text = 2000, "x" * 1_000_000
+    # built as dictionaries (the test would otherwise hold the gigabytes itself)
+    note = pa.DictionaryArray.from_arrays(pa.array(np.zeros(n, dtype=np.int32)),
+                                          pa.array([text]))
+    if nested:
+        rules = pa.ListArray.from_arrays(pa.array(np.arange(n + 1, dtype=np.int32)),
+                                         pa.StructArray.from_arrays([note], ["value"]))
+        note = pa.StructArray.from_arrays([note, rules], ["primary", "rules"])
+    table = pa.table({"geometry": pa.array([_LINE] * n, pa.binary()), "note": note})
+    table = table.replace_schema_metadata({"geo": json.dumps(_wkb_geo())})
+    bomb = tmp_path / "bomb.parquet"
+    pq.write_table(table, bomb, compression="zstd")
+    assert bomb.stat().st_size < 10_000
+    assert city(tmp_path / "o", "--streets", str(bomb)) == 2
+    err = capsys.readouterr().err
+    assert f"{2 * n if nested else n:,} MB of data with its repeated values written out, " \
+        "more than the 100 MB an input may hold" in err, err
+    assert not (tmp_path / "o").exists()

@@ -22,6 +22,8 @@ import copy
 import errno
 import json
 import math
+import subprocess
+import sys
 import warnings
 from pathlib import Path
 
@@ -276,6 +278,25 @@ def test_duplicated_building_lines_are_named_as_such(tmp_path, capsys):
     d["features"].append(twin)
     code, err = _run(["skeleton", str(_write(tmp_path / "dup.geojson", d))], capsys)
     assert code == 2 and "the same edge is drawn twice" in err, err
+
+
+def test_a_building_line_drawn_twenty_thousand_times_is_named_in_little_memory(tmp_path):
+    """Building skeleton lines checked for crossings a chunk at a time: 20,000 copies of
+    one line met each other 400 M times at once, gigabytes and a crash (SIGSEGV in a
+    4 GB address space); now one line names the first copy, in a 1.5 GB space."""
+    line = {"type": "Feature", "properties": {},
+            "geometry": {"type": "LineString", "coordinates": [[LON, LAT],
+                                                               [LON + 0.01, LAT]]}}
+    src = _write(tmp_path / "pile.geojson", {"type": "FeatureCollection",
+                                             "features": [line] * 20_000})
+    code = ("import resource, sys\n"
+            "resource.setrlimit(resource.RLIMIT_AS, (1_500_000_000, 1_500_000_000))\n"
+            "from citysynth.pipeline.cli import main\n"
+            f"sys.exit(main(['skeleton', {str(src)!r}]))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=600)
+    assert p.returncode == 2, p.stderr[-2000:]
+    assert "feature 0 and" in p.stderr and "the same edge is drawn twice" in p.stderr
 
 
 def test_streets_that_enclose_nothing_say_so(tmp_path, capsys):
