@@ -29,7 +29,7 @@ import pyproj
 import shapely
 
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.solver.safe_read import SIZE_ENV, check_file, limit_mb
+from citysynth.solver.safe_read import check_data_size, check_file
 
 FORMAT = "GeoParquet"
 WKB_NAMES = ("geometry", "geom", "wkb_geometry", "the_geom")   # columns read as WKB
@@ -113,13 +113,8 @@ def _check_size(path: Path, parquet, pq, unreadable: tuple[type[Exception], ...]
 
 
 def _refuse_past_limit(path: Path, size: int, how: str) -> None:
-    limit = limit_mb()
-    if size > limit * 1e6:
-        raise SkeletonError(f"{path}: {size / 1e6:,.0f} MB of data {how}, more than the "
-                            f"{limit:g} MB an input may hold (reading it would take "
-                            f"about {size * 20 / 1e9:.1f} GB of memory); keep the area you "
-                            f"build (e.g. ogr2ogr -spat, or DuckDB with a bounding box), "
-                            f"or raise ${SIZE_ENV}")
+    check_data_size(path, size, how, "keep the area you build (e.g. ogr2ogr -spat, or "
+                    "DuckDB with a bounding box)", SkeletonError)
 
 
 def _written_out(array) -> int:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import re
 import warnings
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,7 @@ import shapely
 from citysynth.skeletons.errors import InputWarning, SkeletonError
 from citysynth.skeletons.geoparquet import FORMAT as PARQUET
 from citysynth.skeletons.geoparquet import geojson_geometries, json_value, read_geoparquet
-from citysynth.solver.safe_read import check_file
+from citysynth.solver.safe_read import check_data_size, check_file
 
 LAYER_SEP = "::"                    # FILE::LAYER picks one layer of a file
 FORMATS = {                         # file signature -> format name
@@ -111,6 +112,29 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     return p, layer or None, fmt
 
 
+def _check_unpacked(path: Path, fmt: str) -> None:
+    """Refuse what GDAL would read past the input limit though the file given is under
+    it: a zipped Shapefile or KMZ by the sizes its members declare (a 10 MB zip of a
+    520 MB Shapefile took 5 GB and crashed), a Shapefile with its .dbf and the other
+    files beside it (the limit saw the .shp alone), a MapInfo table with its .dat,
+    .map and .mid files likewise."""
+    if fmt in ("zipped Shapefile", "KMZ"):
+        try:
+            with zipfile.ZipFile(path) as archive:
+                size = sum(member.file_size for member in archive.infolist())
+        except (zipfile.BadZipFile, OSError):
+            return        # GDAL names what is wrong with it
+        how = "unzipped"
+    elif fmt in ("Shapefile", "MapInfo table"):
+        size = sum(f.stat().st_size for f in path.parent.iterdir()
+                   if f.stem.lower() == path.stem.lower() and f.is_file())
+        how = f"with the other files of the {fmt} beside it"
+    else:
+        return
+    check_data_size(path, size, how, "keep the area you build (e.g. ogr2ogr -spat)",
+                    SkeletonError)
+
+
 def _xml(head: bytes) -> bool:
     """Whether a file starts as XML (a GeoJSON property may hold "<kml" or "<osm")."""
     return head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<")
@@ -126,6 +150,7 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
     from pyogrio.errors import DataLayerError, DataSourceError
 
     check_file(path, fmt, SkeletonError)
+    _check_unpacked(path, fmt)
     if fmt == OSM:   # node ids out of order (JOSM's new objects, merged extracts) too
         pyogrio.set_gdal_config_options({"OSM_USE_CUSTOM_INDEXING": "NO"})
     if fmt == DXF:   # a footprint drawn as a closed polyline is a polygon

@@ -81,6 +81,18 @@ def check_file(path: str | Path, what: str, error: type[Exception]) -> int:
         raise _unreadable(p, what, exc, error) from None
 
 
+def check_data_size(path: str | Path, size: int, how: str, fix: str,
+                    error: type[Exception]) -> None:
+    """Refuse a file whose data, ``how`` it is read (unzipped, with its dictionaries
+    written out), is past the input limit, though the file itself is not: a few MB of
+    archive or Parquet can hold gigabytes. ``fix``: how to keep less of it."""
+    limit = limit_mb()
+    if size > limit * 1e6:
+        raise error(f"{path}: {size / 1e6:,.0f} MB of data {how}, more than the {limit:g} "
+                    f"MB an input may hold (reading it would take about "
+                    f"{size * 20 / 1e9:.1f} GB of memory); {fix}, or raise ${SIZE_ENV}")
+
+
 def _unreadable(p: Path, what: str, exc: OSError, error: type[Exception]) -> Exception:
     if isinstance(exc, FileNotFoundError):
         return error(f"{p}: cannot read the {what} file: no such file; check the path")

@@ -18,6 +18,7 @@ from pathlib import Path
 import geopandas as gpd
 import numpy as np
 import pytest
+import shapely
 
 from citysynth.pipeline.cli import main
 
@@ -587,4 +588,34 @@ def test_a_geoparquet_whose_dictionary_repeats_a_megabyte_is_refused(tmp_path, c
     err = capsys.readouterr().err
     assert f"{2 * n if nested else n:,} MB of data with its repeated values written out, " \
         "more than the 100 MB an input may hold" in err, err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("zipped", [True, False])
+def test_a_shapefile_past_the_limit_in_its_zip_or_dbf_is_refused(tmp_path, capsys,
+                                                                 monkeypatch, zipped):
+    """The limit saw the file given: a zip of a few MB held a 520 MB Shapefile (5 GB
+    read, then a crash), and a Shapefile's .dbf beside its small .shp was not counted.
+    The zip's members' sizes and every file of the Shapefile count now."""
+    import os
+
+    n = 10_000
+    lines = shapely.linestrings(np.broadcast_to([[24.94, 60.17], [24.95, 60.17]], (n, 2, 2)))
+    frame = gpd.GeoDataFrame({"note": ["x" * 200] * n, "highway": ["residential"] * n},
+                             geometry=lines, crs="EPSG:4326")
+    frame.to_file(tmp_path / "pile.shp", engine="pyogrio")
+    given = tmp_path / "pile.shp"
+    if zipped:
+        given = tmp_path / "pile.zip"
+        with zipfile.ZipFile(given, "w", zipfile.ZIP_DEFLATED) as archive:
+            for f in sorted(tmp_path.glob("pile.*")):
+                if f != given:
+                    archive.write(f, f.name)
+        assert given.stat().st_size < 200_000
+    assert os.path.getsize(tmp_path / "pile.shp") < 1e6
+    monkeypatch.setenv("CITYSYNTH_MAX_INPUT_MB", "1")
+    assert city(tmp_path / "o", "--streets", str(given)) == 2
+    err = capsys.readouterr().err
+    how = "unzipped" if zipped else "with the other files of the Shapefile beside it"
+    assert f"MB of data {how}, more than the 1 MB an input may hold" in err, err
     assert not (tmp_path / "o").exists()
