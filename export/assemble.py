@@ -8,6 +8,7 @@ from collections.abc import Iterator
 import numpy as np
 import trimesh
 
+from citysynth.export.infill import infill_pieces
 from citysynth.export.layout import Instance, Layout
 from citysynth.export.prototypes import prototype_pieces
 from citysynth.parts_db import PartDB
@@ -42,10 +43,18 @@ def _coloured(parts) -> trimesh.Trimesh:
                            face_colors=np.vstack(colours))
 
 
+def infill_pieces_of(lay: Layout, db: PartDB) -> Iterator[Piece]:
+    """The layout's roof infill (its pieces already in the layout frame)."""
+    for infill in lay.infill:
+        yield from infill_pieces(infill, db)
+
+
 def world_mesh(lay: Layout, db: PartDB, offset=(0.0, 0.0, 0.0)) -> trimesh.Trimesh:
     """The whole layout as one coloured mesh (per-face RGBA), e.g. for a preview."""
-    return _coloured((*place(piece, inst, offset), piece.rgba)
-                     for inst, pieces in instances_with_pieces(lay, db) for piece in pieces)
+    shift = np.asarray(offset, dtype=float)
+    return _coloured([*((*place(piece, inst, offset), piece.rgba)
+                        for inst, pieces in instances_with_pieces(lay, db) for piece in pieces),
+                      *((p.vertices + shift, p.faces, p.rgba) for p in infill_pieces_of(lay, db))])
 
 
 def bounds(lay: Layout, db: PartDB) -> np.ndarray:
@@ -57,16 +66,21 @@ def bounds(lay: Layout, db: PartDB) -> np.ndarray:
             v, _f = place(piece, inst)
             lo = np.minimum(lo, v.min(axis=0))
             hi = np.maximum(hi, v.max(axis=0))
+    for p in infill_pieces_of(lay, db):
+        lo = np.minimum(lo, p.vertices.min(axis=0))
+        hi = np.maximum(hi, p.vertices.max(axis=0))
     return np.array([lo, hi])
 
 
 def triangle_count(lay: Layout, db: PartDB) -> int:
-    return sum(len(p.faces) for _i, pieces in instances_with_pieces(lay, db) for p in pieces)
+    return sum(len(p.faces) for _i, pieces in instances_with_pieces(lay, db) for p in pieces) \
+        + sum(len(p.faces) for p in infill_pieces_of(lay, db))
 
 
 def world_boxes(lay: Layout, db: PartDB) -> trimesh.Trimesh:
-    """Each instance as its part's bounding box (12 triangles, the part's main colour):
-    a city overview with millions of triangles would not fit a preview."""
+    """Each instance as its part's bounding box (12 triangles, the part's main colour),
+    and the roof infill as it is: a city overview with millions of triangles would not
+    fit a preview."""
     unit = trimesh.creation.box(bounds=[[0, 0, 0], [1, 1, 1]])
 
     def box(inst, pieces):
@@ -78,5 +92,6 @@ def world_boxes(lay: Layout, db: PartDB) -> trimesh.Trimesh:
 
     # a module cut wholly away (at an acute nose both legs' last modules may lie past
     # the other's plane) has no box
-    return _coloured(box(inst, pieces) for inst, pieces in instances_with_pieces(lay, db)
-                     if any(len(p.vertices) for p in pieces))
+    return _coloured([*(box(inst, pieces) for inst, pieces in instances_with_pieces(lay, db)
+                        if any(len(p.vertices) for p in pieces)),
+                      *((p.vertices, p.faces, p.rgba) for p in infill_pieces_of(lay, db))])

@@ -32,12 +32,13 @@ from pxr import Usd, UsdGeom
 from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 
-from citysynth.export.joints import behind, half_polygon, joint_halves
+from citysynth.export.ground import GRID, footprint, triangle_normals
+from citysynth.export.joints import behind
+from citysynth.export.naming import INFILL
+from citysynth.export.rings import closed_ring, nose_tips, rings_inside
 
 ROOF_NZ = 0.2          # faces whose normal's z exceeds this are roof-like (looked at from above)
-FOOTPRINT_NZ = 0.05    # faces steeper than this project to nothing useful in plan
 PLANE_DIGITS = 3       # planes are the same to the millimetre (and 0.001 in normal)
-GRID = 1e-4           # m: overlay precision (robust unions of many small triangles)
 
 
 @dataclass(frozen=True)
@@ -96,25 +97,6 @@ def _fan(counts: np.ndarray, index: np.ndarray) -> np.ndarray:
     return np.array(tris, dtype=int).reshape(-1, 3)
 
 
-def _normals(tris: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-    area2 = np.linalg.norm(n, axis=1)
-    ok = area2 > 1e-12
-    n[ok] /= area2[ok, None]
-    return n, ok
-
-
-def footprint(tris: np.ndarray) -> BaseGeometry:
-    """The plan of an instance: the union of its non-vertical faces projected on XY."""
-    n, ok = _normals(tris)
-    keep = ok & (np.abs(n[:, 2]) > FOOTPRINT_NZ)
-    polys = shapely.make_valid(shapely.polygons(tris[keep][:, :, :2]))
-    try:
-        return shapely.union_all(polys, grid_size=GRID)
-    except shapely.errors.GEOSException:   # snapping slivers of a cut can tangle a ring
-        return shapely.union_all(polys)
-
-
 def outline_regions(structures: list[dict], depth: float) -> BaseGeometry:
     """The ground behind the facade lines, ``depth`` deep: per stage and per pair of
     stages meeting at a key point (so corners are mitred, convex or concave). A closed
@@ -123,7 +105,7 @@ def outline_regions(structures: list[dict], depth: float) -> BaseGeometry:
     courtyards; a courtyard's ring (facing in) only what lies inside the ring round it
     (a wing narrower than two depths is that wide, not two depths)."""
     pieces = []
-    rings = [_ring(st) for st in structures]
+    rings = [closed_ring(st) for st in structures]
     owners = [r for r, owns in rings if r is not None and owns]
     yards = [r for r, owns in rings if r is not None and not owns]
     for st, (ring, owns) in zip(structures, rings, strict=True):
@@ -135,33 +117,9 @@ def outline_regions(structures: list[dict], depth: float) -> BaseGeometry:
             round_it = [o for o in owners if o.contains(ring)]
             regions = regions.intersection(shapely.union_all(round_it)) if round_it \
                 else regions
-        tips = _nose_tips(st)
+        tips = nose_tips(st)
         pieces.append(regions.difference(shapely.union_all(tips)) if tips else regions)
     return shapely.union_all(pieces)
-
-
-def _nose_tips(st: dict) -> list[Polygon]:
-    """The tips cut off at a structure's acute corners: a nose joint (the layout's
-    ``joint``) ends both facades at a short end wall, and what lies past its plane is
-    street, not a gap in the roof."""
-    ins = {s["to"]: s for s in st["stages"]}
-    outs = {s["from"]: s for s in st["stages"]}
-    tips = []
-    for j, key in enumerate(st.get("keys", [])):
-        s_in, s_out = ins.get(j), outs.get(j)
-        if key.get("joint") != "nose" or s_in is None or s_out is None:
-            continue
-        p = np.asarray(key["xy"], dtype=float)
-        a, b = (np.asarray(q, dtype=float) for q in s_in["polyline"][-2:])
-        c, d = (np.asarray(q, dtype=float) for q in s_out["polyline"][:2])
-        u_in, u_out = (b - a) / np.hypot(*(b - a)), (d - c) / np.hypot(*(d - c))
-        before, _after, how, trim = joint_halves(p, u_in, u_out, s_in["front"] == "right")
-        if how != "nose":
-            continue
-        nose = before[-1]                   # past its plane, near the tip
-        tips.append(half_polygon(-np.asarray(nose.normal), np.asarray(nose.point),
-                                 4.0 * (trim + 1.0)))
-    return tips
 
 
 def _stage_regions(stages: list[dict], depth: float) -> list[BaseGeometry]:
@@ -174,48 +132,6 @@ def _stage_regions(stages: list[dict], depth: float) -> list[BaseGeometry]:
     return [behind(pts, front, depth) for pts, front in lines]
 
 
-def _ring_order(stages: list[dict]) -> list[dict]:
-    """A ring's stages in travel order (each leaves the key point the last reached)."""
-    by_from = {s["from"]: s for s in stages}
-    out = [stages[0]]
-    while len(out) < len(stages) and out[-1]["to"] in by_from:
-        nxt = by_from[out[-1]["to"]]
-        if nxt is stages[0]:
-            break
-        out.append(nxt)
-    return out
-
-
-def _ring_inside(st: dict) -> Polygon | None:
-    """The ground a closed ring of facades facing out encloses (a block's inside)."""
-    ring, owns = _ring(st)
-    return ring if owns else None
-
-
-def _ring(st: dict) -> tuple[Polygon | None, bool]:
-    """The polygon of a closed ring of facades (None if the structure is none), and
-    whether its facades face out (its mass inside: a block, a building's outline) rather
-    than in (a courtyard's)."""
-    if not st.get("closed"):
-        return None, False
-    pts = [tuple(p) for s in _ring_order(st["stages"]) for p in s["polyline"][:-1]]
-    if len(pts) < 3:
-        return None, False
-    ring = Polygon(pts)
-    if not ring.is_valid or ring.area <= 0:
-        return None, False
-    (x0, y0), (x1, y1) = st["stages"][0]["polyline"][:2]
-    dx, dy = x1 - x0, y1 - y0
-    norm = float(np.hypot(dx, dy)) or 1.0
-    side = 1.0 if st["stages"][0]["front"] == "right" else -1.0  # mass left of travel
-    probe = ((x0 + x1) / 2 - side * dy / norm * 0.05, (y0 + y1) / 2 + side * dx / norm * 0.05)
-    return ring, bool(ring.contains(shapely.Point(probe)))
-
-
-def _rings_inside(structures: list[dict]) -> list[Polygon]:
-    return [r for st in structures if (r := _ring_inside(st)) is not None]
-
-
 def audit_usd(usd_path: str | Path, structures: list[dict], depth: float,
               reach: float | None = None) -> AuditFigures:
     """Audit the layout USD at ``usd_path`` against its layout's ``structures`` (the
@@ -225,16 +141,17 @@ def audit_usd(usd_path: str | Path, structures: list[dict], depth: float,
     tris = instance_triangles(usd_path)
     feet = {k: footprint(t) for k, t in tris.items()}
     union = shapely.union_all(list(feet.values()), grid_size=GRID)
+    parts = [f for k, f in feet.items() if f"/{INFILL}" not in k]   # not a roof infill
     band = outline_regions(structures, depth)
     allowed = shapely.union_all([outline_regions(structures, reach if reach is not None
                                                  else depth + 1.0),
-                                 *_rings_inside(structures)])
+                                 *rings_inside(structures)])
     verts = np.concatenate([t.reshape(-1, 3) for t in tris.values()]) if tris else \
         np.zeros((0, 3))
     beyond = float(np.max(shapely.distance(allowed, shapely.points(verts[:, :2])),
                           initial=0.0))
     return AuditFigures(
-        footprint=float(union.area), overlap=_overlap(list(feet.values())),
+        footprint=float(union.area), overlap=_overlap(parts),
         beyond_max=beyond, band=float(band.area),
         band_gap=float(band.difference(union, grid_size=GRID).area),
         coplanar_roof=_coplanar_roofs(tris))
@@ -256,7 +173,7 @@ def _coplanar_roofs(tris: dict[str, np.ndarray]) -> float:
     instance lying over each other."""
     groups: dict[tuple, dict[str, list[np.ndarray]]] = defaultdict(lambda: defaultdict(list))
     for key, t in tris.items():
-        n, ok = _normals(t)
+        n, ok = triangle_normals(t)
         up = ok & (n[:, 2] > ROOF_NZ)
         for tri, nn in zip(t[up], n[up], strict=True):
             plane = (*np.round(nn, PLANE_DIGITS), round(float(nn @ tri[0]), PLANE_DIGITS))

@@ -93,15 +93,23 @@ def extend(v: np.ndarray, length: float, ext: tuple[float, float]) -> np.ndarray
     """Vertices with each end of the part moved out by ext[0] (start, -X) and ext[1]
     (end, +X), stretching only the band of :data:`BAND` at that end."""
     v = v.copy()
-    x = v[:, 0]
-    band = min(BAND, length / 4)
-    if ext[1] > 0:
-        at = x > length - band
-        x[at] = (length - band) + (x[at] - (length - band)) * (band + ext[1]) / band
-    if ext[0] > 0:
-        at = x < band
-        x[at] = band - (band - x[at]) * (band + ext[0]) / band
+    v[:, 0] = extended_x(v[:, 0], length, ext)
     return v
+
+
+def extended_x(x: np.ndarray, length: float | np.ndarray, ext) -> np.ndarray:
+    """Placement-frame x coordinates moved as :func:`extend` moves a part's vertices;
+    ``length`` and ``ext`` (start, end) one for all or one per coordinate (the roof
+    infill extends a footprint's instances all at once)."""
+    x = np.array(x, dtype=float)
+    length_ = np.broadcast_to(np.asarray(length, dtype=float), x.shape)
+    start, end = np.broadcast_to(np.asarray(ext, dtype=float), (*x.shape, 2)).T
+    band = np.minimum(BAND, length_ / 4)
+    at = (end > 0) & (x > length_ - band)
+    x[at] = (length_ - band)[at] + (x[at] - (length_ - band)[at]) * (band + end)[at] / band[at]
+    at = (start > 0) & (x < band)
+    x[at] = band[at] - (band[at] - x[at]) * (band + start)[at] / band[at]
+    return x
 
 
 def _whole(pieces: tuple[Piece, ...], vertices: list[np.ndarray]) -> trimesh.Trimesh:

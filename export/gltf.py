@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from citysynth.export.assemble import place
+from citysynth.export.infill import infill_pieces
 from citysynth.export.layout import Instance, Layout
 from citysynth.export.materials import (
     georeference,
@@ -43,6 +44,7 @@ from citysynth.export.materials import (
 )
 from citysynth.export.naming import (
     constraints_met,
+    infill_name,
     instance_labels,
     stage_group,
     structure_group,
@@ -162,8 +164,13 @@ class GlbBuilder:
             structures.append(self.node(structure_group(si), children=groups, extras={
                 "name": st.get("name"), "cost": st["cost"], "met": st.get("resources"),
                 "asked": st.get("asked")}))
-        return self.node(name or lay.name, children=structures, extras=layout_facts(lay),
-                         **fields)
+        infill = [self.node(infill_name(n), mesh=self.mesh(
+                      (db.library_hash, f"{lay.name}/{infill_name(n)}"),
+                      [(p.vertices, p.faces, p) for p in infill_pieces(fill, db)], shared=False),
+                      extras={"infill": True, "part": fill.part, "z": fill.z})
+                  for n, fill in enumerate(lay.infill)]
+        return self.node(name or lay.name, children=structures + infill,
+                         extras=layout_facts(lay), **fields)
 
     def _instance(self, inst: Instance, label: str, db: PartDB) -> int:
         pieces = prototype_pieces(db, inst)

@@ -22,8 +22,9 @@ import numpy as np
 from citysynth.export.errors import ExportError
 
 SCHEMA = "citysynth.layout"
-VERSION = 2           # 2: instances may carry a cut (mitre joints, folds); stages a polyline
-READS = (1, 2)
+VERSION = 3           # 2: instances may carry a cut (mitre joints, folds); stages a polyline
+#                       3: a footprint's roof infill
+READS = (1, 2, 3)
 COORD_DIGITS = 4      # 0.1 mm
 AXIS_DIGITS = 6
 VALUE_DIGITS = 6
@@ -100,6 +101,28 @@ class Instance:
         return self.x_axis[0] * self.y_axis[1] - self.x_axis[1] * self.y_axis[0] < 0
 
 
+@dataclass(frozen=True)
+class Infill:
+    """A flat mass over ground of a footprint no part covers (see
+    :mod:`citysynth.export.infill`): its plan (a shell anticlockwise, then holes
+    clockwise, each ring without its closing point, in the layout frame), its top's
+    height, and the part whose roof and wall materials it shows."""
+
+    part: str
+    z: float
+    rings: tuple[tuple[tuple[float, float], ...], ...]
+
+    def to_dict(self) -> dict:
+        return {"part": self.part, "z": round(self.z, COORD_DIGITS),
+                "rings": [[[round(x, COORD_DIGITS), round(y, COORD_DIGITS)] for x, y in r]
+                          for r in self.rings]}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Infill:
+        return cls(d["part"], float(d["z"]),
+                   tuple(tuple((float(x), float(y)) for x, y in r) for r in d["rings"]))
+
+
 @dataclass
 class Layout:
     """A building or a block: one or more structures and all their placed parts."""
@@ -111,6 +134,7 @@ class Layout:
     frame: str
     structures: list[dict]             # per structure: keys, stages, cost, resources
     instances: list[Instance] = field(default_factory=list)
+    infill: list[Infill] = field(default_factory=list)   # a footprint's roof infill
 
     @property
     def cost(self) -> float:
@@ -133,6 +157,7 @@ class Layout:
             "cost": self.cost, "parts_used": self.parts_used(),
             "structures": self.structures,
             "instances": [_instance_dict(i) for i in self.instances],
+            "infill": [f.to_dict() for f in self.infill],
         })
 
     def to_json(self) -> str:
@@ -152,11 +177,11 @@ class Layout:
         >>> Layout.from_dict({"schema": "something else"})
         Traceback (most recent call last):
           ...
-        citysynth.export.errors.ExportError: not a citysynth.layout document of version 1 or 2
+        citysynth.export.errors.ExportError: not a citysynth.layout document of version 1, 2 or 3
         """
         if d.get("schema") != SCHEMA or d.get("version") not in READS:
             raise ExportError(f"not a {SCHEMA} document of version "
-                             f"{' or '.join(map(str, READS))}")
+                              f"{', '.join(map(str, READS[:-1]))} or {READS[-1]}")
         inst = [Instance(i["part"], i["class"], i["structure"], i.get("stage"),
                          i.get("key"), tuple(i["x_axis"]), tuple(i["y_axis"]),
                          tuple(i["origin"]),
@@ -164,7 +189,7 @@ class Layout:
                          float(i.get("z", 0.0)))
                 for i in d["instances"]]
         return cls(d["name"], d["rank"], d["library"], d["style"], d["frame"],
-                   d["structures"], inst)
+                   d["structures"], inst, [Infill.from_dict(f) for f in d.get("infill", [])])
 
 
 def _instance_dict(i: Instance) -> dict:

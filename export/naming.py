@@ -2,7 +2,8 @@
 structure (``structure_00``), in it one per stage (``stage_03``) and one for the key
 points (``keys``), and each part instance named for its part and its place
 (``classic_mid_5.2_4s_07``: the stage's eighth part; ``classic_corner_90_k02``: the
-part at key point 2, ``_k02_1`` for the second leg of a mitre there). Deterministic:
+part at key point 2, ``_k02_1`` for the second leg of a mitre there), and a
+footprint's roof infill beside the structures (``infill_00``). Deterministic:
 a function of the layout's instance order only. And the one layout fact both
 writers compute rather than copy: whether every asked constraint is met."""
 
@@ -13,6 +14,14 @@ from citysynth.export.layout import Instance, Layout
 
 def structure_group(structure: int) -> str:
     return f"structure_{structure:02d}"
+
+
+INFILL = "infill_"
+
+
+def infill_name(n: int) -> str:
+    """The name of a layout's n-th roof infill (USD prim, glTF node): ``infill_00``."""
+    return f"{INFILL}{n:02d}"
 
 
 def stage_group(inst: Instance) -> str:

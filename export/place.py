@@ -38,6 +38,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from citysynth.export.errors import ExportError
+from citysynth.export.infill import plan_infill
 from citysynth.export.joints import (
     HalfPlane,
     Placed,
@@ -127,9 +128,12 @@ def y_range(p: Part) -> tuple[float, float]:
 
 
 def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
-           solutions: Sequence[StructureSolution], db: PartDB) -> Layout:
+           solutions: Sequence[StructureSolution], db: PartDB, infill: bool = False
+           ) -> Layout:
     """The layout of ``solutions[i]`` (the solver's answer for a structure: the part at
-    each key point and the fillers of each stage) on ``plans[i]``, checked."""
+    each key point and the fillers of each stage) on ``plans[i]``, checked. With
+    ``infill`` (a footprint), the ground inside its outline no part covers gets a
+    flat roof (:mod:`~citysynth.export.infill`)."""
     parts = db.by_id
     out = Layout(name, rank, {"name": db.name, "hash": db.library_hash,
                               "quantum": db.quantum},
@@ -147,6 +151,8 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
                [res.get("length") for res in placer.sol.resources], db.quantum)
         out.instances.extend(instances)
         out.structures.append(_summary(placer.plan, placer.sol, placer.record))
+    if infill:
+        out.infill = plan_infill(out.structures, out.instances, db)
     return out
 
 

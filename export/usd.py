@@ -36,7 +36,8 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, UsdShade, UsdValidation, Vt
 
-from citysynth.export.layout import Instance, Layout
+from citysynth.export.infill import infill_pieces
+from citysynth.export.layout import Infill, Instance, Layout
 from citysynth.export.materials import (
     georeference,
     linear_rgb,
@@ -47,6 +48,7 @@ from citysynth.export.materials import (
 )
 from citysynth.export.naming import (
     constraints_met,
+    infill_name,
     instance_labels,
     stage_group,
     structure_group,
@@ -263,13 +265,15 @@ def write_material(piece: Piece, path: Path) -> None:
     _export(layer, path)
 
 
-def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path) -> list[Path]:
+def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path,
+                 more: Sequence[Piece] = ()) -> list[Path]:
     """Write the library part files (``parts/<part>.usdc``) a layer references that
-    are not there yet, and the library materials its prototypes bind, cut or not (a
-    part file's name carries no library hash: a run folder belongs to one library, see
-    ``write_layout``). Cut prototypes go in the layer's own file, :func:`write_cuts`."""
+    are not there yet, and the library materials its prototypes bind, cut or not, and
+    ``more`` pieces bind (a roof infill's; a part file's name carries no library hash:
+    a run folder belongs to one library, see ``write_layout``). Cut prototypes go in
+    the layer's own file, :func:`write_cuts`."""
     written = []
-    materials: dict[str, Piece] = {}
+    materials: dict[str, Piece] = {material_name(p): p for p in more}
     parts = _file_names(out_dir / PARTS_DIR)
     for proto, inst in sorted(prototypes.items()):
         for piece in prototype_pieces(db, inst):
@@ -405,13 +409,15 @@ def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | P
     for lay in layouts:
         for proto, inst in lay.prototypes().items():
             prototypes.setdefault(proto, inst)
-    ensure_parts(db, prototypes, folder)
+    infill = {id(lay): [infill_pieces(f, db) for f in lay.infill] for lay in layouts}
+    ensure_parts(db, prototypes, folder,
+                 [p for pieces in infill.values() for f in pieces for p in f])
     cuts = {p: i for p, i in prototypes.items() if i.cut is not None}
     cpath = cuts_file(folder, name)
     if cuts:
         write_cuts(db, cuts, cpath)
-    written = [_write_layer(lay, path, cpath.name) for lay, path in zip(layouts, files,
-                                                                          strict=True)]
+    written = [_write_layer(lay, path, cpath.name, infill[id(lay)])
+               for lay, path in zip(layouts, files, strict=True)]
     return written + ([cpath] if cuts else [])
 
 
@@ -421,10 +427,13 @@ def write_layout(lay: Layout, db: PartDB, path: str | Path) -> Path:
     return write_layouts([lay], db, [path])[0]
 
 
-def _write_layer(lay: Layout, path: Path, cuts: str) -> Path:
+def _write_layer(lay: Layout, path: Path, cuts: str,
+                 infill: Sequence[tuple[Piece, ...]] = ()) -> Path:
     """The layout's layer: prims ``<layout>/structure_00/stage_03/<part>_07`` (see
     :mod:`~citysynth.export.naming`), each instanceable and referencing its part's
-    file, or its cut prototype in ``cuts`` (a file name in the same folder)."""
+    file, or its cut prototype in ``cuts`` (a file name in the same folder); and a
+    footprint's roof infill, its pieces (``infill``, in the layout frame) as meshes of
+    ``<layout>/infill_00`` (:func:`_infill_spec`)."""
     layer = Sdf.Layer.CreateAnonymous(".usda")
     root_name = prim_name(lay.name)
     with Sdf.ChangeBlock():
@@ -438,10 +447,29 @@ def _write_layer(lay: Layout, path: Path, cuts: str) -> Path:
             spec.customData = {"citysynth": {"part": inst.part}}
             _user(spec, "part", inst.part, Sdf.ValueTypeNames.String)
             _xform(spec, "xformOp:transform", Sdf.ValueTypeNames.Matrix4d, _usd_matrix(inst))
+        for n, (fill, pieces) in enumerate(zip(lay.infill, infill, strict=True)):
+            _infill_spec(root, infill_name(n), fill, pieces)
         _stage_metadata(layer, root_name)
         layer.customLayerData = {"generator": "citysynth"}
     _export(layer, path)
     return path
+
+
+def _infill_spec(root: Sdf.PrimSpec, name: str, fill: Infill, pieces: tuple[Piece, ...]
+                 ) -> None:
+    """A roof infill as a component model (it is no instance: each is one of a kind)
+    with a mesh per piece bound to its library material, as a prototype's are."""
+    spec = Sdf.PrimSpec(root, name, Sdf.SpecifierDef, "Xform")
+    spec.kind = Kind.Tokens.component
+    spec.customData = {"citysynth": {"infill": True, "part": fill.part, "z": fill.z}}
+    _user(spec, "part", fill.part, Sdf.ValueTypeNames.String)
+    looks = Sdf.PrimSpec(spec, "Looks", Sdf.SpecifierDef, "Scope")
+    bound: dict[str, Sdf.Path] = {}
+    for i, piece in enumerate(pieces):
+        mat = material_name(piece)
+        if mat not in bound:
+            bound[mat] = _material_spec(looks, mat, f"./{PARTS_DIR}")
+        _mesh_spec(spec, prim_name(f"{piece.name}_{i}"), piece, bound[mat])
 
 
 def _usd_matrix(inst: Instance) -> Gf.Matrix4d:

@@ -106,9 +106,10 @@ def check_facade(name: str, skeletons: list[Skeleton]) -> None:
 
 
 def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
-                  k: int = 1, **options) -> Built:
-    """The k best layouts of one building or block (checked; see module docstring).
-    ``options`` go to
+                  k: int = 1, *, infill: bool = False, **options) -> Built:
+    """The k best layouts of one building or block (checked; see module docstring),
+    each with its roof infill when ``infill`` (a footprint: see
+    :mod:`~citysynth.export.infill`). ``options`` go to
     :func:`~citysynth.pipeline.skeleton_to_structure.skeleton_structure` (corner
     tolerance, mitres, stretch, per-side and per-structure constraints)."""
     check_style(db, style)
@@ -133,7 +134,8 @@ def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
     count = max(len(r.solutions) for r in results)
     placements = [p.placement for p in plans]
     layouts = [layout(name, i + 1, placements,
-                      [r.solutions[min(i, len(r.solutions) - 1)] for r in results], db)
+                      [r.solutions[min(i, len(r.solutions) - 1)] for r in results], db,
+                      infill)
                for i in range(count)]
     timings["layout_s"] = time.perf_counter() - t2
     return Built(name, "ok", layouts, timings=timings)

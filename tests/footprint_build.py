@@ -19,12 +19,14 @@ def helsinki_feature(n: int) -> dict:
     return json.loads(HELSINKI.read_text())["features"][n]
 
 
-def build_feature(tmp_path: Path, feature: dict) -> tuple[Path, dict]:
-    """The built block's layout USD and its layout JSON (parsed)."""
+def build_feature(tmp_path: Path, feature: dict, config: str = "") -> tuple[Path, dict]:
+    """The built block's layout USD and its layout JSON (parsed); ``config``: more of
+    the city.toml."""
+    tmp_path.mkdir(parents=True, exist_ok=True)
     fp = tmp_path / "b.geojson"
     fp.write_text(json.dumps({"type": "FeatureCollection", "features": [feature]}))
     cfg = tmp_path / "c.toml"
-    cfg.write_text('k = 1\npick = "best"\n')
+    cfg.write_text('k = 1\npick = "best"\n' + config)
     out = tmp_path / "run"
     assert main(["city", "--footprints", str(fp), "--library", str(LIB), "-o", str(out),
                  "--config", str(cfg), "--workers", "1", "--no-overview"]) == 0

@@ -142,3 +142,36 @@ def test_blender_imports_a_whole_city(tmp_path, db):
     for scene in (usd, glb):
         np.testing.assert_allclose(_scene_bounds(scene), [lo, hi], atol=2e-3)
         assert sorted(scene["materials"]) == sorted(want)
+
+
+def test_blender_imports_a_roof_infill(tmp_path, db):
+    """A deep footprint's roof infill (``block --infill``) comes in from USD and GLB as
+    a mesh object named for it, in the library's roof and wall materials (no copies),
+    and the scene is as large and as high as the layout with it."""
+    from citysynth.export.infill import infill_pieces
+    src = tmp_path / "deep.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [{
+        "type": "Feature", "properties": {"id": "deep"}, "geometry": {
+            "type": "Polygon", "coordinates": [[[13.400, 52.520], [13.4009, 52.520],
+                                                [13.4009, 52.5204], [13.400, 52.5204],
+                                                [13.400, 52.520]]]}}]}))
+    assert main(["block", str(src), "--library", str(LIB), "--infill", "-o", str(tmp_path),
+                 "--no-preview"]) == 0
+    lay = Layout.from_dict(json.loads((tmp_path / "deep.layout.json").read_text()))
+    assert lay.infill
+    pieces = [p for f in lay.infill for p in infill_pieces(f, db)]
+    want = {material_name(p) for i in lay.instances for p in prototype_pieces(db, i)} | \
+        {material_name(p) for p in pieces}
+    for path in (tmp_path / "deep.usda", tmp_path / "deep.glb"):
+        scene = blender(path)
+        infill = [o for o in scene["objects"] if o["type"] == "MESH"
+                  and (o["name"].startswith(("roof_", "walls_")) and o["parent"] == "infill_00"
+                       or o["name"].startswith("infill_00"))]
+        assert infill, [o["name"] for o in scene["objects"]][:20]
+        assert {m for o in infill for m in o["materials"]} == {material_name(p) for p in pieces}
+        _check_upright(scene, lay, db)
+        _check_materials_set(scene, want)
+
+
+def _check_materials_set(scene: dict, want: set[str]) -> None:
+    assert sorted(scene["materials"]) == sorted(want)

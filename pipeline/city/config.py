@@ -33,6 +33,7 @@ stretch = 0.02              # a side may be met within this fraction (or slack)
 tolerance = 0.5             # cleaning moves the outline at most this far (m)
 storey_tolerance = 0        # storeys a building may differ from building:levels
 storey_height = 3.3         # m: height / this when building:levels is missing
+infill = true               # a flat roof over ground deeper than the parts reach
 storeys.classic = { a = 4, b = 5, c = 3, d = 6 }   # storeys per facade family
 roofs.classic = { gabled = ["a", "c", "d"], mansard = ["b"] }   # roof:shape -> families
 
@@ -127,6 +128,7 @@ class FootprintSettings:
     stretch: float = 0.02
     tolerance: float = 0.5
     storeys: Storeys = field(default_factory=Storeys)
+    infill: bool = True
 
 
 @dataclass(frozen=True)
@@ -152,7 +154,7 @@ _SETTINGS = {"library", "style", "k", "pick", "per_side", "per_block"}
 _TOP = _SETTINGS | {"seed", "stretch", "corner_tolerance", "mitre_cost", "min_edge",
                     "min_width", "min_area", "origin", "setback", "zone", "slack",
                     "footprints", "not_streets"}
-_FOOTPRINTS = {"stretch", "tolerance", "storey_tolerance", "storey_height", "storeys",
+_FOOTPRINTS = {"stretch", "tolerance", "storey_tolerance", "storey_height", "storeys", "infill",
                "roofs"}
 _SETBACK = {"default", "sidewalk", "lane_width", "highway"}
 _KIND_KEYS = {"setback": ("row", "towers"), "lot": ("towers",), "height": ("towers",),
@@ -239,8 +241,11 @@ def _footprints(data: dict, err: _Err) -> FootprintSettings:
     storeys = Storeys(
         tol, _pos(fp, "storey_height", default.storey_height, "footprints.", err),
         _merged(default.families, fams), _merged(default.roofs, roofs))
+    infill = fp.get("infill", True)
+    if not isinstance(infill, bool):
+        raise err("footprints.infill", f"must be true or false, got {infill!r}")
     return FootprintSettings(stretch, _pos(fp, "tolerance", 0.5, "footprints.", err),
-                             storeys)
+                             storeys, infill)
 
 
 def _storey_count(v: Any, key: str, err: _Err) -> int:

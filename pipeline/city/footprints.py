@@ -69,6 +69,7 @@ class FootprintSpec:
     stretch: float                   # a side may be met within this fraction
     tolerance: float                 # metres the cleaned outline may stray
     storeys: Storeys
+    infill: bool = True              # roof over ground deeper than the parts reach
     trimmed: str = ""                # why the outline is less than the feature's (overlaps.py)
     remarks: str = ""                # what of its data it is not built as (see remark)
 
@@ -94,7 +95,8 @@ def feature_ref(props: dict[str, Any]) -> str:
 
 
 def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: str,
-                   stretch: float, tolerance: float, storeys: Storeys) -> FootprintSpec:
+                   stretch: float, tolerance: float, storeys: Storeys, infill: bool = True
+                   ) -> FootprintSpec:
     """The spec of feature ``index`` of ``source`` from its properties; a storey count
     or height no building has (``-2``, ``1e9``, ``"tall"``) counts as none, and the
     building's notes say so."""
@@ -103,7 +105,7 @@ def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: s
     height = osm_number(props.get("height"), MAX_HEIGHT)
     spec = FootprintSpec(source, index, feature_ref(props), levels, height,
                          str(roof) if roof not in (None, "") else None, source_crs,
-                         stretch, tolerance, storeys)
+                         stretch, tolerance, storeys, infill)
     unread = []
     if levels is None and props.get("building:levels") not in (None, ""):
         unread.append(f"building:levels {_shown(props['building:levels'])} is no storey "

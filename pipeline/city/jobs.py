@@ -348,6 +348,7 @@ def write_block(built: Built, rank: int, db: PartDB, blocks: Path) -> list[Path]
 
 def _solve(job: BlockJob, db: PartDB, prep: Prepared) -> Built:
     return solve_layouts(job.id, prep.rings, db, job.style, job.k,
+                         infill=job.footprint is not None and job.footprint.infill,
                          angle_tol=job.corner_tolerance, joint_cost=job.mitre_cost,
                          per_side={n: (lo, hi) for n, lo, hi in job.per_side},
                          per_structure={n: (lo, hi) for n, lo, hi in job.per_block},

@@ -213,7 +213,7 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
                                      f"below min_area {cfg.min_area:g}", p))
                 continue
             spec = footprint_spec(str(footprints), f.index, f.properties, frame.source_crs,
-                                  fp.stretch, fp.tolerance, fp.storeys)
+                                  fp.stretch, fp.tolerance, fp.storeys, fp.infill)
             if lines:
                 spec = street_crossings(spec, p, lines, tree)
             found.append(Footprint(p, spec))

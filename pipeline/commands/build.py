@@ -13,7 +13,7 @@ import hashlib
 import re
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from citysynth.parts_db.files import all_or_nothing
 from citysynth.pipeline.errors import UsageError
@@ -29,7 +29,7 @@ if TYPE_CHECKING:
 MAX_STRETCH = 0.05   # as city.toml: more would stretch parts visibly
 
 
-def _options(args) -> dict[str, float]:
+def _options(args) -> dict[str, Any]:
     """What --stretch and --slack mean to the structure (the city's stretch and slack)."""
     return {"stretch": args.stretch, "slack": args.slack}
 
@@ -69,6 +69,10 @@ def register(sub) -> None:
                    "FlatGeobuf, KML, Esri JSON, GML, MapInfo, GeoParquet or DXF layer "
                    "(FILE::LAYER)")
     _common(p)
+    p.add_argument("--infill", action="store_true",
+                   help="the polygons are building footprints: roof over the ground "
+                        "deeper than the parts reach (a street block keeps its yard "
+                        "open without it)")
     p.set_defaults(run=run_block, geometry="polygons")
 
 
@@ -207,7 +211,8 @@ def run_block(args) -> int:
     built = []
     for f, name in zip(feats, names, strict=True):
         rings = skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
-        built.append((solve_layouts(name, rings, db, style, args.k, **_options(args)), rings))
+        built.append((solve_layouts(name, rings, db, style, args.k, infill=args.infill,
+                                    **_options(args)), rings))
     return _finish(args, db, style, frame, built)
 
 

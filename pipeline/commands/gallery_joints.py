@@ -32,7 +32,7 @@ from citysynth.skeletons.geojson import Feature, Frame
 STYLES = ("classic", "modern")
 LEG = 40.0             # metres: each side of a corner, long enough for any corner part
 ANGLE_TOL = 2.0        # degrees: a corner takes a library part only this close to its angle
-SOLVE = {"stretch": 0.1, "slack": 1.0, "angle_tol": ANGLE_TOL}
+SOLVE: dict[str, Any] = {"stretch": 0.1, "slack": 1.0, "angle_tol": ANGLE_TOL}
 CAMERA_Z = 12.0        # metres: a little above street level, where the roofs still show
 LOOK_Z = 8.0           # metres: the point looked at above the joint
 TOP_HALF = 32.0        # metres: half the side of the top view's square

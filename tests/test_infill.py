@@ -1,0 +1,204 @@
+"""Roof infill (export/infill.py): a footprint deeper than two building depths was built
+as a ring of wings round open ground, a hole in the roof the footprint does not have
+(a 60 x 45 m building: 30 % of its ground open; the shipped Helsinki footprints: 10.9 %
+of their ground, in 173 of 256 buildings). The ground no part covers is now roofed
+flat, just under the lowest back eave round it. Measured on the written USD, composed
+by usd-core, the way a DCC shows it."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry import Polygon
+from shapely.geometry.polygon import orient
+
+from citysynth.export.audit import _coplanar_roofs, footprint, instance_triangles
+from citysynth.export.infill import DROP, MIN_HEIGHT, back_eave, infill_pieces, instance_grounds
+from citysynth.export.layout import Infill, Layout
+from citysynth.export.naming import instance_labels, stage_group, structure_group
+from citysynth.export.rings import building_ground, closed_ring
+from citysynth.export.usd import prim_name, validate
+from citysynth.parts_db import load_library
+from citysynth.pipeline.cli import main
+from citysynth.skeletons.geojson import lonlat_from_local
+from tests.footprint_build import LIB, build_feature, helsinki_feature
+from tests.test_gltf import assert_clean
+
+ORIGIN = (24.94, 60.17)
+
+
+def feature(rings, levels="4") -> dict:
+    return {"type": "Feature", "properties": {"id": "deep", "building:levels": levels},
+            "geometry": {"type": "Polygon", "coordinates": [
+                lonlat_from_local(r + r[:1], ORIGIN) for r in rings]}}
+
+
+def measured(usd: Path, lay: dict) -> dict:
+    """What the written USD covers: the open ground left (m²), the infill's plan, how
+    much of it lies past the outline or under a part (m²), coplanar roofs (m²)."""
+    tris = instance_triangles(usd)
+    fill = {k: t for k, t in tris.items() if "/infill_" in k}
+    parts = {k: t for k, t in tris.items() if "/infill_" not in k}
+    ground = building_ground(lay["structures"])
+    covered = shapely.union_all([footprint(t) for t in parts.values()])
+    infill = shapely.union_all([footprint(t) for t in fill.values()]) if fill \
+        else Polygon()
+    return {"ground": ground.area,
+            "open": ground.difference(shapely.union_all([covered, infill])).area,
+            "infill": infill.area,
+            "past_outline": infill.difference(ground).area,
+            "under_parts": infill.intersection(covered).area,
+            "coplanar": _coplanar_roofs(tris),
+            "tops": sorted({round(float(t[:, :, 2].max()), 3) for t in fill.values()})}
+
+
+DEEP = [(0, 0), (60, 0), (60, 45), (0, 45)]
+
+
+def test_deep_footprint_roof_closes(tmp_path):
+    """A 60 x 45 m footprint: 30 % of its ground was open; now under 0.5 %, nothing
+    of the infill past the outline or under a part, no coplanar roofs."""
+    before = measured(*build_feature(tmp_path / "off", feature([DEEP]),
+                                     config="[footprints]\ninfill = false\n"))
+    usd, lay = build_feature(tmp_path / "on", feature([DEEP]))
+    after = measured(usd, lay)
+    print(f"\nopen ground {before['open']:.0f} -> {after['open']:.1f} m² of "
+          f"{after['ground']:.0f}; infill {after['infill']:.0f} m²")
+    assert before["infill"] == 0 and before["open"] >= 0.25 * before["ground"]
+    assert after["open"] <= 0.005 * after["ground"]
+    assert after["past_outline"] <= 0.01
+    assert after["under_parts"] <= 0.5
+    assert after["coplanar"] <= 0.5
+    assert validate(usd) == []
+    (fill,) = lay["infill"]
+    db = load_library(LIB)
+    eaves = [back_eave(db, db.part(i["part"])) for i in lay["instances"]]
+    assert MIN_HEIGHT <= fill["z"] <= min(eaves) - DROP + 1e-3
+    assert after["tops"] == [round(fill["z"], 3)]
+
+
+def test_courtyard_in_a_deep_footprint_stays_open(tmp_path):
+    """A 90 x 90 m building round a 20 x 20 m courtyard: the infill is a ring round
+    the courtyard's wings (a polygon with a hole), and the courtyard stays open."""
+    yard = [(35, 35), (55, 35), (55, 55), (35, 55)]
+    usd, lay = build_feature(tmp_path, feature([[(0, 0), (90, 0), (90, 90), (0, 90)], yard]))
+    m = measured(usd, lay)
+    assert m["open"] <= 0.005 * m["ground"] and m["past_outline"] <= 0.01
+    (fill,) = lay["infill"]
+    assert len(fill["rings"]) == 2                      # shell and hole
+    (court,) = [r for r, owns in map(closed_ring, lay["structures"])
+                if r is not None and not owns]     # the ring facing in, in the layout frame
+    plan = Polygon(fill["rings"][0], fill["rings"][1:])
+    assert plan.intersection(court).area <= 0.01 and court.area > 350
+
+
+def test_shallow_footprint_has_no_infill(tmp_path):
+    """A 20 m deep building: its wings meet, nothing is open, no infill is written."""
+    _usd, lay = build_feature(tmp_path, feature([[(0, 0), (40, 0), (40, 20), (0, 20)]]))
+    assert lay["infill"] == []
+
+
+@pytest.mark.parametrize("n", [164, 5])
+def test_helsinki_deep_buildings(tmp_path, n):
+    """Features 164 (a triangle of wings round 3,400 m² of open ground) and 5 (wings
+    and a courtyard, seven open areas) of the shipped footprints."""
+    before = measured(*build_feature(tmp_path / "off", helsinki_feature(n),
+                                     config="[footprints]\ninfill = false\n"))
+    m = measured(*build_feature(tmp_path / "on", helsinki_feature(n)))
+    print(f"\nopen ground {before['open']:.0f} -> {m['open']:.1f} m² of "
+          f"{m['ground']:.0f}; infill {m['infill']:.0f} m²")
+    assert before["open"] >= 0.15 * before["ground"]
+    assert m["open"] <= 0.01 * m["ground"]
+    # under parts: balconies and cornices of back facades, which the infill runs under
+    assert m["past_outline"] <= 0.01 and m["under_parts"] <= 0.03 * m["infill"]
+    assert m["coplanar"] <= 0.5
+
+
+def test_instance_ground_is_what_the_usd_covers(tmp_path):
+    """The plan the infill is cut from (export/infill.py, ``instance_grounds``: the
+    part's walls and roof, extended and cut as the instance is) against each instance's
+    plan in the written USD (all its pieces): nothing more, and all but its balconies
+    and cornices. Feature 8 of the shipped footprints has courtyard wings whose cuts
+    hold planes hundreds of metres off (a plane of a wing's far end), which once
+    wiped a module's ground out and laid the infill through it."""
+    usd, lay = build_feature(tmp_path, helsinki_feature(8))
+    tris = instance_triangles(usd)
+    layout = Layout.from_dict(lay)
+    db = load_library(LIB)
+    root = next(iter(tris)).split("/")[1]
+    for inst, label, ours in zip(layout.instances, instance_labels(layout),
+                                 instance_grounds(db, layout.instances), strict=True):
+        key = f"/{root}/{structure_group(inst.structure)}/{stage_group(inst)}/" \
+              f"{prim_name(label)}"
+        seen = footprint(tris[key])
+        assert ours.difference(seen).area <= 0.01 + 0.002 * seen.area, label
+        assert seen.difference(ours).area <= 0.05 * seen.area + 0.5, label
+
+
+def test_street_blocks_keep_their_yards(tmp_path):
+    """``citysynth block`` without --infill (a street block) writes no infill; with it,
+    the same polygon gets its ground roofed, in JSON, USD and glTF alike."""
+    src = tmp_path / "deep.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [feature([DEEP])]}))
+    args = ["block", str(src), "--library", str(LIB), "--no-preview"]
+    assert main([*args, "-o", str(tmp_path / "yard")]) == 0
+    assert main([*args, "--infill", "-o", str(tmp_path / "roof")]) == 0
+    yard = json.loads((tmp_path / "yard" / "deep.layout.json").read_text())
+    roof = json.loads((tmp_path / "roof" / "deep.layout.json").read_text())
+    assert yard["infill"] == [] and len(roof["infill"]) == 1
+    assert yard["instances"] == roof["instances"]        # the parts are the same
+    assert "infill_00" not in (tmp_path / "yard" / "deep.usda").read_text()
+    assert 'def Xform "infill_00"' in (tmp_path / "roof" / "deep.usda").read_text()
+    import trimesh
+    scene = trimesh.load(tmp_path / "roof" / "deep.glb")
+    assert "infill_00" in scene.graph.nodes
+    assert validate(tmp_path / "roof" / "deep.usda") == []
+    assert_clean([tmp_path / "roof" / "deep.glb"])          # Khronos's glTF validator
+
+
+def test_infill_bad_config(tmp_path, capsys):
+    fp = tmp_path / "b.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [feature([DEEP])]}))
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[footprints]\ninfill = "yes"\n')
+    assert main(["city", "--footprints", str(fp), "--library", str(LIB), "-o",
+                 str(tmp_path / "out"), "--config", str(cfg)]) == 2
+    err = capsys.readouterr().err
+    assert "footprints.infill" in err and "true or false" in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("rings", [
+    [[(0, 0), (30, 0), (30, 20), (0, 20)]],
+    [[(0, 0), (40, 0), (40, 40), (0, 40)], [(10, 10), (10, 30), (30, 30), (30, 10)]],
+    [[(0, 0), (50, 0), (50, 10), (20, 10), (20, 30), (0, 30)]],
+])
+def test_infill_mesh(rings):
+    """The infill's mesh: its top covers its plan exactly, facing up, at its height;
+    its sides stand on the ground and face out of the mass."""
+    db = load_library(LIB)
+    part = next(p.id for p in db.parts if p.cls == "middle")
+    plan = orient(Polygon(rings[0], rings[1:]), sign=1.0)
+    fill = Infill(part, 12.5, tuple(tuple(map(tuple, r.coords[:-1]))
+                                    for r in (plan.exterior, *plan.interiors)))
+    top, sides = infill_pieces(fill, db)
+    t = top.vertices[top.faces]
+    n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    assert np.allclose(t[:, :, 2], 12.5) and (n[:, 2] > 0).all()
+    assert abs(n[:, 2].sum() / 2 - plan.area) < 1e-6
+    s = sides.vertices[sides.faces]
+    assert set(np.round(sides.vertices[:, 2], 6)) == {0.0, 12.5}
+    ns = np.cross(s[:, 1] - s[:, 0], s[:, 2] - s[:, 0])
+    centre = s.mean(axis=1)[:, :2]
+    probe = centre + 0.01 * ns[:, :2] / np.linalg.norm(ns[:, :2], axis=1)[:, None]
+    assert not shapely.contains_xy(plan, probe[:, 0], probe[:, 1]).any()   # outward
+    assert abs(np.linalg.norm(ns, axis=1).sum() / 2
+               - plan.length * 12.5) < 1e-6                             # whole walls
+    back = Layout.from_dict(json.loads(Layout(
+        "x", 1, {"name": "l", "hash": "h", "quantum": 0.2}, "classic", "local", [],
+        [], [fill]).to_json()))
+    assert back.infill == [fill]
