@@ -8,6 +8,9 @@ by usd-core, the way a DCC shows it."""
 from __future__ import annotations
 
 import json
+import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -66,6 +69,10 @@ def test_deep_footprint_roof_closes(tmp_path):
                                      config="[footprints]\ninfill = false\n"))
     usd, lay = build_feature(tmp_path / "on", feature([DEEP]))
     after = measured(usd, lay)
+    code, out = diff(tmp_path / "off" / "run", tmp_path / "on" / "run")
+    infill = re.search(r"roof infill: 0 -> ([\d.]+) m²", out)
+    assert code == 1 and infill and "parts:" not in out, out
+    assert abs(float(infill.group(1)) - before["open"]) <= 1.0
     print(f"\nopen ground {before['open']:.0f} -> {after['open']:.1f} m² of "
           f"{after['ground']:.0f}; infill {after['infill']:.0f} m²")
     assert before["infill"] == 0 and before["open"] >= 0.25 * before["ground"]
@@ -79,6 +86,13 @@ def test_deep_footprint_roof_closes(tmp_path):
     eaves = [back_eave(db, db.part(i["part"])) for i in lay["instances"]]
     assert MIN_HEIGHT <= fill["z"] <= min(eaves) - DROP + 1e-3
     assert after["tops"] == [round(fill["z"], 3)]
+
+
+def diff(a: Path, b: Path) -> tuple[int, str]:
+    """``citysynth diff a b`` in a fresh interpreter: its exit code and output."""
+    p = subprocess.run([sys.executable, "-m", "citysynth.pipeline.cli", "diff", str(a),
+                        str(b)], capture_output=True, text=True, timeout=120)
+    return p.returncode, p.stdout
 
 
 def test_courtyard_in_a_deep_footprint_stays_open(tmp_path):

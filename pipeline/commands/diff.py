@@ -218,7 +218,24 @@ def _block_change(bid: str, la: dict, lb: dict) -> dict:
                        if pa.get(p, 0) != pb.get(p, 0)}
     if len(la["structures"]) != len(lb["structures"]):
         change["structures"] = [len(la["structures"]), len(lb["structures"])]
+    ia, ib = la.get("infill", []), lb.get("infill", [])
+    if ia != ib:
+        change["infill"] = [_infill_area(ia), _infill_area(ib)]
+    if la.get("version") != lb.get("version"):
+        change["version"] = [la.get("version"), lb.get("version")]
     return change
+
+
+def _infill_area(infill: list[dict]) -> float:
+    """The plan area of a layout's roof infill (m²; shells less holes, by the shoelace
+    formula: a diff loads no geometry library)."""
+    total = 0.0
+    for fill in infill:
+        for r, ring in enumerate(fill["rings"]):
+            area = abs(sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1)
+                           in zip(ring, ring[1:] + ring[:1], strict=True))) / 2
+            total += area if r == 0 else -area
+    return round(total, 1)
 
 
 def _part_counts(lay: dict) -> dict[str, int]:
@@ -251,18 +268,7 @@ def run(args) -> int:
               f"-> {', '.join(d['libraries']['b'])}; blocks differ in their parts even where "
               "their costs agree")
     for c in d["changed"]:
-        print(f"  changed {c['id']}: cost {c['cost_a']:g} -> {c['cost_b']:g} "
-              f"({c['cost_delta']:+g}), layout #{c['rank_a']} -> #{c['rank_b']}" +
-              (f", library {c['library'][0]} -> {c['library'][1]}" if "library" in c else ""))
-        for m in c["met"][:8]:
-            print(f"      ring {m['structure'] + 1}, side {m['stage'] + 1}: {m['resource']} "
-                  f"{m['a']} -> {m['b']}")
-        if c["parts"]:
-            moved = ", ".join(f"{p} {n:+d}" for p, n in c["parts"].items())
-            print(f"      parts: {moved}")
-        if others := [describe_file(f, c["id"]) for f in c["files"]
-                      if not f.endswith(".layout.json")]:
-            print(f"      files that differ: {', '.join(others)}")
+        _print_change(c)
     for g in d["files_changed"]:
         print(f"  files {g['id']}: the kept layout is the same; differ: " + ", ".join(
             describe_file(f, g["id"]) for f in g["files"]))
@@ -277,3 +283,23 @@ def run(args) -> int:
         print(f"wrote {args.png}")
     sys.stdout.flush()
     return 0 if d["identical"] else 1
+
+
+def _print_change(c: dict) -> None:
+    """One changed block: its cost, ranks, library, what it met, parts, infill, files."""
+    print(f"  changed {c['id']}: cost {c['cost_a']:g} -> {c['cost_b']:g} "
+          f"({c['cost_delta']:+g}), layout #{c['rank_a']} -> #{c['rank_b']}" +
+          (f", library {c['library'][0]} -> {c['library'][1]}" if "library" in c else ""))
+    for m in c["met"][:8]:
+        print(f"      ring {m['structure'] + 1}, side {m['stage'] + 1}: {m['resource']} "
+              f"{m['a']} -> {m['b']}")
+    if c["parts"]:
+        moved = ", ".join(f"{p} {n:+d}" for p, n in c["parts"].items())
+        print(f"      parts: {moved}")
+    if "infill" in c:
+        print(f"      roof infill: {c['infill'][0]:g} -> {c['infill'][1]:g} m²")
+    if "version" in c:
+        print(f"      layout JSON version {c['version'][0]} -> {c['version'][1]}")
+    if others := [describe_file(f, c["id"]) for f in c["files"]
+                  if not f.endswith(".layout.json")]:
+        print(f"      files that differ: {', '.join(others)}")
