@@ -42,7 +42,8 @@ def feature(rings, levels="4") -> dict:
 
 def measured(usd: Path, lay: dict) -> dict:
     """What the written USD covers: the open ground left (m²), the infill's plan, how
-    much of it lies past the outline or under a part (m²), coplanar roofs (m²)."""
+    much of it lies past the outline or under a part (m²), how long its edge runs on
+    the outline (m: a plain wall facing the street), coplanar roofs (m²)."""
     tris = instance_triangles(usd)
     fill = {k: t for k, t in tris.items() if "/infill_" in k}
     parts = {k: t for k, t in tris.items() if "/infill_" not in k}
@@ -55,6 +56,7 @@ def measured(usd: Path, lay: dict) -> dict:
             "infill": infill.area,
             "past_outline": infill.difference(ground).area,
             "under_parts": infill.intersection(covered).area,
+            "on_outline": infill.boundary.intersection(ground.boundary.buffer(0.05)).length,
             "coplanar": _coplanar_roofs(tris),
             "tops": sorted({round(float(t[:, :, 2].max()), 3) for t in fill.values()})}
 
@@ -77,7 +79,7 @@ def test_deep_footprint_roof_closes(tmp_path):
           f"{after['ground']:.0f}; infill {after['infill']:.0f} m²")
     assert before["infill"] == 0 and before["open"] >= 0.25 * before["ground"]
     assert after["open"] <= 0.005 * after["ground"]
-    assert after["past_outline"] <= 0.01
+    assert after["past_outline"] <= 0.01 and after["on_outline"] <= 0.5
     assert after["under_parts"] <= 0.5
     assert after["coplanar"] <= 0.5
     assert validate(usd) == []
@@ -130,6 +132,7 @@ def test_helsinki_deep_buildings(tmp_path, n):
     # under parts: balconies and cornices of back facades, which the infill runs under
     assert m["past_outline"] <= 0.01 and m["under_parts"] <= 0.03 * m["infill"]
     assert m["coplanar"] <= 0.5
+    assert m["on_outline"] <= 0.5          # no plain infill wall faces the street
 
 
 def test_instance_ground_is_what_the_usd_covers(tmp_path):
