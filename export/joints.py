@@ -26,6 +26,7 @@ at the back, out of sight from the street.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -219,11 +220,14 @@ def joint_halves(p: np.ndarray, u_in: np.ndarray, u_out: np.ndarray, mass_left: 
     return before, after, "mitre", 0.0
 
 
-def half_polygon(n: np.ndarray, p: np.ndarray, size: float) -> Polygon:
+def half_polygon(n: Sequence[float] | np.ndarray, p: Sequence[float] | np.ndarray,
+                 size: float) -> Polygon:
     """The plan of the half-plane (X - p) . n <= 0, as a square ``size`` across."""
-    t = np.array([-n[1], n[0]])
-    return Polygon([p + t * size, p + t * size - n * size, p - t * size - n * size,
-                    p - t * size])
+    # in plain floats, the same sums in the same order as on arrays (t = (-n_y, n_x)):
+    # a footprint's layout makes thousands, and small numpy arrays cost more than this
+    nx, ny, px, py = float(n[0]) * size, float(n[1]) * size, float(p[0]), float(p[1])
+    return shapely.polygons([(px - ny, py + nx), (px - ny - nx, py + nx - ny),
+                             (px + ny - nx, py - nx - ny), (px + ny, py - nx)])
 
 
 def behind(points: Any, front: str, depth: float) -> BaseGeometry:

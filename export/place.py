@@ -958,8 +958,14 @@ def _mass_normal(direction: np.ndarray, front: Front) -> np.ndarray:
 
 
 def _footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
-    """A module's plan rectangle (over its span, front overhang to depth)."""
-    return _footprints([placed], [span])[0]
+    """A module's plan rectangle (over its span, front overhang to depth): as
+    :func:`_footprints` makes it, in plain floats (the same sums in the same order;
+    a layout asks for thousands one at a time, and small numpy arrays cost more)."""
+    (x0, x1), (y0, y1) = span, placed.y_range
+    (a00, a01), (a10, a11) = placed.a.tolist()
+    ox, oy = placed.origin.tolist()
+    return shapely.polygons([(a00 * x + a01 * y + ox, a10 * x + a11 * y + oy)
+                             for x, y in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))])
 
 
 def _footprints(placed: Sequence[Placed], spans: Sequence[tuple[float, float]]
@@ -984,9 +990,7 @@ def _clipped_footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometr
 def _clipped(foot: BaseGeometry, placed: Placed) -> BaseGeometry:
     """Ground ``foot`` of a module less what its half-planes cut away so far."""
     for h in placed.halves:
-        foot = foot.intersection(half_polygon(np.asarray(h.normal, dtype=float),
-                                               np.asarray(h.point, dtype=float),
-                                               _reach(placed, h)))
+        foot = foot.intersection(half_polygon(h.normal, h.point, _reach(placed, h)))
     return foot
 
 
@@ -994,8 +998,9 @@ def _reach(placed: Placed, half: HalfPlane) -> float:
     """How large a square round the half-plane's point covers the module: its own size
     and its distance from that point (a medial plane's point is where the plane passes
     nearest the frame's origin, which in a city is hundreds of metres away)."""
+    ox, oy = placed.origin.tolist()
     return 10.0 * (placed.length + abs(placed.y_range[0]) + abs(placed.y_range[1]) + 1.0) \
-        + 2.0 * float(np.hypot(*(np.asarray(half.point, dtype=float) - placed.origin)))
+        + 2.0 * float(np.hypot(float(half.point[0]) - ox, float(half.point[1]) - oy))
 
 
 def _overlapping(tree: shapely.STRtree, bands: list[BaseGeometry],

@@ -251,3 +251,30 @@ def test_block_cli_errors(tmp_path, capsys):
         "its doors in [60, 60] cannot be met by the classic kit's parts, which make " in err
     assert "stage" not in err
     assert not list(tmp_path.iterdir())
+
+
+def test_plain_float_shapes_are_the_array_ones():
+    """``half_polygon`` and a module's ``_footprint`` are built in plain floats for
+    speed; they must be the very polygons the array code made (the same sums in the
+    same order), or layouts would move by a last bit and stop being byte-identical."""
+    import shapely
+    from shapely.geometry import Polygon
+
+    from citysynth.export.joints import Placed, half_polygon
+    from citysynth.export.place import _footprint, _footprints
+
+    rng = np.random.default_rng(7)
+    for _ in range(2000):
+        n = rng.normal(size=2)
+        n /= np.linalg.norm(n)
+        p, size = rng.uniform(-900, 900, 2), float(rng.uniform(0.5, 400))
+        t = np.array([-n[1], n[0]])
+        arrays = Polygon([p + t * size, p + t * size - n * size, p - t * size - n * size,
+                          p - t * size])
+        assert shapely.to_wkb(half_polygon(n, p, size)) == shapely.to_wkb(arrays)
+        assert shapely.to_wkb(half_polygon(tuple(n), tuple(p), size)) == shapely.to_wkb(arrays)
+        placed = Placed("p", "middle", 5.0, tuple(rng.uniform(-1, 15, 2)), 0, 0, None,
+                        rng.normal(size=(2, 2)), rng.uniform(-900, 900, 2))
+        span = tuple(rng.uniform(-3, 12, 2))
+        assert shapely.to_wkb(_footprint(placed, span)) == \
+            shapely.to_wkb(_footprints([placed], [span])[0])
