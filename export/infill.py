@@ -35,6 +35,7 @@ from shapely.geometry.polygon import orient
 
 from citysynth.export.cuts import extended_x, length
 from citysynth.export.ground import GRID, footprint
+from citysynth.export.joints import half_polygons
 from citysynth.export.layout import COORD_DIGITS, Infill, Instance
 from citysynth.export.rings import building_ground
 from citysynth.parts_db import Part, PartDB
@@ -137,10 +138,8 @@ def _kept(plans: np.ndarray, abc: np.ndarray) -> np.ndarray:
         n = abc[cut, :2] / norm[:, None]
         centre = corners[cut].mean(axis=1)
         on = centre - n * ((n * centre).sum(axis=1) - abc[cut, 2] / norm)[:, None]
-        size = 4.0 * (b[cut, 2] - b[cut, 0] + b[cut, 3] - b[cut, 1] + 1.0)[:, None]
-        along, past = np.stack([-n[:, 1], n[:, 0]], axis=1) * size, n * size
-        square = np.stack([on + along, on + along - past, on - along - past, on - along], 1)
-        out[cut] = shapely.intersection(plans[cut], shapely.polygons(square))
+        size = 4.0 * (b[cut, 2] - b[cut, 0] + b[cut, 3] - b[cut, 1] + 1.0)
+        out[cut] = shapely.intersection(plans[cut], half_polygons(n, on, size))
     return out
 
 

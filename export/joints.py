@@ -230,6 +230,15 @@ def half_polygon(n: Sequence[float] | np.ndarray, p: Sequence[float] | np.ndarra
                              (px + ny - nx, py - nx - ny), (px + ny, py - nx)])
 
 
+def half_polygons(n: np.ndarray, p: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """:func:`half_polygon` for many at once (rows of ``n`` and ``p``, ``size`` one
+    each): the same four corners, built in one call."""
+    along = np.stack([-n[:, 1], n[:, 0]], axis=1) * size[:, None]
+    past = n * size[:, None]
+    return shapely.polygons(np.stack([p + along, p + along - past, p - along - past,
+                                      p - along], axis=1))
+
+
 def behind(points: Any, front: str, depth: float) -> BaseGeometry:
     """The ground behind a facade polyline, ``depth`` deep, mitred at its bends (the
     mass lies left of travel where the facades face right). A polyline that ends where

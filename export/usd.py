@@ -152,14 +152,21 @@ def _prototype_spec(parent: Sdf.Layer | Sdf.PrimSpec, db: PartDB, inst: Instance
     if inst.cut is not None:
         data["cut"] = _vt(inst.cut.to_dict())
     root.customData = {"citysynth": data}
+    _meshes_spec(root, prototype_pieces(db, inst), parts_dir)
+    return root
+
+
+def _meshes_spec(root: Sdf.PrimSpec, pieces: Sequence[Piece], parts_dir: str) -> None:
+    """A mesh per piece under ``root`` (``<piece>_<i>``), each bound to its library
+    material: a ``Looks/<material>`` prim referencing the shared material layer in
+    ``parts_dir``, one per material."""
     looks = Sdf.PrimSpec(root, "Looks", Sdf.SpecifierDef, "Scope")
     bound: dict[str, Sdf.Path] = {}
-    for i, piece in enumerate(prototype_pieces(db, inst)):
+    for i, piece in enumerate(pieces):
         name = material_name(piece)
         if name not in bound:
             bound[name] = _material_spec(looks, name, parts_dir)
         _mesh_spec(root, prim_name(f"{piece.name}_{i}"), piece, bound[name])
-    return root
 
 
 def write_part(db: PartDB, inst: Instance, path: Path) -> None:
@@ -409,15 +416,15 @@ def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | P
     for lay in layouts:
         for proto, inst in lay.prototypes().items():
             prototypes.setdefault(proto, inst)
-    infill = {id(lay): [infill_pieces(f, db) for f in lay.infill] for lay in layouts}
+    infill = [[infill_pieces(f, db) for f in lay.infill] for lay in layouts]
     ensure_parts(db, prototypes, folder,
-                 [p for pieces in infill.values() for f in pieces for p in f])
+                 [p for fills in infill for pieces in fills for p in pieces])
     cuts = {p: i for p, i in prototypes.items() if i.cut is not None}
     cpath = cuts_file(folder, name)
     if cuts:
         write_cuts(db, cuts, cpath)
-    written = [_write_layer(lay, path, cpath.name, infill[id(lay)])
-               for lay, path in zip(layouts, files, strict=True)]
+    written = [_write_layer(lay, path, cpath.name, fills)
+               for lay, path, fills in zip(layouts, files, infill, strict=True)]
     return written + ([cpath] if cuts else [])
 
 
@@ -463,13 +470,7 @@ def _infill_spec(root: Sdf.PrimSpec, name: str, fill: Infill, pieces: tuple[Piec
     spec.kind = Kind.Tokens.component
     spec.customData = {"citysynth": {"infill": True, "part": fill.part, "z": fill.z}}
     _user(spec, "part", fill.part, Sdf.ValueTypeNames.String)
-    looks = Sdf.PrimSpec(spec, "Looks", Sdf.SpecifierDef, "Scope")
-    bound: dict[str, Sdf.Path] = {}
-    for i, piece in enumerate(pieces):
-        mat = material_name(piece)
-        if mat not in bound:
-            bound[mat] = _material_spec(looks, mat, f"./{PARTS_DIR}")
-        _mesh_spec(spec, prim_name(f"{piece.name}_{i}"), piece, bound[mat])
+    _meshes_spec(spec, pieces, f"./{PARTS_DIR}")
 
 
 def _usd_matrix(inst: Instance) -> Gf.Matrix4d:
