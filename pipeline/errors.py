@@ -26,6 +26,18 @@ class UsageError(ValueError):
     folder that is not a run); the message names the option and what it accepts."""
 
 
+MAX_K = 100   # layouts a command writes: each is its own files (100 are ~50 MB a block)
+
+
+def check_k(k: int, name: str = "--k", what: str = "layouts") -> None:
+    """Refuse a k no run should write: under 1, or over :data:`MAX_K` (a billion
+    asked for once filled the machine's memory naming the files before any estimate)."""
+    if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= MAX_K:
+        shown = f"{k:,}" if isinstance(k, int) and not isinstance(k, bool) else repr(k)
+        raise UsageError(f"{name} must be an integer from 1 to {MAX_K} (each of the k "
+                         f"{what} is written as its own files), got {shown}")
+
+
 class ConfigError(UsageError):
     """A bad ``city.toml`` (the message names the key), or a city run asked for what it
     cannot do (no inputs, no library, an unreachable Dask scheduler)."""

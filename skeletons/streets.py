@@ -25,6 +25,9 @@ from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.geojson import Feature
 
 _NUMBER = re.compile(r"\s*((?:\d+(?:[.,]\d+)?|[.,]\d+)(?:[eE][+-]?\d+)?)")
+# OSM's feet: 40' or 40'6" (feet and inches), or 40 ft
+_FEET = re.compile(r"\s*(?:'\s*(?:(\d+(?:\.\d+)?)\s*(?:\"|''))?|(?:ft|feet|foot)\b)", re.I)
+FOOT, INCH = 0.3048, 0.0254
 
 
 @dataclass(frozen=True)
@@ -69,7 +72,8 @@ def tag_values(v: Any) -> list[Any]:
 
 def osm_number(v: Any, most: float = math.inf) -> float | None:
     """A positive number from one OSM value (``7``, ``"7"``, ``"7 m"``, ``"7,5"``,
-    ``"1e3"``; ``"3;4"`` or ``["3", "4"]``: the first) up to ``most``, else None: a
+    ``"1e3"``; ``"3;4"`` or ``["3", "4"]``: the first; ``"40'"``, ``"40'6\""`` or
+    ``"40 ft"`` in metres, as OSM writes feet) up to ``most``, else None: a
     value no street or building has (``1e308``, a typo) counts as no value, as an
     unreadable one does.
     Streets' widths and lanes and footprints' heights and storeys are all read by it."""
@@ -84,6 +88,9 @@ def osm_number(v: Any, most: float = math.inf) -> float | None:
         if m is None:
             return None
         x = float(m.group(1).replace(",", "."))
+        feet = _FEET.match(str(v), m.end())
+        if feet is not None:
+            x = x * FOOT + float(feet.group(1) or 0) * INCH
     return x if math.isfinite(x) and 0 < x <= most else None
 
 

@@ -454,6 +454,12 @@ RUN_DAMAGE: dict[str, tuple[Callable[[Path], object], str]] = {
                       "outside the run folder"),
     "files-absolute": (lambda r: _manifest_edit(r, _files_to("/etc/x.layout.json")),
                        "outside the run folder"),
+    # a name only this run lists (not a layout): refused too, not reported as "differ"
+    "files-extra-outside": (lambda r: _manifest_edit(r, lambda m: [rec["files"].append(
+        "../../../../etc/passwd") for rec in m["blocks"].values()]),
+        "outside the run folder"),
+    "status-unknown": (lambda r: _manifest_edit(r, lambda m: [rec.update(
+        status=5, cost="cheap") for rec in m["blocks"].values()]), "never writes"),
     "files-symlink-outside": (lambda r: (lambda p: (p.unlink(), p.symlink_to(
         "/etc/hostname")))(_first_layout(r)), "outside the run folder"),
     "run-is-file": (lambda r: (shutil.rmtree(r), r.write_text("x")), "{run}"),
@@ -512,6 +518,19 @@ OPTIONS = {
                                    "1000000000", "-o", str(t / "out")], "k"),
     "building-k-zero": (lambda t: ["building", str(_lines(t)), "--library", str(LIB), "--k",
                                    "0", "-o", str(t / "out")], "--k"),
+    # k is capped before anything is named or solved (a billion filled 24 GB naming files)
+    "block-k-huge": (lambda t: ["block", str(_write(t / "p.geojson", POLYS)), "--library",
+                                str(LIB), "--k", "1000000000", "-o", str(t / "out")],
+                     "from 1 to 100"),
+    "block-k-100000": (lambda t: ["block", str(_write(t / "p.geojson", POLYS)), "--library",
+                                  str(LIB), "--k", "100000", "-o", str(t / "out")],
+                       "from 1 to 100"),
+    "street-k-huge": (lambda t: ["street", "--line", str(_lines(t)), "--k", "1000000",
+                                 "-o", str(t / "out")], "from 1 to 100"),
+    "tower-k-huge": (lambda t: ["tower", "--height", "30", "--far", "4", "--lot-area", "900",
+                                "--k", "1000000", "-o", str(t / "out")], "from 1 to 100"),
+    "street-offset-huge": (lambda t: ["street", "--line", str(_lines(t)), "--offset", "1e9",
+                                      "-o", str(t / "out")], "--offset"),
     "city-workers-zero": (lambda t: ["city", "--streets", str(_lines(t)), "--library",
                                      str(LIB), "--workers", "0", "-o", str(t / "out")],
                           "--workers"),

@@ -157,3 +157,13 @@ def test_a_city_that_builds_nothing_is_not_a_success(tmp_path, capsys):
     assert "nothing was built" in err and "Traceback" not in err
     report = json.loads((tmp_path / "run" / "report.json").read_text())
     assert report["counts"]["built"] == 0 and report["counts"]["skipped"] > 0
+
+
+def test_diff_knows_every_status_a_run_writes():
+    """`citysynth diff` checks a manifest's statuses against its own list (it loads no
+    geometry library, so it does not import the job module): the two stay the same."""
+    from typing import get_args
+
+    from citysynth.pipeline.city.jobs import BlockStatus
+    from citysynth.pipeline.commands.diff import STATUSES
+    assert set(STATUSES) == set(get_args(BlockStatus))

@@ -424,3 +424,13 @@ def test_a_footprint_across_a_street_is_remarked_on(tmp_path):
     assert "stands across the centre line of street feature 489 (Through) of " in text
     inside = float(re.search(r"\((\d+\.\d) m of it inside", text).group(1))
     assert inside > 5   # metres in the local frame, not degrees
+
+
+@pytest.mark.parametrize("value, metres", [
+    ("40'", 12.192), ("40'6\"", 12.344), ("40 ft", 12.192), ("40 feet", 12.192),
+    ("12 m", 12.0), ("12", 12.0), ("12,5", 12.5), ("3;4", 3.0)])
+def test_osm_heights_in_feet_are_read_as_metres(value, metres):
+    """OSM writes feet as 40' or 40'6\" (or 40 ft); they were read as 40 m, and a
+    four-storey house was asked for 12 storeys."""
+    from citysynth.skeletons.streets import osm_number
+    assert osm_number(value) == pytest.approx(metres, abs=1e-3)

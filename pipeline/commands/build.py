@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from citysynth.parts_db.files import all_or_nothing
-from citysynth.pipeline.errors import UsageError
+from citysynth.pipeline.errors import UsageError, check_k
 from citysynth.skeletons.errors import SkeletonError
 
 if TYPE_CHECKING:
@@ -101,8 +101,7 @@ def _prepare(args):
     from citysynth.pipeline.layouts import default_style
     from citysynth.skeletons import read_geojson
 
-    if args.k < 1:
-        raise UsageError(f"--k must be a positive integer, got {args.k}")
+    check_k(args.k, what="layouts")
     if not (0 <= args.stretch <= MAX_STRETCH) or not (0 <= args.slack <= MAX_SLACK):
         raise UsageError(f"--stretch is a share in [0, {MAX_STRETCH:g}] and --slack a number "
                          f"of metres in [0, {MAX_SLACK:g}]; got {args.stretch:g} and "

@@ -38,6 +38,11 @@ def register(sub) -> None:
     p.set_defaults(run=run)
 
 
+# a block record's status, as pipeline.city.jobs.BlockStatus (not imported: diff loads
+# no geometry library; tests/test_city_outputs.py keeps the two the same)
+STATUSES = ("built", "failed", "skipped", "error")
+
+
 def _manifest(run: Path) -> dict:
     """The run's manifest, checked for the shape :mod:`..city.outputs` writes."""
     if not run.is_dir():
@@ -59,6 +64,14 @@ def _manifest(run: Path) -> dict:
             r.get("files", []), list) for r in blocks.values()):
         raise UsageError(f"{where}: \"blocks\" is not an object of block records; rerun "
                          f"citysynth city into {run}")
+    for bid, r in sorted(blocks.items()):
+        cost = r.get("cost")
+        if r.get("status") not in STATUSES or (cost is not None and (
+                isinstance(cost, bool) or not isinstance(cost, int | float))):
+            raise UsageError(f"{where}: block {bid} has status {r.get('status')!r} and cost "
+                             f"{cost!r}, which citysynth city never writes (a status is "
+                             f"one of {', '.join(STATUSES)}, a cost a number); rerun "
+                             f"citysynth city into {run}")
     return m
 
 
@@ -148,6 +161,9 @@ def _files_differing(a: Path, b: Path, bid: str, ra: dict, rb: dict,
     in one record and not the other, or with other bytes (``alike``: files already
     found the same). Its marker is left out (it holds timings)."""
     fa, fb = ({f for f in r.get("files", []) if isinstance(f, str)} for r in (ra, rb))
+    for run, names in ((a, fa), (b, fb)):   # every name checked, listed by one run or both
+        for f in sorted(names):
+            _inside(run, bid, f)
     return sorted(fa ^ fb | {f for f in sorted(fa & fb - alike)   # sorted: same first error
                              if not _same_bytes(_inside(a, bid, f), _inside(b, bid, f))})
 

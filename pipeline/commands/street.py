@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 from citysynth.examples import SAMPLE_LIBRARY
 from citysynth.parts_db.files import all_or_nothing
 from citysynth.pipeline.commands.build import safe_name
-from citysynth.pipeline.errors import UsageError
+from citysynth.pipeline.errors import UsageError, check_k
 from citysynth.skeletons.errors import SkeletonError
 
 if TYPE_CHECKING:
@@ -61,17 +61,22 @@ def register(sub) -> None:
     p.set_defaults(run=run)
 
 
+MAX_OFFSET = 1000.0   # m, as `skeleton --setback`: a street is no wider
+
+
 def _ask(args) -> StreetAsk:
     from citysynth.pipeline.city.config import MAX_SLACK
     from citysynth.pipeline.streets import SIDES, StreetAsk
 
-    if args.k < 1:
-        raise UsageError(f"--k must be a positive integer, got {args.k}")
+    check_k(args.k, what="rows")
     sides = SIDES if args.side == "both" else (args.side,)
     offset = args.offset if args.offset is not None else (6.0 if args.side == "both" else 0.0)
     if not math.isfinite(offset) or offset < 0 or (args.side == "both" and offset == 0):
         raise UsageError(f"--offset must be a positive number of metres (both sides need "
                          f"room between their facades), got {offset:g}")
+    if offset >= MAX_OFFSET:
+        raise UsageError(f"--offset is the facades' distance from the street line, under "
+                         f"{MAX_OFFSET:g} m; got {offset:g}")
     if not (0 <= args.stretch <= 0.05 and 0 <= args.slack <= MAX_SLACK):
         raise UsageError(f"--stretch is a share in [0, 0.05] and --slack a number of metres "
                          f"in [0, {MAX_SLACK:g}]; got {args.stretch:g} and {args.slack:g}")

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from citysynth.examples import SAMPLE_LIBRARY
 from citysynth.parts_db.files import all_or_nothing
 from citysynth.pipeline.commands.build import safe_name
-from citysynth.pipeline.errors import UsageError
+from citysynth.pipeline.errors import UsageError, check_k
 from citysynth.skeletons.errors import SkeletonError
 
 if TYPE_CHECKING:
@@ -94,8 +94,7 @@ def run(args) -> int:
     from citysynth.parts_db import load_library
     from citysynth.pipeline.towers import Lot, far_interval, solve_tower
 
-    if args.k < 1:
-        raise UsageError(f"--k must be a positive integer, got {args.k}")
+    check_k(args.k, what="towers")
     far = far_interval(args.far, args.far_tolerance)
     if not args.lot and args.lot_area > MAX_LOT_AREA:
         raise UsageError(f"--lot-area {args.lot_area:g} m² is no building lot (at most "
