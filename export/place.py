@@ -51,6 +51,7 @@ from citysynth.export.joints import (
     joint_halves,
 )
 from citysynth.export.layout import Instance, Layout
+from citysynth.export.party import Segment, party_halves
 from citysynth.export.plan import Front, PlacementPlan, PlanStage, is_joint
 from citysynth.export.t_poses import SEP, main_depth, part_leg, t_pose
 from citysynth.parts_db import Part, PartDB
@@ -128,12 +129,14 @@ def y_range(p: Part) -> tuple[float, float]:
 
 
 def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
-           solutions: Sequence[StructureSolution], db: PartDB, infill: bool = False
-           ) -> Layout:
+           solutions: Sequence[StructureSolution], db: PartDB, infill: bool = False,
+           party: Sequence[Segment] = ()) -> Layout:
     """The layout of ``solutions[i]`` (the solver's answer for a structure: the part at
     each key point and the fillers of each stage) on ``plans[i]``, checked. With
     ``infill`` (a footprint), the ground inside its outline no part covers gets a
-    flat roof (:mod:`~citysynth.export.infill`)."""
+    flat roof (:mod:`~citysynth.export.infill`); ``party`` walls (a footprint's
+    stretches shared with a neighbour) stop the parts reaching into it
+    (:mod:`~citysynth.export.party`)."""
     parts = db.by_id
     out = Layout(name, rank, {"name": db.name, "hash": db.library_hash,
                               "quantum": db.quantum},
@@ -149,6 +152,9 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
         instances = [p.instance() for p in placer.placed]
         _check(placer.plan, placer.record, parts, instances, placer.sol.keys,
                [res.get("length") for res in placer.sol.resources], db.quantum)
+        # checked before: a party wall stops the facades beside it short of the line
+        if party_halves(placer.placed, party, db):
+            instances = [p.instance() for p in placer.placed]
         out.instances.extend(instances)
         out.structures.append(_summary(placer.plan, placer.sol, placer.record))
     if infill:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from citysynth.export.layout import Layout
+from citysynth.export.party import Segment
 from citysynth.export.place import layout, max_stretch
 from citysynth.export.usd import write_variants
 from citysynth.export.writers import BESIDE, FORMATS, SUFFIX, Format, write_ranks
@@ -106,10 +107,12 @@ def check_facade(name: str, skeletons: list[Skeleton]) -> None:
 
 
 def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
-                  k: int = 1, *, infill: bool = False, **options) -> Built:
+                  k: int = 1, *, infill: bool = False, party: Sequence[Segment] = (),
+                  **options) -> Built:
     """The k best layouts of one building or block (checked; see module docstring),
     each with its roof infill when ``infill`` (a footprint: see
-    :mod:`~citysynth.export.infill`). ``options`` go to
+    :mod:`~citysynth.export.infill`) and its parts stopped at the ``party`` walls it
+    shares with neighbours (:mod:`~citysynth.export.party`). ``options`` go to
     :func:`~citysynth.pipeline.skeleton_to_structure.skeleton_structure` (corner
     tolerance, mitres, stretch, per-side and per-structure constraints)."""
     check_style(db, style)
@@ -135,7 +138,7 @@ def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
     placements = [p.placement for p in plans]
     layouts = [layout(name, i + 1, placements,
                       [r.solutions[min(i, len(r.solutions) - 1)] for r in results], db,
-                      infill)
+                      infill, party)
                for i in range(count)]
     timings["layout_s"] = time.perf_counter() - t2
     return Built(name, "ok", layouts, timings=timings)

@@ -70,6 +70,9 @@ class FootprintSpec:
     tolerance: float                 # metres the cleaned outline may stray
     storeys: Storeys
     infill: bool = True              # roof over ground deeper than the parts reach
+    # stretches of the outline shared with a neighbour (x0, y0, x1, y1 in the city
+    # frame, the building on the left): its parts stop there (pipeline/city/party.py)
+    party: tuple[tuple[float, float, float, float], ...] = ()
     trimmed: str = ""                # why the outline is less than the feature's (overlaps.py)
     remarks: str = ""                # what of its data it is not built as (see remark)
 

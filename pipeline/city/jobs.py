@@ -124,7 +124,7 @@ class BlockJob:
         del d["library"]          # where the library lives does not change the output
         if self.zone_kind is None:   # perimeter blocks keep their hashes (and caches)
             del d["zone_kind"]
-        for key in ("trimmed", "remarks"):   # likewise footprints with no such note
+        for key in ("trimmed", "remarks", "party"):   # likewise footprints without these
             if d["footprint"] is not None and not d["footprint"][key]:
                 del d["footprint"][key]
         text = json.dumps(d, sort_keys=True, separators=(",", ":"))
@@ -349,6 +349,7 @@ def write_block(built: Built, rank: int, db: PartDB, blocks: Path) -> list[Path]
 def _solve(job: BlockJob, db: PartDB, prep: Prepared) -> Built:
     return solve_layouts(job.id, prep.rings, db, job.style, job.k,
                          infill=job.footprint is not None and job.footprint.infill,
+                         party=job.footprint.party if job.footprint is not None else (),
                          angle_tol=job.corner_tolerance, joint_cost=job.mitre_cost,
                          per_side={n: (lo, hi) for n, lo, hi in job.per_side},
                          per_structure={n: (lo, hi) for n, lo, hi in job.per_block},

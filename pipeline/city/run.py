@@ -60,6 +60,7 @@ from citysynth.pipeline.city.jobs import (
 )
 from citysynth.pipeline.city.outputs import Report, write_summary
 from citysynth.pipeline.city.overlaps import Footprint, separate
+from citysynth.pipeline.city.party import with_party_walls
 from citysynth.pipeline.city.process import (
     run_lock,
     stop_pool,
@@ -218,6 +219,7 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
                 spec = street_crossings(spec, p, lines, tree)
             found.append(Footprint(p, spec))
     built, left = separate(found, cfg.min_area)     # one building's facades per ground
+    built = with_party_walls(built)                 # and none on a wall it shares
     outlines += [("footprint", f.polygon, (), f.spec) for f in built]
     skipped += [_skip("footprint", why, p) for why, p in left]
     return frame

@@ -1,0 +1,161 @@
+"""Party walls: where a footprint shares a wall with its neighbour, its parts stop there.
+
+Two buildings of a city whose outlines touch were each built with facades all round:
+along the wall they share, each one's balconies, window trims and cornice reached into
+the other (up to 0.3 m in the sample kit), and where the two were of one height their
+eaves lay over each other in one plane, z-fighting along the seam from above (21 m²
+over the 330 touching pairs of the demo district). A party wall is a wall, not a
+facade: each part whose mass reaches past the shared line into the neighbour is cut
+:data:`INSET` behind that line (the cut's cap, in the wall's material, is the blank
+end of the building), so the two buildings meet on the line, each on its own side.
+
+The shared lines come from the city run (:mod:`citysynth.pipeline.city.party`), which
+sees every footprint: each is a segment of this building's outline (its ground on the
+segment's left) that lies within a few decimetres of another building's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+
+from citysynth.export.cuts import extended_x
+from citysynth.export.joints import EXTEND_MARGIN, MAX_EXTEND_DEPTHS, HalfPlane, Placed
+from citysynth.parts_db import PartDB
+from citysynth.parts_db.geometry import part_pieces
+
+Segment = tuple[float, float, float, float]   # x0, y0, x1, y1: the building on the left
+
+INSET = 0.005     # m: a part is cut this far behind the shared line (its cap is not on
+                  # the line, where the two buildings' caps would lie in one plane)
+REACH = 0.02      # m: a part reaching further than this past the line reaches into it
+MARGIN = 0.5      # m: past a segment's ends a part still counts as along it
+DEPTH = 3.0       # m: how far past the line a part may reach into the neighbour (a
+                  # balcony, an eave; a facade the cleaning moved when it absorbed a
+                  # short jog of the outline, up to a metre or two)
+MIN_AREA = 0.005  # m²: less of a part's plan past the line is rounding
+_HULLS: dict[tuple[str, str], np.ndarray] = {}
+
+
+def party_halves(placed: Sequence[Placed], walls: Iterable[Segment], db: PartDB) -> int:
+    """Cut every part of ``placed`` that reaches into a neighbour across one of
+    ``walls``: a half-plane :data:`INSET` behind the line is added to it where more of
+    its plan past the line lies beside the shared stretch, within :data:`DEPTH` of it,
+    than elsewhere. A part that runs on past the stretch into a yard keeps its facade,
+    and a wing of the building that lies past the line's continuation is not touched.
+    How many cuts."""
+    segments = [np.asarray(w, dtype=float).reshape(2, 2) for w in walls]
+    segments = [s for s in segments if np.hypot(*(s[1] - s[0])) > 1e-6]
+    if not segments:
+        return 0
+    frames = []                                # each stretch: p0, along, out, length
+    for p0, p1 in segments:
+        length = float(np.hypot(*(p1 - p0)))
+        u = (p1 - p0) / length
+        frames.append((p0, u, np.array([u[1], -u[0]]), length))
+    added = 0
+    for p in placed:
+        hull = _hull(db, p.part)
+        # an extension to a joint moves an end by at most this (the hull is unextended)
+        # (times the placement's stretch along the part, a few per cent: 1.1 is ample)
+        slack = 1.1 * (MAX_EXTEND_DEPTHS * max(abs(p.y_range[0]), abs(p.y_range[1]), 1.0)
+                       + EXTEND_MARGIN) if p.halves else 0.0
+        world = hull @ p.a.T + p.origin
+        near = [f for f in frames if _beside(world, *f, slack)]
+        if not near:
+            continue
+        corners = _extended(p, hull) @ p.a.T + p.origin
+        plan: list[tuple[float, float]] | None = None
+        for p0, u, n, length in near:
+            if not _beside(corners, p0, u, n, length, 0.0):
+                continue                       # no part of it beside the stretch
+            if plan is None:
+                plan = _cut_plan(p, corners)
+            # the plan in the stretch's frame: t along it, d out of the building
+            local = [(x * u[0] + y * u[1], x * n[0] + y * n[1])
+                     for x, y in ((x - p0[0], y - p0[1]) for x, y in plan)]
+            past = _clip(local, 0.0, -1.0, -REACH)                     # d >= REACH
+            past_area = _area(past)
+            if past_area <= MIN_AREA:
+                continue
+            beside = _clip(_clip(_clip(past, -1.0, 0.0, MARGIN), 1.0, 0.0, length + MARGIN),
+                           0.0, 1.0, DEPTH)
+            beside_area = _area(beside)
+            if beside_area <= MIN_AREA or beside_area <= past_area - beside_area:
+                continue
+            half = HalfPlane((float(n[0]), float(n[1])),
+                             (float(p0[0] - n[0] * INSET), float(p0[1] - n[1] * INSET)),
+                             extends=False)
+            if half not in p.halves:
+                p.halves.append(half)
+                added += 1
+    return added
+
+
+def _beside(corners: np.ndarray, p0: np.ndarray, u: np.ndarray, n: np.ndarray,
+            length: float, slack: float) -> bool:
+    """Whether points' bounds (grown by ``slack``) reach the ground beside a stretch:
+    past its line by more than REACH, within DEPTH, along it within MARGIN of its
+    ends."""
+    rel = corners - p0
+    d, t = rel @ n, rel @ u
+    return bool(d.max() + slack > REACH and d.min() - slack < DEPTH
+                and t.max() + slack > -MARGIN and t.min() - slack < length + MARGIN)
+
+
+def _extended(p: Placed, xy: np.ndarray) -> np.ndarray:
+    """Placement-frame points moved as the part's extension to its joints moves its
+    mesh (a module at a mitre reaches the corner only so)."""
+    cut = p.cut()
+    if cut is None or cut.extend == (0.0, 0.0):
+        return xy
+    return np.column_stack([extended_x(xy[:, 0], p.length, cut.extend), xy[:, 1]])
+
+
+def _cut_plan(p: Placed, corners: np.ndarray) -> list[tuple[float, float]]:
+    """The part's plan (its hull ``corners``, convex) as its cuts so far leave it."""
+    plan = [(float(x), float(y)) for x, y in corners]
+    for h in p.halves:
+        nx, ny = float(h.normal[0]), float(h.normal[1])
+        plan = _clip(plan, nx, ny, nx * float(h.point[0]) + ny * float(h.point[1]))
+    return plan
+
+
+def _clip(poly: list[tuple[float, float]], a: float, b: float, c: float
+          ) -> list[tuple[float, float]]:
+    """A convex polygon (its corners in order) cut to where a*x + b*y <= c (plain
+    floats: a footprint asks this of every part near each shared stretch)."""
+    out: list[tuple[float, float]] = []
+    for i, (x0, y0) in enumerate(poly):
+        x1, y1 = poly[(i + 1) % len(poly)]
+        f0, f1 = a * x0 + b * y0 - c, a * x1 + b * y1 - c
+        if f0 <= 0:
+            out.append((x0, y0))
+        if (f0 < 0 < f1) or (f1 < 0 < f0):
+            k = f0 / (f0 - f1)
+            out.append((x0 + (x1 - x0) * k, y0 + (y1 - y0) * k))
+    return out
+
+
+def _area(poly: list[tuple[float, float]]) -> float:
+    """A polygon's area (shoelace)."""
+    return abs(sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1)
+                   in zip(poly, poly[1:] + poly[:1], strict=True))) / 2 if len(poly) > 2 \
+        else 0.0
+
+
+def _hull(db: PartDB, part_id: str) -> np.ndarray:
+    """The convex hull of a part's mesh seen from above (placement-frame XY), every
+    piece's (a balcony reaches furthest), made once per part."""
+    key = (db.library_hash, part_id)
+    if key not in _HULLS:
+        pieces = part_pieces(db, db.part(part_id))
+        xy = np.unique(np.round(np.concatenate([pc.vertices[:, :2] for pc in pieces]), 4),
+                       axis=0)
+        hull = shapely.convex_hull(shapely.multipoints(xy))
+        _HULLS[key] = np.asarray(hull.exterior.coords)[:-1] if isinstance(hull, Polygon) \
+            else np.asarray(hull.coords)
+    return _HULLS[key]

@@ -1,0 +1,86 @@
+"""Party walls: the stretches of each footprint's outline it shares with a neighbour.
+
+A city's footprints touch where buildings stand wall to wall (a terrace, a perimeter
+block of separate houses). Each building is laid out on its own, so it would put
+facades, balconies and eaves on the wall it shares, reaching into its neighbour; the
+stretches found here go with each footprint's job, and its layout stops its parts there
+(:mod:`citysynth.export.party`). A stretch is an edge of the footprint's outline (or a
+courtyard's) within :data:`TOUCH` of another footprint for at least :data:`MIN_LENGTH`,
+as it runs along that edge; neighbours a little apart in the data (walls digitised
+twice, a few centimetres off) count as touching, a passage between two buildings does
+not.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString
+from shapely.geometry.polygon import orient
+
+from citysynth.export.party import Segment
+from citysynth.pipeline.city.overlaps import Footprint
+
+TOUCH = 0.3        # m: a neighbour this near an edge shares it
+MIN_LENGTH = 1.0   # m: a shorter shared stretch is a corner touching, not a wall
+DIGITS = 3         # the stretches' ends to the millimetre (the job's hash covers them)
+
+
+def with_party_walls(footprints: list[Footprint]) -> list[Footprint]:
+    """``footprints`` (the ones to build, as :func:`~.overlaps.separate` leaves them),
+    each spec carrying the stretches of its outline shared with the others."""
+    polygons = [f.polygon for f in footprints]
+    tree = shapely.STRtree(polygons)
+    out = []
+    for i, fp in enumerate(footprints):
+        near = sorted(int(j) for j in tree.query(fp.polygon, predicate="dwithin",
+                                                 distance=TOUCH) if j != i)
+        walls = shared_stretches(fp.polygon, [polygons[j] for j in near]) if near else ()
+        out.append(replace(fp, spec=replace(fp.spec, party=walls)) if walls else fp)
+    return out
+
+
+def shared_stretches(polygon: shapely.Polygon, others: list[shapely.Polygon]
+                     ) -> tuple[Segment, ...]:
+    """The stretches of ``polygon``'s rings that lie within :data:`TOUCH` of one of
+    ``others`` for at least :data:`MIN_LENGTH`, each (x0, y0, x1, y1) along its edge
+    with the polygon's ground on its left."""
+    if not others:
+        return ()
+    whole = shapely.union_all(others)
+    near = whole.buffer(TOUCH, quad_segs=2)
+    ring_list = [orient(polygon, 1.0).exterior, *orient(polygon, 1.0).interiors]
+    out: list[Segment] = []
+    for ring in ring_list:
+        pts = np.asarray(ring.coords)[:, :2]
+        for a, b in zip(pts[:-1], pts[1:], strict=True):
+            length = float(np.hypot(*(b - a)))
+            if length < MIN_LENGTH:
+                continue
+            u = (b - a) / length
+            edge = LineString([a, b])
+            # the neighbours' ground beside the edge, whose ends (not the buffer's
+            # rounding past them) end the stretch
+            beside = whole.intersection(edge.buffer(TOUCH, cap_style="flat"))
+            for part in shapely.get_parts(edge.intersection(near)):
+                if part.geom_type != "LineString" or part.length < MIN_LENGTH:
+                    continue
+                t = np.asarray(part.coords)[:, :2] @ u - a @ u
+                there = shapely.get_coordinates(beside.intersection(
+                    part.buffer(TOUCH, cap_style="flat"))) @ u - a @ u
+                if not len(there):
+                    continue
+                t0, t1 = max(float(t.min()), float(there.min())), \
+                    min(float(t.max()), float(there.max()))
+                if t1 - t0 < MIN_LENGTH:
+                    continue
+                p0, p1 = a + u * t0, a + u * t1
+                out.append((_mm(p0[0]), _mm(p0[1]), _mm(p1[0]), _mm(p1[1])))
+    return tuple(out)
+
+
+def _mm(x: float) -> float:
+    """A coordinate to the millimetre, -0.0 as 0.0."""
+    return round(float(x), DIGITS) + 0.0
