@@ -297,6 +297,13 @@ def _geos_words(exc: Exception, kind: str = "") -> str:
     text = re.sub(r"^[A-Za-z]*Exception:\s*", "", text)
     if "point array must contain 0 or >1 elements" in text:
         return "a line needs at least 2 points"
+    if "linearring requires at least 4 coordinates" in text.lower():
+        return ("a ring needs at least 4 positions: 3 corners, then the first again; "
+                "fix or delete the feature in your GIS")
+    if "empty component" in text:
+        parts = {"MultiLineString": "lines", "MultiPolygon": "polygons"}.get(kind, "parts")
+        return (f"one of the {parts} in it has no positions; delete the empty part in "
+                "your GIS")
     dims = re.search(r"dimension should be 2 or 3, got (\d+)", text)
     if dims:
         n = int(dims.group(1))
@@ -415,7 +422,7 @@ def _input_crs(crs: str | None, source: str) -> pyproj.CRS | None:
                             "EPSG:25832") from None
     if not (given.is_projected or given.is_geographic):
         kind = "geocentric (earth-centred X, Y, Z)" if given.is_geocentric else \
-            given.type_name.lower()
+            given.type_name.lower().removesuffix(" crs")   # pyproj: "Vertical CRS"
         raise SkeletonError(f"{source}: {crs} ({given.name}) is a {kind} CRS, not a map "
                             "of the ground; give the projected or lon/lat CRS the "
                             "coordinates are in, e.g. --crs EPSG:25832")

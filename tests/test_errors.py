@@ -221,3 +221,20 @@ def test_a_block_too_large_is_worded_from_the_refusals_figures():
     assert too_large("b", [sk], many) == (
         "b: k = 1,000,000,000,000 layouts would take at least 1,953,125.0 GB to keep, over "
         "the 2,048 MB budget; ask for fewer (--k)")
+
+
+def test_config_values_are_quoted_as_the_file_spells_them():
+    """city.toml's true, strings and dates came back as Python spells them (True,
+    'a', datetime.datetime(1979, 5, 27, ...))."""
+    import datetime
+
+    from citysynth.pipeline.city.config import parse_config
+    from citysynth.pipeline.errors import ConfigError, shown
+    assert shown(True) == "true" and shown("a") == '"a"' and shown(None) == "null"
+    assert shown(datetime.datetime(1979, 5, 27, 7, 32)) == "1979-05-27T07:32:00"
+    assert shown(["a", 1]) == '["a", 1]' and shown(1000000000) == "1,000,000,000"
+    for value, says in ((True, "got true"), ("3", 'got "3"'),
+                        (datetime.date(1979, 5, 27), "got 1979-05-27")):
+        with pytest.raises(ConfigError) as exc:
+            parse_config({"k": value})
+        assert str(exc.value).endswith(says)

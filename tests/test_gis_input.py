@@ -370,6 +370,9 @@ def test_crs_members_that_cannot_be_read():
 def test_a_crs_that_is_not_a_map_is_refused():
     with pytest.raises(SkeletonError, match=r"EPSG:4978 \(WGS 84\) is a geocentric"):
         parse_geojson(LINE, "s.geojson", crs="EPSG:4978")
+    with pytest.raises(SkeletonError, match=r"EPSG:5703 \(NAVD88 height\) is a vertical "
+                                            r"CRS, not a map"):      # once "vertical crs CRS"
+        parse_geojson(LINE, "s.geojson", crs="EPSG:5703")
 
 
 def _projected(crs: str, scale: float = 1.0) -> dict:
@@ -705,3 +708,19 @@ def test_a_line_across_the_antimeridian_is_said_with_its_digits():
                        r"not longitude/latitude.*antimeridian.*from -180"):
         parse_geojson({"type": "LineString", "coordinates": [[179.9995, 50.73],
                                                              [180.0005, 50.73]]}, "s.geojson")
+
+
+@pytest.mark.parametrize("geometry, says", [
+    ({"type": "Polygon", "coordinates": [[[24.94, 60.17], [24.95, 60.17]]]},
+     "malformed Polygon (a ring needs at least 4 positions: 3 corners, then the first "
+     "again; fix or delete the feature in your GIS)"),
+    ({"type": "MultiLineString", "coordinates": [[[24.94, 60.17], [24.95, 60.17]], []]},
+     "malformed MultiLineString (one of the lines in it has no positions; delete the "
+     "empty part in your GIS)"),
+])
+def test_more_geos_complaints_are_said_in_geojson_words(geometry, says):
+    """shapely's "A linearring requires at least 4 coordinates." and "Can't create
+    MultiLineString with empty component" reached the user as they were."""
+    with pytest.raises(SkeletonError) as exc:
+        parse_geojson(geometry, "s.geojson")
+    assert str(exc.value) == f"s.geojson: feature 0: {says}"

@@ -249,12 +249,12 @@ def test_ingest_refuses_an_attribute_called_length(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("props, levels, height, unread", [
-    ({"building:levels": "1e308"}, None, None, "building:levels '1e308' is no storey count"),
+    ({"building:levels": "1e308"}, None, None, 'building:levels "1e308" is no storey count'),
     ({"building:levels": 1e308, "height": 1e308}, None, None,
      "building:levels 1e+308 is no storey count (1 to 200) and height 1e+308 is no height "
      "(metres, up to 1000): left out, the storeys chosen as without it"),
     ({"building:levels": -2}, None, None, "building:levels -2 is no storey count"),
-    ({"height": "tall"}, None, None, "height 'tall' is no height"),
+    ({"height": "tall"}, None, None, 'height "tall" is no height'),
     ({"building:levels": "5", "height": "12.5 m"}, 5.0, 12.5, ""),
     ({"building:levels": "2e1"}, 20.0, None, ""),
     ({"building:levels": "4;5", "height": "12,5"}, 4.0, 12.5, ""),   # a decimal comma

@@ -68,7 +68,7 @@ from typing import Any, Literal, get_args
 from shapely.geometry import Polygon
 
 from citysynth.pipeline.city.footprints import Storeys
-from citysynth.pipeline.errors import ConfigError
+from citysynth.pipeline.errors import ConfigError, shown
 from citysynth.skeletons.from_geometry import interval_problem, why_invalid
 from citysynth.skeletons.streets import NOT_STREETS, Setbacks
 from citysynth.solver.safe_read import read_toml
@@ -187,7 +187,7 @@ def parse_config(data: dict, path: Path | None = None) -> CityConfig:
     origin = _origin(data, err)
     seed = data.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int):
-        raise err("seed", f"must be an integer, got {seed!r}")
+        raise err("seed", f"must be an integer, got {shown(seed)}")
     stretch = _pos(data, "stretch", 0.005, "", err, zero=True)
     if stretch > 0.05:
         raise err("stretch", f"{stretch:g} would stretch parts by more than 5 %; use at "
@@ -209,7 +209,7 @@ def _not_streets(data: dict, err: _Err) -> tuple[str, ...]:
     if not isinstance(rules, list) or not all(
             isinstance(r, str) and r.strip() and not r.startswith("=") for r in rules):
         raise err("not_streets", 'must be a list of highway classes or tag=value, like '
-                                 f'["footway", "service=driveway"], got {rules!r}')
+                                 f'["footway", "service=driveway"], got {shown(rules)}')
     return tuple(rules)
 
 
@@ -234,7 +234,7 @@ def _footprints(data: dict, err: _Err) -> FootprintSettings:
                                         "5 %; use at most 0.05")
     tol = fp.get("storey_tolerance", 0)
     if isinstance(tol, bool) or not isinstance(tol, int) or tol < 0:
-        raise err("footprints.storey_tolerance", f"must be a whole number >= 0, got {tol!r}")
+        raise err("footprints.storey_tolerance", f"must be a whole number >= 0, got {shown(tol)}")
     default = Storeys()
     fams = _style_tables(fp, "storeys", err, _storey_count)
     roofs = _style_tables(fp, "roofs", err, _family_list)
@@ -243,14 +243,14 @@ def _footprints(data: dict, err: _Err) -> FootprintSettings:
         _merged(default.families, fams), _merged(default.roofs, roofs))
     infill = fp.get("infill", True)
     if not isinstance(infill, bool):
-        raise err("footprints.infill", f"must be true or false, got {infill!r}")
+        raise err("footprints.infill", f"must be true or false, got {shown(infill)}")
     return FootprintSettings(stretch, _pos(fp, "tolerance", 0.5, "footprints.", err),
                              storeys, infill)
 
 
 def _storey_count(v: Any, key: str, err: _Err) -> int:
     if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-        raise err(key, f"must be a storey count (a whole number >= 1), got {v!r}")
+        raise err(key, f"must be a storey count (a whole number >= 1), got {shown(v)}")
     return v
 
 
@@ -258,7 +258,7 @@ def _family_list(v: Any, key: str, err: _Err) -> tuple[str, ...]:
     if isinstance(v, str):
         v = [v]
     if not isinstance(v, list) or not v or not all(isinstance(x, str) for x in v):
-        raise err(key, f'must be a list of family tags like ["a", "c"], got {v!r}')
+        raise err(key, f'must be a list of family tags like ["a", "c"], got {shown(v)}')
     return tuple(v)
 
 
@@ -340,7 +340,7 @@ def _zone_kind(z: dict, name: str, where: str, err: _Err) -> ZoneKind:
     kind = z.get("kind", "perimeter")
     if kind not in KINDS:
         raise err(where + "kind", f"zone {name!r}: must be one of {', '.join(KINDS)}, "
-                                  f"got {kind!r}")
+                                  f"got {shown(kind)}")
     for key, kinds in _KIND_KEYS.items():
         if key in z and kind not in kinds:
             raise err(where + key, f"zone {name!r}: only a zone of kind "
@@ -369,7 +369,7 @@ def _positive_interval(z: dict, key: str, where: str, name: str, err: _Err
     if (not isinstance(iv, list) or len(iv) != 2 or not all(_isnum(x) for x in iv)
             or not 0 < iv[0] <= iv[1]):
         raise err(where + key, f"zone {name!r}: must be [min, max] with 0 < min <= max, "
-                               f"got {iv!r}")
+                               f"got {shown(iv)}")
     return float(iv[0]), float(iv[1])
 
 
@@ -404,7 +404,7 @@ def _pos(d: dict, key: str, default: float, prefix: str, err: _Err, *,
     v = d.get(key, default)
     if not _isnum(v) or v < 0 or (v == 0 and not zero):
         raise err(prefix + key, f"must be a {'non-negative' if zero else 'positive'} number, "
-                                f"got {v!r}")
+                                f"got {shown(v)}")
     return float(v)
 
 
@@ -434,11 +434,11 @@ def _settings(d: dict, inherit: BuildSettings, prefix: str, base: Path,
     if "k" in d:
         k = d["k"]
         if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= 100:
-            raise err(prefix + "k", f"must be an integer from 1 to 100, got {k!r}")
+            raise err(prefix + "k", f"must be an integer from 1 to 100, got {shown(k)}")
         s = replace(s, k=k)
     if "pick" in d:
         if d["pick"] not in PICKS:
-            raise err(prefix + "pick", f"must be one of {', '.join(PICKS)}, got {d['pick']!r}")
+            raise err(prefix + "pick", f"must be one of {', '.join(PICKS)}, got {shown(d['pick'])}")
         s = replace(s, pick=d["pick"])
     if "per_side" in d:
         s = replace(s, per_side=_intervals(d["per_side"], prefix + "per_side", err))

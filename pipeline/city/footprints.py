@@ -22,6 +22,7 @@ import numpy as np
 import shapely
 
 from citysynth.parts_db import Part, PartDB
+from citysynth.pipeline.errors import shown
 from citysynth.pipeline.layouts import BlockedAt
 from citysynth.pipeline.skeleton_to_structure import _chains, shortest_stage
 from citysynth.skeletons import Feature, Frame, Skeleton, skeletons_from_polygons
@@ -154,9 +155,8 @@ def street_crossings(spec: FootprintSpec, polygon: shapely.Polygon,
 
 
 def _shown(v: Any) -> str:
-    """A property's value as a note quotes it (short)."""
-    text = repr(v)
-    return text if len(text) <= 40 else text[:37] + "..."
+    """A property's value as a note quotes it (short, as the file spells it)."""
+    return shown(v, 40)
 
 
 def underground(props: dict[str, Any]) -> bool:
