@@ -284,6 +284,24 @@ def test_footprint_config_is_validated(tmp_path):
             parse_config({"footprints": bad})
 
 
+@pytest.mark.parametrize("table, says", [
+    ({"storeys": {"classic": {"z": 4}}},
+     "footprints.storeys.classic.z: no part of the classic style has family 'z'"),
+    ({"roofs": {"classic": {"gabled": ["a", "q"]}}},
+     "footprints.roofs.classic.gabled: no part of the classic style has family 'q'"),
+    ({"storeys": {"gothic": {"a": 4}}},
+     "footprints.storeys.gothic.a: the library has no style 'gothic'"),
+])
+def test_footprint_families_are_checked_against_the_library(table, says):
+    """A family or style city.toml names that the library lacks: one message, not a
+    storey table silently missing the style's real families."""
+    from citysynth.pipeline.errors import ConfigError
+    with pytest.raises(ConfigError, match=re.escape(says)):
+        prepare(None, HELSINKI, parse_config({"footprints": table}), LIB)
+    ok = {"storeys": {"classic": {"a": 4, "b": 5}}, "roofs": {"classic": {"gabled": "a"}}}
+    assert prepare(None, HELSINKI, parse_config({"footprints": ok}), LIB).jobs
+
+
 # --- streets and footprints together ---------------------------------------------------
 
 def test_street_blocks_cut_back_where_footprints_stand(tmp_path):

@@ -129,6 +129,9 @@ class FootprintSettings:
     tolerance: float = 0.5
     storeys: Storeys = field(default_factory=Storeys)
     infill: bool = True
+    # what city.toml itself names: (key, style, family tag), checked against the
+    # library once it is loaded (the defaults are the sample kit's and are not)
+    named: tuple[tuple[str, str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -244,8 +247,13 @@ def _footprints(data: dict, err: _Err) -> FootprintSettings:
     infill = fp.get("infill", True)
     if not isinstance(infill, bool):
         raise err("footprints.infill", f"must be true or false, got {shown(infill)}")
+    named = tuple(sorted({(f"footprints.storeys.{st}.{tag}", st, tag)
+                          for st, rows in fams.items() for tag, _n in rows}
+                         | {(f"footprints.roofs.{st}.{roof}", st, tag)
+                            for st, rows in roofs.items() for roof, tags in rows
+                            for tag in tags}))
     return FootprintSettings(stretch, _pos(fp, "tolerance", 0.5, "footprints.", err),
-                             storeys, infill)
+                             storeys, infill, named)
 
 
 def _storey_count(v: Any, key: str, err: _Err) -> int:

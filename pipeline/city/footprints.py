@@ -186,6 +186,13 @@ def part_families(part_id: str, known: Iterable[str]) -> frozenset[str]:
     return frozenset(tags or known[:1])
 
 
+def style_families(db: PartDB, style: str) -> set[str]:
+    """The family tags the parts of ``style`` carry in their ids (see
+    :func:`part_families`)."""
+    return {m.group(1) for p in db.parts if p.style == style
+            for t in p.id.split("_")[2:] if (m := _TAG.fullmatch(t))}
+
+
 def wanted_storeys(spec: FootprintSpec) -> int | None:
     """Storeys from the data: ``building:levels``, else ``height`` over the storey
     height (rounded); None when the feature has neither."""

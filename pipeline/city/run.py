@@ -42,6 +42,7 @@ from citysynth.pipeline.city.footprints import (
     footprint_spec,
     polygons_in,
     street_crossings,
+    style_families,
     underground,
 )
 from citysynth.pipeline.city.jobs import (
@@ -271,7 +272,28 @@ def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry
             there = there.removeprefix(file) if here.startswith(file) else there
             skipped.append(_skip(kind, f"{here}: the same outline as {there}, built once",
                                  poly))
+    if any(j.footprint is not None for j in jobs.values()):
+        _check_families(cfg, list(libraries.values()))
     return sorted(jobs.values(), key=lambda j: j.id)
+
+
+def _check_families(cfg: CityConfig, dbs: list[PartDB]) -> None:
+    """Every style and family tag city.toml's ``[footprints]`` tables name is one the
+    run's libraries have: a typo (``z = 4``) would otherwise drop the style's real
+    families from the storey choice without a word."""
+    where = f"{cfg.path}: " if cfg.path else ""
+    for key, style, tag in cfg.footprints.named:
+        have = [db for db in dbs if any(p.style == style for p in db.parts)]
+        if not have:
+            styles = sorted({p.style for db in dbs for p in db.parts})
+            raise ConfigError(f"{where}{key}: the library has no style {style!r}; it has "
+                              f"{', '.join(styles)}")
+        tags = set().union(*(style_families(db, style) for db in have))
+        if tags and tag not in tags:    # no tags at all: every part is the first family
+            raise ConfigError(f"{where}{key}: no part of the {style} style has family "
+                              f"{tag!r} (the _<letter> token of a part id, as _a0 in "
+                              f"classic_mid_7.8_a0); its families are "
+                              f"{', '.join(sorted(tags))}")
 
 
 def _where(job: BlockJob) -> str:
