@@ -212,7 +212,12 @@ def _internal(command: str) -> int:
 _FIXES = {errno.ENOSPC: "free space", errno.EDQUOT: "free space",
           errno.EACCES: "fix the permissions", errno.EPERM: "fix the permissions",
           errno.EROFS: "write to a writable folder",
-          errno.ENAMETOOLONG: "choose a shorter output folder or name"}
+          errno.ENAMETOOLONG: "choose a shorter output folder or name",
+          # a file where a folder should be (mkdir of it, or a path through it)
+          errno.EEXIST: "move that file out of the way or choose another path",
+          errno.ENOTDIR: "a file stands where a folder should be: move it or choose "
+                         "another path",
+          errno.EISDIR: "a folder stands where a file should be: choose another name"}
 
 
 def environment_message(exc: OSError) -> str:

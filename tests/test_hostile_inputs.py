@@ -192,6 +192,15 @@ def test_a_name_too_long_for_the_file_system_is_said_so():
     assert "choose a shorter output folder or name" in msg and len(msg) < 200, msg
 
 
+def test_a_file_in_the_way_is_not_blamed_on_space_or_permissions():
+    """`diff A B --png x/map.png` where x is a file said "File exists; free space or
+    fix the permissions"."""
+    msg = environment_message(OSError(errno.EEXIST, "File exists", "x"))
+    assert "move that file out of the way" in msg and "free space" not in msg
+    msg = environment_message(OSError(errno.ENOTDIR, "Not a directory", "x/y"))
+    assert "a file stands where a folder should be" in msg
+
+
 @pytest.fixture(scope="module")
 def coarse_library(tmp_path_factory) -> Path:
     """The example library on a 0.3 m quantum: its key parts' legs and a T's depth land
