@@ -47,15 +47,14 @@ def party_halves(placed: Sequence[Placed], walls: Iterable[Segment], db: PartDB)
     than elsewhere. A part that runs on past the stretch into a yard keeps its facade,
     and a wing of the building that lies past the line's continuation is not touched.
     How many cuts."""
-    segments = [np.asarray(w, dtype=float).reshape(2, 2) for w in walls]
-    segments = [s for s in segments if np.hypot(*(s[1] - s[0])) > 1e-6]
-    if not segments:
-        return 0
     frames = []                                # each stretch: p0, along, out, length
-    for p0, p1 in segments:
+    for p0, p1 in (np.asarray(w, dtype=float).reshape(2, 2) for w in walls):
         length = float(np.hypot(*(p1 - p0)))
-        u = (p1 - p0) / length
-        frames.append((p0, u, np.array([u[1], -u[0]]), length))
+        if length > 1e-6:
+            u = (p1 - p0) / length
+            frames.append((p0, u, np.array([u[1], -u[0]]), length))
+    if not frames:
+        return 0
     added = 0
     for p in placed:
         hull = _hull(db, p.part)

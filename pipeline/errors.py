@@ -54,9 +54,9 @@ def check_k(k: int, name: str = "--k", what: str = "layouts") -> None:
     """Refuse a k no run should write: under 1, or over :data:`MAX_K` (a billion
     asked for once filled the machine's memory naming the files before any estimate)."""
     if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= MAX_K:
-        shown = f"{k:,}" if isinstance(k, int) and not isinstance(k, bool) else repr(k)
+        got = f"{k:,}" if isinstance(k, int) and not isinstance(k, bool) else shown(k)
         raise UsageError(f"{name} must be an integer from 1 to {MAX_K} (each of the k "
-                         f"{what} is written as its own files), got {shown}")
+                         f"{what} is written as its own files), got {got}")
 
 
 class ConfigError(UsageError):

@@ -68,7 +68,7 @@ from typing import Any, Literal, get_args
 from shapely.geometry import Polygon
 
 from citysynth.pipeline.city.footprints import Storeys
-from citysynth.pipeline.errors import ConfigError, shown
+from citysynth.pipeline.errors import MAX_K, ConfigError, shown
 from citysynth.skeletons.from_geometry import interval_problem, why_invalid
 from citysynth.skeletons.streets import NOT_STREETS, Setbacks
 from citysynth.solver.safe_read import read_toml
@@ -441,8 +441,8 @@ def _settings(d: dict, inherit: BuildSettings, prefix: str, base: Path,
         s = replace(s, style=d["style"])
     if "k" in d:
         k = d["k"]
-        if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= 100:
-            raise err(prefix + "k", f"must be an integer from 1 to 100, got {shown(k)}")
+        if isinstance(k, bool) or not isinstance(k, int) or not 1 <= k <= MAX_K:
+            raise err(prefix + "k", f"must be an integer from 1 to {MAX_K}, got {shown(k)}")
         s = replace(s, k=k)
     if "pick" in d:
         if d["pick"] not in PICKS:

@@ -112,10 +112,10 @@ def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: s
                          stretch, tolerance, storeys, infill)
     unread = []
     if levels is None and props.get("building:levels") not in (None, ""):
-        unread.append(f"building:levels {_shown(props['building:levels'])} is no storey "
+        unread.append(f"building:levels {shown(props['building:levels'], 40)} is no storey "
                       f"count (1 to {MAX_LEVELS})")
     if height is None and props.get("height") not in (None, ""):
-        unread.append(f"height {_shown(props['height'])} is no height (metres, up to "
+        unread.append(f"height {shown(props['height'], 40)} is no height (metres, up to "
                       f"{MAX_HEIGHT:g})")
     if not unread:
         return spec
@@ -154,11 +154,6 @@ def street_crossings(spec: FootprintSpec, polygon: shapely.Polygon,
     return spec
 
 
-def _shown(v: Any) -> str:
-    """A property's value as a note quotes it (short, as the file spells it)."""
-    return shown(v, 40)
-
-
 def underground(props: dict[str, Any]) -> bool:
     """Whether a footprint is of a building under the ground (``location=underground``,
     Overture's ``is_underground``): a car park under a square has no facade to build."""
@@ -181,16 +176,20 @@ def part_families(part_id: str, known: Iterable[str]) -> frozenset[str]:
     ``b``); an id with none belongs to the first family listed (the principal one:
     ``classic_corner_90_convex``)."""
     known = list(known)
-    tags = {m.group(1) for t in part_id.split("_")[2:] if (m := _TAG.fullmatch(t))}
-    tags &= set(known)
+    tags = id_tags(part_id) & set(known)
     return frozenset(tags or known[:1])
+
+
+def id_tags(part_id: str) -> set[str]:
+    """The ``_<letter>[digit]`` tokens of a part id after its style and class, as
+    letters (``classic_mid_10.0_a0_b3``: a and b)."""
+    return {m.group(1) for t in part_id.split("_")[2:] if (m := _TAG.fullmatch(t))}
 
 
 def style_families(db: PartDB, style: str) -> set[str]:
     """The family tags the parts of ``style`` carry in their ids (see
     :func:`part_families`)."""
-    return {m.group(1) for p in db.parts if p.style == style
-            for t in p.id.split("_")[2:] if (m := _TAG.fullmatch(t))}
+    return set().union(*(id_tags(p.id) for p in db.parts if p.style == style))
 
 
 def wanted_storeys(spec: FootprintSpec) -> int | None:

@@ -51,9 +51,9 @@ def shared_stretches(polygon: shapely.Polygon, others: list[shapely.Polygon]
         return ()
     whole = shapely.union_all(others)
     near = whole.buffer(TOUCH, quad_segs=2)
-    ring_list = [orient(polygon, 1.0).exterior, *orient(polygon, 1.0).interiors]
+    ground = orient(polygon, 1.0)      # its ground on each ring's left
     out: list[Segment] = []
-    for ring in ring_list:
+    for ring in (ground.exterior, *ground.interiors):
         pts = np.asarray(ring.coords)[:, :2]
         for a, b in zip(pts[:-1], pts[1:], strict=True):
             length = float(np.hypot(*(b - a)))
