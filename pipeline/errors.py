@@ -10,14 +10,11 @@ from numpy) is a bug in citysynth: it keeps its traceback and is reported as one
 
 from __future__ import annotations
 
-import datetime
-import json
-from typing import Any
-
 from citysynth.export.errors import ExportError
 from citysynth.parts_db.errors import LibraryError
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.solver.errors import ProblemError, TooLargeError
+from citysynth.solver.safe_read import shown  # the one way messages quote a file's value
 
 EXIT_OK = 0
 EXIT_INFEASIBLE = 1     # an answer: the problem has no solution, with its reason
@@ -28,23 +25,6 @@ EXIT_INTERNAL = 3       # a bug: its traceback on stderr (the city run: in repor
 class UsageError(ValueError):
     """A command-line option or a run setting is wrong (``--k 0``, ``--workers 0``, a
     folder that is not a run); the message names the option and what it accepts."""
-
-
-def shown(v: Any, most: int = 60) -> str:
-    """A value from a user's file as a message quotes it, in the file's own spelling
-    (TOML, JSON, OSM tags): true, not True; "a", not 'a'; 1979-05-27T07:32:00+00:00,
-    not datetime.datetime(...); cut to ``most`` characters."""
-    if isinstance(v, bool):
-        text = "true" if v else "false"
-    elif v is None:
-        text = "null"
-    elif isinstance(v, int | float):
-        text = f"{v:,}" if isinstance(v, int) and abs(v) >= 10_000 else repr(v)
-    elif isinstance(v, datetime.date | datetime.time):
-        text = v.isoformat()
-    else:
-        text = json.dumps(v, ensure_ascii=False, default=str)
-    return text if len(text) <= most else text[:most - 3] + "..."
 
 
 MAX_K = 100   # layouts a command writes: each is its own files (100 are ~50 MB a block)

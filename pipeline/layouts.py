@@ -108,22 +108,24 @@ def check_facade(name: str, skeletons: list[Skeleton]) -> None:
 
 def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
                   k: int = 1, *, infill: bool = False, party: Sequence[Segment] = (),
-                  **options) -> Built:
+                  label: str | None = None, **options) -> Built:
     """The k best layouts of one building or block (checked; see module docstring),
     each with its roof infill when ``infill`` (a footprint: see
     :mod:`~citysynth.export.infill`) and its parts stopped at the ``party`` walls it
     shares with neighbours (:mod:`~citysynth.export.party`). ``options`` go to
     :func:`~citysynth.pipeline.skeleton_to_structure.skeleton_structure` (corner
-    tolerance, mitres, stretch, per-side and per-structure constraints)."""
+    tolerance, mitres, stretch, per-side and per-structure constraints). ``label``:
+    how a refusal names it to its user (the file and feature it came from), if not by
+    ``name``, its output files' stem."""
     check_style(db, style)
-    check_facade(name, skeletons)
+    check_facade(label or name, skeletons)
     t0 = time.perf_counter()
     plans = [skeleton_structure(sk, db, style, k=k, **options) for sk in skeletons]
     t1 = time.perf_counter()
     try:
         results = [solve_structure(p.structure, k) for p in plans]
     except TooLargeError as exc:
-        raise TooLargeError(too_large(name, skeletons, exc,
+        raise TooLargeError(too_large(label or name, skeletons, exc,
                                       sorted(options.get("per_structure") or {})),
                             need_mb=exc.need_mb,
                             budget_mb=exc.budget_mb, shares=exc.shares,

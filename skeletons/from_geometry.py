@@ -35,6 +35,7 @@ from citysynth.skeletons.model import (
     flip,
 )
 from citysynth.skeletons.streets import street_blocks
+from citysynth.solver.safe_read import shown
 
 SNAP = 0.01            # metres: endpoints closer than this are the same key point
 STRAIGHT_TOL = 15.0    # degrees: a smaller turn is a bend, not a corner
@@ -66,7 +67,7 @@ def interval_problem(v: Any, whole: str) -> str | None:
             or not all(isinstance(x, int | float) and not isinstance(x, bool)
                        and math.isfinite(x) for x in v)
             or v[0] > v[1] or v[0] < 0):
-        return f"must be [min, max] with finite numbers, 0 <= min <= max, got {v!r}"
+        return f"must be [min, max] with finite numbers, 0 <= min <= max, got {shown(v)}"
     if v[0] > MAX_MINIMUM:
         return (f"asks for at least {v[0]:g}, more than any {whole} has (at most "
                 f"{MAX_MINIMUM:g}); check the value")
@@ -77,7 +78,7 @@ def _front(props: dict[str, Any], where: str) -> Front:
     f = props.get("front", "right")
     if f not in FRONTS:
         raise SkeletonError(f'{where}: front must be "left" or "right" (of the line '
-                            f"direction), got {f!r}")
+                            f"direction), got {shown(f)}")
     return cast(Front, f)
 
 

@@ -38,7 +38,7 @@ from shapely.geometry.base import BaseGeometry
 from citysynth.skeletons.errors import InputWarning, SkeletonError
 from citysynth.skeletons.gis_files import gis_format, read_gis_file
 from citysynth.skeletons.overture import osm_tags
-from citysynth.solver.safe_read import parse_json, read_text
+from citysynth.solver.safe_read import parse_json, read_text, shown
 
 TRUE_SCALE = 1e-3      # a projected CRS whose scale strays more from 1 is reprojected
 LONLAT_FRAME = "WGS 84 lon/lat, local transverse Mercator"
@@ -261,7 +261,7 @@ def _geometry(g: Any, where: str) -> BaseGeometry | None:
         raise SkeletonError(f"{where}: malformed geometry (not an object)")
     kind = g.get("type")
     if kind not in GEOMETRY_TYPES:
-        raise SkeletonError(f"{where}: unknown geometry type {kind!r}; GeoJSON has "
+        raise SkeletonError(f"{where}: unknown geometry type {shown(kind)}; GeoJSON has "
                             f"{', '.join(GEOMETRY_TYPES)}")
     if kind != "GeometryCollection" and not isinstance(g.get("coordinates"), list):
         raise SkeletonError(f"{where}: malformed {kind} (its coordinates must be an array: "
@@ -334,11 +334,11 @@ def _check_coordinates(g: dict, where: str) -> None:
                 n += 1
                 if not all(isinstance(x, int | float) and not isinstance(x, bool) for x in v):
                     raise SkeletonError(f"{where}: coordinates must be numbers, got "
-                                        f"{v!r}"[:200])
+                                        f"{shown(v, 200)}")
             else:
                 stack.extend(v)
         elif not isinstance(v, int | float) or isinstance(v, bool):
-            raise SkeletonError(f"{where}: coordinates must be numbers, got {v!r}"[:200])
+            raise SkeletonError(f"{where}: coordinates must be numbers, got {shown(v, 200)}")
     if n > MAX_VERTICES:
         raise SkeletonError(f"{where}: {n:,} vertices, more than the {MAX_VERTICES:,} an "
                             "outline may have (cleaning it would take minutes and "

@@ -22,6 +22,7 @@ one imports; it depends on nothing but the standard library.
 
 from __future__ import annotations
 
+import datetime
 import json
 import os
 import stat
@@ -176,14 +177,7 @@ def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
         data = json.loads(text, parse_constant=constant,
                           object_pairs_hook=_object_hook(twice))
     except json.JSONDecodeError as exc:
-        seq = what == "GeoJSON" and ((exc.msg == "Extra data" and exc.colno == 1)
-                                     or text.lstrip("\ufeff").startswith("\x1e"))
-        hint = ("; it looks like a GeoJSON Text Sequence (a feature per line, or RFC "
-                "8142's record separators): give one "
-                "FeatureCollection, e.g. ogr2ogr -f GeoJSON out.geojson " + str(p)) if seq \
-            else ""
-        raise error(f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}: "
-                    f"{exc.msg}{hint}") from None
+        raise error(_not_json(text, p, what, exc)) from None
     except error:        # NaN, Infinity: the message constant() gave (error may be a ValueError)
         raise
     except ValueError:   # Python's guard against integers of over 4,300 digits
@@ -206,6 +200,73 @@ def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
         raise error(f"{p}: a string holds half of a UTF-16 surrogate pair (a \\udXXX "
                     "escape without its partner), which is no character: fix the escape")
     return data
+
+
+def _not_json(text: str, p: Path | str, what: str, exc: json.JSONDecodeError) -> str:
+    """The message for text the JSON parser refused: where, and what the text looks
+    like when that explains it (another format, junk or padding after the JSON, a
+    GeoJSON Text Sequence), with the fix; else the parser's own words."""
+    where = f"{p}: not valid JSON at line {exc.lineno}, column {exc.colno}"
+    body = text.lstrip("\ufeff \t\r\n")
+    if exc.msg == "Extra data":
+        rest = text[exc.pos:]
+        if not rest.strip("\x00 \t\r\n"):
+            return (f"{p}: {rest.count(chr(0)):,} NUL bytes follow the end of its JSON "
+                    f"(line {exc.lineno}): the file was padded or not written whole; "
+                    "remove them, or write the file again")
+        if what == "GeoJSON" and rest.lstrip(" \t\r\n").startswith(("{", "\x1e")):
+            return (f"{where}: a second JSON text follows the first; it looks like a "
+                    "GeoJSON Text Sequence (a feature per line, or RFC 8142's record "
+                    "separators): give one FeatureCollection, e.g. ogr2ogr -f GeoJSON "
+                    f"out.geojson {p}")
+        return (f"{where}: text after the end of the JSON ({shown(rest.strip())}): a "
+                f"{what} file holds one JSON value; remove what follows it, or check "
+                "that the file was saved whole")
+    if what == "GeoJSON" and body.startswith("\x1e"):
+        return (f"{where}: {exc.msg}; it looks like a GeoJSON Text Sequence (RFC 8142's "
+                "record separators): give one FeatureCollection, e.g. ogr2ogr -f "
+                f"GeoJSON out.geojson {p}")
+    if exc.pos == len(text) - len(body):      # the very first character is not JSON
+        kind = _other_format(body)
+        if kind == "an HTML page":
+            return (f"{p}: {kind}, not JSON; a {what} file holds JSON: check that it "
+                    "is the right file (a download that saved a web or error page?)")
+        if kind:
+            fix = (f"convert it, e.g. ogr2ogr -f GeoJSON out.geojson {p}"
+                   if what == "GeoJSON" else "check that it is the right file")
+            return f"{p}: {kind}, not JSON; a {what} file holds JSON: {fix}"
+    return f"{where}: {exc.msg}"
+
+
+def _other_format(body: str) -> str:
+    """What text that is not JSON from its first character looks like, or ""."""
+    head = body[:512].lower()
+    if head.startswith("<"):
+        if head.startswith(("<!doctype html", "<html")) or "<html" in head:
+            return "an HTML page"
+        return "XML (GML, KML or another XML format)"
+    first = body.partition("\n")[0]
+    if ("," in first or "\t" in first or ";" in first) and not first.lstrip().startswith(
+            ("{", "[", '"')):
+        return "CSV or other delimited text"
+    return ""
+
+
+def shown(v: Any, most: int = 60) -> str:
+    """A value from a user's file as a message quotes it, in the file's own spelling
+    (TOML, JSON, OSM tags): true, not True; "a", not 'a'; 1979-05-27T07:32:00+00:00,
+    not datetime.datetime(...); cut to ``most`` characters."""
+    if isinstance(v, bool):
+        text = "true" if v else "false"
+    elif v is None:
+        text = "null"
+    elif isinstance(v, int | float):
+        text = f"{v:,}" if isinstance(v, int) and abs(v) >= 10_000 else repr(v)
+    elif isinstance(v, datetime.date | datetime.time):
+        text = v.isoformat()
+    else:
+        text = json.dumps(v, ensure_ascii=False, default=str)
+    return text if len(text) <= most else text[:most - 3] + "..."
 
 
 class _Twice(dict):

@@ -444,6 +444,8 @@ RUN_DAMAGE: dict[str, tuple[Callable[[Path], object], str]] = {
                                    (r / "manifest.json").mkdir()), "manifest.json"),
     "layout-truncated": (lambda r: _first_layout(r).write_bytes(
         _first_layout(r).read_bytes()[:300]), ".layout.json"),
+    "layout-truncated-says-rerun": (lambda r: _first_layout(r).write_bytes(
+        _first_layout(r).read_bytes()[:300]), "damaged: rerun citysynth city into"),
     "layout-deleted": (lambda r: _first_layout(r).unlink(), ".layout.json"),
     "layout-folder": (lambda r: (lambda p: (p.unlink(), p.mkdir()))(_first_layout(r)),
                       ".layout.json"),

@@ -146,7 +146,8 @@ def test_a_block_too_large_to_solve_is_told_in_metres_and_megabytes(tmp_path, ca
     budget, and to split it; not the solver's stage graphs, states and quanta."""
     err = _refused_block(tmp_path, capsys, "x", [[-10, 35], [40, 35], [40, 70], [-10, 70],
                                                  [-10, 35]])
-    assert re.fullmatch(r"citysynth block: error: x: too large to lay out: [\d,]+ m of facade "
+    assert re.fullmatch(r"citysynth block: error: \S+/x\.geojson: feature 0: too large to lay "
+                        r"out: [\d,]+ m of facade "
                         r"\(its longest side [\d,]+ m\) would take about [\d,]+ MB to solve, "
                         r"over the [\d,]+ MB budget; split it into smaller blocks or "
                         r"buildings\n", err), err
@@ -200,9 +201,9 @@ def test_a_block_whose_facade_would_not_fit_the_budget_is_refused_at_once(tmp_pa
     ring = lonlat_from_local([(0, 0), (40000, 0), (40000, 40000), (0, 40000), (0, 0)],
                              (7.1, 50.73))
     err = _refused_block(tmp_path, capsys, "big", ring)
-    assert re.search(r"big: too large to lay out: 1[56]\d,\d\d\d m of facade \(its "
-                     r"longest side [34]\d,\d\d\d m\) would take about 2,[34]\d\d MB to "
-                     r"solve, over the 2,048 MB budget; split it", err), err
+    assert re.search(r"big\.geojson: feature 0: too large to lay out: 1[56]\d,\d\d\d m of "
+                     r"facade \(its longest side [34]\d,\d\d\d m\) would take about "
+                     r"2,[34]\d\d MB to solve, over the 2,048 MB budget; split it", err), err
 
 
 def test_a_failure_while_writing_leaves_no_half_result(tmp_path, capsys):

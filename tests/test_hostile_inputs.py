@@ -451,6 +451,46 @@ def test_an_rfc8142_sequence_is_read_and_an_empty_collection_says_what_to_do(tmp
     assert code == 2 and "no features (an empty FeatureCollection); export the layer" in err
 
 
+_FC = {"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {},
+        "geometry": {"type": "LineString", "coordinates": [[LON, LAT], [LON + 0.001, LAT]]}}]}
+
+
+@pytest.mark.parametrize(("text", "said", "fix"), [
+    (json.dumps(_FC) + "\ngarbage here\n", 'text after the end of the JSON ("garbage here")',
+     "remove what follows it"),
+    (json.dumps(_FC) + "\0" * 64, "64 NUL bytes follow the end of its JSON",
+     "write the file again"),
+    (json.dumps(_FC, indent=1) + "\n" + json.dumps(_FC), "a second JSON text follows",
+     "give one FeatureCollection"),
+    ("id,lon,lat\n1,24.9,60.1\n", "CSV or other delimited text, not JSON",
+     "ogr2ogr -f GeoJSON out.geojson"),
+    ("<!DOCTYPE html><html><body>404 Not Found</body></html>", "an HTML page, not JSON",
+     "a download that saved a web or error page"),
+    ('<?xml version="1.0"?><gml:FeatureCollection/>', "XML (GML, KML or another XML",
+     "ogr2ogr -f GeoJSON out.geojson"),
+])
+def test_a_file_that_is_not_one_geojson_text_says_what_it_looks_like(tmp_path, capsys,
+                                                                     text, said, fix):
+    """Junk after the JSON was called "a GeoJSON Text Sequence", NUL padding just
+    "Extra data", a CSV or HTML file "Expecting value": each now says what the file
+    looks like and what to do, exit 2, nothing written."""
+    src = _write(tmp_path / "in.geojson", text)
+    code, err = _run(["street", "--line", str(src), "-o", str(tmp_path / "o"),
+                      "--no-preview"], capsys)
+    assert code == 2 and said in err and fix in err, err
+    assert "Extra data" not in err and "Expecting value" not in err, err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+def test_a_non_number_coordinate_is_quoted_as_json_writes_it(tmp_path, capsys):
+    """A null coordinate was shown as Python's None."""
+    bad = copy.deepcopy(_FC)
+    bad["features"][0]["geometry"]["coordinates"][1] = [LON + 0.001, LAT, None]
+    code, err = _run(["street", "--line", str(_write(tmp_path / "n.geojson", bad)), "-o",
+                      str(tmp_path / "o"), "--no-preview"], capsys)
+    assert code == 2 and f"got [{LON + 0.001}, {LAT}, null]" in err, err
+
+
 def _lines_file(path: Path, lines) -> Path:
     """Two-point lines (local metres round LON, LAT) as a GeoJSON file of streets (all
     points projected in one call: a transformer a line took 15 ms)."""

@@ -363,7 +363,7 @@ def test_a_repeated_point_of_a_dense_line_is_still_told():
 
 
 @pytest.mark.parametrize("geometry, text", [
-    ({"type": "Circle", "coordinates": [0, 0]}, "unknown geometry type 'Circle'; GeoJSON has"),
+    ({"type": "Circle", "coordinates": [0, 0]}, 'unknown geometry type "Circle"; GeoJSON has'),
     ({"type": "Polygon"}, "malformed Polygon (its coordinates must be an array: [[[x, y]"),
     ({"type": "Polygon", "coordinates": 5}, "malformed Polygon (its coordinates must be an"),
     ({"type": "Polygon", "coordinates": [[[0, 0], [1, 0, 3], [1, 1], [0, 0]]]},

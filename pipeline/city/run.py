@@ -32,6 +32,7 @@ import shapely
 
 from citysynth.export.cuts import load_kernels
 from citysynth.parts_db import PartDB, load_library
+from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.files import sweep_temporaries
 from citysynth.pipeline.city.config import BuildSettings, CityConfig, ZoneKind
 from citysynth.pipeline.city.folder import BLOCKS_DIR
@@ -68,7 +69,7 @@ from citysynth.pipeline.city.process import (
     terminate_as_interrupt,
     worker_init,
 )
-from citysynth.pipeline.errors import ConfigError, UsageError
+from citysynth.pipeline.errors import ConfigError, UsageError, shown
 from citysynth.pipeline.layouts import check_style, default_style
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
@@ -325,14 +326,23 @@ def _library_style(s: BuildSettings, library: str | Path | None,
     if path is None:
         raise ConfigError("no part library: give --library or library = \"...\" in the "
                           "config")
+    where = f"{cfg.path if cfg and cfg.path else 'city.toml'}: " + (
+        f"zone {zone!r}: " if zone else "")
     if path not in libraries:
-        libraries[path] = load_library(path)
+        try:
+            libraries[path] = load_library(path)
+        except LibraryError as exc:   # a library city.toml names: say the key too
+            if not s.library:
+                raise
+            raise ConfigError(f"{where}library = {shown(s.library)}: {exc}") from None
     db = libraries[path]
     if kind is not None:
-        where = f"{cfg.path if cfg and cfg.path else 'city.toml'}: zone {zone!r}: "
         return db, path, _kind_style(db, s, kind, where)
     style = s.style or default_style(db)
-    check_style(db, style)
+    try:
+        check_style(db, style)
+    except UsageError as exc:
+        raise ConfigError(f"{where}style: {exc}") from None
     return db, path, style
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from citysynth.parts_db.files import all_or_nothing
-from citysynth.pipeline.errors import UsageError, check_k
+from citysynth.pipeline.errors import UsageError, check_k, shown
 from citysynth.skeletons.errors import SkeletonError
 
 if TYPE_CHECKING:
@@ -190,7 +190,8 @@ def run_building(args) -> int:
     db, style, feats, frame = _prepare(args)
     name = safe_name(Path(args.file).stem)
     sk = skeleton_from_lines(feats, frame, name=name, min_edge=_smallest(db, style))
-    built = solve_layouts(name, [sk], db, style, args.k, **_options(args))
+    built = solve_layouts(name, [sk], db, style, args.k, label=str(args.file),
+                          **_options(args))
     return _finish(args, db, style, frame, [(built, [sk])])
 
 
@@ -200,18 +201,20 @@ def run_block(args) -> int:
 
     db, style, feats, frame = _prepare(args)
     stem = safe_name(Path(args.file).stem)
-    names, ids = [], []
+    names, ids, labels = [], [], []
     for f in feats:
         fid = f.properties.get("id", f.properties.get("name"))
         ids.append(str(fid) if fid is not None else f"feature {f.index}")
+        labels.append(f"{args.file}: feature {f.index}"
+                      + (f" ({shown(fid)})" if fid is not None else ""))
         names.append(safe_name(str(fid)) if fid is not None else
                      (stem if len(feats) == 1 else f"{stem}_{f.index}"))
     _check_names(args.file, names, ids, args.k)
     built = []
-    for f, name in zip(feats, names, strict=True):
+    for f, name, label in zip(feats, names, labels, strict=True):
         rings = skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
         built.append((solve_layouts(name, rings, db, style, args.k, infill=args.infill,
-                                    **_options(args)), rings))
+                                    label=label, **_options(args)), rings))
     return _finish(args, db, style, frame, built)
 
 

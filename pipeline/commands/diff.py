@@ -97,7 +97,12 @@ def _layout(run: Path, bid: str, rec: dict) -> tuple[str, Path, bytes] | None:
 
 def _parsed(run: Path, path: Path, data: bytes) -> dict:
     """A layout's bytes parsed, checked for the fields the diff reads."""
-    lay = parse_json(decode(data, path, "layout", UsageError), path, "layout", UsageError)
+    try:
+        lay = parse_json(decode(data, path, "layout", UsageError), path, "layout",
+                         UsageError)
+    except UsageError as exc:   # cut short by a killed run, or edited by hand
+        raise UsageError(f"{exc}; the layout is damaged: rerun citysynth city into "
+                         f"{run}") from None
     if not isinstance(lay, dict) or not _layout_shape(lay):
         raise UsageError(f"{path}: not a citysynth layout (damaged?); rerun citysynth city "
                          f"into {run}")
