@@ -184,3 +184,31 @@ def test_the_seam_has_neither_overlap_nor_gap(row):
                          for t in jobs[b].footprint.party)]
         gap = -_reach(with_walls[a], seg) - _reach(with_walls[b], (*seg[2:], *seg[:2]))
         assert 0 <= gap <= 0.03
+
+
+def test_citysynth_block_gives_touching_features_party_walls(tmp_path):
+    """``citysynth block`` lays each feature out alone too: features of its file that
+    touch (a row of footprints) stop their parts at the wall they share, as a city's
+    do; before, each reached up to 0.3 m into its neighbour all along."""
+    from citysynth.pipeline.city.party import party_walls
+    from citysynth.skeletons import read_geojson
+
+    fp = write(tmp_path / "row.geojson", ROW)
+    out = tmp_path / "out"
+    assert main(["block", str(fp), "--library", str(LIB), "-o", str(out), "--infill",
+                 "--no-preview"]) == 0
+    feats, _frame = read_geojson(fp)
+    walls = dict(zip((f.properties["id"] for f in feats),
+                     party_walls([f.geometry for f in feats]), strict=True))
+    assert {k: len(v) for k, v in walls.items()} == {"west": 1, "middle": 3, "east": 1,
+                                                     "back": 1}
+    tris = {k: instance_triangles(out / f"{k}.usda") for k in walls}
+    ground = {f.properties["id"]: f.geometry for f in feats}
+    for a, b in (("west", "middle"), ("middle", "east")):
+        seg = min(walls[a], key=lambda s: ground[b].distance(LineString([s[:2], s[2:]])))
+        assert _intruding(tris[a], seg) == 0.0
+        assert -0.03 <= _reach(tris[a], seg) <= -INSET + 1e-3
+        both = {**{"a" + k: v for k, v in tris[a].items()},
+                **{"b" + k: v for k, v in tris[b].items()}}
+        assert _coplanar_roofs(both) - _coplanar_roofs(tris[a]) - \
+            _coplanar_roofs(tris[b]) <= 1e-6

@@ -18,6 +18,7 @@ from dataclasses import replace
 import numpy as np
 import shapely
 from shapely.geometry import LineString
+from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
 from citysynth.export.party import Segment
@@ -31,14 +32,22 @@ DIGITS = 3         # the stretches' ends to the millimetre (the job's hash cover
 def with_party_walls(footprints: list[Footprint]) -> list[Footprint]:
     """``footprints`` (the ones to build, as :func:`~.overlaps.separate` leaves them),
     each spec carrying the stretches of its outline shared with the others."""
-    polygons = [f.polygon for f in footprints]
-    tree = shapely.STRtree(polygons)
-    out = []
-    for i, fp in enumerate(footprints):
-        near = sorted(int(j) for j in tree.query(fp.polygon, predicate="dwithin",
-                                                 distance=TOUCH) if j != i)
-        walls = shared_stretches(fp.polygon, [polygons[j] for j in near]) if near else ()
-        out.append(replace(fp, spec=replace(fp.spec, party=walls)) if walls else fp)
+    walls = party_walls([f.polygon for f in footprints])
+    return [replace(fp, spec=replace(fp.spec, party=w)) if w else fp
+            for fp, w in zip(footprints, walls, strict=True)]
+
+
+def party_walls(shapes: list[BaseGeometry]) -> list[tuple[Segment, ...]]:
+    """For each of ``shapes`` (polygons or multipolygons: a city's footprints, the
+    features of a ``citysynth block`` file), the stretches of its outline it shares
+    with the others, as :func:`shared_stretches` finds them."""
+    tree = shapely.STRtree(shapes)
+    out: list[tuple[Segment, ...]] = []
+    for i, shape in enumerate(shapes):
+        near = [shapes[int(j)] for j in sorted(tree.query(shape, predicate="dwithin",
+                                                          distance=TOUCH)) if j != i]
+        out.append(tuple(w for poly in shapely.get_parts(shape)
+                         for w in shared_stretches(poly, near)) if near else ())
     return out
 
 

@@ -196,6 +196,7 @@ def run_building(args) -> int:
 
 
 def run_block(args) -> int:
+    from citysynth.pipeline.city.party import party_walls
     from citysynth.pipeline.layouts import solve_layouts
     from citysynth.skeletons import skeletons_from_polygons
 
@@ -210,11 +211,12 @@ def run_block(args) -> int:
         names.append(safe_name(str(fid)) if fid is not None else
                      (stem if len(feats) == 1 else f"{stem}_{f.index}"))
     _check_names(args.file, names, ids, args.k)
-    built = []
-    for f, name, label in zip(feats, names, labels, strict=True):
-        rings = skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
-        built.append((solve_layouts(name, rings, db, style, args.k, infill=args.infill,
-                                    label=label, **_options(args)), rings))
+    rings = [skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
+             for f in feats]
+    walls = party_walls([f.geometry for f in feats])   # where features touch
+    built = [(solve_layouts(name, r, db, style, args.k, infill=args.infill, label=label,
+                            party=w, **_options(args)), r)
+             for name, label, r, w in zip(names, labels, rings, walls, strict=True)]
     return _finish(args, db, style, frame, built)
 
 
