@@ -107,3 +107,24 @@ def test_cut_pieces_normals_are_numpys_to_the_bit(seed, angle, offset):
     assert normals.tobytes() == got.astype(np.float32).tobytes()
     f32 = cv.astype(np.float32)
     assert extent.tobytes() == np.stack([f32.min(axis=0), f32.max(axis=0)]).tobytes()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 40), st.integers(1, 60), st.integers(1, 6), st.integers(0, 2**31 - 1))
+def test_split_parts_the_pieces_as_a_mask_per_piece_did(n_verts, n_faces, n_pieces, seed):
+    """``split`` (one compiled pass) gives each piece the faces, vertices and numbering
+    the boolean mask and running count per piece gave, to the index: pieces with no
+    face, vertices no face uses and vertices shared between pieces included."""
+    from citysynth.export.clip import split
+
+    rng = np.random.default_rng(seed)
+    faces = rng.integers(0, n_verts, size=(n_faces, 3))
+    owner = rng.integers(0, n_pieces, size=n_faces)
+    used, used_ends, local, face_ends = split(n_verts, faces, owner, n_pieces)
+    for i in range(n_pieces):
+        kept = faces[owner == i]
+        mask = np.zeros(n_verts, dtype=bool)
+        mask[kept] = True
+        assert np.array_equal(used[used_ends[i]:used_ends[i + 1]], np.flatnonzero(mask))
+        assert np.array_equal(local[face_ends[i]:face_ends[i + 1]],
+                              (np.cumsum(mask, dtype=np.int64) - 1)[kept])
