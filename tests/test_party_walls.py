@@ -212,3 +212,16 @@ def test_citysynth_block_gives_touching_features_party_walls(tmp_path):
                 **{"b" + k: v for k, v in tris[b].items()}}
         assert _coplanar_roofs(both) - _coplanar_roofs(tris[a]) - \
             _coplanar_roofs(tris[b]) <= 1e-6
+
+
+def test_overlapping_features_share_no_wall():
+    """A shape drawn twice, or two that overlap by more than a wall digitised twice,
+    share no wall (each whole outline would count, and every balcony be cut off);
+    walls drawn a few centimetres into each other still do."""
+    from citysynth.pipeline.city.party import party_walls
+
+    a = box(0, 0, 30, 14)
+    assert party_walls([a, box(0, 0, 30, 14)]) == [(), ()]
+    assert party_walls([a, box(20, 0, 50, 14)]) == [(), ()]
+    walls = party_walls([a, box(30 - TOUCH / 2, 0, 50, 14)])
+    assert [len(w) for w in walls] == [1, 1]

@@ -40,15 +40,26 @@ def with_party_walls(footprints: list[Footprint]) -> list[Footprint]:
 def party_walls(shapes: list[BaseGeometry]) -> list[tuple[Segment, ...]]:
     """For each of ``shapes`` (polygons or multipolygons: a city's footprints, the
     features of a ``citysynth block`` file), the stretches of its outline it shares
-    with the others, as :func:`shared_stretches` finds them."""
+    with the others, as :func:`shared_stretches` finds them. A shape that overlaps
+    this one by more than a wall digitised twice (thicker than 2 :data:`TOUCH`: the
+    same building drawn twice, a block file of overlapping polygons) shares no wall
+    with it: its whole outline would count as shared, and every balcony and eave be
+    cut off. (A city separates overlapping footprints before this.)"""
     tree = shapely.STRtree(shapes)
     out: list[tuple[Segment, ...]] = []
     for i, shape in enumerate(shapes):
         near = [shapes[int(j)] for j in sorted(tree.query(shape, predicate="dwithin",
-                                                          distance=TOUCH)) if j != i]
+                                                          distance=TOUCH))
+                if j != i and _touching(shape, shapes[int(j)])]
         out.append(tuple(w for poly in shapely.get_parts(shape)
                          for w in shared_stretches(poly, near)) if near else ())
     return out
+
+
+def _touching(a: BaseGeometry, b: BaseGeometry) -> bool:
+    """Whether two shapes near each other meet without overlapping: what they have in
+    common is nowhere thicker than 2 :data:`TOUCH`."""
+    return bool(shapely.buffer(shapely.intersection(a, b), -TOUCH).is_empty)
 
 
 def shared_stretches(polygon: shapely.Polygon, others: list[shapely.Polygon]
