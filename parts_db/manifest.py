@@ -14,7 +14,7 @@ from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Literal, get_args
 
 from citysynth.parts_db.errors import LibraryError
-from citysynth.solver.safe_read import read_toml
+from citysynth.solver.safe_read import read_toml, shown
 
 PartClass = Literal["end_left", "end_right", "middle", "corner", "t_junction", "floor",
                     "ground_floor", "roof", "building"]
@@ -60,6 +60,9 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     data = read_toml(path, "manifest", LibraryError)   # encoding, size: safe_read
 
     lib = data.get("library", {})
+    if not isinstance(lib, dict):
+        raise LibraryError(f"{path}: library must be one table, [library] (with name, "
+                           f"quantum, units), got {shown(lib)}")
     unknown = sorted(set(lib) - _LIB_KEYS)
     if unknown:
         raise LibraryError(f"{path}: [library] has unknown key(s) {unknown}; "
@@ -71,9 +74,9 @@ def read_manifest(library_dir: str | Path) -> Manifest:
                            "and a 100 m facade would be a hundred million of them; use 0.1 "
                            "or 0.2 m")
     units = lib.get("units", "m")
-    if units not in UNITS:
-        raise LibraryError(f"{path}: [library] units {units!r} unknown; use one of "
-                           f"{sorted(UNITS)}")
+    if not isinstance(units, str) or units not in UNITS:
+        raise LibraryError(f"{path}: [library] units {shown(units)} unknown; use one of "
+                           f"{', '.join(sorted(UNITS))}")
     extra = sorted(set(data) - {"library", "part"})
     if extra:
         raise LibraryError(f"{path}: unknown table(s) {extra}; use [library] and [[part]]")
@@ -88,7 +91,11 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     if not isinstance(rescale, bool):
         raise LibraryError(f"{path}: [library] rescale must be true or false, got "
                            f"{rescale!r}")
-    return Manifest(path, str(lib.get("name", root.name)), quantum, UNITS[units],
+    name = lib.get("name", root.name)
+    if not isinstance(name, str):
+        raise LibraryError(f"{path}: [library] name must be text in quotes, got "
+                           f"{shown(name)}")
+    return Manifest(path, name, quantum, UNITS[units],
                     rescale, tuple(parts))
 
 

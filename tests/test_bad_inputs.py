@@ -346,6 +346,16 @@ MANIFEST_SHAPES = {
     "part-class-unknown": ("", ""),
     "part-file-outside": ("", ""),
     "units-unknown": ('units_extra = "parsec"', ""),
+    "library-number": ("", ""),
+    "library-array-of-tables": ("", ""),
+    "units-list": ("", ""),
+    "name-table": ("", ""),
+}
+WHOLE_LIBRARY = {
+    "library-number": "library = 5\n",
+    "library-array-of-tables": '[[library]]\nname = "x"\n',
+    "units-list": '[library]\nunits = ["m"]\n',
+    "name-table": "[library]\nname = {a = 1}\n",
 }
 for shape, (lib_extra, part_extra) in MANIFEST_SHAPES.items():
     def make_manifest(tmp: Path, lib_extra=lib_extra, part_extra=part_extra,
@@ -356,6 +366,8 @@ for shape, (lib_extra, part_extra) in MANIFEST_SHAPES.items():
             text = text.replace('class = "middle"', 'class = "gargoyle"')
         if shape == "part-file-outside":
             text = text.replace('file = "meshes/', 'file = "../../../etc/')
+        if shape in WHOLE_LIBRARY:   # [library] itself replaced (was a TypeError)
+            text = WHOLE_LIBRARY[shape] + text[text.index("[[part]]"):]
         m.write_text(text)
         return ["ingest", str(m.parent), "-o", str(tmp / "db")]
     case(f"manifest-{shape}", make_manifest, names="{tmp}/lib")

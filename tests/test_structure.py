@@ -80,6 +80,39 @@ def test_block_cycle_with_corners():
                                        zip(best.resources, (20, 14, 20, 14), strict=True))
 
 
+@pytest.mark.parametrize("closed", [True, False])
+def test_a_structure_of_a_thousand_corners_gives_its_k_best(closed):
+    """The k-best programs recurse one key point deeper per stage: at 500 corners and
+    k = 2 a cycle went past Python's 1,000 frames (RecursionError, exit 3). Each corner
+    costs 1 or 0 (corner_a or corner_b), each side 0: the best is all corner_b, the
+    next ones swap one corner."""
+    n = 1000
+    d = {"resources": ["length"], "elements": [
+        {"id": "wide", "resources": {"length": 6.0}},
+        {"id": "corner_a", "legs": [{"length": 3.0}, {"length": 3.0}], "cost": 1.0},
+        {"id": "corner_b", "legs": [{"length": 3.0}, {"length": 3.0}]}],
+        "transitions": [[a, b, 0.0] for a in ("wide", "corner_a", "corner_b")
+                        for b in ("wide", "corner_a", "corner_b")],
+        "keypoints": [{"elements": ["corner_a", "corner_b"]}] * (n if closed else n + 1),
+        "stages": [{"constraints": {"length": [12, 12]}}] * n, "closed": closed}
+    r = solve_structure(Structure.from_dict(d), 3)
+    assert r.status == "ok" and [s.cost for s in r.solutions] == [0.0, 1.0, 1.0]
+
+
+def test_a_branch_on_a_key_point_without_branch_legs_is_refused():
+    """A key point that names a branch stage, but whose elements have two legs (a
+    corner, at a leaf or on a cycle), was an IndexError (exit 3)."""
+    d = {"resources": ["length"], "elements": [
+        {"id": "f", "resources": {"length": 1}},
+        {"id": "k", "legs": [{"length": 1}, {"length": 1}]}],
+        "transitions": [["k", "f", 0], ["f", "k", 0]],
+        "keypoints": [{"elements": ["k"], "branch": 0}, {"elements": ["k"]}],
+        "stages": [{"constraints": {"length": [3, 3]}}]}
+    with pytest.raises(ProblemError, match=r"keypoints\[0\]: 'k' has no branch leg .* "
+                       'leave "branch" out'):
+        Structure.from_dict(d)
+
+
 def test_structure_refusals():
     base = {"resources": ["length"], "elements": [
         {"id": "f", "resources": {"length": 1}},

@@ -601,6 +601,11 @@ def _check_junctions(stages: Sequence[Stage], keypoints: Sequence[Sequence[str]]
             raise err(f"keypoints[{v}].branch: {b!r} is not a stage that meets this key "
                       f"point (those are {inc[v] or 'none'}); name one of them, or leave "
                       "it out")
+        for x in keypoints[v] if v < len(keypoints) else ():
+            if len(legs[x]) < 3:   # the branch stage counts from its branch leg
+                raise err(f"keypoints[{v}]: {x!r} has no branch leg (a T part needs 3 "
+                          "legs), yet the key point names a branch stage; give it T "
+                          'parts only, or leave "branch" out')
     for v in range(len(keypoints)):
         deg = len(inc[v])
         if deg > 3:
