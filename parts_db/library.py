@@ -169,6 +169,7 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
             progress(i, len(m.parts), part.id)
         parts.append(part)
         warnings += part_warnings
+    _check_stored(parts, m)
     classes = [p.cls for p in parts]
     allowed = allowed_matrix(classes)
     cost = cost_matrix([p.sec_out for p in parts], [p.sec_in for p in parts], allowed)
@@ -183,6 +184,21 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
     else:     # the folder the user named: failing to write it is an error
         save(db, out_dir)
     return db
+
+
+def _check_stored(parts: list[Part], m: Manifest) -> None:
+    """Each part as its database entry will hold it, checked as a database is checked
+    when it is read (:func:`stored.part_fields`): a part ingest measured but every reader
+    would refuse (a building 100 km tall, a storey of 10,000 km², 10,001 doors counted
+    from its sub-meshes) is refused now, naming its mesh, not written to be refused later
+    with a fix (ingest again) that writes it again."""
+    seen: dict[str, str] = {}
+    for i, part in enumerate(parts):
+        try:
+            stored.part_fields(_part_json(part), i, m.path, seen, m.quantum)
+        except LibraryError as exc:
+            raise LibraryError(f"{exc} (measured from {m.path.parent / part.file}); check "
+                               "the mesh, its size and the library's units") from None
 
 
 def _measure_all(root: Path, m: Manifest):

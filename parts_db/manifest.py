@@ -137,10 +137,10 @@ def check_id(pid: object, where: str, seen: dict[str, str]) -> str:
     """A part's id: a printable string, as unique as the file names it becomes."""
     if not isinstance(pid, str) or not pid:
         raise LibraryError(f"{where}: needs an id (a non-empty string)")
-    if len(pid) > MAX_ID or not pid.isprintable():
+    if len(pid.encode("utf-8")) > MAX_ID or not pid.isprintable():
         raise LibraryError(f"{where}: an id is at most {MAX_ID} printable characters (it "
-                           "names the part's files); shorten it or drop its control "
-                           "characters")
+                           "names the part's files: counted in UTF-8 bytes, so é counts "
+                           "2); shorten it or drop its control characters")
     other = seen.get(id_key(pid))
     if other == pid:
         raise LibraryError(f'{where}: duplicate id "{pid}"')

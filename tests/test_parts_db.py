@@ -207,13 +207,19 @@ GLB = GOOD.export(file_type="glb")
      "", 'its id and "wall.2" differ only in case or in characters other than letters'),
     ([("A\\nB", "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
     ([("x" * 201, "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
+    # 120 characters, 240 bytes: its files' names went past the file system's 255
+    ([("é" * 120, "a.stl", GOOD, 'class = "middle"')], "", "counted in UTF-8 bytes"),
     ([("A", "a.stl", GOOD, 'class = "middle"\nattributes = {doors = 1e300}')], "",
      "attribute doors must be a number from 0 to 10,000"),
     ([("A", "a.stl", GOOD, 'class = "window"')], "", "unknown class 'window'"),
     ([("A", "/etc/passwd", None, 'class = "middle"')], "",
      "file '/etc/passwd' must be a path relative to the library folder"),
     ([("A", "a.stl", GOOD, 'class = "corner"')], "", "a corner needs an angle"),
-    ([("A", "a.stl", GOOD, 'class = "middle"')], 'units = "furlong"', "units 'furlong'"),
+    ([("A", "a.stl", GOOD, 'class = "middle"')], 'units = "furlong"', 'units "furlong"'),
+    # measured, but past what a database may hold (it was written, then every reader
+    # refused it, telling the user to ingest again)
+    ([("A", "a.stl", _box(0, 3, 0, 10, 0, 100_000), 'class = "middle"')], "",
+     "height must be a number above 0 to 10,000, got 100000.0 (measured from"),
 ])
 def test_bad_input_is_one_message_exit_2_nothing_written(tmp_path, capsys, parts, extra_lib,
                                                          fragment):
@@ -223,7 +229,7 @@ def test_bad_input_is_one_message_exit_2_nothing_written(tmp_path, capsys, parts
         ingest(lib, out)
     msg = str(exc.value)
     assert fragment in msg
-    if not any(w in fragment for w in ("duplicate", "units", "differ", "printable")):
+    if not any(w in fragment for w in ("duplicate", "units", "differ", "printable", "UTF-8")):
         assert '"A"' in msg
     assert main(["ingest", str(lib), "-o", str(out)]) == 2
     err = capsys.readouterr().err
