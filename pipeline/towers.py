@@ -290,10 +290,16 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
         # when the range tables prove that no tower meets the ask, and say why, neither
         # the search nor the solver's diagnosis (seconds for a skyscraper) is needed
         result = solve(asked) if told is None else None
-    except TooLargeError:
+    except TooLargeError as exc:
         most = _most_floor_area(problem, hi)
-        if area[0] <= most:
-            raise
+        if area[0] <= most:   # the search itself: said in towers, not labels and quanta
+            budget = f"the {exc.budget_mb:,.0f} MB" if exc.budget_mb else "the"
+            raise TooLargeError(
+                f"a tower of {at} m with a floor-area ratio of {far[0]:g}-{far[1]:g} on a "
+                f"{lot.area:g} m² lot: its floors stack in too many ways to search for "
+                f"the best within {budget} memory budget; ask for a lower height, a wider "
+                "floor-area ratio interval or fewer towers (k)", need_mb=exc.need_mb,
+                budget_mb=exc.budget_mb, k=exc.k) from None
         # a floor area more floors than a search can count, and range tables too large
         # to tell (a lot of 1e12 m² is told by them)
         return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "

@@ -247,8 +247,20 @@ def _cad_entities(path: Path, geoms: np.ndarray, accept: str, layer: str | None,
     return rows
 
 
+_OSM_TABLES = {"nodes": "node", "ways": "way", "polygons_standalone": "way"}
+
+
 def _cannot_read(path: Path, fmt: str, exc: Exception) -> SkeletonError:
-    detail = " ".join(str(exc).split()).split("; It might help")[0]
+    text = " ".join(str(exc).split())
+    dup = re.search(r"UNIQUE constraint failed: (\w+)\.id", text) if fmt == OSM else None
+    if dup:   # GDAL's index of the file's objects, in SQLite: an id given twice
+        kind = _OSM_TABLES.get(dup[1], "relation" if "relation" in dup[1] else "object")
+        return SkeletonError(f"{path}: two {kind}s of this OpenStreetMap file share one id "
+                             "(ids are unique in OpenStreetMap data: a file merged from "
+                             "extracts, or edited by hand); merge extracts with osmium "
+                             "merge, which keeps each object once, or export the layer as "
+                             "GeoJSON")
+    detail = text.split("; It might help")[0]
     detail = detail.rsplit("failed: ", 1)[-1].split("; ")[0]   # SQLite: its own words
     detail = re.sub(r"^\S+\.cpp, \d+: ", "", detail)   # GDAL's source file and line
     whole = {"Shapefile": " (a Shapefile needs its .shx and .dbf beside it)",

@@ -619,3 +619,26 @@ def test_a_shapefile_past_the_limit_in_its_zip_or_dbf_is_refused(tmp_path, capsy
     how = "unzipped" if zipped else "with the other files of the Shapefile beside it"
     assert f"MB of data {how}, more than the 1 MB an input may hold" in err, err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("kind", ["node", "way"])
+def test_an_osm_file_giving_an_id_twice_says_so(tmp_path, capsys, kind):
+    """GDAL indexes an OpenStreetMap file's objects in SQLite; an id given twice was
+    told as "cannot read this OpenStreetMap file (nodes.id); check that it is whole"."""
+    nodes = [f'<node id="{i}" lat="50.73" lon="{7.1 + i / 1000}" version="1"/>'
+             for i in range(1, 6)]
+    ring = "".join(f'<nd ref="{i}"/>' for i in (1, 2, 3, 1))
+    ways = [f'<way id="100" version="1">{ring}<tag k="building" v="yes"/></way>',
+            f'<way id="{100 if kind == "way" else 101}" version="1">'
+            f'<nd ref="3"/><nd ref="4"/><nd ref="5"/><nd ref="3"/>'
+            '<tag k="building" v="yes"/></way>']
+    if kind == "node":
+        nodes.append('<node id="2" lat="50.74" lon="7.2" version="1"/>')
+    f = tmp_path / "map.osm"
+    f.write_text('<?xml version="1.0" encoding="UTF-8"?>\n<osm version="0.6">\n'
+                 + "\n".join(nodes + ways) + "\n</osm>\n")
+    assert main(["city", "--footprints", str(f), "--library", str(LIB), "-o",
+                 str(tmp_path / "run"), "--no-overview"]) == 2
+    err = capsys.readouterr().err
+    assert f"two {kind}s of this OpenStreetMap file share one id" in err, err
+    assert "osmium merge" in err and not (tmp_path / "run").exists()

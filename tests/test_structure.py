@@ -113,6 +113,24 @@ def test_a_branch_on_a_key_point_without_branch_legs_is_refused():
         Structure.from_dict(d)
 
 
+def test_stages_given_from_and_to_for_some_only_are_told_so():
+    """Some stages with "from"/"to", others without (the in-order shorthand is then
+    off) was "stages[1].from: must be a key point index, got None"."""
+    d = {"resources": ["length"], "elements": [
+        {"id": "f", "resources": {"length": 1}},
+        {"id": "k", "legs": [{"length": 1}, {"length": 1}]}],
+        "transitions": [["k", "f", 0], ["f", "k", 0]],
+        "keypoints": [{"elements": ["k"]}] * 3, "closed": True,
+        "stages": [{"constraints": {"length": [3, 3]}, "from": 0, "to": 1},
+                   {"constraints": {"length": [3, 3]}}, {"constraints": {"length": [3, 3]}}]}
+    with pytest.raises(ProblemError, match='stages\\[1\\]: no "from"; give every stage its '
+                       '"from" and "to" key points, or none of them'):
+        Structure.from_dict(d)
+    d["stages"][1] = {**d["stages"][1], "from": 1, "to": 7}
+    with pytest.raises(ProblemError, match="must be a key point index from 0 to 2, got 7"):
+        Structure.from_dict(d)
+
+
 def test_structure_refusals():
     base = {"resources": ["length"], "elements": [
         {"id": "f", "resources": {"length": 1}},

@@ -204,3 +204,19 @@ def test_the_most_stays_unbounded_when_such_elements_may_follow_one_another():
     least, most = reach_given(cp, "floor_area", "height")
     assert least == _brute_heights((1000, 1100))[0]
     assert most == float("inf")
+
+
+def test_a_tower_too_large_to_search_is_told_in_towers(tmp_path, capsys, monkeypatch):
+    """A search past the memory budget (a 1,000 m tower of FAR 20: 8 million labels at
+    2 GB) was told in the solver's words (cost-bounded search, labels, graph states, a
+    quantum and --max-memory, which tower has not): now in the tower's, with what to
+    ask instead. Here under a 20 MB budget, so it is met in a second."""
+    real = solve_module.solve
+    monkeypatch.setattr(towers, "solve", lambda p, **kw: real(p, max_memory_mb=20, **kw))
+    assert main(["tower", "--height", "1000", "--far", "20", "--lot-area", "2500",
+                 "-o", str(tmp_path / "o"), "--no-preview"]) == 2
+    err = capsys.readouterr().err
+    assert "a tower of 1000 m with a floor-area ratio of 19.6-20.4 on a 2500 m² lot: its " \
+           "floors stack in too many ways" in err and "lower height" in err, err
+    assert not any(w in err for w in ("label", "quantum", "--max-memory", "graph")), err
+    assert not (tmp_path / "o").exists()

@@ -35,6 +35,7 @@ import numpy as np
 
 from citysynth.solver.errors import ProblemError
 from citysynth.solver.problem import Problem, _number, check_object, parse_intervals, parse_k
+from citysynth.solver.safe_read import shown
 
 _KEYS = {"resources", "quantum", "elements", "transitions", "branch_transitions",
          "branch_in_transitions", "keypoints", "stages", "closed", "k", "constraints"}
@@ -376,9 +377,9 @@ def _parse_stages(d: dict, n_keypoints: int, resources: tuple[str, ...], source:
                 raise ProblemError(f"{source}: stages[{i}].elements: unknown element {x!r}")
         ends = (s.get("from"), s.get("to")) if explicit else (i, (i + 1) % n_keypoints)
         for v, name in zip(ends, ("from", "to"), strict=True):
-            if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < n_keypoints:
-                raise ProblemError(f"{source}: stages[{i}].{name}: must be a key point "
-                                   f"index, got {v!r}")
+            wrong = _bad_end(i, name, v, n_keypoints)
+            if wrong:
+                raise ProblemError(f"{source}: {wrong}")
         if explicit and ends[0] == ends[1]:
             raise ProblemError(f"{source}: stages[{i}]: from and to are the same key point")
         stages.append(Stage(cons, None if els is None else tuple(els), *ends))
@@ -503,6 +504,18 @@ def _checked_intervals(intervals: Mapping[str, Interval], resources: tuple[str, 
     return out
 
 
+def _bad_end(i: int, name: str, v: object, n_keypoints: int) -> str | None:
+    """What is wrong with stage i's ``from`` or ``to`` (``name``), ``v``, or None."""
+    if v is None:   # other stages name theirs: the in-order shorthand is off
+        return (f'stages[{i}]: no "{name}"; give every stage its "from" and "to" key '
+                "points, or none of them (the stages then run through the key points in "
+                'order, round a cycle when "closed" is true)')
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < n_keypoints:
+        return (f"stages[{i}].{name}: must be a key point index from 0 to "
+                f"{n_keypoints - 1}, got {shown(v)}")
+    return None
+
+
 def _checked_stage(i: int, s: Stage, resources: tuple[str, ...],
                    elements: Mapping[str, object], n_keypoints: int, keys: set[str],
                    err: _Err) -> Stage:
@@ -523,8 +536,9 @@ def _checked_stage(i: int, s: Stage, resources: tuple[str, ...],
                       "stands at key points, not between them; list the fillers that may "
                       "fill the stage")
     for v, name in ((s.start, "from"), (s.end, "to")):
-        if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < n_keypoints:
-            raise err(f"stages[{i}].{name}: must be a key point index, got {v!r}")
+        wrong = _bad_end(i, name, v, n_keypoints)
+        if wrong:
+            raise err(wrong)
     if s.start == s.end and n_keypoints > 1:  # one key point: a cycle of one stage
         raise err(f"stages[{i}]: from and to are the same key point")
     return Stage(cons, None if s.elements is None else tuple(s.elements), s.start, s.end)
