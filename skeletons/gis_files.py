@@ -260,6 +260,11 @@ def _cannot_read(path: Path, fmt: str, exc: Exception) -> SkeletonError:
                              "extracts, or edited by hand); merge extracts with osmium "
                              "merge, which keeps each object once, or export the layer as "
                              "GeoJSON")
+    if re.search(r"Unable to open \S+\.shx", text):   # GDAL's fix would write one
+        return SkeletonError(f"{path}: its index file {path.with_suffix('.shx').name} is "
+                             "missing (a Shapefile is several files: .shp, .shx, .dbf and "
+                             ".prj, side by side); copy it beside the .shp, or export the "
+                             "layer as GeoJSON")
     detail = text.split("; It might help")[0]
     detail = detail.rsplit("failed: ", 1)[-1].split("; ")[0]   # SQLite: its own words
     detail = re.sub(r"^\S+\.cpp, \d+: ", "", detail)   # GDAL's source file and line
