@@ -57,7 +57,7 @@ DXF = "DXF"
 _DXF = re.compile(rb"\s*0\s*\n\s*SECTION\s*\n")   # a DXF drawing's first group
 # an OpenStreetMap file holds everything in a few layers: what each option reads of it
 OSM_LAYERS = {"lines": ("lines", "highway IS NOT NULL"),
-              "polygons": ("multipolygons", "building IS NOT NULL")}
+              "polygons": ("multipolygons", "building IS NOT NULL AND building <> 'no'")}
 _HSTORE = re.compile(r'"((?:[^"\\]|\\.)*)"=>"((?:[^"\\]|\\.)*)"')   # other_tags
 SNIFF = 1024                        # bytes read to tell a format (KML is XML text)
 GEOMETRIES = {                      # what the caller reads -> the layer types it takes

@@ -457,6 +457,7 @@ def test_tunnels_tram_lines_ferries_and_underground_buildings_bound_and_build_no
     buildings = json.loads(BUILDINGS.read_text())
     buildings["features"] = buildings["features"][:3]
     buildings["features"][1]["properties"]["location"] = "underground"
+    buildings["features"][2]["properties"]["building"] = "no"   # mapped, not a building
     fp = tmp_path / "fp.geojson"
     fp.write_text(json.dumps(buildings))
     cfg = tmp_path / "c.toml"
@@ -470,9 +471,11 @@ def test_tunnels_tram_lines_ferries_and_underground_buildings_bound_and_build_no
         assert f"1 line(s) with {rule} left out: not streets" in " ".join(reasons), reasons
     assert city(tmp_path / "f", "--footprints", str(fp), "--config", str(cfg)) == 0
     report = json.loads((tmp_path / "f" / "report.json").read_text())
-    assert report["counts"]["built"] == 2
+    assert report["counts"]["built"] == 1
     assert any("feature 1" in s["reason"] and "underground (location=underground)" in
                s["reason"] for s in report["skipped"]), report["skipped"]
+    assert any("feature 2: building=no: not a building; left out" in s["reason"]
+               for s in report["skipped"]), report["skipped"]
 
 
 

@@ -154,10 +154,16 @@ def street_crossings(spec: FootprintSpec, polygon: shapely.Polygon,
     return spec
 
 
-def underground(props: dict[str, Any]) -> bool:
-    """Whether a footprint is of a building under the ground (``location=underground``,
-    Overture's ``is_underground``): a car park under a square has no facade to build."""
-    return "underground" in tag_values(props.get("location"))
+def not_built(props: dict[str, Any]) -> str | None:
+    """Why a footprint has no facade to build, or None: a building under the ground
+    (``location=underground``, Overture's ``is_underground``: a car park under a
+    square), or an outline its data says is no building (``building=no``: OSM's tag
+    for a structure mapped but not a building, which exports keep)."""
+    if "underground" in tag_values(props.get("location")):
+        return "underground (location=underground): no facade to build"
+    if [str(v).strip().lower() for v in tag_values(props.get("building"))] == ["no"]:
+        return "building=no: not a building"
+    return None
 
 
 def polygons_in(geom: shapely.Geometry) -> list[shapely.Polygon]:

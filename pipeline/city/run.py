@@ -41,10 +41,10 @@ from citysynth.pipeline.city.footprints import (
     FootprintSpec,
     cut_back_outlines,
     footprint_spec,
+    not_built,
     polygons_in,
     street_crossings,
     style_families,
-    underground,
 )
 from citysynth.pipeline.city.jobs import (
     STATUSES,
@@ -195,9 +195,9 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
     fp = cfg.footprints
     tree = shapely.STRtree([f.geometry for f in lines])
     for f in feats:
-        if underground(f.properties):
-            skipped.append(_skip("footprint", f"{footprints}: {f.name}: underground "
-                                 "(location=underground): no facade to build; left out",
+        why = not_built(f.properties)
+        if why:
+            skipped.append(_skip("footprint", f"{footprints}: {f.name}: {why}; left out",
                                  f.geometry))
             continue
         for p in shapely.get_parts(f.geometry):
