@@ -389,6 +389,20 @@ def test_a_zero_width_spike_is_repaired_and_a_bowtie_named_where_it_crosses(tmp_
     (skip,) = [s["reason"] for s in inputs.skipped if s["kind"] == "footprint"]
     assert str(fp) in skip and "feature 1 (bowtie)" in skip, skip
     assert re.search(r"self-intersection at \(24\.94\d+, 60\.17\d+\)", skip), skip
+    assert "(fix the outline so it does not cross itself)" in skip, skip
+
+
+def test_a_footprint_of_two_distinct_corners_is_left_out_in_words(tmp_path):
+    """GEOS's "Too few points in geometry component" reached the report as it was."""
+    ring = [(0, 0), (30, 0), (0, 0), (0, 0)]
+    fp = tmp_path / "flat.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {}, "geometry": {
+            "type": "Polygon", "coordinates": [lonlat_from_local(ring, (24.94, 60.17))]}}]}))
+    inputs = prepare(None, fp, parse_config({"k": 1}), LIB)
+    (skip,) = [s["reason"] for s in inputs.skipped if s["kind"] == "footprint"]
+    assert "too few points at (24.94" in skip and "at least 3 distinct corners" in skip
+    assert "geometry component" not in skip, skip
 
 
 def test_a_light_well_no_layout_lines_is_closed_and_the_building_built(tmp_path):

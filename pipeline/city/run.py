@@ -18,7 +18,6 @@ The run folder::
 from __future__ import annotations
 
 import os
-import re
 import sys
 import time
 from collections import Counter
@@ -73,6 +72,7 @@ from citysynth.pipeline.errors import ConfigError, UsageError, shown
 from citysynth.pipeline.layouts import check_style, default_style
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
+from citysynth.skeletons.from_geometry import why_invalid
 from citysynth.skeletons.streets import (
     Block,
     highway_classes,
@@ -236,11 +236,8 @@ def _repaired(p: shapely.Polygon, frame: Frame) -> tuple[shapely.Polygon | None,
     polys = polygons_in(fixed)
     if len(polys) == 1:
         return polys[0], ""
-    reason = shapely.is_valid_reason(p)
-    m = re.fullmatch(r"\s*([^\[]+?)\s*\[\s*(\S+)\s+(\S+)\s*\]\s*", reason)
-    if m is None:
-        return None, f"its outline is invalid ({reason})"
-    return None, f"its outline is invalid: {m[1].lower()} at {frame.at((float(m[2]), float(m[3])))}"
+    what, fix = why_invalid(p, frame)   # GEOS's words as the skeletons say them
+    return None, f"its outline is invalid: {what} ({fix})"
 
 
 def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry | None],
