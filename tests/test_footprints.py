@@ -389,7 +389,7 @@ def test_a_zero_width_spike_is_repaired_and_a_bowtie_named_where_it_crosses(tmp_
     (skip,) = [s["reason"] for s in inputs.skipped if s["kind"] == "footprint"]
     assert str(fp) in skip and "feature 1 (bowtie)" in skip, skip
     assert re.search(r"self-intersection at \(24\.94\d+, 60\.17\d+\)", skip), skip
-    assert "(fix the outline so it does not cross itself)" in skip, skip
+    assert "left out (fix the outline so it does not cross itself in your GIS)" in skip, skip
 
 
 def test_a_footprint_of_two_distinct_corners_is_left_out_in_words(tmp_path):

@@ -207,8 +207,7 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
             if not p.is_valid:
                 fixed, why = _repaired(p, frame)
                 if fixed is None:
-                    skipped.append(_skip("footprint", f"{footprints}: {f.name}: {why}; left "
-                                         "out (fix the outline in your GIS)", p))
+                    skipped.append(_skip("footprint", f"{footprints}: {f.name}: {why}", p))
                     continue
                 p = fixed
             if p.area < cfg.min_area:
@@ -237,7 +236,7 @@ def _repaired(p: shapely.Polygon, frame: Frame) -> tuple[shapely.Polygon | None,
     if len(polys) == 1:
         return polys[0], ""
     what, fix = why_invalid(p, frame)   # GEOS's words as the skeletons say them
-    return None, f"its outline is invalid: {what} ({fix})"
+    return None, f"its outline is invalid: {what}; left out ({fix} in your GIS)"
 
 
 def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry | None],
