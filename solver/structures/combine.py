@@ -150,30 +150,28 @@ def best_structures(st: Structure, k: int, ghi: list[int], glo: list[int],
     come as one array from ``firsts``, and whose structures come back as their rows
     when ``read`` reads a stage list entry (see there)."""
     chain = chain_of(st, ghi) if LAZY_CHAINS else None
-    with _deep(len(st.stages)):
-        if chain is not None:  # (chain_of is cheap: a walk over the stages)
-            return ChainProgram(st, k, ghi, glo, chain, stage_lists, more,
-                                firsts() if firsts is not None else None, read,
-                                second if SECOND_BOUNDS else None).run()
-        return [*_Program(st, k, ghi, stage_lists).run(glo)]
+    _room_for(len(st.stages))
+    if chain is not None:  # (chain_of is cheap: a walk over the stages)
+        return ChainProgram(st, k, ghi, glo, chain, stage_lists, more,
+                            firsts() if firsts is not None else None, read,
+                            second if SECOND_BOUNDS else None).run()
+    return [*_Program(st, k, ghi, stage_lists).run(glo)]
 
 
 FRAMES_PER_STAGE = 8   # Python frames the programs' recursion takes per key point, at most
 
 
-@contextmanager
-def _deep(stages: int) -> Iterator[None]:
+def _room_for(stages: int) -> None:
     """Room for the programs' recursion, which goes down a structure's key points one
     by one (a lazy completion asks the next key point's, and so on): 500 corners asked
     for k = 2 went past Python's default limit of 1,000 frames. Python 3.11 runs such
     calls without growing the C stack, so a deeper limit costs only memory, a few
-    hundred bytes a frame."""
-    old = sys.getrecursionlimit()
-    sys.setrecursionlimit(max(old, FRAMES_PER_STAGE * stages + 1000))
-    try:
-        yield
-    finally:
-        sys.setrecursionlimit(old)
+    hundred bytes a frame. The limit is raised, never lowered again: it is the whole
+    process's, and a Dask worker may solve in several threads at once (one restoring
+    the old limit would break another's solve midway)."""
+    need = FRAMES_PER_STAGE * stages + 1000
+    if sys.getrecursionlimit() < need:
+        sys.setrecursionlimit(need)
 
 
 class _Program:
