@@ -66,6 +66,8 @@ def test_every_error_class_of_citysynth_is_a_listed_user_error():
     (["city", "--streets", str(DISTRICT), "--workers", "0"], "--workers must be at least 1"),
     # a worker holds ~150 MB: 100,000 of them filled the machine until the OOM killer came
     (["city", "--streets", str(DISTRICT), "--workers", "100000"], "GB in all"),
+    (["city", "--streets", str(DISTRICT), "--workers", "9" * 20],
+     "in all more memory than any machine has"),
 ])
 def test_a_bad_option_exits_2_with_a_usage_message(capsys, argv, fragment):
     assert main(argv) == EXIT_BAD_INPUT

@@ -64,10 +64,12 @@ def run(args) -> int:
         raise UsageError(f"--workers must be at least 1, got {args.workers}")
     if args.workers is not None and not args.scheduler and \
             args.workers > MAX_WORKERS_PER_CORE * cpu_count():
+        gb = args.workers * WORKER_MB / 1024
         raise UsageError(
             f"--workers {args.workers} on {cpu_count()} cores: each local worker holds "
             f"about {WORKER_MB} MB (the library and the kernels), "
-            f"{args.workers * WORKER_MB / 1024:,.1f} GB in all, and more than "
+            + (f"{gb:,.1f} GB in all" if gb < 1e5 else "in all more memory than any machine has")
+            + ", and more than "
             f"{MAX_WORKERS_PER_CORE} per core only wait for each other; use at most "
             f"{MAX_WORKERS_PER_CORE * cpu_count()} (or --scheduler for a cluster)")
     from citysynth.pipeline.city.config import load_config  # when run (see pipeline.cli)
