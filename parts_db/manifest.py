@@ -54,7 +54,7 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     if not root.is_dir():
         raise LibraryError(f"{root}: not a folder; a library is a folder with manifest.toml "
                            "and mesh files")
-    if not path.exists():
+    if not path.exists() and not path.is_symlink():   # a link's loop: read_toml says so
         raise LibraryError(f"{path}: missing; a library needs a manifest.toml "
                            "(see README, 'Part libraries')")
     data = read_toml(path, "manifest", LibraryError)   # encoding, size: safe_read

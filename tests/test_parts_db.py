@@ -298,3 +298,13 @@ def test_a_mesh_damaged_after_ingest_is_told_when_it_is_exported(tmp_path):
     msg = str(exc.value)
     assert f"the file is cut short: its header gives {len(GLB):,} bytes" in msg
     assert msg.endswith("it changed since the library was ingested; ingest the library again")
+
+
+def test_a_manifest_link_that_loops_is_not_called_missing(tmp_path, capsys):
+    """A manifest.toml that is a symbolic link to itself was reported "missing"."""
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "manifest.toml").symlink_to(lib / "manifest.toml")
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 2
+    err = capsys.readouterr().err
+    assert "symbolic links" in err and "missing" not in err, err
