@@ -112,6 +112,23 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     return p, layer or None, fmt
 
 
+def _check_shp_length(path: Path) -> None:
+    """A .shp shorter than its header says (a copy or download cut short): GDAL reads
+    the shapes its index promises past the end as features without geometry, and the
+    run would say "no geometry (null)" of each."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(28)
+        size = path.stat().st_size
+    except OSError:
+        return            # the reader names what is wrong with it
+    if len(head) == 28 and head[:4] == b"\x00\x00\x27\x0a":   # the file code, 9994
+        declared = int.from_bytes(head[24:28], "big") * 2       # in 16-bit words
+        if size < declared:
+            raise SkeletonError(f"{path}: cut short: its header gives {declared:,} bytes, "
+                                f"the file has {size:,}; copy or export it again")
+
+
 def _check_unpacked(path: Path, fmt: str) -> None:
     """Refuse what GDAL would read past the input limit though the file given is under
     it: a zipped Shapefile or KMZ by the sizes its members declare (a 10 MB zip of a
@@ -151,6 +168,8 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
 
     check_file(path, fmt, SkeletonError)
     _check_unpacked(path, fmt)
+    if fmt == "Shapefile":
+        _check_shp_length(path)
     if fmt == OSM:   # node ids out of order (JOSM's new objects, merged extracts) too
         pyogrio.set_gdal_config_options({"OSM_USE_CUSTOM_INDEXING": "NO"})
     if fmt == DXF:   # a footprint drawn as a closed polyline is a polygon

@@ -646,3 +646,17 @@ def test_an_osm_file_giving_an_id_twice_says_so(tmp_path, capsys, kind):
     err = capsys.readouterr().err
     assert f"two {kind}s of this OpenStreetMap file share one id" in err, err
     assert "osmium merge" in err and not (tmp_path / "run").exists()
+
+
+def test_a_shapefile_cut_short_is_told_so(files, tmp_path, capsys):
+    """A .shp shorter than its header says: GDAL gave its lost shapes as features
+    without geometry, told as "no geometry (null)"."""
+    for ext in ("shx", "dbf", "prj"):
+        shutil.copy(files / f"streets.{ext}", tmp_path / f"cut.{ext}")
+    data = (files / "streets.shp").read_bytes()
+    (tmp_path / "cut.shp").write_bytes(data[:len(data) // 2])
+    assert city(tmp_path / "o", "--streets", str(tmp_path / "cut.shp")) == 2
+    err = capsys.readouterr().err
+    assert f"cut short: its header gives {len(data):,} bytes, the file has " \
+           f"{len(data) // 2:,}" in err, err
+    assert not (tmp_path / "o").exists()
