@@ -112,6 +112,45 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     return p, layer or None, fmt
 
 
+_WAY = re.compile(rb'<way\s[^>]*?\bid="(-?\d+)"[^>]*>(.*?)</way>', re.S)
+_NODE_ID = re.compile(rb'<node\s[^>]*?\bid="(-?\d+)"')
+_ND = re.compile(rb'<nd\s+ref="(-?\d+)"')
+_OSM_KEY = {"lines": b'k="highway"', "polygons": b'k="building"'}
+
+
+def _warn_gapped_ways(path: Path, accept: str) -> None:
+    """Warn of the streets or buildings of an OpenStreetMap XML file that name nodes
+    the file does not hold between nodes it holds (an extract clipped with osmium's
+    simple strategy): GDAL joins the nodes on either side straight, a chord the map
+    does not have. Missing nodes at a way's ends only shorten it, which is what an
+    extract means. A PBF file is left to GDAL."""
+    key = _OSM_KEY.get(accept)
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return            # the reader names what is wrong with it
+    if key is None or not data.lstrip()[:1] == b"<":
+        return
+    nodes = set(_NODE_ID.findall(data))
+    gapped = []
+    for way_id, body in _WAY.findall(data):
+        if key not in body:
+            continue
+        held = [ref in nodes for ref in _ND.findall(body)]
+        if False in held and True in held:
+            first, last = held.index(True), len(held) - 1 - held[::-1].index(True)
+            if not all(held[first:last + 1]):
+                gapped.append(way_id.decode())
+    if gapped:
+        what = "street" if accept == "lines" else "building"
+        warnings.warn(f"{path}: {len(gapped)} {what} way(s) (e.g. way {gapped[0]}) name "
+                      "nodes this file does not hold between nodes it does (an extract "
+                      "clipped at its edge?): each is read as if it ran straight across "
+                      "the gap; extract with osmium extract --strategy complete_ways, or "
+                      "the website's Export, which keep whole ways", InputWarning,
+                      stacklevel=3)
+
+
 def _check_shp_length(path: Path) -> None:
     """A .shp shorter than its header says (a copy or download cut short): GDAL reads
     the shapes its index promises past the end as features without geometry, and the
@@ -172,6 +211,7 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
         _check_shp_length(path)
     if fmt == OSM:   # node ids out of order (JOSM's new objects, merged extracts) too
         pyogrio.set_gdal_config_options({"OSM_USE_CUSTOM_INDEXING": "NO"})
+        _warn_gapped_ways(path, accept)
     if fmt == DXF:   # a footprint drawn as a closed polyline is a polygon
         pyogrio.set_gdal_config_options(
             {"DXF_CLOSED_LINE_AS_POLYGON": "TRUE" if accept == "polygons" else "FALSE"})
