@@ -16,6 +16,10 @@ as the caller's own error class (the CLI prints it and exits 2):
   so no later stage can overflow the stack on it);
 - TOML that is not valid.
 
+Text that is not JSON says what it looks like (junk or NUL bytes after the JSON, a
+second JSON text, CSV, XML, an HTML page), and every message quotes a file's values as
+the file spells them (:func:`shown`: ``null``, ``"a"``, not Python's ``None``, ``'a'``).
+
 This module lives in the solver package only because that is the package every other
 one imports; it depends on nothing but the standard library.
 """
