@@ -90,17 +90,10 @@ def length(part: Part) -> float:
     return float(part.legs_measured[0] * part.scale)
 
 
-def extend(v: np.ndarray, length: float, ext: tuple[float, float]) -> np.ndarray:
-    """Vertices with each end of the part moved out by ext[0] (start, -X) and ext[1]
-    (end, +X), stretching only the band of :data:`BAND` at that end."""
-    v = v.copy()
-    v[:, 0] = extended_x(v[:, 0], length, ext)
-    return v
-
-
 def extended_x(x: np.ndarray, length: float | np.ndarray, ext) -> np.ndarray:
-    """Placement-frame x coordinates moved as :func:`extend` moves a part's vertices;
-    ``length`` and ``ext`` (start, end) one for all or one per coordinate (the roof
+    """Placement-frame x coordinates with each end of the part moved out by ext[0]
+    (start, -X) and ext[1] (end, +X), stretching only the band of :data:`BAND` at that
+    end; ``length`` and ``ext`` (start, end) one for all or one per coordinate (the roof
     infill extends a footprint's instances all at once)."""
     x = np.array(x, dtype=float)
     if np.ndim(length) == 0 and np.shape(ext) == (2,):   # one part: plain floats
@@ -145,7 +138,7 @@ def _joined(pieces: tuple[Piece, ...], vertices: list[np.ndarray]
 def _cut(pieces: tuple[Piece, ...], length_: float, cut: Cut,
          labels: np.ndarray) -> tuple[Piece, ...]:
     whole_v, whole_f = _joined(pieces, [p.vertices for p in pieces])   # new arrays
-    if cut.extend != (0.0, 0.0):   # all pieces at once (as extend, one call)
+    if cut.extend != (0.0, 0.0):   # all pieces at once, in one call
         whole_v[:, 0] = extended_x(whole_v[:, 0], length_, cut.extend)
     verts, faces = whole_v, whole_f
     owner = np.repeat(np.arange(len(pieces)), [len(p.faces) for p in pieces])

@@ -57,7 +57,7 @@ DXF = "DXF"
 _DXF = re.compile(rb"\s*0\s*\n\s*SECTION\s*\n")   # a DXF drawing's first group
 # an OpenStreetMap file holds everything in a few layers: what each option reads of it
 OSM_LAYERS = {"lines": ("lines", "highway IS NOT NULL"),
-              "polygons": ("multipolygons", "building IS NOT NULL AND building <> 'no'")}
+              "polygons": ("multipolygons", "building IS NOT NULL")}
 _HSTORE = re.compile(r'"((?:[^"\\]|\\.)*)"=>"((?:[^"\\]|\\.)*)"')   # other_tags
 SNIFF = 1024                        # bytes read to tell a format (KML is XML text)
 GEOMETRIES = {                      # what the caller reads -> the layer types it takes
@@ -125,11 +125,13 @@ def _warn_gapped_ways(path: Path, accept: str) -> None:
     does not have. Missing nodes at a way's ends only shorten it, which is what an
     extract means. A PBF file is left to GDAL."""
     key = _OSM_KEY.get(accept)
+    if key is None:       # a layer named outright: no street or building rule to scan by
+        return
     try:
         data = path.read_bytes()
     except OSError:
         return            # the reader names what is wrong with it
-    if key is None or not data.lstrip()[:1] == b"<":
+    if data.lstrip()[:1] != b"<":
         return
     nodes = set(_NODE_ID.findall(data))
     gapped = []
