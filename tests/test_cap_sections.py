@@ -28,6 +28,13 @@ from citysynth.parts_db.sections import (
 STEP = 0.25     # m: box corners on this grid, so boxes often touch and planes hit corners
 
 
+def _extended(v: np.ndarray, length: float, ext) -> np.ndarray:
+    """A piece's vertices moved as a cut's extension moves them."""
+    v = v.copy()
+    v[:, 0] = cuts.extended_x(v[:, 0], length, ext)
+    return v
+
+
 def _box(lo, hi) -> trimesh.Trimesh:
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
     return trimesh.creation.box(extents=hi - lo).apply_translation((lo + hi) / 2)
@@ -274,7 +281,7 @@ def test_real_parts(sample_db):
     for part in sample_db.parts[::3]:
         pieces = part_pieces(sample_db, part)
         length = cuts.length(part)
-        vertices = [cuts.extend(p.vertices, length, (0.3, 0.1)) for p in pieces]
+        vertices = [_extended(p.vertices, length, (0.3, 0.1)) for p in pieces]
         mesh = cuts._whole(pieces, vertices)
         labels = body_labels(mesh)
         for angle in (0.3, 0.5, 0.8):
@@ -363,7 +370,7 @@ def test_every_cut_is_capped_with_the_parts_section(sample_db):
     for (pid, cut), _inst in sorted(cuts_seen.items(), key=lambda kv: repr(kv[0]))[:60]:
         part = db.part(pid)
         pieces = part_pieces(db, part)
-        ext = cuts._whole(pieces, [cuts.extend(p.vertices, cuts.length(part), cut.extend)
+        ext = cuts._whole(pieces, [_extended(p.vertices, cuts.length(part), cut.extend)
                                    for p in pieces])
         got = cuts.cut_pieces(db, part, cut)
         for plane in cut.planes:
