@@ -19,7 +19,9 @@ A :class:`~citysynth.export.layout.Cut` says how, in the part's own placement fr
    into loops where they chain simply, the same polygons without noding them, and
    where those loops lie plainly apart, as most do, triangulated straight from them
    without shapely) is triangulated and added to the walls piece, facing out of the
-   cut, so the cut part is closed again.
+   cut, so the cut part is closed again. On a blank plane (a party wall) the section's
+   holes are filled first: the window openings a wall's section has there are not
+   part of a party wall.
 
 The cut pieces of a (part, cut) pair are computed once per process and, being plain
 prototypes, are instanced by USD and glTF like any part.
@@ -152,7 +154,8 @@ def _cut(pieces: tuple[Piece, ...], length_: float, cut: Cut,
             out.append(Piece(piece.name, piece.rgba,
                              verts[used[used_ends[i]:used_ends[i + 1]]],
                              local[face_ends[i]:face_ends[i + 1]]))
-    caps = [c for c in (_cap(whole_v, whole_f, plane, cut.planes, labels)
+    caps = [c for c in (_cap(whole_v, whole_f, plane, cut.planes, labels,
+                             solid=plane in cut.blank)
                         for plane in cut.planes) if c is not None]
     if not caps:
         return tuple(out)
@@ -165,15 +168,17 @@ def _offset_faces(faces: list[np.ndarray], counts: list[int]) -> list[np.ndarray
 
 
 def _cap(mesh_v: np.ndarray, mesh_f: np.ndarray, plane: tuple[float, float, float],
-         planes: tuple[tuple[float, float, float], ...], labels: np.ndarray
-         ) -> tuple[np.ndarray, np.ndarray] | None:
+         planes: tuple[tuple[float, float, float], ...], labels: np.ndarray,
+         solid: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
     """The triangulated cross-section of the part (its extended mesh: mesh_v, mesh_f)
     on ``plane`` (within the other planes), facing out of the kept side: (vertices,
     faces), or None when empty. The section is ingest's :func:`plane_section`; where
     its loops lie plainly apart and within the other planes (most caps) they are
     triangulated as they are (:func:`plain_rings_section`, no shapely); else it is
     taken by :func:`loop_section` where the segments chain simply (the same polygons,
-    without noding them), failing that by plane_section, and cut by the other planes."""
+    without noding them), failing that by plane_section, and cut by the other planes.
+    A ``solid`` cap (a party wall's) is the section with its holes filled
+    (:func:`_filled`)."""
     a, b, c = plane
     origin = np.array([a * c, b * c, 0.0])
     normal = np.array([a, b, 0.0])
@@ -184,7 +189,8 @@ def _cap(mesh_v: np.ndarray, mesh_f: np.ndarray, plane: tuple[float, float, floa
         return None                            # the other planes keep nothing of it
     rings = plain_rings_section(mesh_v, mesh_f, labels, origin, normal, u, w)
     if rings is not None:
-        if not len(rings.xy) or (bounds[0] <= rings.xy[:, 0].min()
+        solid = solid and bool((np.diff(rings.poly_ends) > 1).any())   # any holes
+        if not len(rings.xy) or (not solid and bounds[0] <= rings.xy[:, 0].min()
                                  and rings.xy[:, 0].max() <= bounds[1]):
             return _triangulated(rings, origin, normal, u, w)
         section = shapely.from_ragged_array(POLYGON, rings.xy,
@@ -194,10 +200,21 @@ def _cap(mesh_v: np.ndarray, mesh_f: np.ndarray, plane: tuple[float, float, floa
         if section is None:
             whole = trimesh.Trimesh(mesh_v, mesh_f, process=False)
             section = plane_section(whole, origin, normal, u, w, labels)
+    if solid:
+        section = _filled(section)
     if bounds != (-np.inf, np.inf):
         section = shapely.intersection(section, box(max(bounds[0], -1e6), -1e6,
                                                     min(bounds[1], 1e6), 1e6))
     return _triangulated(_rings(section), origin, normal, u, w)
+
+
+def _filled(section) -> shapely.Geometry:
+    """A section without holes: each polygon's outer ring, all of them joined (a wall
+    with its window recesses filled, and the window frames that lay in them gone
+    into it)."""
+    parts = shapely.get_parts(section)
+    polys = parts[shapely.get_type_id(parts) == POLYGON]
+    return shapely.union_all(shapely.polygons(shapely.get_exterior_ring(polys)))
 
 
 def _bounds(plane: tuple[float, float, float], planes: tuple[tuple[float, float, float], ...],

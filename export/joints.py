@@ -49,11 +49,13 @@ EXTEND_MARGIN = 0.01      # m beyond what the plane needs, so the cut always fin
 class HalfPlane:
     """Keep world points X with (X - point) . normal <= 0 (a vertical plane). A part
     next to the plane (``extends``) is extended to reach it; a part further off is only
-    cut where its mass reaches past it."""
+    cut where its mass reaches past it. A ``blank`` plane is a party wall: capped
+    solid (see :class:`~citysynth.export.layout.Cut`)."""
 
     normal: tuple[float, float]
     point: tuple[float, float]
     extends: bool = True
+    blank: bool = False
 
 
 def _rounded(x: float, y: float, digits: int) -> tuple[float, float]:
@@ -90,12 +92,12 @@ class Placed:
     def local_planes(self, extending: bool = False) -> list[tuple[float, float, float]]:
         """The half-planes in the part's frame: keep a*x + b*y <= c, (a, b) unit (only
         those the part is extended to, with ``extending``)."""
-        return sorted({p for p, ext in self._local() if ext or not extending})
+        return sorted({p for p, h in self._framed() if h.extends or not extending})
 
-    def _local(self) -> list[tuple[tuple[float, float, float], bool]]:
+    def _framed(self) -> list[tuple[tuple[float, float, float], HalfPlane]]:
         """Each half-plane in the part's frame (those whose normal the placement does not
-        collapse), with whether the part is extended to it. Plain floats: a city places
-        hundreds of parts a block."""
+        collapse), with the half-plane it comes from (whether the part is extended to it,
+        whether it is blank). Plain floats: a city places hundreds of parts a block."""
         if not self.halves:
             return []
         (a00, a01), (a10, a11) = self.a.tolist()
@@ -110,16 +112,18 @@ class Placed:
             c = ((float(h.point[0]) - ox) * nx + (float(h.point[1]) - oy) * ny) / norm
             out.append(((round(gx / norm, PLANE_DIGITS) + 0.0,
                          round(gy / norm, PLANE_DIGITS) + 0.0,
-                         round(c, COORD_DIGITS) + 0.0), h.extends))
+                         round(c, COORD_DIGITS) + 0.0), h))
         return out
 
     def cut(self) -> Cut | None:
-        local = self._local()
-        if not local:
+        framed = self._framed()
+        if not framed:
             return None
-        planes = sorted({p for p, _ext in local})
-        extending = sorted({p for p, ext in local if ext})
-        return Cut(_extension(extending, self.length, self.y_range), tuple(planes))
+        planes = sorted({p for p, _h in framed})
+        extending = sorted({p for p, h in framed if h.extends})
+        blank = sorted({p for p, h in framed if h.blank})
+        return Cut(_extension(extending, self.length, self.y_range), tuple(planes),
+                   tuple(blank))
 
 
 def facade_span(cut: Cut | None, length: float) -> tuple[float, float]:

@@ -36,26 +36,36 @@ class Cut:
     ends first extended by ``extend`` (start, end; metres along the part's own axis, by
     stretching a thin band at each end, so walls and cornices run on), then kept where
     ``a*x + b*y <= c`` for every plane (vertical planes, in the part's placement frame),
-    each cut face capped. Rounded so equal cuts are one prototype."""
+    each cut face capped. Rounded so equal cuts are one prototype. ``blank`` holds those
+    of the planes that are a wall shared with a neighbour (a party wall): their caps are
+    solid, without the openings (window recesses) the section has there, so a party wall
+    standing above a lower neighbour reads as a blank firewall, not as a facade."""
 
     extend: tuple[float, float] = (0.0, 0.0)
     planes: tuple[tuple[float, float, float], ...] = ()
+    blank: tuple[tuple[float, float, float], ...] = ()
 
     @cached_property
     def key(self) -> str:
         """A short name for the cut (part prototypes are named part~key); made once per
-        cut, as a block's writers ask for it hundreds of times."""
-        text = json.dumps([self.extend, self.planes])
-        return hashlib.sha256(text.encode()).hexdigest()[:10]
+        cut, as a block's writers ask for it hundreds of times. A cut without blank
+        planes keeps the name it had before they existed."""
+        parts = [self.extend, self.planes] + ([self.blank] if self.blank else [])
+        return hashlib.sha256(json.dumps(parts).encode()).hexdigest()[:10]
 
     def to_dict(self) -> dict:
-        return {"extend": list(self.extend), "planes": [list(p) for p in self.planes]}
+        d = {"extend": list(self.extend), "planes": [list(p) for p in self.planes]}
+        if self.blank:
+            d["blank"] = [list(p) for p in self.blank]
+        return d
 
     @classmethod
     def from_dict(cls, d: dict) -> Cut:
         ext = d.get("extend", [0.0, 0.0])
-        return cls((float(ext[0]), float(ext[1])),
-                   tuple((float(a), float(b), float(c)) for a, b, c in d.get("planes", [])))
+
+        def planes(key: str) -> tuple[tuple[float, float, float], ...]:
+            return tuple((float(a), float(b), float(c)) for a, b, c in d.get(key, []))
+        return cls((float(ext[0]), float(ext[1])), planes("planes"), planes("blank"))
 
 
 @dataclass(frozen=True)

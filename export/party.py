@@ -16,6 +16,7 @@ segment's left) that lies within a few decimetres of another building's.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 
 import numpy as np
@@ -37,6 +38,8 @@ DEPTH = 3.0       # m: how far past the line a part may reach into the neighbour
                   # balcony, an eave; a facade the cleaning moved when it absorbed a
                   # short jog of the outline, up to a metre or two)
 MIN_AREA = 0.005  # m²: less of a part's plan past the line is rounding
+FACING = 0.1      # m: a facade this near the shared line is the party wall
+PARALLEL = 0.995  # cosine: ... facing the neighbour within about 6°
 _HULLS: dict[tuple[str, str], np.ndarray] = {}
 
 
@@ -46,7 +49,9 @@ def party_halves(placed: Sequence[Placed], walls: Iterable[Segment], db: PartDB)
     its plan past the line lies beside the shared stretch, within :data:`DEPTH` of it,
     than elsewhere. A part that runs on past the stretch into a yard keeps its facade,
     and a wing of the building that lies past the line's continuation is not touched.
-    How many cuts."""
+    A part whose facade lies on the shared line (:func:`_facing`) is cut just behind
+    it whether or not it reaches past. Every such plane is blank: its cap is solid, a
+    party wall without windows. How many cuts."""
     frames = []                                # each stretch: p0, along, out, length
     for p0, p1 in (np.asarray(w, dtype=float).reshape(2, 2) for w in walls):
         length = float(np.hypot(*(p1 - p0)))
@@ -63,12 +68,17 @@ def party_halves(placed: Sequence[Placed], walls: Iterable[Segment], db: PartDB)
         slack = 1.1 * (MAX_EXTEND_DEPTHS * max(abs(p.y_range[0]), abs(p.y_range[1]), 1.0)
                        + EXTEND_MARGIN) if p.halves else 0.0
         world = hull @ p.a.T + p.origin
-        near = [f for f in frames if _beside(world, *f, slack)]
+        near = [(f, front) for f, front in ((f, _facing(p, *f)) for f in frames)
+                if front is not None or _beside(world, *f, slack)]
         if not near:
             continue
         corners = _extended(p, hull) @ p.a.T + p.origin
         plan: list[tuple[float, float]] | None = None
-        for p0, u, n, length in near:
+        for (p0, u, n, length), front in near:
+            if front is not None:              # its facade is the shared wall
+                if _add(p, p0, n, min(-INSET, front - INSET)):
+                    added += 1
+                continue
             if not _beside(corners, p0, u, n, length, 0.0):
                 continue                       # no part of it beside the stretch
             if plan is None:
@@ -85,13 +95,46 @@ def party_halves(placed: Sequence[Placed], walls: Iterable[Segment], db: PartDB)
             beside_area = _area(beside)
             if beside_area <= MIN_AREA or beside_area <= past_area - beside_area:
                 continue
-            half = HalfPlane((float(n[0]), float(n[1])),
-                             (float(p0[0] - n[0] * INSET), float(p0[1] - n[1] * INSET)),
-                             extends=False)
-            if half not in p.halves:
-                p.halves.append(half)
+            if _add(p, p0, n, -INSET):
                 added += 1
     return added
+
+
+def _add(p: Placed, p0: np.ndarray, n: np.ndarray, offset: float) -> bool:
+    """Cut ``p`` on the line through ``p0`` moved ``offset`` along ``n`` (out of the
+    building), a blank plane (its cap solid: a party wall has no windows); whether
+    that is a new cut."""
+    half = HalfPlane((float(n[0]), float(n[1])),
+                     (float(p0[0] + n[0] * offset), float(p0[1] + n[1] * offset)),
+                     extends=False, blank=True)
+    if half in p.halves:
+        return False
+    p.halves.append(half)
+    return True
+
+
+def _facing(p: Placed, p0: np.ndarray, u: np.ndarray, n: np.ndarray, length: float
+            ) -> float | None:
+    """Where the part's facade lies on the shared stretch, facing the neighbour (within
+    :data:`FACING` of its line, parallel, at least half of it beside the stretch): how
+    far out of the building its facade line reaches (its nearer end), else None. Such a
+    part is cut however little of it reaches past the line: above a lower neighbour its
+    facade would otherwise show its windows where a party wall stands."""
+    (ax, bx), (ay, by) = p.a.tolist()             # plain floats: every part, every stretch
+    nx, ny = n.tolist()
+    norm = math.hypot(bx, by)                     # the facade faces placement-frame -Y
+    if norm < 1e-9 or -(bx * nx + by * ny) / norm < PARALLEL:
+        return None
+    (ox, oy), (px, py), (ux, uy) = p.origin.tolist(), p0.tolist(), u.tolist()
+    x0, y0 = ox - px, oy - py
+    x1, y1 = x0 + ax * p.length, y0 + ay * p.length
+    d0, d1 = x0 * nx + y0 * ny, x1 * nx + y1 * ny
+    if max(abs(d0), abs(d1)) > FACING:
+        return None
+    t0, t1 = x0 * ux + y0 * uy, x1 * ux + y1 * uy
+    span = abs(t1 - t0)
+    overlap = min(max(t0, t1), length) - max(min(t0, t1), 0.0)
+    return min(d0, d1) if span > 1e-9 and overlap >= span / 2 else None
 
 
 def _beside(corners: np.ndarray, p0: np.ndarray, u: np.ndarray, n: np.ndarray,

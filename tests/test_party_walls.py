@@ -225,3 +225,108 @@ def test_overlapping_features_share_no_wall():
     assert party_walls([a, box(20, 0, 50, 14)]) == [(), ()]
     walls = party_walls([a, box(30 - TOUCH / 2, 0, 50, 14)])
     assert [len(w) for w in walls] == [1, 1]
+
+
+def _first_hits(tris: dict[str, np.ndarray], origins: np.ndarray, direction: np.ndarray
+                ) -> np.ndarray:
+    """How far each horizontal ray from ``origins`` along ``direction`` travels before
+    it meets a triangle of the building (inf where it meets none): the triangles seen
+    along the ray direction, the rays inside each found by barycentric coordinates."""
+    d = direction / np.linalg.norm(direction)
+    side = np.array([-d[1], d[0], 0.0])
+    faces = np.concatenate(list(tris.values()))
+    a, z, s = faces @ d, faces[..., 2], faces @ side           # [faces, 3] each
+    ra, rz, rs = origins @ d, origins[:, 2], origins @ side
+    dist = np.full(len(origins), np.inf)
+    for r in range(len(origins)):
+        (s0, s1, s2), (z0, z1, z2) = (s - rs[r]).T, (z - rz[r]).T
+        det = (s1 - s0) * (z2 - z0) - (s2 - s0) * (z1 - z0)
+        ok = np.abs(det) > 1e-12
+        with np.errstate(divide="ignore", invalid="ignore"):   # edge-on: det 0
+            b1 = (-s0 * (z2 - z0) + (s2 - s0) * z0) / det
+            b2 = (-(s1 - s0) * z0 + s0 * (z1 - z0)) / det
+            inside = ok & (b1 >= 0) & (b2 >= 0) & (b1 + b2 <= 1)
+        b1, b2 = b1[inside], b2[inside]
+        at = a[inside, 0] + b1 * (a[inside, 1] - a[inside, 0]) + \
+            b2 * (a[inside, 2] - a[inside, 0]) - ra[r]
+        at = at[at >= 0]
+        if len(at):
+            dist[r] = at.min()
+    return dist
+
+
+def test_a_party_wall_above_a_lower_neighbour_is_blank(tmp_path):
+    """Where a six-storey house stands against a three-storey one, the part of their
+    shared wall above the lower roof is a firewall: rays aimed at it from over the low
+    roof all stop within 3 cm of the shared line. Before, the cut facade's cap had its
+    window openings left in it, and a third of the rays went into window recesses.
+    The same probe at the tall house's street facade finds its windows (so the probe
+    sees recesses where there are some)."""
+    scene = {"tall": ([(0, 0), (24, 0), (24, 14), (0, 14)], 6),
+             "low": ([(24, 0), (44, 0), (44, 14), (24, 14)], 3)}
+    feats = [{"type": "Feature", "properties": {"id": n, "building:levels": levels},
+              "geometry": {"type": "Polygon",
+                           "coordinates": [lonlat_from_local(ring + ring[:1], ORIGIN)]}}
+             for n, (ring, levels) in scene.items()]
+    fp = tmp_path / "pair.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+    out = tmp_path / "out"
+    assert main(["city", "--footprints", str(fp), "--library", str(LIB), "-o", str(out),
+                 "--workers", "1", "--no-overview", "--config",
+                 str(_config(tmp_path))]) == 0
+    jobs = {j.footprint.ref: j for j in prepare(None, fp, parse_config({"k": 1}), LIB).jobs}
+    tris = {ref: instance_triangles(out / "blocks" / f"{j.id}.usda")
+            for ref, j in jobs.items()}
+    top = {ref: max(float(t[..., 2].max()) for t in tr.values()) for ref, tr in tris.items()}
+    assert top["tall"] > top["low"] + 6
+    (seg,) = jobs["tall"].footprint.party
+    p0, p1 = np.array(seg[:2]), np.array(seg[2:])
+    length = float(np.hypot(*(p1 - p0)))
+    u = (p1 - p0) / length
+    n = np.array([u[1], -u[0]])                   # out of the tall house, into the low
+    heights = np.arange(top["low"] + 0.5, top["tall"] - 4.0, 0.2)
+    along = np.arange(1.0, length - 1.0, 0.2)
+    t, z = (g.ravel() for g in np.meshgrid(along, heights))
+    start = p0 + np.outer(t, u) + n * 3.0
+    origins = np.c_[start, z]
+    depth = _first_hits(tris["tall"], origins, np.r_[-n, 0.0]) - 3.0   # behind the line
+    assert len(depth) > 500 and np.isfinite(depth).mean() > 0.95
+    hit = depth[np.isfinite(depth)]
+    print(f"firewall: {len(hit)} rays, deepest {hit.max():.3f} m, "
+          f"{(hit > 0.03).mean():.1%} past 3 cm")
+    assert hit.max() <= 0.03 and hit.min() >= 0.0
+    # the street facade (y = 0, facing -y) at the same heights: windows, recessed
+    front = np.c_[np.c_[np.arange(2.0, 22.0, 0.2)[:, None].repeat(len(heights), 1).ravel(),
+                        np.full(len(heights) * 100, -3.0)],
+                  np.tile(heights, 100)]
+    seen = _first_hits(tris["tall"], front, np.array([0.0, 1.0, 0.0])) - 3.0
+    assert (seen[np.isfinite(seen)] > 0.05).mean() > 0.1
+
+
+def test_a_blank_plane_is_capped_solid():
+    """A cut's blank plane (a party wall) is capped with its section's holes filled:
+    a tube cut across is a ring (3 m²) on an ordinary plane, the full square (4 m²) on
+    a blank one, and the other planes still bound the solid cap."""
+    import hashlib
+
+    from citysynth.export import cuts
+    from citysynth.export.layout import Cut
+    from citysynth.parts_db.geometry import Piece
+    from tests.test_cap_sections import _plane_faces_area, _tube
+
+    tube = _tube((0, 0, 0), (4, 2, 2), 0.5, 0)
+    piece = Piece("walls", (200, 200, 200, 255), np.asarray(tube.vertices, dtype=float),
+                  np.asarray(tube.faces, dtype=np.int64))
+    labels = cuts._body_labels((piece,))
+    end, side = (1.0, 0.0, 1.0), (0.0, 1.0, 1.5)
+    for planes, blank, area in (((end,), (), 3.0), ((end,), (end,), 4.0),
+                                ((end, side), (), 2.0), ((end, side), (end,), 3.0)):
+        got = cuts._cut((piece,), 4.0, Cut((0.0, 0.0), planes, blank), labels)
+        assert _plane_faces_area(got, end) == pytest.approx(area, abs=1e-9)
+    # the layout JSON names blank planes only where there are some; other cuts keep
+    # their prototype names
+    plain, party = Cut((0.0, 0.2), (end,)), Cut((0.0, 0.2), (end,), (end,))
+    assert "blank" not in plain.to_dict() and party.to_dict()["blank"] == [list(end)]
+    assert Cut.from_dict(json.loads(json.dumps(party.to_dict()))) == party
+    assert plain.key == hashlib.sha256(
+        json.dumps([plain.extend, plain.planes]).encode()).hexdigest()[:10] != party.key
