@@ -238,6 +238,10 @@ def _ingest_part(root: Path, m: Manifest, spec, warnings: list[str]) -> Part:
     change = max(abs(a - b) for a, b in zip(legs_q, meas.legs, strict=True))
     if change > 0.25 * q:
         warnings.append(f"{spec.id}: snapped by {change:.3f} m to the {q:g} m grid")
+    if spec.ignored:   # a corner labelled with another class would be used as that
+        warnings.append(f"{spec.id}: {' and '.join(spec.ignored)} ignored: only corners "
+                        f"have them, and its class is {spec.cls} (set class = \"corner\" "
+                        "if it is a corner)")
     attrs = dict(spec.attributes)
     for k in COUNTED:  # named sub-meshes count where the manifest is silent
         key = COUNT_ATTRIBUTE[k]

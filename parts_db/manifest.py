@@ -36,6 +36,7 @@ class PartSpec:
     convex: bool | None = None       # corners: True for an outer corner
     length: float | None = None      # optional nominal length, checks the units
     attributes: dict[str, float] = field(default_factory=dict)
+    ignored: tuple[str, ...] = ()    # keys given that its class has no use for
 
 
 @dataclass(frozen=True)
@@ -168,7 +169,8 @@ def _part(p: dict, i: int, path: Path, seen: dict[str, str]) -> PartSpec:
         angle, convex = check_corner(p.get("angle"), p.get("convex"), where)
     length = positive(p["length"], f"{where}: length") if "length" in p else None
     attrs = check_attributes(p.get("attributes", {}), where)
-    return PartSpec(pid, f, cls, style, angle, convex, length, attrs)
+    ignored = () if cls == "corner" else tuple(k for k in ("angle", "convex") if k in p)
+    return PartSpec(pid, f, cls, style, angle, convex, length, attrs, ignored)
 
 
 # The checks of one part's fields, shared with the reader of a stored part database

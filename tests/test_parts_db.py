@@ -250,6 +250,20 @@ def test_ingest_cli_summary(tmp_path, capsys):
     assert "cache hit" in capsys.readouterr().out
 
 
+def test_corner_keys_on_another_class_are_warned_of(tmp_path, capsys):
+    """``angle``/``convex`` on a part that is not a corner (a corner labelled middle,
+    most likely) are not silently dropped: the ingest summary says they were ignored
+    and how to make the part a corner."""
+    lib = _library(tmp_path, [("A", "a.stl", GOOD, 'class = "middle"\nangle = 90.0\n'
+                               'convex = true'),
+                              ("B", "b.stl", GOOD, 'class = "middle"')])
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 0
+    out = capsys.readouterr().out
+    assert 'A: angle and convex ignored: only corners have them, and its class is ' \
+        'middle (set class = "corner" if it is a corner)' in out
+    assert "B:" not in out
+
+
 def test_sample_library_files_match_the_generator(tmp_path):
     from citysynth.parts_db.sample import generate
     generate(tmp_path)
