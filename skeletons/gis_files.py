@@ -27,7 +27,7 @@ from __future__ import annotations
 import re
 import warnings
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -115,34 +115,25 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
 _WAY = re.compile(rb'<way\s[^>]*?\bid="(-?\d+)"[^>]*>(.*?)</way>', re.S)
 _NODE_ID = re.compile(rb'<node\s[^>]*?\bid="(-?\d+)"')
 _ND = re.compile(rb'<nd\s+ref="(-?\d+)"')
-_OSM_KEY = {"lines": b'k="highway"', "polygons": b'k="building"'}
+_OSM_KEY = {"lines": "highway", "polygons": "building"}
 
 
 def _warn_gapped_ways(path: Path, accept: str) -> None:
-    """Warn of the streets or buildings of an OpenStreetMap XML file that name nodes
-    the file does not hold between nodes it holds (an extract clipped with osmium's
-    simple strategy): GDAL joins the nodes on either side straight, a chord the map
-    does not have. Missing nodes at a way's ends only shorten it, which is what an
-    extract means. A PBF file is left to GDAL."""
+    """Warn of the streets or buildings of an OpenStreetMap file that name nodes the
+    file does not hold between nodes it holds (an extract clipped with osmium's simple
+    strategy, or osmconvert's -b without --complete-ways): GDAL joins the nodes on
+    either side straight, a chord the map does not have. Missing nodes at a way's ends
+    only shorten it, which is what an extract means."""
     key = _OSM_KEY.get(accept)
     if key is None:       # a layer named outright: no street or building rule to scan by
         return
     try:
-        data = path.read_bytes()
+        with open(path, "rb") as f:
+            head = f.read(64)
     except OSError:
         return            # the reader names what is wrong with it
-    if data.lstrip()[:1] != b"<":
-        return
-    nodes = set(_NODE_ID.findall(data))
-    gapped = []
-    for way_id, body in _WAY.findall(data):
-        if key not in body:
-            continue
-        held = [ref in nodes for ref in _ND.findall(body)]
-        if False in held and True in held:
-            first, last = held.index(True), len(held) - 1 - held[::-1].index(True)
-            if not all(held[first:last + 1]):
-                gapped.append(way_id.decode())
+    gapped = [way for way, held in (_xml_ways if _xml(head) else _pbf_ways)(path, key)
+              if _gapped(held)]
     if gapped:
         what = "street" if accept == "lines" else "building"
         warnings.warn(f"{path}: {len(gapped)} {what} way(s) (e.g. way {gapped[0]}) name "
@@ -151,6 +142,47 @@ def _warn_gapped_ways(path: Path, accept: str) -> None:
                       "the gap; extract with osmium extract --strategy complete_ways, or "
                       "the website's Export, which keep whole ways", InputWarning,
                       stacklevel=3)
+
+
+def _gapped(held: list[bool]) -> bool:
+    """Whether a way's nodes (held or not) miss one between two the file holds."""
+    if False not in held or True not in held:
+        return False
+    first, last = held.index(True), len(held) - 1 - held[::-1].index(True)
+    return not all(held[first:last + 1])
+
+
+def _xml_ways(path: Path, key: str) -> Iterator[tuple[str, list[bool]]]:
+    """Each way of an OpenStreetMap XML file tagged ``key``: its id, and for each of
+    its nodes whether the file holds it (a regex scan: JOSM's files give new objects
+    negative ids, which osmium's location indexes do not take)."""
+    try:
+        data = path.read_bytes()
+    except OSError:
+        return
+    tag = f'k="{key}"'.encode()
+    nodes = set(_NODE_ID.findall(data))
+    for way_id, body in _WAY.findall(data):
+        if tag in body:
+            yield way_id.decode(), [ref in nodes for ref in _ND.findall(body)]
+
+
+def _pbf_ways(path: Path, key: str) -> Iterator[tuple[str, list[bool]]]:
+    """Each way of an OpenStreetMap PBF file tagged ``key``: its id, and for each of
+    its nodes whether the file holds it (osmium: its node location index, in C++,
+    tells which nodes the file gave a location). A file osmium cannot read yields
+    nothing: GDAL's reader then names what is wrong with it."""
+    import osmium  # loaded only when such a file is given
+
+    try:
+        ways = osmium.FileProcessor(osmium.io.File(str(path), "pbf"),
+                                    osmium.osm.NODE | osmium.osm.WAY) \
+            .with_locations().with_filter(osmium.filter.KeyFilter(key))
+        for obj in ways:
+            if isinstance(obj, osmium.osm.Way):
+                yield str(obj.id), [n.location.valid() for n in obj.nodes]
+    except (RuntimeError, ValueError, OSError):
+        return
 
 
 def _check_shp_length(path: Path) -> None:

@@ -685,3 +685,28 @@ def test_an_osm_street_with_a_gap_in_its_nodes_is_warned_of(tmp_path, capsys):
             str(w.message)]
     assert len(gaps) == 1 and "1 street way(s) (e.g. way 100)" in gaps[0], gaps
     assert "osmium extract --strategy complete_ways" in gaps[0]
+
+
+def test_an_osm_pbf_street_with_a_gap_in_its_nodes_is_warned_of(tmp_path):
+    """The same extract as a PBF file (written by libosmium, as osmium extract and
+    osmconvert write them): its ways are scanned too, by osmium's node location
+    index. A whole way, and one missing only its first node, give no warning."""
+    import osmium
+
+    from citysynth.skeletons import InputWarning
+    from citysynth.skeletons.geojson import read_geojson
+
+    f = tmp_path / "clipped.osm.pbf"
+    writer = osmium.SimpleWriter(str(f))
+    for i, lon in [(1, 7.100), (2, 7.101), (4, 7.103), (5, 7.100), (6, 7.103), (7, 7.104)]:
+        writer.add_node(osmium.osm.mutable.Node(id=i, location=(lon, 50.73 + 0.0003 * (i > 4)),
+                                                version=1))
+    street = {"highway": "residential"}
+    for way, refs in [(100, [1, 2, 3, 4]), (101, [9, 5, 6]), (102, [5, 6, 7])]:
+        writer.add_way(osmium.osm.mutable.Way(id=way, nodes=refs, tags=street, version=1))
+    writer.close()
+    with pytest.warns(InputWarning) as caught:
+        read_geojson(f, accept="lines")
+    gaps = [str(w.message) for w in caught if "name nodes this file does not hold" in
+            str(w.message)]
+    assert len(gaps) == 1 and "1 street way(s) (e.g. way 100)" in gaps[0], gaps
