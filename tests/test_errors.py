@@ -240,3 +240,23 @@ def test_config_values_are_quoted_as_the_file_spells_them():
         with pytest.raises(ConfigError) as exc:
             parse_config({"k": value})
         assert str(exc.value).endswith(says)
+
+
+def test_setbacks_past_any_street_are_refused_with_the_most():
+    """A setback of 1e300 m (default, a street class's, a zone's) overflowed GEOS's
+    buffer into a TopologyException, exit 3: now one line naming the key and the most
+    it takes. 500 m is still taken (every block then skipped, as any too-deep inset)."""
+    from citysynth.pipeline.city.config import MAX_SETBACK, parse_config
+    from citysynth.pipeline.errors import ConfigError
+
+    zone = {"name": "z", "kind": "row", "polygon": [[0, 0], [1, 0], [1, 1]]}
+    for data, key in (({"setback": {"default": 1e300}}, "setback.default"),
+                      ({"setback": {"highway": {"residential": 1e6}}},
+                       "setback.highway.residential"),
+                      ({"setback": {"sidewalk": 501.0}}, "setback.sidewalk"),
+                      ({"zone": [{**zone, "setback": 1e300}]}, "setback")):
+        with pytest.raises(ConfigError) as exc:
+            parse_config(data)
+        text = str(exc.value)
+        assert key in text and f"give at most {MAX_SETBACK:g} m" in text, text
+    assert parse_config({"setback": {"default": MAX_SETBACK}}).setbacks.default == MAX_SETBACK

@@ -297,10 +297,11 @@ def _setbacks(data: dict, err: _Err) -> Setbacks:
     if not isinstance(table, dict):
         raise err("setback.highway", "must be a table like { primary = 11.0 }")
     return Setbacks(
-        _pos(sb, "default", 6.0, "setback.", err),
-        _pos(sb, "sidewalk", 2.5, "setback.", err, zero=True),
-        _pos(sb, "lane_width", 3.25, "setback.", err),
-        tuple(sorted((str(c), _pos(table, c, 0, "setback.highway.", err)) for c in table)))
+        _pos(sb, "default", 6.0, "setback.", err, most=MAX_SETBACK),
+        _pos(sb, "sidewalk", 2.5, "setback.", err, zero=True, most=MAX_SETBACK),
+        _pos(sb, "lane_width", 3.25, "setback.", err, most=MAX_SETBACK),
+        tuple(sorted((str(c), _pos(table, c, 0, "setback.highway.", err, most=MAX_SETBACK))
+                     for c in table)))
 
 
 def _origin(data: dict, err: _Err) -> tuple[float, float] | None:
@@ -354,7 +355,8 @@ def _zone_kind(z: dict, name: str, where: str, err: _Err) -> ZoneKind:
             raise err(where + key, f"zone {name!r}: only a zone of kind "
                       f"{' or '.join(repr(k) for k in kinds)} reads it (this one is {kind!r})")
     if kind != "towers":
-        return ZoneKind(kind, _pos(z, "setback", 0.0, where, err, zero=True))
+        return ZoneKind(kind, _pos(z, "setback", 0.0, where, err, zero=True,
+                                   most=MAX_SETBACK))
     for key, what in (("height", "each tower's height in metres"),
                       ("far", "each tower's floor area over its lot's area")):
         if key not in z:
@@ -365,7 +367,7 @@ def _zone_kind(z: dict, name: str, where: str, err: _Err) -> ZoneKind:
     if height[1] > MAX_TOWER_HEIGHT:
         raise err(where + "height", f"zone {name!r}: towers of up to {height[1]:g} m; "
                   f"citysynth stacks towers of at most {MAX_TOWER_HEIGHT:,.0f} m")
-    return ZoneKind(kind, _pos(z, "setback", 0.0, where, err, zero=True),
+    return ZoneKind(kind, _pos(z, "setback", 0.0, where, err, zero=True, most=MAX_SETBACK),
                     _pos(z, "lot", LOT, where, err), height,
                     _positive_interval(z, "far", where, name, err),
                     style if isinstance(style, str) else None)
@@ -402,17 +404,22 @@ def _known(d: dict, allowed: set[str], prefix: str, err: _Err) -> None:
             raise err(prefix + k, f"unknown key (known: {', '.join(sorted(allowed))})")
 
 
+MAX_SETBACK = 500.0        # metres from a centre line (or a zone's edge) to the facades:
+                           # more is no street (1e300 overflowed GEOS's buffer)
 MAX_SLACK = 2.0            # metres a side may be missed by: more would leave gaps visibly
 MAX_TOWER_HEIGHT = 1000.0  # metres: the tallest building stands 828 m; a tower of a km
                            # or more is a typo, and its search would run for minutes
 
 
 def _pos(d: dict, key: str, default: float, prefix: str, err: _Err, *,
-         zero: bool = False) -> float:
+         zero: bool = False, most: float | None = None) -> float:
     v = d.get(key, default)
     if not _isnum(v) or v < 0 or (v == 0 and not zero):
         raise err(prefix + key, f"must be a {'non-negative' if zero else 'positive'} number, "
                                 f"got {shown(v)}")
+    if most is not None and v > most:
+        raise err(prefix + key, f"{v:g} m is more than any street or block needs; give "
+                                f"at most {most:g} m")
     return float(v)
 
 
