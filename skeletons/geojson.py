@@ -41,6 +41,9 @@ from citysynth.skeletons.overture import osm_tags
 from citysynth.solver.safe_read import parse_json, read_text, shown
 
 TRUE_SCALE = 1e-3      # a projected CRS whose scale strays more from 1 is reprojected
+#                        (and a run's local frame warns of data it stretches more)
+FRAME_SCALE = 1e-2     # ... and refuses data it stretches more than this
+EARTH_RADIUS = 6_371_000.0   # m
 LONLAT_FRAME = "WGS 84 lon/lat, local transverse Mercator"
 
 Accept = Literal["any", "lines", "polygons"]
@@ -490,18 +493,50 @@ def _frame(geoms: list[BaseGeometry], given: pyproj.CRS | None, source: str,
     _check_lonlat(allc, source, given)
     if kept is not None:
         return _into_kept(allc, None, source, kept), kept
+    chosen = "the streets' frame" if within is not None else (
+        "origin in city.toml" if origin is not None else None)
     if within is not None:
         origin, origin_digits = within.origin, None
     centre = _lonlat_centre(allc) if origin is None else (float(origin[0]), float(origin[1]))
     if origin is None and origin_digits is not None:
         centre = (round(centre[0], origin_digits), round(centre[1], origin_digits))
     to_local = _local_tmerc(centre)
+    _check_frame_scale(to_local, allc, centre, source, chosen)
     frame = within or Frame(LONLAT_FRAME, centre, given.to_string() if given is not None
                             else "")
     if to_lonlat is None:
         return to_local, frame
     first = to_lonlat
     return (lambda c: to_local(first(c))), frame
+
+
+def _check_frame_scale(to_local: Project, lonlat: Coords, centre: tuple[float, float],
+                       source: str, chosen: str | None = None) -> None:
+    """Refuse data lying so far east or west of the run's frame centre that the frame
+    stretches them by more than :data:`FRAME_SCALE` (footprints on two continents, a
+    city.toml ``origin`` far from the data: buildings were solved and written several
+    per cent too large without a word); warn past :data:`TRUE_SCALE`. A transverse
+    Mercator's scale at x metres from its central meridian is about 1 + x²/2R²: measured
+    at the points furthest east and west, and at a sample of the rest."""
+    pick = np.unique(np.r_[np.argmin(lonlat[:, 0]), np.argmax(lonlat[:, 0]),
+                           np.arange(0, len(lonlat), max(1, len(lonlat) // 4096))])
+    x = np.abs(to_local(lonlat[pick])[:, 0])
+    far = float(x.max()) if np.isfinite(x).all() else math.inf
+    error = far * far / (2 * EARTH_RADIUS ** 2)
+    if error <= TRUE_SCALE:
+        return
+    at = f"({centre[0]:.4f}, {centre[1]:.4f})"
+    what = (f"{source}: data reach {far / 1000:,.0f} km east or west of the run's frame "
+            f"centre {at} (lon, lat), where its lengths are "
+            + (f"{error:.1%}" if error < 1 else "far") + " too long")
+    if error > FRAME_SCALE:
+        keep = EARTH_RADIUS * math.sqrt(2 * FRAME_SCALE) / 1000
+        fix = ("run each city or region on its own" if chosen is None else
+               f"the centre is {chosen}: give data of one place, or an origin near it")
+        raise SkeletonError(f"{what}; a frame holds data within about {keep:,.0f} km of "
+                            f"its centre: {fix}")
+    warnings.warn(f"{what}: buildings there come out that much too large; run regions "
+                  "this far apart on their own", InputWarning, stacklevel=4)
 
 
 def _lonlat_centre(lonlat: Coords) -> tuple[float, float]:
