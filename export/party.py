@@ -62,7 +62,7 @@ def party_halves(placed: Sequence[Placed], walls: Iterable[Segment], db: PartDB)
         return 0
     added = 0
     for p in placed:
-        hull = _hull(db, p.part)
+        hull = plan_hull(db, p.part)
         # an extension to a joint moves an end by at most this (the hull is unextended)
         # (times the placement's stretch along the part, a few per cent: 1.1 is ample)
         slack = 1.1 * (MAX_EXTEND_DEPTHS * max(abs(p.y_range[0]), abs(p.y_range[1]), 1.0)
@@ -189,7 +189,7 @@ def _area(poly: list[tuple[float, float]]) -> float:
         else 0.0
 
 
-def _hull(db: PartDB, part_id: str) -> np.ndarray:
+def plan_hull(db: PartDB, part_id: str) -> np.ndarray:
     """The convex hull of a part's mesh seen from above (placement-frame XY), every
     piece's (a balcony reaches furthest), made once per part."""
     key = (db.library_hash, part_id)

@@ -40,6 +40,8 @@ from shapely.geometry.base import BaseGeometry
 from citysynth.export.errors import ExportError
 from citysynth.export.infill import plan_infill
 from citysynth.export.joints import (
+    EXTEND_MARGIN,
+    MAX_EXTEND_DEPTHS,
     HalfPlane,
     Placed,
     behind,
@@ -51,7 +53,7 @@ from citysynth.export.joints import (
     joint_halves,
 )
 from citysynth.export.layout import Instance, Layout
-from citysynth.export.party import Segment, party_halves
+from citysynth.export.party import Segment, party_halves, plan_hull
 from citysynth.export.plan import Front, PlacementPlan, PlanStage, is_joint
 from citysynth.export.t_poses import SEP, main_depth, part_leg, t_pose
 from citysynth.parts_db import Part, PartDB
@@ -145,8 +147,7 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
                for si, (plan, sol) in enumerate(zip(plans, solutions, strict=True))]
     for placer in placers:
         placer.place()
-    for a, b in itertools.permutations(placers, 2):   # a courtyard against its outline
-        a.medial_against(b)
+    _medial_between(placers, db)
     _reopen(placers)
     for placer in placers:
         instances = [p.instance() for p in placer.placed]
@@ -232,6 +233,8 @@ class _Placer:
         # module -> the ground it covers past its concave mitre joint (its share of the
         # stage's ``_reach``), which its plan rectangle stops short of
         self._extension: dict[int, list[BaseGeometry]] = {}
+        self._placed_masses: list[BaseGeometry] | None = None
+        self._street_boxes: dict[int, tuple[float, ...]] = {}
         # (instance, plane) of each medial plane against another structure, or of a
         # corner against a stage of its own past a narrow wing (what _reopen may undo)
         self._against: list[tuple[int, HalfPlane]] = []
@@ -437,7 +440,7 @@ class _Placer:
         than two building depths, which would run through each other and out of the far
         wall), each keeps what lies nearer its own facade, as between two sides of one
         structure that share no corner (:meth:`_medial_cuts`)."""
-        bands = other._masses()
+        bands = other.masses()
         tree = shapely.STRtree(bands)
         for s in range(len(self.plan.stages)):
             fill = self.record.stages[s].fill
@@ -451,6 +454,43 @@ class _Placer:
                         self._against.append((i, half))
         for j in range(len(self.plan.keys)):
             self._medial_corner(j, other, bands, tree)
+
+    def masses(self) -> list[BaseGeometry]:
+        """:meth:`_masses` once every structure of the layout is placed (they no longer
+        change then), made once: each other structure meets them."""
+        if self._placed_masses is None:
+            self._placed_masses = self._masses()
+        return self._placed_masses
+
+    def region(self) -> tuple[float, float, float, float]:
+        """The bounds of all another structure's modules can meet of this one (once
+        placed): its stages' masses and the ground in front of its facades."""
+        geoms = [g for g in [*self.masses(),
+                             *(self._street_band(t) for t in range(len(self.paths)))]
+                 if not g.is_empty]
+        if not geoms:
+            return (np.inf, np.inf, -np.inf, -np.inf)
+        x0, y0, x1, y1 = shapely.total_bounds(geoms)
+        return (float(x0), float(y0), float(x1), float(y1))
+
+    def reach(self, db: PartDB) -> tuple[float, float, float, float]:
+        """The bounds of all this structure's modules cover (once placed): each part's
+        plan hull where it stands, grown by the most its ends may be extended, and the
+        extensions past its concave mitre joints."""
+        boxes = [shapely.total_bounds(self._extension[i]) for i in sorted(self._extension)
+                 if self._extension[i]]
+        for p in self.placed:
+            xy = plan_hull(db, p.part) @ p.a.T + p.origin
+            grow = MAX_EXTEND_DEPTHS * max(abs(p.y_range[0]), abs(p.y_range[1]), 1.0) \
+                * float(np.abs(p.a).max()) + EXTEND_MARGIN
+            (x0, y0), (x1, y1) = xy.min(axis=0), xy.max(axis=0)
+            boxes.append(np.array([x0 - grow, y0 - grow, x1 + grow, y1 + grow]))
+        b = np.array(boxes).reshape(-1, 4)
+        b = b[np.isfinite(b).all(axis=1)]          # an empty geometry's bounds are NaN
+        if not len(b):
+            return (np.inf, np.inf, -np.inf, -np.inf)
+        return (float(b[:, 0].min()), float(b[:, 1].min()), float(b[:, 2].max()),
+                float(b[:, 3].max()))
 
     def _masses(self) -> list[BaseGeometry]:
         """Each stage's mass as another structure's modules (or a corner part of this
@@ -577,10 +617,15 @@ class _Placer:
         ext = self._extension.get(i)
         if not ext:
             return
+        x0, y0, x1, y1 = shapely.total_bounds(ext)
+        near = [t for t in stages if (b := other._street_box(t))[0] <= x1 and
+                x0 <= b[2] and b[1] <= y1 and y0 <= b[3]]
+        if not near:                  # (bounds first: a city asks this tens of thousands
+            return                    # of times, and mostly of stages far away)
         placed = self.placed[i]
         own = self.plan.stages[s].front
         mass = _clipped(shapely.union_all(ext), placed)     # as its cuts so far leave it
-        for t in stages:
+        for t in near:
             if mass.is_empty or not mass.intersects(other._street_band(t)):
                 continue
             path, front = other.paths[t], other.plan.stages[t].front
@@ -637,6 +682,12 @@ class _Placer:
             st = self.plan.stages[t]
             self._street[t] = _in_front(st.points, st.front, self._stage_depth(t))
         return self._street[t]
+
+    def _street_box(self, t: int) -> tuple[float, ...]:
+        """The bounds of :meth:`_street_band` (made once)."""
+        if t not in self._street_boxes:
+            self._street_boxes[t] = tuple(float(v) for v in self._street_band(t).bounds)
+        return self._street_boxes[t]
 
     def _apart(self, s: int) -> list[int]:
         """The stages that share no key point with stage s."""
@@ -841,6 +892,22 @@ REOPEN_SHARE = 0.8       # of what dropping a medial plane gives back, the share
                          # must be open ground inside the building (see _reopen)
 REACH_SHARE = 0.5        # a medial plane against a concave extension must remove mostly
                          # ground that extension (or its stage's band) covers
+
+
+def _medial_between(placers: list[_Placer], db: PartDB) -> None:
+    """Each structure's modules against every other's masses (a courtyard against its
+    outline, :meth:`_Placer.medial_against`), in the same order as ever, but only where
+    what one reaches meets the other's masses or street front (bounding boxes): a
+    footprint of 361 small courtyards made 130,000 pairs, each building its masses
+    again, and ran for minutes; a pair whose boxes stay apart has nothing to cut."""
+    if len(placers) < 2:
+        return
+    reach = [p.reach(db) for p in placers]
+    region = [p.region() for p in placers]
+    for a, b in itertools.permutations(range(len(placers)), 2):
+        (ax0, ay0, ax1, ay1), (bx0, by0, bx1, by1) = reach[a], region[b]
+        if ax0 <= bx1 and bx0 <= ax1 and ay0 <= by1 and by0 <= ay1:
+            placers[a].medial_against(placers[b])
 
 
 def _reopen(placers: Sequence[_Placer]) -> None:

@@ -358,8 +358,9 @@ def _meets(problem: Problem, seq: list[int]) -> bool:
 
 def _infeasible(cp: Compiled, stats: dict, t0: float, max_memory_mb: float,
                 max_rows: int | None = None, *, explain: bool = True) -> Result:
-    if max_rows is None:
-        max_rows = int(max_memory_mb * 2**20) // (16 * cp.n + 64)
+    if max_rows is None:   # a row's G, H, state, links and hash slots; and while its
+        # arrays double, the old ones beside the new: half as many again
+        max_rows = int(max_memory_mb * 2**20) * 2 // (3 * (16 * cp.n + 64))
     stats.setdefault("nodes", 0)
     stats.setdefault("setup_s", time.perf_counter() - t0)
     stats.setdefault("solve_s", 0.0)

@@ -342,12 +342,15 @@ def _level_rows(head, nxt, lvl):
 
 
 @njit(cache=True)
-def _reserve(need, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift):
-    """Room for ``need`` more rows (arrays and hash table) before a level is expanded."""
+def _reserve(need, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift,
+             max_rows):
+    """Room for ``need`` more rows (arrays and hash table) before a level is expanded:
+    doubled, but never past ``max_rows`` (doubling past it held up to twice the rows
+    the memory budget allows, and a diagnosis reached 3.4 GB on a 2 GB budget)."""
     if dense:
         return G, H, row_state, nxtF, nxtB, inF, inB, keys, vals, shift
     if nrows + need > G.shape[0]:
-        m = max(2 * G.shape[0], nrows + need)
+        m = max(min(2 * G.shape[0], max_rows), nrows + need)
         G2 = np.empty((m, G.shape[1]))
         G2[:nrows] = G[:nrows]
         H2 = np.empty((m, G.shape[1]))
@@ -505,7 +508,8 @@ def _grow(n, r, lo, cap, stride, S, off, lev, top, W, lists, npred,  # noqa: C90
     if not dense and n + n_adm > max_rows:  # dense rows are all allocated already
         return (STATUS_TOO_LARGE, nrows, G, H, row_state, 0, 0, 0), (keys, vals, shift)
     G, H, row_state, nxtF, nxtB, inF, inB, keys, vals, shift = _reserve(
-        n + n_adm, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift)
+        n + n_adm, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift,
+        max_rows)
     nrows = _front_roots(n, r, cap, off, lev, front, omega, G, H, row_state, headF, nxtF,
                          inF, nrows, max_rows, dense, keys, vals, shift, c)
     if n_adm > 0:
@@ -525,7 +529,8 @@ def _grow(n, r, lo, cap, stride, S, off, lev, top, W, lists, npred,  # noqa: C90
             need = _level_rows(headB, nxtB, lb) * n
         need = min(need, max_rows - nrows)  # the worst case is rare; `limit` guards it
         G, H, row_state, nxtF, nxtB, inF, inB, keys, vals, shift = _reserve(
-            need, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift)
+            need, nrows, G, H, row_state, nxtF, nxtB, inF, inB, dense, keys, vals, shift,
+            max_rows)
         limit = nrows + need
         if fwd:
             nrows, work, done = _fwd(

@@ -67,3 +67,38 @@ def test_helsinki_courtyard_roofs_close(tmp_path, feature, gap_before, share, sh
     assert a.band_gap <= share * gap_before
     assert a.overlap <= shared * a.footprint
     assert a.beyond_max <= 0.7
+
+
+def test_only_structures_within_reach_are_cut_against_each_other(tmp_path, monkeypatch):
+    """A footprint of nine courtyards: each structure's modules are cut against another
+    structure's masses only where their bounding boxes meet (``_medial_between``), and
+    the layout is byte for byte the one every pair gave. 361 courtyards made 130,000
+    pairs, each building its masses again, for minutes."""
+    import itertools
+
+    from citysynth.export import place
+
+    outer = [(0, 0), (124, 0), (124, 124), (0, 124)]
+    yards = [[(x, y), (x + 18, y), (x + 18, y + 18), (x, y + 18)]
+             for x in (14, 53, 92) for y in (14, 53, 92)]
+    rings = [lonlat_from_local(r + r[:1], (24.94, 60.17)) for r in (outer, *yards)]
+    feature = {"type": "Feature", "properties": {"id": "yards", "building:levels": "4"},
+               "geometry": {"type": "Polygon", "coordinates": rings}}
+    calls: list[int] = []
+    against = place._Placer.medial_against
+
+    def counted(self, other):
+        calls.append(1)
+        return against(self, other)
+    monkeypatch.setattr(place._Placer, "medial_against", counted)
+    _usd, some = build_feature(tmp_path / "some", feature)
+    pairs = len(calls)
+
+    def every_pair(placers, db):
+        for a, b in itertools.permutations(placers, 2):
+            a.medial_against(b)
+    monkeypatch.setattr(place, "_medial_between", every_pair)
+    calls.clear()
+    _usd, every = build_feature(tmp_path / "every", feature)
+    assert some == every
+    assert pairs <= 0.7 * len(calls), (pairs, len(calls))      # 58 of 90

@@ -176,3 +176,37 @@ def test_a_memory_budget_no_machine_has_is_refused(budget):
     with pytest.raises(ProblemError, match="the memory budget must be a positive number of "
                                            "megabytes up to 1,073,741,824"):
         solve(p, max_memory_mb=budget)
+
+
+def _every_part_a_multiple(length: float) -> Problem:
+    """Parts of 2.0, 3.0 and 4.0 m after one another in any order (every length a
+    multiple of 0.2 m twice over: of 1 m), asked for exactly ``length`` metres, with a
+    door count beside it."""
+    parts = [("A", 2.0, 1), ("B", 3.0, 0), ("C", 4.0, 2)]
+    return Problem.from_dict({
+        "resources": ["length", "doors"], "quantum": {"length": 0.2},
+        "elements": [{"id": i, "resources": {"length": x, "doors": d}} for i, x, d in parts],
+        "transitions": [[a, b, 1.0] for a, _x, _d in parts for b, _y, _e in parts],
+        "front": ["A", "B", "C"], "back": ["A", "B", "C"],
+        "constraints": {"length": [length, length], "doors": [0, 1000]}, "k": 1})
+
+
+def test_a_length_no_multiple_of_the_parts_reaches_is_told_at_once(monkeypatch):
+    """Every part a multiple of 1 m and 300.4 m asked: the diagnosis grew the graph for
+    minutes, ran out of budget and blamed the front and back lists (a probe: 77 s,
+    2.3 GB). Now the multiples alone prove it, with the nearest lengths possible."""
+    from citysynth.solver import diagnose as diag
+
+    res = solve(_every_part_a_multiple(300.4))
+    assert res.status == "infeasible"
+    assert res.reason == ("length = 300.4 is out of reach: every element's length is a "
+                          "multiple of 1, and no multiple lies in it; nearest possible: "
+                          "300 (below), 301 (above)"), res.reason
+    assert res.details[0]["blocks"] == "alone"
+    assert solve(_every_part_a_multiple(301.0)).status == "ok"   # a multiple: built
+    # a diagnosis whose every growth runs out of budget says so, not that front and
+    # back are apart
+    cp = compile_problem(_every_part_a_multiple(301.0))
+    monkeypatch.setattr(diag, "_reachable_totals", lambda cp, max_rows: None)
+    reason, _details = diag.diagnose(cp, max_rows=8)
+    assert "more than the memory budget" in reason and "front" not in reason, reason
