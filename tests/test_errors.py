@@ -307,3 +307,29 @@ def test_data_too_far_apart_for_one_frame_are_refused(tmp_path, capsys):
     with w.catch_warnings():
         w.simplefilter("error", InputWarning)
         read_geojson(near, accept="polygons")
+
+
+@pytest.mark.parametrize("name, kind", [("blocks", "file"), ("report.json", "folder"),
+                                        ("city.usda", "folder")])
+def test_a_run_folder_with_the_wrong_kind_of_entry_is_refused_first(tmp_path, capsys, name,
+                                                                    kind):
+    """A file named ``blocks`` made every block fail "a failure of the machine" (exit 1)
+    and marked them all failed in a rewritten manifest; a folder named ``report.json``
+    or ``city.usda`` was refused only after every block was solved and written. Both are
+    now one line, exit 2, before anything is solved or written."""
+    from tests.test_faults import grid_streets
+
+    out = tmp_path / "run"
+    out.mkdir()
+    if kind == "file":
+        (out / name).write_text("not a folder")
+    else:
+        (out / name).mkdir()
+    streets = grid_streets(tmp_path / "streets.geojson", blocks=1)
+    lib = str(Path(__file__).resolve().parent.parent / "examples" / "library")
+    assert main(["city", "--streets", str(streets), "--library", lib, "-o", str(out),
+                 "--workers", "1", "--no-overview"]) == 2
+    err = capsys.readouterr().err
+    assert f"{out / name}: a {kind} where the run " in err and "give another -o" in err, err
+    assert len(err.strip().splitlines()) == 1
+    assert sorted(p.name for p in out.iterdir()) == [name]     # nothing else written

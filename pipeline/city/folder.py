@@ -9,3 +9,23 @@ MANIFEST = "manifest.json"         # every block's inputs hash, status, files an
 BLOCKS_GEOJSON = "blocks.geojson"  # every block's outline with its status, for a GIS
 REPORT = "report.json"             # counts, timings, failures and errors of the run
 RUN_SCHEMA = "citysynth.run"       # the manifest's "schema"
+CITY_FILES = ("city.usda", "city.png", "city.glb")   # the city stage, overview, one GLB
+
+
+def misplaced(out: str) -> str | None:
+    """What in an existing run folder ``out`` stands where the run writes something of
+    another kind (a file named ``blocks``, a folder named ``manifest.json``): said
+    before any block is solved, where the run found it only when writing, after every
+    block's work. None when nothing does."""
+    from pathlib import Path  # (this module imports nothing at its top: see above)
+
+    root = Path(out)
+    blocks = root / BLOCKS_DIR
+    if blocks.exists() and not blocks.is_dir():
+        return (f"{blocks}: a file where the run keeps its blocks folder; move it away, "
+                "or give another -o folder")
+    for name in (MANIFEST, BLOCKS_GEOJSON, REPORT, *CITY_FILES):
+        if (root / name).is_dir():
+            return (f"{root / name}: a folder where the run writes its {name} file; move "
+                    "it away, or give another -o folder")
+    return None

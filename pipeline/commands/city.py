@@ -72,6 +72,10 @@ def run(args) -> int:
             + ", and more than "
             f"{MAX_WORKERS_PER_CORE} per core only wait for each other; use at most "
             f"{MAX_WORKERS_PER_CORE * cpu_count()} (or --scheduler for a cluster)")
+    from citysynth.pipeline.city.folder import misplaced
+    wrong = misplaced(args.out)
+    if wrong:
+        raise UsageError(wrong)
     from citysynth.pipeline.city.config import load_config  # when run (see pipeline.cli)
     from citysynth.pipeline.city.outputs import finish_city
     from citysynth.pipeline.city.run import prepare, progress_printer, run_city
