@@ -115,8 +115,12 @@ def check_lot(db: PartDB, lot: Lot, style: str | None) -> None:
         small = min(cands, key=lambda p: _footprint(p).envelope.area)
         lw, ld = _extent(affinity.rotate(lot.polygon, -lot.angle, origin=lot.centre))
         pw, pd = _extent(_footprint(small))
+        inland = polylabel(lot.polygon, tolerance=0.01)
+        wide = 2 * lot.polygon.boundary.distance(inland)   # its largest circle inside
+        hole = " round a courtyard (a hole in it)" if lot.polygon.interiors else ""
         raise UsageError(f"no {cls.replace('_', ' ')} of the library {db.name!r} fits the "
-                         f"lot ({lot.area:g} m², {lw:.1f} x {ld:.1f} m): the smallest, "
+                         f"lot ({lot.area:g} m², {lw:.1f} x {ld:.1f} m{hole}; the widest "
+                         f"circle inside it is {wide:.1f} m across): the smallest, "
                          f"{small.id}, needs {pw:.1f} x {pd:.1f} m; give a larger lot")
 
 

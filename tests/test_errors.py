@@ -333,3 +333,30 @@ def test_a_run_folder_with_the_wrong_kind_of_entry_is_refused_first(tmp_path, ca
     assert f"{out / name}: a {kind} where the run " in err and "give another -o" in err, err
     assert len(err.strip().splitlines()) == 1
     assert sorted(p.name for p in out.iterdir()) == [name]     # nothing else written
+
+
+def test_a_courtyard_drawn_as_its_own_outline_is_no_building(tmp_path):
+    """A footprint whose courtyard is its outline covers no ground: GEOS's repair made
+    it the solid outline and the city built a 60 x 40 m house (``block`` refused it). It
+    is now left out with the reason, as an outline crossing itself is; a repair that
+    keeps the ground (a spike drawn out and back) still builds."""
+    from citysynth.skeletons.geojson import lonlat_from_local
+
+    ring = [(0, 0), (60, 0), (60, 40), (0, 40), (0, 0)]
+    spike = [(0, 0), (30, 0), (30, -8), (30, 0), (60, 0), (60, 40), (0, 40), (0, 0)]
+    feats = [{"type": "Feature", "properties": {"id": i, "building": "yes"},
+              "geometry": {"type": "Polygon", "coordinates": [
+                  lonlat_from_local([(x + 100 * i, y) for x, y in r], (24.94, 60.17))
+                  for r in rings]}}
+             for i, rings in enumerate([[ring, ring], [spike]])]
+    fp = tmp_path / "fp.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": feats}))
+    lib = str(Path(__file__).resolve().parent.parent / "examples" / "library")
+    out = tmp_path / "run"
+    assert main(["city", "--footprints", str(fp), "--library", lib, "-o", str(out),
+                 "--workers", "1", "--no-overview"]) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["built"] == 1, report["counts"]
+    reasons = [s["reason"] for s in report["skipped"]]
+    assert len(reasons) == 1 and "feature 0 (0): its outline is invalid: self-intersection" \
+        in reasons[0], reasons

@@ -142,8 +142,29 @@ def test_a_lot_too_small_for_any_ground_floor_is_one_clear_error(tmp_path, capsy
                  "-o", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "no ground floor of the library 'citysynth sample' fits the lot (100 m², 10.0 x " \
-        "10.0 m): the smallest, tower_ground_square14, needs 16.0 x 16.0 m" in err
+        "10.0 m; the widest circle inside it is 10.0 m across): the smallest, " \
+        "tower_ground_square14, needs 16.0 x 16.0 m" in err
     assert "Traceback" not in err
+
+
+def test_a_lot_round_a_courtyard_says_so(tmp_path, capsys):
+    """A 60 x 60 m lot round a 40 x 40 m courtyard was told as 60 x 60 m that a 16 m
+    ground floor does not fit; the courtyard and the widest free ground (a circle in a
+    corner of the 10 m band, 11.7 m) are now said."""
+    from citysynth.skeletons.geojson import lonlat_from_local
+
+    rings = [[(0, 0), (60, 0), (60, 60), (0, 60), (0, 0)],
+             [(10, 10), (10, 50), (50, 50), (50, 10), (10, 10)]]
+    lot = tmp_path / "lot.geojson"
+    lot.write_text(json.dumps({"type": "FeatureCollection", "features": [{
+        "type": "Feature", "properties": {}, "geometry": {
+            "type": "Polygon",
+            "coordinates": [lonlat_from_local(r, (24.94, 60.17)) for r in rings]}}]}))
+    assert main(["tower", "--height", "60", "--far", "1", "--lot", str(lot),
+                 "-o", str(tmp_path / "out"), "--no-preview"]) == 2
+    err = capsys.readouterr().err
+    assert "round a courtyard (a hole in it); the widest circle inside it is 11.7 m " \
+        "across): the smallest, tower_ground_square14, needs 16.0 x 16.0 m" in err, err
 
 
 def test_a_one_part_multipolygon_lot_is_its_polygon(tmp_path):

@@ -82,6 +82,7 @@ from citysynth.skeletons.streets import (
 )
 
 CONNECT_TIMEOUT = "10s"      # to reach a Dask scheduler
+REPAIR_AREA = 0.01           # share of its area an invalid footprint's repair may change
 ORIGIN_DIGITS = 2            # the frame's lon/lat origin, rounded: streets edited at the
                              # edge of a network do not move every block (and its id)
 
@@ -230,10 +231,12 @@ def _repaired(p: shapely.Polygon, frame: Frame) -> tuple[shapely.Polygon | None,
     """An invalid footprint made valid where that leaves one polygon (a zero-width spike
     drawn out and back, a repeated corner: the building itself is plain), else None and
     why, at the point in the input's coordinates (an outline crossing itself, a bowtie,
-    is two buildings or a mistake: which, only the user knows)."""
+    is two buildings or a mistake: which, only the user knows). A repair that changes
+    the ground covered (a courtyard drawn equal to its outline, or across it: GEOS made
+    the first the solid outline, 2,400 m² of a building drawn as none) is no repair."""
     fixed = shapely.make_valid(p)
     polys = polygons_in(fixed)
-    if len(polys) == 1:
+    if len(polys) == 1 and abs(polys[0].area - p.area) <= max(1.0, REPAIR_AREA * p.area):
         return polys[0], ""
     what, fix = why_invalid(p, frame)   # GEOS's words as the skeletons say them
     return None, f"its outline is invalid: {what}; left out ({fix} in your GIS)"
