@@ -176,7 +176,7 @@ def _run(argv: list[str] | None) -> int:
         with terminate_as_interrupt():   # SIGTERM anywhere in a command: exit 143
             return int(args.run(args))
     except USER_ERRORS as exc:
-        print(f"citysynth {args.command}: error: {exc}", file=sys.stderr)
+        print(f"citysynth {args.command}: error: {_cut(str(exc))}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:
         return _stopped(exc)
@@ -191,6 +191,18 @@ def _run(argv: list[str] | None) -> int:
     except Exception as exc:   # a bug: its own exit code, so a pipeline never reads
         signal = interrupt_in(exc)   # "infeasible"; or a signal numba's dispatcher wrapped
         return _internal(args.command) if signal is None else _stopped(signal)
+
+
+MESSAGE_MOST = 2000   # characters of one error line
+
+
+def _cut(text: str) -> str:
+    """An error message cut to :data:`MESSAGE_MOST` characters: a value from a file is
+    quoted short where a message is made (``shown``), but one message that quoted a
+    10 MB city.toml string whole wrote 10 MB to stderr; none can now."""
+    if len(text) <= MESSAGE_MOST:
+        return text
+    return f"{text[:MESSAGE_MOST - 40]}... (cut: {len(text):,} characters in all)"
 
 
 def _stopped(exc: KeyboardInterrupt) -> int:

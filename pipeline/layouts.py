@@ -26,7 +26,7 @@ from citysynth.export.place import layout, max_stretch
 from citysynth.export.usd import write_variants
 from citysynth.export.writers import BESIDE, FORMATS, SUFFIX, Format, write_ranks
 from citysynth.parts_db import PartDB
-from citysynth.pipeline.errors import UsageError
+from citysynth.pipeline.errors import UsageError, shown
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
 from citysynth.skeletons import Skeleton
 from citysynth.solver.errors import TooLargeError
@@ -61,7 +61,7 @@ def default_style(db: PartDB) -> str:
 def check_style(db: PartDB, style: str) -> None:
     styles = sorted({p.style for p in db.select("middle")})
     if style not in styles:
-        raise UsageError(f"the library {db.name!r} has no style {style!r}; it has "
+        raise UsageError(f"the library {db.name!r} has no style {shown(style)}; it has "
                             f"{', '.join(styles)}")
 
 

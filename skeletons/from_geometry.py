@@ -306,18 +306,19 @@ def _check_pairs(edges: list[Edge], geoms: list[LineString], left: list[int],
         if shared and inter.geom_type == "Point":
             continue
         p = shapely.get_coordinates(inter)[0]
+        one = edges[i].source == edges[j].source     # a line that turns back on itself
+        who = edges[i].source if one else f"{edges[i].source} and {edges[j].source}"
         if inter.geom_type in ("LineString", "MultiLineString") and \
                 {edges[i].a, edges[i].b} == {edges[j].a, edges[j].b}:
-            raise SkeletonError(f"{edges[i].source} and {edges[j].source}: the same "
-                                f"edge is drawn twice (from {frame.at(xy[edges[i].a])} to "
-                                f"{frame.at(xy[edges[i].b])}); delete one of them")
+            raise SkeletonError(f"{who}: the same edge is drawn twice (from "
+                                f"{frame.at(xy[edges[i].a])} to {frame.at(xy[edges[i].b])}"
+                                + ("): the line goes there and back; end it at the turn"
+                                   if one else "); delete one of them"))
         if inter.geom_type in ("LineString", "MultiLineString"):
-            raise SkeletonError(f"{edges[i].source} and {edges[j].source}: edges run on "
-                                f"top of each other from {frame.at(p)}; delete or move "
-                                "the doubled stretch")
-        raise SkeletonError(f"{edges[i].source} and {edges[j].source}: edges cross at "
-                            f"{frame.at(p)} without a shared key point; split them there "
-                            "or move them apart")
+            raise SkeletonError(f"{who}: edges run on top of each other from "
+                                f"{frame.at(p)}; delete or move the doubled stretch")
+        raise SkeletonError(f"{who}: edges cross at {frame.at(p)} without a shared key "
+                            "point; split them there or move them apart")
 
 
 def skeletons_from_polygons(features: Iterable[Feature], frame: Frame, *,

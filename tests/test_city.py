@@ -348,7 +348,7 @@ def test_footprints_are_reskinned(tmp_path):
     ("k = [\n", "not valid TOML"),
     ("library = '/nope'\n", 'city.toml: library = "/nope": /nope: neither a library'),
     ("style = 'gothic'\n", "city.toml: style: the library 'citysynth sample' has no style "
-     "'gothic'; it has classic, modern"),
+     '"gothic"; it has classic, modern'),
 ])
 def test_config_errors_name_the_key(tmp_path, capsys, text, fragment):
     cfg = tmp_path / "city.toml"

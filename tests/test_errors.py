@@ -258,7 +258,7 @@ def test_setbacks_past_any_street_are_refused_with_the_most():
         with pytest.raises(ConfigError) as exc:
             parse_config(data)
         text = str(exc.value)
-        assert key in text and f"give at most {MAX_SETBACK:g} m" in text, text
+        assert key in text and f"must be at most {MAX_SETBACK:g}, got" in text, text
     assert parse_config({"setback": {"default": MAX_SETBACK}}).setbacks.default == MAX_SETBACK
 
 
@@ -360,3 +360,45 @@ def test_a_courtyard_drawn_as_its_own_outline_is_no_building(tmp_path):
     reasons = [s["reason"] for s in report["skipped"]]
     assert len(reasons) == 1 and "feature 0 (0): its outline is invalid: self-intersection" \
         in reasons[0], reasons
+
+
+def test_no_error_line_is_longer_than_a_screenful(tmp_path, capsys):
+    """A 10 MB style string in city.toml was quoted whole in the refusal (10 MB on
+    stderr): a value is quoted short, and no error line passes 2,000 characters."""
+    from citysynth.pipeline.cli import MESSAGE_MOST
+    from tests.test_faults import grid_streets
+
+    cfg = tmp_path / "city.toml"
+    cfg.write_text(f'style = "{"a" * 1_000_000}"\n')
+    lib = str(Path(__file__).resolve().parent.parent / "examples" / "library")
+    assert main(["city", "--streets", str(grid_streets(tmp_path / "s.geojson", 1)),
+                 "--library", lib, "--config", str(cfg), "-o", str(tmp_path / "out"),
+                 "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "has no style" in err and len(err) < 300, len(err)
+    from citysynth.pipeline.cli import _cut
+    long = _cut("x" * 5000)
+    assert len(long) <= MESSAGE_MOST and long.endswith("(cut: 5,000 characters in all)")
+
+
+@pytest.mark.parametrize("data, key, says", [
+    ({"zone": [{"name": 5, "highway": ["primary"]}]}, "zone[0].name", "must be text, got 5"),
+    ({"zone": [{"name": "old", "highway": ["primary"]},
+               {"name": "old", "highway": ["secondary"]}]}, "zone[1].name",
+     '"old" names zone[0] too'),
+    ({"corner_tolerance": 360}, "corner_tolerance", "must be at most 90, got 360"),
+    ({"footprints": {"tolerance": 1e9}}, "footprints.tolerance",
+     "must be at most 10, got 1000000000.0"),
+    ({"footprints": {"storeys": {"classic": {"a": 100000}}}}, "footprints.storeys.classic.a",
+     "a whole number from 1 to 200), got 100,000"),
+])
+def test_config_values_no_city_means_are_refused(data, key, says):
+    """city.toml values a probe found taken without a word: a zone named by a number or
+    by another zone's name (reports tell zones by name), a corner bent by 360°, a
+    footprint outline moved by a million km, a facade family of 100,000 storeys."""
+    from citysynth.pipeline.city.config import parse_config
+    from citysynth.pipeline.errors import ConfigError
+
+    with pytest.raises(ConfigError) as exc:
+        parse_config(data)
+    assert key in str(exc.value) and says in str(exc.value), str(exc.value)

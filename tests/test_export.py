@@ -235,7 +235,7 @@ def test_block_cli_errors(tmp_path, capsys):
     assert main(["block", str(BLOCK), "--library", str(LIB), "--style", "gothic",
                  "-o", str(tmp_path)]) == 2
     err = capsys.readouterr().err
-    assert "no style 'gothic'" in err and "classic, modern" in err
+    assert 'no style "gothic"' in err and "classic, modern" in err
     assert len(err.strip().splitlines()) == 1 and not list(tmp_path.iterdir())
     # sixty doors on every side cannot be had: exit 1, the reason on stderr, nothing
     # written

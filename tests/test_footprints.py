@@ -290,7 +290,7 @@ def test_footprint_config_is_validated(tmp_path):
     ({"roofs": {"classic": {"gabled": ["a", "q"]}}},
      "footprints.roofs.classic.gabled: no part of the classic style has family 'q'"),
     ({"storeys": {"gothic": {"a": 4}}},
-     "footprints.storeys.gothic.a: the library has no style 'gothic'"),
+     'footprints.storeys.gothic.a: the library has no style "gothic"'),
 ])
 def test_footprint_families_are_checked_against_the_library(table, says):
     """A family or style city.toml names that the library lacks: one message, not a

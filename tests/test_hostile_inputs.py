@@ -287,6 +287,21 @@ def test_duplicated_building_lines_are_named_as_such(tmp_path, capsys):
     d["features"].append(twin)
     code, err = _run(["skeleton", str(_write(tmp_path / "dup.geojson", d))], capsys)
     assert code == 2 and "the same edge is drawn twice" in err, err
+    assert "feature 0 (front) and" in err and "delete one of them" in err, err
+
+
+def test_a_building_line_that_turns_back_on_itself_is_told_so(tmp_path, capsys):
+    """One line drawn out and back over itself was "feature 0 and feature 0: the same
+    edge is drawn twice ...; delete one of them": now it names the feature once and
+    says the line goes there and back."""
+    line = {"type": "FeatureCollection", "features": [{
+        "type": "Feature", "properties": {}, "geometry": {
+            "type": "LineString",
+            "coordinates": [[24.94, 60.17], [24.9410835, 60.17], [24.94, 60.170000009]]}}]}
+    code, err = _run(["skeleton", str(_write(tmp_path / "back.geojson", line))], capsys)
+    assert code == 2 and "feature 0: the same edge is drawn twice" in err, err
+    assert "the line goes there and back; end it at the turn" in err, err
+    assert "feature 0 and" not in err, err
 
 
 def test_a_building_line_drawn_twenty_thousand_times_is_named_in_little_memory(tmp_path):

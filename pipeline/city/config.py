@@ -196,7 +196,8 @@ def parse_config(data: dict, path: Path | None = None) -> CityConfig:
         raise err("stretch", f"{stretch:g} would stretch parts by more than 5 %; use at "
                              "most 0.05")
     return CityConfig(settings, seed, stretch,
-                      _pos(data, "corner_tolerance", 25.0, "", err, zero=True),
+                      _pos(data, "corner_tolerance", 25.0, "", err, zero=True,
+                           most=MAX_CORNER_TOLERANCE),
                       _pos(data, "mitre_cost", 10.0, "", err, zero=True),
                       _pos(data, "min_edge", 4.0, "", err, zero=True),
                       _pos(data, "min_width", 8.0, "", err, zero=True),
@@ -252,13 +253,15 @@ def _footprints(data: dict, err: _Err) -> FootprintSettings:
                          | {(f"footprints.roofs.{st}.{roof}", st, tag)
                             for st, rows in roofs.items() for roof, tags in rows
                             for tag in tags}))
-    return FootprintSettings(stretch, _pos(fp, "tolerance", 0.5, "footprints.", err),
+    return FootprintSettings(stretch, _pos(fp, "tolerance", 0.5, "footprints.", err,
+                                           most=MAX_TOLERANCE),
                              storeys, infill, named)
 
 
 def _storey_count(v: Any, key: str, err: _Err) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-        raise err(key, f"must be a storey count (a whole number >= 1), got {shown(v)}")
+    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_STOREYS:
+        raise err(key, f"must be a storey count (a whole number from 1 to {MAX_STOREYS}), "
+                       f"got {shown(v)}")
     return v
 
 
@@ -319,7 +322,14 @@ def _zones(data: dict, settings: BuildSettings, base: Path, err: _Err) -> tuple[
     raw = data.get("zone", [])
     if not isinstance(raw, list):
         raise err("zone", "must be an array of tables ([[zone]])")
-    return tuple(_zone(z, i, settings, base, err) for i, z in enumerate(raw))
+    zones = tuple(_zone(z, i, settings, base, err) for i, z in enumerate(raw))
+    first: dict[str, int] = {}
+    for i, z in enumerate(zones):   # reports and blocks.geojson tell zones by name
+        if z.name in first:
+            raise err(f"zone[{i}].name", f"{shown(z.name)} names zone[{first[z.name]}] "
+                                         "too; give each zone its own name")
+        first[z.name] = i
+    return zones
 
 
 def _zone(z: Any, i: int, settings: BuildSettings, base: Path, err: _Err) -> Zone:
@@ -329,7 +339,9 @@ def _zone(z: Any, i: int, settings: BuildSettings, base: Path, err: _Err) -> Zon
     if not isinstance(z, dict):
         raise err(f"zone[{i}]", "must be a table")
     _known(z, _ZONE, where, err)
-    name = str(z.get("name", f"zone {i}"))
+    name = z.get("name", f"zone {i}")
+    if not isinstance(name, str) or not name.strip():
+        raise err(where + "name", f"must be text, got {shown(name)}")
     poly = z.get("polygon")
     hw = z.get("highway", [])
     if poly is None and not hw:
@@ -404,6 +416,9 @@ def _known(d: dict, allowed: set[str], prefix: str, err: _Err) -> None:
             raise err(prefix + k, f"unknown key (known: {', '.join(sorted(allowed))})")
 
 
+MAX_CORNER_TOLERANCE = 90.0   # degrees a corner part may be bent: more is another corner
+MAX_TOLERANCE = 10.0       # metres footprint cleaning may move an outline: more is not it
+MAX_STOREYS = 200          # a facade family's storeys (as building:levels is read)
 MAX_SETBACK = 500.0        # metres from a centre line (or a zone's edge) to the facades:
                            # more is no street (1e300 overflowed GEOS's buffer)
 MAX_SLACK = 2.0            # metres a side may be missed by: more would leave gaps visibly
@@ -418,8 +433,7 @@ def _pos(d: dict, key: str, default: float, prefix: str, err: _Err, *,
         raise err(prefix + key, f"must be a {'non-negative' if zero else 'positive'} number, "
                                 f"got {shown(v)}")
     if most is not None and v > most:
-        raise err(prefix + key, f"{v:g} m is more than any street or block needs; give "
-                                f"at most {most:g} m")
+        raise err(prefix + key, f"must be at most {most:g}, got {shown(v)}")
     return float(v)
 
 

@@ -286,7 +286,7 @@ def _check_families(cfg: CityConfig, dbs: list[PartDB]) -> None:
         have = [db for db in dbs if any(p.style == style for p in db.parts)]
         if not have:
             styles = sorted({p.style for db in dbs for p in db.parts})
-            raise ConfigError(f"{where}{key}: the library has no style {style!r}; it has "
+            raise ConfigError(f"{where}{key}: the library has no style {shown(style)}; it has "
                               f"{', '.join(styles)}")
         tags = set().union(*(style_families(db, style) for db in have))
         if tags and tag not in tags:    # no tags at all: every part is the first family
