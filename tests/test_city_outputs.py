@@ -167,3 +167,28 @@ def test_diff_knows_every_status_a_run_writes():
     from citysynth.pipeline.city.jobs import BlockStatus
     from citysynth.pipeline.commands.diff import STATUSES
     assert set(STATUSES) == set(get_args(BlockStatus))
+
+
+def test_a_building_on_the_antimeridian_is_cut_there_in_blocks_geojson(tmp_path):
+    """A footprint across ±180° was written to blocks.geojson as one polygon from
+    -179.9997 to 179.9997: a band round the globe in a GIS. It is now a MultiPolygon
+    cut on the meridian (RFC 7946, 3.1.9), each part a few metres wide."""
+    from citysynth.pipeline.cli import main
+    from citysynth.skeletons.geojson import lonlat_from_local
+
+    ring = [(-32, -20), (32, -20), (32, 20), (-32, 20), (-32, -20)]
+    fp = tmp_path / "fp.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [{
+        "type": "Feature", "properties": {"building": "yes", "building:levels": 4},
+        "geometry": {"type": "Polygon",
+                     "coordinates": [lonlat_from_local(ring, (180.0, -16.5))]}}]}))
+    lib = str(Path(__file__).resolve().parent.parent / "examples" / "library")
+    out = tmp_path / "run"
+    assert main(["city", "--footprints", str(fp), "--library", lib, "-o", str(out),
+                 "--workers", "1", "--no-overview"]) == 0
+    (feat,) = json.loads((out / "blocks.geojson").read_text())["features"]
+    geom = feat["geometry"]
+    assert geom["type"] == "MultiPolygon" and len(geom["coordinates"]) == 2, geom
+    for part in geom["coordinates"]:
+        lons = [x for x, _y in part[0]]
+        assert -180 <= min(lons) and max(lons) <= 180 and max(lons) - min(lons) < 0.001

@@ -154,6 +154,8 @@ def write_blocks_geojson(path: Path, inputs: CityInputs,
                       if rec.get(k) is not None})
         geometry = {"type": "Polygon", "coordinates": [ring(poly.exterior.coords)] +
                     [ring(r.coords) for r in poly.interiors]}
+        if digits == 9:
+            geometry = across_antimeridian(geometry)
         features.append({"type": "Feature", "properties": props, "geometry": geometry})
     for piece in inputs.skipped:
         where: dict[str, Any] | None = None
@@ -170,6 +172,32 @@ def write_blocks_geojson(path: Path, inputs: CityInputs,
         doc["crs"] = {"type": "name", "properties": {"name": inputs.frame.source_crs}}
     doc["features"] = features
     return write_text(path, json.dumps(doc, indent=1, ensure_ascii=False) + "\n")
+
+
+def across_antimeridian(geometry: dict[str, Any]) -> dict[str, Any]:
+    """A lon/lat Polygon that crosses the ±180° meridian (its longitudes jump from
+    179.9 to -179.9) cut there into a MultiPolygon, as RFC 7946 (3.1.9) asks: drawn as
+    it was, a 64 m building became a band round the whole globe in a GIS and in
+    ``citysynth diff --png``. Any other geometry is returned as it is."""
+    import shapely
+
+    rings = geometry["coordinates"]
+    lons = [x for r in rings for x, _y in r]
+    if geometry["type"] != "Polygon" or max(lons) - min(lons) <= 180:
+        return geometry
+    east = shapely.Polygon(*[[(x + 360 if x < 0 else x, y) for x, y in r]
+                             for r in rings[:1]],
+                           [[(x + 360 if x < 0 else x, y) for x, y in r] for r in rings[1:]])
+    parts = []
+    for lo, shift in ((0.0, 0.0), (180.0, -360.0)):
+        piece = east.intersection(shapely.box(lo, -90.0, lo + 180.0, 90.0))
+        for p in shapely.get_parts(piece):
+            if p.geom_type == "Polygon" and p.area > 0:
+                p = shapely.geometry.polygon.orient(shapely.affinity.translate(p, shift), 1.0)
+                parts.append([[[round(x, 9), round(y, 9)] for x, y in p.exterior.coords]] +
+                             [[[round(x, 9), round(y, 9)] for x, y in r.coords]
+                              for r in p.interiors])
+    return {"type": "MultiPolygon", "coordinates": parts}
 
 
 def _stage_times(inputs: CityInputs, recs: dict[str, dict[str, Any]],
