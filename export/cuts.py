@@ -214,7 +214,9 @@ def _filled(section) -> shapely.Geometry:
     into it)."""
     parts = shapely.get_parts(section)
     polys = parts[shapely.get_type_id(parts) == POLYGON]
-    return shapely.union_all(shapely.polygons(shapely.get_exterior_ring(polys)))
+    shells = shapely.make_valid(shapely.polygons(shapely.get_exterior_ring(polys)))
+    return shapely.union_all(shells)   # (valid first: a ring that touches itself would
+    #                                     stop GEOS's union, and the whole export)
 
 
 def _bounds(plane: tuple[float, float, float], planes: tuple[tuple[float, float, float], ...],
