@@ -531,7 +531,8 @@ def _check_frame_scale(to_local: Project, lonlat: Coords, centre: tuple[float, f
             + (f"{error:.1%}" if error < 1 else "far") + " too long")
     if error > FRAME_SCALE:
         keep = EARTH_RADIUS * math.sqrt(2 * FRAME_SCALE) / 1000
-        fix = ("run each city or region on its own" if chosen is None else
+        fix = ("run each city or region on its own (or, if the coordinates are metres, "
+               "not degrees, give their CRS with --crs)" if chosen is None else
                f"the centre is {chosen}: give data of one place, or an origin near it")
         raise SkeletonError(f"{what}; a frame holds data within about {keep:,.0f} km of "
                             f"its centre: {fix}")

@@ -139,12 +139,17 @@ def _alone_blocks(cp: Compiled, i: int, no_minimums: np.ndarray | None) -> bool:
     return not hit.any()
 
 
+SMALL_BOX = 1 << 22   # (states x elements): a box the diagnosis grows at once, exactly
+
+
 def _multiples(cp: Compiled, asked: list[tuple[float, ...]], details: list[dict],
                blocking: list[str]) -> None:
     """The constraints no total can meet because every element's amount is a multiple
     of some g quanta and the interval holds no multiple of g (every part a multiple of
     0.2 m, a length of exactly 3000.1 m): exact, and found in microseconds, where growing
-    the graph to find out took minutes and gigabytes, and ran out of budget."""
+    the graph to find out took minutes and gigabytes, and ran out of budget. Asked only
+    of a box larger than :data:`SMALL_BOX` (a small one is grown: its nearest totals are
+    the ones sequences reach; these are the nearest multiples)."""
     for i, name in enumerate(cp.bounded):
         amounts = cp.r[:, i][cp.r[:, i] > 0].astype(np.int64)
         g = int(np.gcd.reduce(amounts)) if len(amounts) else 0
@@ -170,9 +175,10 @@ def diagnose(cp: Compiled, max_rows: int) -> tuple[str, list[dict]]:
     asked = [tuple(q.asked) for q in cp.quant]
     details: list[dict] = []
     blocking: list[str] = []
-    _multiples(cp, asked, details, blocking)
-    if blocking:        # proved at once, without growing anything
-        return "; ".join(blocking), details
+    if cp.S * cp.n > SMALL_BOX:   # growing would be dear: first what multiples prove
+        _multiples(cp, asked, details, blocking)
+        if blocking:
+            return "; ".join(blocking), details
     cut_short = False
     # totals with every lower bound dropped: grown on first need, shared by every
     # blocking resource

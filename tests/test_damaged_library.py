@@ -262,7 +262,7 @@ def _line(folder: Path) -> Path:
     f = folder / "line.geojson"
     f.write_text(json.dumps({"type": "FeatureCollection", "features": [
         {"type": "Feature", "properties": {}, "geometry": {
-            "type": "LineString", "coordinates": [[0, 0], [60, 0]]}}]}))
+            "type": "LineString", "coordinates": [[0, 0], [0.00054, 0]]}}]}))   # 60 m
     return f
 
 

@@ -181,32 +181,40 @@ def test_a_memory_budget_no_machine_has_is_refused(budget):
 def _every_part_a_multiple(length: float) -> Problem:
     """Parts of 2.0, 3.0 and 4.0 m after one another in any order (every length a
     multiple of 0.2 m twice over: of 1 m), asked for exactly ``length`` metres, with a
-    door count beside it."""
+    door count beside it (a box of 7.5 million states: the diagnosis would grow it)."""
     parts = [("A", 2.0, 1), ("B", 3.0, 0), ("C", 4.0, 2)]
     return Problem.from_dict({
         "resources": ["length", "doors"], "quantum": {"length": 0.2},
         "elements": [{"id": i, "resources": {"length": x, "doors": d}} for i, x, d in parts],
         "transitions": [[a, b, 1.0] for a, _x, _d in parts for b, _y, _e in parts],
         "front": ["A", "B", "C"], "back": ["A", "B", "C"],
-        "constraints": {"length": [length, length], "doors": [0, 1000]}, "k": 1})
+        "constraints": {"length": [length, length], "doors": [0, 5000]}, "k": 1})
 
 
 def test_a_length_no_multiple_of_the_parts_reaches_is_told_at_once(monkeypatch):
-    """Every part a multiple of 1 m and 300.4 m asked: the diagnosis grew the graph for
+    """Every part a multiple of 1 m and 3000.4 m asked: the diagnosis grew the graph for
     minutes, ran out of budget and blamed the front and back lists (a probe: 77 s,
-    2.3 GB). Now the multiples alone prove it, with the nearest lengths possible."""
+    2.3 GB). In a box that large the multiples alone now prove it, with the nearest
+    lengths possible; a small box is still grown, its nearest totals exact."""
     from citysynth.solver import diagnose as diag
 
-    res = solve(_every_part_a_multiple(300.4))
+    res = solve(_every_part_a_multiple(300.4))          # small: grown, exact
     assert res.status == "infeasible"
-    assert res.reason == ("length = 300.4 is out of reach: every element's length is a "
-                          "multiple of 1, and no multiple lies in it; nearest possible: "
-                          "300 (below), 301 (above)"), res.reason
-    assert res.details[0]["blocks"] == "alone"
+    assert res.reason == ("length = 300.4 is out of reach even ignoring the other "
+                          "minimums; nearest achievable: 300 (below), 301 (above)"), res.reason
     assert solve(_every_part_a_multiple(301.0)).status == "ok"   # a multiple: built
-    # a diagnosis whose every growth runs out of budget says so, not that front and
-    # back are apart
-    cp = compile_problem(_every_part_a_multiple(301.0))
-    monkeypatch.setattr(diag, "_reachable_totals", lambda cp, max_rows: None)
+    cp = compile_problem(_every_part_a_multiple(3000.4))
+    assert cp.S * cp.n > diag.SMALL_BOX
+    grown: list[int] = []
+    monkeypatch.setattr(diag, "_reachable_totals",
+                        lambda cp, max_rows: grown.append(1))     # must not be asked
+    reason, details = diag.diagnose(cp, max_rows=1 << 20)
+    assert reason == ("length = 3000.4 is out of reach: every element's length is a "
+                      "multiple of 1, and no multiple lies in it; nearest possible: "
+                      "3000 (below), 3001 (above)"), reason
+    assert details[0]["blocks"] == "alone" and not grown
+    # a diagnosis whose every growth runs out of budget (the patched growth returns
+    # None, as one past its rows does) says so, not that front and back are apart
+    cp = compile_problem(_every_part_a_multiple(3001.0))
     reason, _details = diag.diagnose(cp, max_rows=8)
     assert "more than the memory budget" in reason and "front" not in reason, reason
