@@ -67,7 +67,7 @@ from typing import Any, Literal, get_args
 
 from shapely.geometry import Polygon
 
-from citysynth.pipeline.city.footprints import Storeys
+from citysynth.pipeline.city.footprints import MAX_LEVELS, Storeys
 from citysynth.pipeline.errors import MAX_K, ConfigError, shown
 from citysynth.skeletons.from_geometry import interval_problem, why_invalid
 from citysynth.skeletons.streets import NOT_STREETS, Setbacks
@@ -259,8 +259,8 @@ def _footprints(data: dict, err: _Err) -> FootprintSettings:
 
 
 def _storey_count(v: Any, key: str, err: _Err) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_STOREYS:
-        raise err(key, f"must be a storey count (a whole number from 1 to {MAX_STOREYS}), "
+    if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_LEVELS:
+        raise err(key, f"must be a storey count (a whole number from 1 to {MAX_LEVELS}), "
                        f"got {shown(v)}")
     return v
 
@@ -418,7 +418,6 @@ def _known(d: dict, allowed: set[str], prefix: str, err: _Err) -> None:
 
 MAX_CORNER_TOLERANCE = 90.0   # degrees a corner part may be bent: more is another corner
 MAX_TOLERANCE = 10.0       # metres footprint cleaning may move an outline: more is not it
-MAX_STOREYS = 200          # a facade family's storeys (as building:levels is read)
 MAX_SETBACK = 500.0        # metres from a centre line (or a zone's edge) to the facades:
                            # more is no street (1e300 overflowed GEOS's buffer)
 MAX_SLACK = 2.0            # metres a side may be missed by: more would leave gaps visibly
