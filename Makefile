@@ -9,8 +9,8 @@ STAMP  := $(VENV)/.installed-stamp
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet --no-cache-dir --upgrade pip
+	$(BIN)/python -m pip install --quiet --no-cache-dir -e '.[test]'
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -38,7 +38,7 @@ $(GLTF_VALIDATOR):
 BPY_STAMP := build/bpy/.installed-stamp
 $(BPY_STAMP): | $(STAMP)
 	$(BIN)/python -m venv --clear build/bpy
-	build/bpy/bin/python -m pip install --quiet "bpy==4.2.0" "numpy<2"
+	build/bpy/bin/python -m pip install --quiet --no-cache-dir "bpy==4.2.0" "numpy<2"
 	touch $(BPY_STAMP)
 
 # Hypothesis draws a fixed set of examples per test (profile "default"); test-deep draws
