@@ -526,7 +526,12 @@ def _check_frame_scale(to_local: Project, lonlat: Coords, centre: tuple[float, f
     if error <= TRUE_SCALE:
         return
     at = f"({centre[0]:.4f}, {centre[1]:.4f})"
-    what = (f"{source}: data reach {far / 1000:,.0f} km east or west of the run's frame "
+    if math.isfinite(far):
+        reach = f"{far / 1000:,.0f} km"
+    else:  # a quarter of the globe or more: the projection has no finite x there
+        apart = np.abs((lonlat[pick, 0] - centre[0] + 180) % 360 - 180)
+        reach = f"{float(apart.max()):.0f} degrees of longitude"
+    what = (f"{source}: data reach {reach} east or west of the run's frame "
             f"centre {at} (lon, lat), where its lengths are "
             + (f"{error:.1%}" if error < 1 else "far") + " too long")
     if error > FRAME_SCALE:

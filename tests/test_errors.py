@@ -295,6 +295,13 @@ def test_data_too_far_apart_for_one_frame_are_refused(tmp_path, capsys):
     assert "km east or west of the run's frame centre" in err and "too long" in err
     assert "run each city or region on its own" in err and "Traceback" not in err
     assert not out.exists()
+    # a quarter of the globe apart: the projection has no finite x there ("inf km" before)
+    across = _squares(tmp_path, "across", [(-90.0, 0.0), (90.0, 0.0)])
+    assert main(["city", "--footprints", str(across), "--library", lib, "-o", str(out),
+                 "--workers", "1", "--no-overview"]) == 2
+    err = capsys.readouterr().err
+    assert "degrees of longitude east or west" in err and "inf" not in err, err
+    assert not out.exists()
     near = _squares(tmp_path, "near", [(24.94, 60.17), (24.96, 60.18)])
     cfg = tmp_path / "city.toml"
     cfg.write_text("origin = [-120.0, -45.0]\n")
