@@ -56,6 +56,7 @@ _CACHE: OrderedDict[tuple[str, str, Cut], tuple[Piece, ...]] = OrderedDict()
 _LABELS: dict[tuple[str, str], np.ndarray] = {}
 CAP_PIECE = "walls"    # the material a cap takes (else the part's first piece's)
 POLYGON = shapely.GeometryType.POLYGON
+WHOLE_CAP = 1e5        # m: a solid span reaching this far is the whole cap
 
 
 def cut_pieces(db: PartDB, part: Part, cut: Cut) -> tuple[Piece, ...]:
@@ -154,8 +155,11 @@ def _cut(pieces: tuple[Piece, ...], length_: float, cut: Cut,
             out.append(Piece(piece.name, piece.rgba,
                              verts[used[used_ends[i]:used_ends[i + 1]]],
                              local[face_ends[i]:face_ends[i + 1]]))
+    solid: dict[tuple[float, float, float], list[tuple[float, float]]] = {}
+    for a, b, c, u0, u1 in cut.blank:     # (a wall may have two neighbours along it)
+        solid.setdefault((a, b, c), []).append((u0, u1))
     caps = [c for c in (_cap(whole_v, whole_f, plane, cut.planes, labels,
-                             solid=plane in cut.blank)
+                             solid=solid.get(plane))
                         for plane in cut.planes) if c is not None]
     if not caps:
         return tuple(out)
@@ -169,7 +173,8 @@ def _offset_faces(faces: list[np.ndarray], counts: list[int]) -> list[np.ndarray
 
 def _cap(mesh_v: np.ndarray, mesh_f: np.ndarray, plane: tuple[float, float, float],
          planes: tuple[tuple[float, float, float], ...], labels: np.ndarray,
-         solid: bool = False) -> tuple[np.ndarray, np.ndarray] | None:
+         solid: list[tuple[float, float]] | None = None
+         ) -> tuple[np.ndarray, np.ndarray] | None:
     """The triangulated cross-section of the part (its extended mesh: mesh_v, mesh_f)
     on ``plane`` (within the other planes), facing out of the kept side: (vertices,
     faces), or None when empty. The section is ingest's :func:`plane_section`; where
@@ -178,7 +183,7 @@ def _cap(mesh_v: np.ndarray, mesh_f: np.ndarray, plane: tuple[float, float, floa
     taken by :func:`loop_section` where the segments chain simply (the same polygons,
     without noding them), failing that by plane_section, and cut by the other planes.
     A ``solid`` cap (a party wall's) is the section with its holes filled
-    (:func:`_filled`)."""
+    (:func:`_filled`) between the u coordinates of each span given."""
     a, b, c = plane
     origin = np.array([a * c, b * c, 0.0])
     normal = np.array([a, b, 0.0])
@@ -189,8 +194,9 @@ def _cap(mesh_v: np.ndarray, mesh_f: np.ndarray, plane: tuple[float, float, floa
         return None                            # the other planes keep nothing of it
     rings = plain_rings_section(mesh_v, mesh_f, labels, origin, normal, u, w)
     if rings is not None:
-        solid = solid and bool((np.diff(rings.poly_ends) > 1).any())   # any holes
-        if not len(rings.xy) or (not solid and bounds[0] <= rings.xy[:, 0].min()
+        if not (np.diff(rings.poly_ends) > 1).any():                # no holes to fill
+            solid = None
+        if not len(rings.xy) or (solid is None and bounds[0] <= rings.xy[:, 0].min()
                                  and rings.xy[:, 0].max() <= bounds[1]):
             return _triangulated(rings, origin, normal, u, w)
         section = shapely.from_ragged_array(POLYGON, rings.xy,
@@ -200,23 +206,40 @@ def _cap(mesh_v: np.ndarray, mesh_f: np.ndarray, plane: tuple[float, float, floa
         if section is None:
             whole = trimesh.Trimesh(mesh_v, mesh_f, process=False)
             section = plane_section(whole, origin, normal, u, w, labels)
-    if solid:
-        section = _filled(section)
+    if solid is not None:
+        section = _filled(section, solid)
     if bounds != (-np.inf, np.inf):
         section = shapely.intersection(section, box(max(bounds[0], -1e6), -1e6,
                                                     min(bounds[1], 1e6), 1e6))
     return _triangulated(_rings(section), origin, normal, u, w)
 
 
-def _filled(section) -> shapely.Geometry:
-    """A section without holes: each polygon's outer ring, all of them joined (a wall
-    with its window recesses filled, and the window frames that lay in them gone
-    into it)."""
+def _filled(section, spans: list[tuple[float, float]]) -> shapely.Geometry:
+    """The section with the holes filled that lie mostly (by area) between one of the
+    spans' u coordinates, all its polygons joined: a wall with its window recesses
+    filled, and the window frames that lay in them gone into it, where the neighbour
+    stands; a window mostly past the neighbour's end stays whole, as no half window
+    does."""
     parts = shapely.get_parts(section)
     polys = parts[shapely.get_type_id(parts) == POLYGON]
-    shells = shapely.make_valid(shapely.polygons(shapely.get_exterior_ring(polys)))
-    return shapely.union_all(shells)   # (valid first: a ring that touches itself would
-    #                                     stop GEOS's union, and the whole export)
+    if any(lo <= -WHOLE_CAP and WHOLE_CAP <= hi for lo, hi in spans):
+        polys = shapely.polygons(shapely.get_exterior_ring(polys))
+    else:
+        bands = shapely.union_all([box(lo, -1e6, hi, 1e6) for lo, hi in spans])
+        polys = np.array([_holes_kept(p, bands) for p in polys], dtype=object)
+    # (valid first: a ring that touches itself would stop GEOS's union, and the export)
+    return shapely.union_all(shapely.make_valid(polys))
+
+
+def _holes_kept(poly: shapely.Polygon, bands: shapely.Geometry) -> shapely.Polygon:
+    """``poly`` without the holes that lie mostly within ``bands``."""
+    if not poly.interiors:
+        return poly
+    holes = shapely.polygons(list(poly.interiors))
+    inside = shapely.area(shapely.intersection(holes, bands))
+    keep = inside < shapely.area(holes) / 2
+    return shapely.Polygon(poly.exterior, [h for h, k in zip(poly.interiors, keep,
+                                                             strict=True) if k])
 
 
 def _bounds(plane: tuple[float, float, float], planes: tuple[tuple[float, float, float], ...],

@@ -42,6 +42,8 @@ NOSE = 2.0                # m: the width of that end wall
 CHAMFER = 0.25            # m: a convex mitre's overhang is clipped this far out of the corner
 MAX_EXTEND_DEPTHS = 2.0   # an end is extended at most this many part depths
 PLANE_DIGITS = 6          # plane normals in the part frame
+WHOLE = 1e6               # m: a blank plane's solid span when it has no ends
+SPAN_MARGIN = 0.5         # m past a part's box a solid span is kept (an overhang)
 EXTEND_MARGIN = 0.01      # m beyond what the plane needs, so the cut always finds material
 
 
@@ -50,12 +52,14 @@ class HalfPlane:
     """Keep world points X with (X - point) . normal <= 0 (a vertical plane). A part
     next to the plane (``extends``) is extended to reach it; a part further off is only
     cut where its mass reaches past it. A ``blank`` plane is a party wall: capped
-    solid (see :class:`~citysynth.export.layout.Cut`)."""
+    solid (see :class:`~citysynth.export.layout.Cut`) between the two world points of
+    ``span`` on its line (where the neighbour stands; the whole cap without them)."""
 
     normal: tuple[float, float]
     point: tuple[float, float]
     extends: bool = True
     blank: bool = False
+    span: tuple[tuple[float, float], tuple[float, float]] | None = None
 
 
 def _rounded(x: float, y: float, digits: int) -> tuple[float, float]:
@@ -121,9 +125,37 @@ class Placed:
             return None
         planes = sorted({p for p, _h in framed})
         extending = sorted({p for p, h in framed if h.extends})
-        blank = sorted({p for p, h in framed if h.blank})
-        return Cut(_extension(extending, self.length, self.y_range), tuple(planes),
-                   tuple(blank))
+        extend = _extension(extending, self.length, self.y_range)
+        blank = sorted({p + self._solid_span(p, h.span, extend) for p, h in framed
+                        if h.blank})
+        return Cut(extend, tuple(planes), tuple(blank))
+
+    def _solid_span(self, plane: tuple[float, float, float],
+                    span: tuple[tuple[float, float], tuple[float, float]] | None,
+                    extend: tuple[float, float]) -> tuple[float, float]:
+        """A blank plane's solid stretch (world points on its line) as the range of its
+        cap's horizontal coordinate (the part-frame point's dot with (-b, a), as
+        :func:`~citysynth.export.cuts._cap` lays the cap out), no further than
+        :data:`SPAN_MARGIN` past the part's extended box; (-WHOLE, WHOLE) where it
+        covers that box (every opening of the part lies in it), or has no ends. So the
+        modules cut alike along a party wall stay one prototype."""
+        if span is None:
+            return (-WHOLE, WHOLE)
+        (a00, a01), (a10, a11) = self.a.tolist()
+        det = a00 * a11 - a01 * a10
+        ux, uy = -plane[1], plane[0]
+        ends = []
+        for wx, wy in span:
+            dx, dy = wx - float(self.origin[0]), wy - float(self.origin[1])
+            qx, qy = (a11 * dx - a01 * dy) / det, (a00 * dy - a10 * dx) / det
+            ends.append(qx * ux + qy * uy)
+        box = [x * ux + y * uy for x in (-extend[0], self.length + extend[1])
+               for y in self.y_range]
+        if min(ends) <= min(box) + 1e-6 and max(ends) >= max(box) - 1e-6:
+            return (-WHOLE, WHOLE)
+        lo, hi = min(box) - SPAN_MARGIN, max(box) + SPAN_MARGIN
+        return (round(max(min(ends), lo), COORD_DIGITS) + 0.0,
+                round(min(max(ends), hi), COORD_DIGITS) + 0.0)
 
 
 def facade_span(cut: Cut | None, length: float) -> tuple[float, float]:

@@ -37,13 +37,16 @@ class Cut:
     stretching a thin band at each end, so walls and cornices run on), then kept where
     ``a*x + b*y <= c`` for every plane (vertical planes, in the part's placement frame),
     each cut face capped. Rounded so equal cuts are one prototype. ``blank`` holds those
-    of the planes that are a wall shared with a neighbour (a party wall): their caps are
-    solid, without the openings (window recesses) the section has there, so a party wall
-    standing above a lower neighbour reads as a blank firewall, not as a facade."""
+    of the planes that are a wall shared with a neighbour (a party wall), each as
+    (a, b, c, u0, u1): its cap is solid, without the openings (window recesses) the
+    section has there, between u0 and u1 along the plane (the part-frame point's dot
+    with (-b, a)): where the neighbour stands, so a party wall above a lower neighbour
+    reads as a blank firewall, not as a facade, and the same wall on past the
+    neighbour's end, over a yard, keeps its windows."""
 
     extend: tuple[float, float] = (0.0, 0.0)
     planes: tuple[tuple[float, float, float], ...] = ()
-    blank: tuple[tuple[float, float, float], ...] = ()
+    blank: tuple[tuple[float, float, float, float, float], ...] = ()
 
     @cached_property
     def key(self) -> str:
@@ -63,9 +66,11 @@ class Cut:
     def from_dict(cls, d: dict) -> Cut:
         ext = d.get("extend", [0.0, 0.0])
 
-        def planes(key: str) -> tuple[tuple[float, float, float], ...]:
-            return tuple((float(a), float(b), float(c)) for a, b, c in d.get(key, []))
-        return cls((float(ext[0]), float(ext[1])), planes("planes"), planes("blank"))
+        planes = tuple((float(a), float(b), float(c)) for a, b, c in d.get("planes", []))
+        # a blank plane without its span (files of 2026-11-29) is solid all along
+        blank = tuple((float(a), float(b), float(c), float(u0), float(u1))
+                      for a, b, c, u0, u1 in ([*p, -1e6, 1e6][:5] for p in d.get("blank", [])))
+        return cls((float(ext[0]), float(ext[1])), planes, blank)
 
 
 @dataclass(frozen=True)

@@ -76,7 +76,7 @@ def party_halves(placed: Sequence[Placed], walls: Iterable[Segment], db: PartDB)
         plan: list[tuple[float, float]] | None = None
         for (p0, u, n, length), front in near:
             if front is not None:              # its facade is the shared wall
-                if _add(p, p0, n, min(-INSET, front - INSET)):
+                if _add(p, p0, u, n, length, min(-INSET, front - INSET)):
                     added += 1
                 continue
             if not _beside(corners, p0, u, n, length, 0.0):
@@ -95,18 +95,21 @@ def party_halves(placed: Sequence[Placed], walls: Iterable[Segment], db: PartDB)
             beside_area = _area(beside)
             if beside_area <= MIN_AREA or beside_area <= past_area - beside_area:
                 continue
-            if _add(p, p0, n, -INSET):
+            if _add(p, p0, u, n, length, -INSET):
                 added += 1
     return added
 
 
-def _add(p: Placed, p0: np.ndarray, n: np.ndarray, offset: float) -> bool:
+def _add(p: Placed, p0: np.ndarray, u: np.ndarray, n: np.ndarray, length: float,
+         offset: float) -> bool:
     """Cut ``p`` on the line through ``p0`` moved ``offset`` along ``n`` (out of the
-    building), a blank plane (its cap solid: a party wall has no windows); whether
-    that is a new cut."""
-    half = HalfPlane((float(n[0]), float(n[1])),
-                     (float(p0[0] + n[0] * offset), float(p0[1] + n[1] * offset)),
-                     extends=False, blank=True)
+    building), a blank plane: its cap solid along the stretch, ``length`` from ``p0``
+    along ``u`` (a party wall has no windows; past the neighbour's end the wall keeps
+    them). Whether that is a new cut."""
+    a, b = p0 + n * offset, p0 + u * length + n * offset
+    half = HalfPlane((float(n[0]), float(n[1])), (float(a[0]), float(a[1])),
+                     extends=False, blank=True,
+                     span=((float(a[0]), float(a[1])), (float(b[0]), float(b[1]))))
     if half in p.halves:
         return False
     p.halves.append(half)

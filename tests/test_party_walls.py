@@ -306,7 +306,11 @@ def test_a_party_wall_above_a_lower_neighbour_is_blank(tmp_path):
 def test_a_blank_plane_is_capped_solid():
     """A cut's blank plane (a party wall) is capped with its section's holes filled:
     a tube cut across is a ring (3 m²) on an ordinary plane, the full square (4 m²) on
-    a blank one, and the other planes still bound the solid cap."""
+    a blank one, and the other planes still bound the solid cap; a blank plane solid
+    only along part of its cap (where the neighbour stands) fills a hole (a window)
+    lying mostly there, whole, and keeps one lying mostly past it, whole (no half
+    windows; two neighbours' spans count together). A blank plane read from a file
+    written before spans existed is solid all along."""
     import hashlib
 
     from citysynth.export import cuts
@@ -319,14 +323,54 @@ def test_a_blank_plane_is_capped_solid():
                   np.asarray(tube.faces, dtype=np.int64))
     labels = cuts._body_labels((piece,))
     end, side = (1.0, 0.0, 1.0), (0.0, 1.0, 1.5)
-    for planes, blank, area in (((end,), (), 3.0), ((end,), (end,), 4.0),
-                                ((end, side), (), 2.0), ((end, side), (end,), 3.0)):
+    whole, half = (*end, -1e6, 1e6), (*end, 0.0, 0.8)     # the cap's u is y here: the
+    for planes, blank, area in (((end,), (), 3.0), ((end,), (whole,), 4.0),   # hole's
+                                ((end, side), (), 2.0), ((end, side), (whole,), 3.0),
+                                ((end,), (half,), 3.0), ((end,), ((*end, 0.0, 1.2),), 4.0),
+                                ((end,), (half, (*end, 1.2, 2.0)), 4.0)):    # 0.5..1.5
         got = cuts._cut((piece,), 4.0, Cut((0.0, 0.0), planes, blank), labels)
         assert _plane_faces_area(got, end) == pytest.approx(area, abs=1e-9)
     # the layout JSON names blank planes only where there are some; other cuts keep
     # their prototype names
-    plain, party = Cut((0.0, 0.2), (end,)), Cut((0.0, 0.2), (end,), (end,))
-    assert "blank" not in plain.to_dict() and party.to_dict()["blank"] == [list(end)]
+    plain, party = Cut((0.0, 0.2), (end,)), Cut((0.0, 0.2), (end,), (half,))
+    assert "blank" not in plain.to_dict() and party.to_dict()["blank"] == [list(half)]
     assert Cut.from_dict(json.loads(json.dumps(party.to_dict()))) == party
+    old = {"extend": [0.0, 0.2], "planes": [list(end)], "blank": [list(end)]}
+    assert Cut.from_dict(old) == Cut((0.0, 0.2), (end,), (whole,))
     assert plain.key == hashlib.sha256(
         json.dumps([plain.extend, plain.planes]).encode()).hexdigest()[:10] != party.key
+
+
+def test_a_party_wall_is_blank_only_where_the_neighbour_stands():
+    """A 7.8 m module (three window bays) whose facade lies on a shared line: a
+    neighbour along all of it makes its cut's cap solid (every window recess filled);
+    one along 5 m of it (ending mid-module, a yard beyond) fills the bays mostly beside
+    it and keeps the third window, whole. Before, the whole module went blank, the
+    wall over the yard too."""
+    from dataclasses import replace
+
+    from citysynth.export.cuts import cut_pieces
+    from citysynth.export.party import party_halves
+    from citysynth.export.place import _instance
+    from citysynth.parts_db import load_library
+    from tests.test_cap_sections import _plane_faces_area
+
+    db = load_library(LIB)
+    part = db.part("classic_mid_7.8_d0")
+    caps = {}
+    for name, wall in (("whole", (-1.0, 0.0, 9.0, 0.0)), ("start", (0.0, 0.0, 5.0, 0.0)),
+                       ("end", (2.8, 0.0, 7.8, 0.0))):
+        placed = _instance(part, 0, 0, None, np.eye(2), np.zeros(2))
+        assert party_halves([placed], [wall], db) == 1
+        cut = placed.cut()
+        assert cut is not None and len(cut.blank) == 1
+        caps[name] = _plane_faces_area(cut_pieces(db, part, cut), cut.planes[0])
+        if name == "whole":
+            assert cut.blank[0][3:] == (-1e6, 1e6)   # one prototype along a whole wall
+            caps["windows"] = _plane_faces_area(
+                cut_pieces(db, part, replace(cut, blank=())), cut.planes[0])
+    bay = (caps["whole"] - caps["windows"]) / 3      # what filling one bay adds
+    print({k: round(v, 2) for k, v in caps.items()})
+    assert bay > 1.0
+    for side in ("start", "end"):
+        assert caps[side] == pytest.approx(caps["whole"] - bay, rel=0.02)
