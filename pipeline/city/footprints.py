@@ -396,6 +396,9 @@ def min_side(db: PartDB, style: str, slack: float) -> float:
 
 
 LIGHT_WELL = 50.0     # m²: a smaller courtyard with a side too short to build is closed
+NARROW_AREA = 0.05    # of a footprint's area: the most filling a courtyard's niches adds
+MIN_NARROW = 0.01     # m²: less is no change
+MAX_NARROW = 4        # niche fillings tried on one footprint
 RETRY_SIDE = 1.0      # m: a footprint no layout fits is cleaned again with sides this much longer
 
 
@@ -445,11 +448,22 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
         unlined = [f"a {wells[i].area:.1f} m² courtyard" for i in sorted(shut)]
         clean = shapely.Polygon(clean.exterior, [r for i, r in enumerate(clean.interiors)
                                                  if i not in shut])
+    narrowed: list[str] = []
     while True:
         rings = skeletons_from_polygons([Feature(fp.feature, clean, props)], frame)
         bad = short_side(rings, shortest)
         hole = _courtyard(bad[0].name) if bad is not None else None
         well = shapely.Polygon(clean.interiors[hole]) if hole is not None else None
+        if well is not None and hole is not None and well.area >= LIGHT_WELL \
+                and len(narrowed) < MAX_NARROW:
+            fixed = _niche_filled(clean, hole, shortest)
+            if fixed is not None:
+                again = clean_footprint(fixed[0], min_side=shortest,
+                                        straight_tol=STRAIGHT_TOL, tolerance=fp.tolerance)
+                if again is not None:
+                    narrowed.append(fixed[1])
+                    clean = again
+                    continue
         if well is None or well.area >= LIGHT_WELL:
             break
         # a light well the kit's facades cannot line: closed under the roof
@@ -462,6 +476,9 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
     parts, storeys, note = choose_family(fp, db, job.style)
     why = [f"{' and '.join(closed)} closed under the roof (sides under the {shortest:.1f} "
            f"m the {job.style} kit needs)"] if closed else []
+    if narrowed:
+        why.append(f"{' and '.join(narrowed)} (narrower than the {shortest:.1f} m the "
+                   f"{job.style} kit needs between two corners)")
     if unlined:
         why.append(f"{' and '.join(unlined)} closed under the roof (no layout of the "
                    f"{job.style} kit lines it)")
@@ -469,6 +486,28 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
              fp.trimmed or None]
     return Prepared(rings, fp.where, fp.stretch, job.slack, parts, storeys,
                     "\n".join(n for n in notes if n) or None)
+
+
+def _niche_filled(poly: shapely.Polygon, hole: int, width: float
+                  ) -> tuple[shapely.Polygon, str] | None:
+    """``poly`` with the niches and slots of its courtyard ``hole`` narrower than
+    ``width`` (where a side too short for two corners comes from one) filled under the
+    roof, as a light well too small to line is closed: the courtyard's morphological
+    opening, square-cornered, so a rectangular courtyard keeps its corners. (The
+    outline's narrow notches are cleaning's: it makes them flat walls; a narrow wing is
+    never cut off, and its side is told of.) With what was done, in the user's words;
+    None when that fills nothing, or more than :data:`NARROW_AREA` of the footprint's
+    area (the side is then no narrow niche: the user hears of it as before)."""
+    r = width / 2
+    square = {"join_style": "mitre", "mitre_limit": 10.0}
+    well = shapely.Polygon(poly.interiors[hole])
+    opened = shapely.buffer(shapely.buffer(well, -r, **square), r, **square)
+    filled = shapely.difference(well, opened)
+    fixed = shapely.union(poly, filled)
+    if not isinstance(fixed, shapely.Polygon) or not fixed.is_valid \
+            or not MIN_NARROW < filled.area <= NARROW_AREA * poly.area:
+        return None
+    return fixed, f"a {filled.area:.1f} m² niche of a courtyard filled under the roof"
 
 
 def _courtyard(ring_name: str) -> int | None:
