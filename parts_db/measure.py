@@ -56,6 +56,46 @@ def leg_directions(spec: PartSpec) -> list[tuple[float, float]]:
     return [(1.0, 0.0)]
 
 
+AXIS_TOLERANCE = 2.0     # degrees: a wall this near a leg's axes runs along it
+AGREE_SHARE = 0.5        # of the outgoing leg's wall area: at least this must run so
+
+
+def corner_disagrees(mesh, spec: PartSpec, legs: list[float]) -> str | None:
+    """Whether a corner's mesh contradicts its ``angle``/``convex`` label: the walls of
+    the far half of its outgoing leg (faces standing upright, by area) should run
+    along the leg direction the label gives or square to it (its facade, its back, its
+    end). Where less than :data:`AGREE_SHARE` of them do, the label is likely wrong
+    (the leg and its section are measured along the label's direction, and the corner
+    would be placed turned): the wall direction met most, in words, else None. A
+    warning, not an error: a corner may carry decoration at odd angles."""
+    if spec.cls != "corner" or spec.angle is None or len(legs) < 2:
+        return None
+    tri = mesh.vertices[mesh.faces]
+    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    size = np.linalg.norm(normal, axis=1)
+    (dx, dy) = leg_directions(spec)[1]
+    along = tri.mean(axis=1)[:, :2] @ np.array([dx, dy])
+    wall = (np.abs(normal[:, 2]) < 0.1 * size) & (size > 0) & (along > 0.5 * legs[1])
+    if not wall.any():
+        return None
+    axis = np.degrees(np.arctan2(normal[wall, 1], normal[wall, 0])) % 180.0
+    area = size[wall]
+    turn = math.degrees(math.atan2(dy, dx)) % 180.0
+
+    def near(a: np.ndarray, to: float) -> np.ndarray:
+        return np.abs((a - to + 90.0) % 180.0 - 90.0) <= AXIS_TOLERANCE
+
+    agree = area[near(axis, turn) | near(axis, turn + 90.0)].sum() / area.sum()
+    if agree >= AGREE_SHARE:
+        return None
+    hist = np.bincount(np.round(axis).astype(int) % 180, weights=area, minlength=180)
+    seen = (int(np.argmax(hist)) + 90) % 180      # the commonest wall's direction
+    return (f"its outgoing leg's walls run mostly at {seen}° to its incoming leg's, where "
+            f"angle = {spec.angle:g}, convex = {str(bool(spec.convex)).lower()} puts that "
+            f"leg at {int(round(turn))}° (or square to it); check its angle and convex "
+            "(see README, canonical frame)")
+
+
 def snap_legs(measured: list[float], quantum: float) -> list[float]:
     """Measured legs snapped to the library quantum (at least one quantum each): the
     lengths the solver counts in whole quanta."""

@@ -264,6 +264,29 @@ def test_corner_keys_on_another_class_are_warned_of(tmp_path, capsys):
     assert "B:" not in out
 
 
+def test_a_corner_whose_mesh_contradicts_its_angle_is_warned_of(tmp_path, capsys):
+    """A corner's outgoing leg is measured along the direction its ``angle`` and
+    ``convex`` give: an L-shaped 90-degree corner labelled 120 was taken without a
+    word (its leg measured askew, the corner placed turned). Now ingest warns, naming
+    the direction its walls run; the same mesh labelled 90 (and every corner of the
+    sample library) passes quietly."""
+    from shapely.geometry import Polygon
+
+    ell = trimesh.creation.extrude_polygon(   # in-leg along -X, out-leg along +Y
+        Polygon([(-6, 0), (0, 0), (0, 6), (-2, 6), (-2, 2), (-6, 2)]), 7.0)
+    for angle, warned in ((120, True), (90, False)):
+        (tmp_path / str(angle)).mkdir()
+        lib = _library(tmp_path / str(angle), [
+            ("C", "c.stl", ell, f'class = "corner"\nangle = {angle}\nconvex = true'),
+            ("M", "m.stl", GOOD, 'class = "middle"')])
+        assert main(["ingest", str(lib), "-o", str(tmp_path / str(angle) / "db")]) == 0
+        out = capsys.readouterr().out
+        assert ("C: its outgoing leg's walls run mostly at 90° to its incoming leg's, "
+                "where angle = 120, convex = true puts that leg at 60°" in out) == warned, out
+    db = ingest(ROOT / "examples" / "library", tmp_path / "sample_db")
+    assert not [w for w in db.warnings if "outgoing leg" in w]
+
+
 def test_sample_library_files_match_the_generator(tmp_path):
     from citysynth.parts_db.sample import generate
     generate(tmp_path)
