@@ -436,3 +436,33 @@ def test_the_parent_solves_one_block_before_the_workers_fork(tmp_path):
     warm_up(gone)                                 # no exception: the worker meets it
     rec = jobs.run_block(gone, str(tmp_path / "out"))
     assert rec["status"] == "failed" and "no library" in rec["reason"]
+
+
+def test_diff_map_of_a_city_across_the_antimeridian_is_the_city(tmp_path):
+    """A city across ±180° (its blocks.geojson cuts a block there into two parts) was
+    drawn on a map spanning the globe, the city two dots at its edges: its longitudes
+    are now taken in 0..360, and its blocks fill the map."""
+    from PIL import Image
+
+    from citysynth.pipeline.commands.diff_map import COLOURS, write_map
+
+    def square(lon: float, lat: float, side: float = 0.002) -> list:
+        return [[[lon, lat], [lon + side, lat], [lon + side, lat + side], [lon, lat + side],
+                 [lon, lat]]]
+
+    feats = [{"type": "Feature", "properties": {"id": "east", "status": "built"},
+              "geometry": {"type": "Polygon", "coordinates": square(179.996, -17.0)}},
+             {"type": "Feature", "properties": {"id": "west", "status": "built"},
+              "geometry": {"type": "Polygon", "coordinates": square(-179.998, -17.0)}},
+             {"type": "Feature", "properties": {"id": "across", "status": "built"},
+              "geometry": {"type": "MultiPolygon", "coordinates": [
+                  square(179.999, -16.997, 0.001), square(-180.0, -16.997, 0.001)]}}]
+    for run in ("a", "b"):
+        (tmp_path / run).mkdir()
+        (tmp_path / run / "blocks.geojson").write_text(json.dumps(
+            {"type": "FeatureCollection", "features": feats}))
+    d = {"same": 3, "files_changed": [], "changed": [], "status": [], "added": [],
+         "removed": []}
+    png = write_map(d, tmp_path / "a", tmp_path / "b", tmp_path / "map.png")
+    count = {c: n for n, c in Image.open(png).convert("RGB").getcolors(1 << 24)}
+    assert count.get(COLOURS["same"][0], 0) > 100_000, count.get(COLOURS["same"][0])

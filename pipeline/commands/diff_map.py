@@ -90,6 +90,7 @@ def write_map(d: dict[str, Any], run_a: Path, run_b: Path, png: Path) -> Path:
             marks.append((a[bid][0].representative_point(), COLOURS["removed"][0]))
     if not shapes:
         raise UsageError(f"{run_b / BLOCKS}: no block outlines to draw")
+    shapes, marks = _across_antimeridian(shapes, marks)
     x0, y0, x1, y1 = shapely.total_bounds([g for g, _, _ in shapes])
     squash = math.cos(math.radians((y0 + y1) / 2)) if -90 <= y0 <= y1 <= 90 and \
         -180 <= x0 <= x1 <= 180 else 1.0     # lon/lat: metres east shrink with latitude
@@ -120,6 +121,25 @@ def write_map(d: dict[str, Any], run_a: Path, run_b: Path, png: Path) -> Path:
     with atomic_path(png) as tmp:
         img.save(tmp, format="PNG")
     return png
+
+
+def _across_antimeridian(shapes: list, marks: list) -> tuple[list, list]:
+    """Lon/lat outlines of a city across the ±180° meridian (blocks.geojson cuts a block
+    there into two parts, RFC 7946) with longitudes taken in 0..360, where that makes
+    the map narrower: drawn as they are, the map spanned the globe and the city was a
+    dot at either edge."""
+    x0, y0, x1, y1 = shapely.total_bounds([g for g, _, _ in shapes])
+    if not (-180 <= x0 and x1 <= 180 and -90 <= y0 and y1 <= 90 and x1 - x0 > 180):
+        return shapes, marks
+
+    def east(g: shapely.Geometry) -> shapely.Geometry:
+        return shapely.transform(g, lambda xy: xy + [[360.0, 0.0]] * (xy[:, :1] < 0))
+
+    moved = [(east(g), fill, hatched) for g, fill, hatched in shapes]
+    e0, _, e1, _ = shapely.total_bounds([g for g, _, _ in moved])
+    if e1 - e0 >= x1 - x0:
+        return shapes, marks
+    return moved, [(east(p), colour) for p, colour in marks]
 
 
 def _legend(draw: ImageDraw.ImageDraw, d: dict[str, Any], size: tuple[int, int],
