@@ -61,7 +61,7 @@ from citysynth.solver._table import (
     table_new,
     table_rehash,
 )
-from citysynth.solver.bounds import Bounds, bound_after
+from citysynth.solver.bounds import Bounds, bound_after, pair_after
 from citysynth.solver.compiled import Compiled
 from citysynth.solver.interrupts import kernel_calls
 
@@ -273,8 +273,10 @@ def _children(e, g, c, lo, r, cap, n, sptr, selem, sw, back, bres, bbase, btab, 
               kj, nk):
     """Write the children of a settled label at element e, cost g, consumption c (its
     end, then every successor that fits and can still complete) from kid row nk on,
-    as a heap; returns their count. ``rng`` holds the range tables."""
-    rlevel, rother, rbase, rmin, rmax = rng
+    as a heap; returns their count. ``rng`` holds the range and pair tables
+    (:meth:`~citysynth.solver.bounds.Bounds.kernel_tables`)."""
+    rlevel, rother, rbase, rmin, rmax = rng[0], rng[1], rng[2], rng[3], rng[4]
+    pl, pj, ps, pq, pbase, ptab = rng[5], rng[6], rng[7], rng[8], rng[9], rng[10]
     m = 0
     if back[e] and admissible(c, lo):
         kf[nk], kj[nk] = g, -1
@@ -291,6 +293,10 @@ def _children(e, g, c, lo, r, cap, n, sptr, selem, sw, back, bres, bbase, btab, 
         for t in range(T):
             i = bres[t]
             hb = max(hb, btab[bbase[t] + (c[i] + r[f, i]) * n + f])
+        for u in range(len(pl)):       # pair_after, written out as the bound is
+            i, jj = pl[u], pj[u]
+            hb = max(hb, ptab[pbase[u] + ((c[i] + r[f, i]) * (pq[u] + 1)
+                                          + (c[jj] + r[f, jj]) // ps[u]) * n + f])
         if hb == np.inf:
             continue
         out = False
@@ -384,7 +390,8 @@ def _root(n, r, lo, cap, off, front, omega, bres, bbase, btab, rng, lab_g, lab_f
     m = 0
     for e in range(n):
         if front[e] and fits(zero, r, e, cap):
-            hb = bound_after(zero, e, r, n, bres, bbase, btab)
+            hb = max(bound_after(zero, e, r, n, bres, bbase, btab),
+                     pair_after(zero, e, r, n, rng))
             if hb < np.inf and not out_of_range(zero, e, r, lo, cap, n, rng[0], rng[1],
                                                 rng[2], rng[3], rng[4]):
                 kf[m], kj[m] = omega[e] + hb, e
@@ -446,6 +453,11 @@ def _astar(K, n, r, lo, cap, stride, off, sptr, selem, sw, front, omega, back, b
     return STATUS_OK, results[:cnt[2]], lab_par, lab_elem, cnt
 
 
+def all_labels(budget_bytes: int) -> int:
+    """The labels a search within ``budget_bytes`` may make (its share of the budget)."""
+    return max(budget_bytes // 3, 1 << 16) // LABEL_BYTES
+
+
 def astar_k_best(cp: Compiled, bounds: Bounds, k: int, budget_bytes: int,
                  max_labels: int | None = None):
     """Run the search. Returns (status, sequences, counters): the first k sequences in
@@ -453,13 +465,12 @@ def astar_k_best(cp: Compiled, bounds: Bounds, k: int, budget_bytes: int,
     and settlements. STATUS_TOO_LARGE when labels, children and nodes outgrow
     ``budget_bytes`` (a third each), or labels ``max_labels``."""
     share = max(budget_bytes // 3, 1 << 16)
-    labels = share // LABEL_BYTES if max_labels is None else min(share // LABEL_BYTES,
-                                                                 max_labels)
+    labels = all_labels(budget_bytes) if max_labels is None else min(
+        all_labels(budget_bytes), max_labels)
     status, res, lab_par, lab_elem, cnt = _astar(
         int(k), cp.n, cp.r, cp.lo, cp.cap, cp.stride, cp.off, cp.succ_ptr, cp.succ_elem,
         cp.succ_w, cp.front, cp.omega, cp.back, bounds.res, bounds.base, bounds.table,
-        (bounds.rlevel, bounds.rother, bounds.rbase, bounds.rmin, bounds.rmax),
-        labels, share // KID_BYTES, share // NODE_BYTES)
+        bounds.kernel_tables(), labels, share // KID_BYTES, share // NODE_BYTES)
     counters = {"labels": int(cnt[0]), "nodes": int(cnt[3]), "settled": int(cnt[4])}
     if status != STATUS_OK:
         return status, [], counters

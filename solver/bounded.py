@@ -29,15 +29,19 @@ from typing import Any
 
 import numpy as np
 
-from citysynth.solver.astar import STATUS_OK, astar_k_best
+from citysynth.solver.astar import STATUS_OK, all_labels, astar_k_best
 from citysynth.solver.bounds import Bounds, relaxation_bounds
 from citysynth.solver.compiled import Compiled
 from citysynth.solver.errors import TooLargeError
 from citysynth.solver.graph import Graph
 from citysynth.solver.kbest import k_best
+from citysynth.solver.pair_bounds import PAIR_TABLE_SHARE, pair_choice, with_pair
 
 BOUNDS_SHARE = 4   # bound tables may use 1/4 of the memory budget, the search the rest
 EXACT_SHARE = 2    # a single resource's exact table 1/2, its enumeration the rest
+PAIR_FIRST = 16    # where a pair table could be made, the search first takes 1/16 of
+PAIR_FIRST_LABELS = 1 << 20   # its labels (at least this many: every bench row needs
+                              # fewer), then the pair table and the whole budget
 
 
 COARSE_STEPS_PER_LABEL = 3000
@@ -101,15 +105,23 @@ def bounded_k_best(cp: Compiled, k: int, budget_bytes: int, bounds: Bounds | Non
         seqs, _costs, touched = k_best(exact_graph(cp, bounds), k)
         st.update(path="exact", nodes=int(bounds.table.size), kbest_nodes=touched)
         return seqs
+    pair = budget_bytes // PAIR_TABLE_SHARE
+    first = None if bounds.coarse or len(bounds.pl) or pair_choice(cp, pair) is None \
+        else max(PAIR_FIRST_LABELS, all_labels(budget_bytes - bounds.nbytes) // PAIR_FIRST)
     status, seqs, counters = astar_k_best(
         cp, bounds, k, budget_bytes - bounds.nbytes,
-        max_labels=coarse_labels(cp, bounds) if bounds.coarse else None)
+        max_labels=coarse_labels(cp, bounds) if bounds.coarse else first)
     st.update(path="astar", labels=counters["labels"], nodes=counters["nodes"],
               settled=counters["settled"], coarse=bounds.coarse)
     if status != STATUS_OK and bounds.coarse:   # a weak coarse bound: the exact tables
         st["coarse_gave_up"] = counters["labels"]  # (within what the coarse ones leave:
         rest = budget_bytes - bounds.nbytes        # the caller may still hold them)
         return bounded_k_best(cp, k, rest, bounds_for(cp, rest), st)
+    if status != STATUS_OK and first is not None:  # two resources moving together: the
+        paired = with_pair(cp, bounds, pair)        # pair table, then the whole budget
+        if paired is not None:
+            st["pair_after"] = counters["labels"]
+            return bounded_k_best(cp, k, budget_bytes, paired, st)
     if status != STATUS_OK:
         raise _refusal(cp, counters["labels"], budget_bytes)
     return seqs

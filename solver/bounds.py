@@ -290,6 +290,14 @@ class Bounds:
     rbase: np.ndarray = field(default_factory=_no_ranges)    # int64 [U]
     rmin: np.ndarray = field(default_factory=lambda: np.zeros(0))  # float64
     rmax: np.ndarray = field(default_factory=lambda: np.zeros(0))  # float64
+    # pair tables (citysynth.solver.pair_bounds), flat the same way: table u bounds node
+    # (e, c) by ptab[pbase[u] + (c[pl[u]] * (pq[u] + 1) + c[pj[u]] // ps[u]) * n + e]
+    pl: np.ndarray = field(default_factory=_no_ranges)      # int64 [P] level resource
+    pj: np.ndarray = field(default_factory=_no_ranges)      # int64 [P] the other
+    ps: np.ndarray = field(default_factory=_no_ranges)      # int64 [P] its step
+    pq: np.ndarray = field(default_factory=_no_ranges)      # int64 [P] its top level
+    pbase: np.ndarray = field(default_factory=_no_ranges)   # int64 [P]
+    ptab: np.ndarray = field(default_factory=lambda: np.zeros(0))  # float64
 
     @property
     def count(self) -> int:
@@ -297,7 +305,13 @@ class Bounds:
 
     @property
     def nbytes(self) -> int:
-        return int(self.table.nbytes + self.rmin.nbytes + self.rmax.nbytes)
+        return int(self.table.nbytes + self.rmin.nbytes + self.rmax.nbytes
+                   + self.ptab.nbytes)
+
+    def kernel_tables(self) -> tuple:
+        """The range and pair tables as the search kernels take them (one tuple)."""
+        return (self.rlevel, self.rother, self.rbase, self.rmin, self.rmax,
+                self.pl, self.pj, self.ps, self.pq, self.pbase, self.ptab)
 
 
 def table_bytes(cp: Compiled, i: int) -> int:
@@ -416,6 +430,21 @@ def range_tables(cp: Compiled, level: int, budget_bytes: int) -> dict[str, np.nd
             "rother": np.array(others, dtype=np.int64),
             "rbase": np.arange(len(others), dtype=np.int64) * size,
             "rmin": np.concatenate(mins), "rmax": np.concatenate(maxs)}
+
+
+@njit(cache=True, inline="always")
+def pair_after(c, f, r, n, rng):
+    """The pair tables' bound of node (f, c + r(f)) (0 without them; ``rng`` is
+    :meth:`Bounds.kernel_tables`). Hot loops write this out too."""
+    pl, pj, ps, pq, pbase, ptab = rng[5], rng[6], rng[7], rng[8], rng[9], rng[10]
+    best = 0.0
+    for u in range(len(pl)):
+        i, j = pl[u], pj[u]
+        v = ptab[pbase[u] + ((c[i] + r[f, i]) * (pq[u] + 1) + (c[j] + r[f, j]) // ps[u])
+                 * n + f]
+        if v > best:
+            best = v
+    return best
 
 
 @njit(cache=True, inline="always")
