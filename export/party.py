@@ -24,7 +24,13 @@ import shapely
 from shapely.geometry import Polygon
 
 from citysynth.export.cuts import extended_x
-from citysynth.export.joints import EXTEND_MARGIN, MAX_EXTEND_DEPTHS, HalfPlane, Placed
+from citysynth.export.joints import (
+    EXTEND_MARGIN,
+    MAX_EXTEND_DEPTHS,
+    HalfPlane,
+    Placed,
+    clip_convex,
+)
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.geometry import part_pieces
 
@@ -86,12 +92,12 @@ def party_halves(placed: Sequence[Placed], walls: Iterable[Segment], db: PartDB)
             # the plan in the stretch's frame: t along it, d out of the building
             local = [(x * u[0] + y * u[1], x * n[0] + y * n[1])
                      for x, y in ((x - p0[0], y - p0[1]) for x, y in plan)]
-            past = _clip(local, 0.0, -1.0, -REACH)                     # d >= REACH
+            past = clip_convex(local, 0.0, -1.0, -REACH)                # d >= REACH
             past_area = _area(past)
             if past_area <= MIN_AREA:
                 continue
-            beside = _clip(_clip(_clip(past, -1.0, 0.0, MARGIN), 1.0, 0.0, length + MARGIN),
-                           0.0, 1.0, DEPTH)
+            beside = clip_convex(clip_convex(clip_convex(past, -1.0, 0.0, MARGIN), 1.0, 0.0,
+                                             length + MARGIN), 0.0, 1.0, DEPTH)
             beside_area = _area(beside)
             if beside_area <= MIN_AREA or beside_area <= past_area - beside_area:
                 continue
@@ -165,24 +171,8 @@ def _cut_plan(p: Placed, corners: np.ndarray) -> list[tuple[float, float]]:
     plan = [(float(x), float(y)) for x, y in corners]
     for h in p.halves:
         nx, ny = float(h.normal[0]), float(h.normal[1])
-        plan = _clip(plan, nx, ny, nx * float(h.point[0]) + ny * float(h.point[1]))
+        plan = clip_convex(plan, nx, ny, nx * float(h.point[0]) + ny * float(h.point[1]))
     return plan
-
-
-def _clip(poly: list[tuple[float, float]], a: float, b: float, c: float
-          ) -> list[tuple[float, float]]:
-    """A convex polygon (its corners in order) cut to where a*x + b*y <= c (plain
-    floats: a footprint asks this of every part near each shared stretch)."""
-    out: list[tuple[float, float]] = []
-    for i, (x0, y0) in enumerate(poly):
-        x1, y1 = poly[(i + 1) % len(poly)]
-        f0, f1 = a * x0 + b * y0 - c, a * x1 + b * y1 - c
-        if f0 <= 0:
-            out.append((x0, y0))
-        if (f0 < 0 < f1) or (f1 < 0 < f0):
-            k = f0 / (f0 - f1)
-            out.append((x0 + (x1 - x0) * k, y0 + (y1 - y0) * k))
-    return out
 
 
 def _area(poly: list[tuple[float, float]]) -> float:

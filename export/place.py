@@ -46,6 +46,7 @@ from citysynth.export.joints import (
     Placed,
     behind,
     bisector,
+    clip_convex,
     concave_reach,
     facade_span,
     half_polygon,
@@ -1056,8 +1057,18 @@ def _footprints(placed: Sequence[Placed], spans: Sequence[tuple[float, float]]
 
 
 def _clipped_footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
-    """A module's plan rectangle less what its half-planes cut away so far."""
-    return _clipped(_footprint(placed, span), placed)
+    """A module's plan rectangle less what its half-planes cut away so far: the
+    rectangle of :func:`_footprint` clipped in plain floats (a convex quad stays
+    convex; a layout asks this thousands of times)."""
+    (x0, x1), (y0, y1) = span, placed.y_range
+    (a00, a01), (a10, a11) = placed.a.tolist()
+    ox, oy = placed.origin.tolist()
+    plan = [(a00 * x + a01 * y + ox, a10 * x + a11 * y + oy)
+            for x, y in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))]
+    for h in placed.halves:
+        nx, ny = float(h.normal[0]), float(h.normal[1])
+        plan = clip_convex(plan, nx, ny, nx * float(h.point[0]) + ny * float(h.point[1]))
+    return shapely.polygons(plan) if len(plan) >= 3 else shapely.Polygon()
 
 
 def _clipped(foot: BaseGeometry, placed: Placed) -> BaseGeometry:
