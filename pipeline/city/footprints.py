@@ -398,7 +398,9 @@ def min_side(db: PartDB, style: str, slack: float) -> float:
 LIGHT_WELL = 50.0     # m²: a smaller courtyard with a side too short to build is closed
 NARROW_AREA = 0.05    # of a footprint's area: the most filling a courtyard's niches adds
 MIN_NARROW = 0.01     # m²: less is no change
-MAX_NARROW = 4        # niche fillings tried on one footprint
+MAX_NARROW = 4        # niche fillings tried on one footprint past one per courtyard
+NEIGHBOUR = 0.3       # m: a niche this near a shared wall is not filled (party.TOUCH:
+                      # that module imports this one's users, so it is not imported here)
 RETRY_SIDE = 1.0      # m: a footprint no layout fits is cleaned again with sides this much longer
 
 
@@ -448,15 +450,16 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
         unlined = [f"a {wells[i].area:.1f} m² courtyard" for i in sorted(shut)]
         clean = shapely.Polygon(clean.exterior, [r for i, r in enumerate(clean.interiors)
                                                  if i not in shut])
-    narrowed: list[str] = []
+    narrowed: list[tuple[int, float]] = []      # per filling: niches, m²
+    tries = len(clean.interiors) + MAX_NARROW    # each courtyard once, and some more
     while True:
         rings = skeletons_from_polygons([Feature(fp.feature, clean, props)], frame)
         bad = short_side(rings, shortest)
         hole = _courtyard(bad[0].name) if bad is not None else None
         well = shapely.Polygon(clean.interiors[hole]) if hole is not None else None
         if well is not None and hole is not None and well.area >= LIGHT_WELL \
-                and len(narrowed) < MAX_NARROW:
-            fixed = _niche_filled(clean, hole, shortest)
+                and len(narrowed) < tries:
+            fixed = _niche_filled(clean, hole, shortest, fp.party)
             if fixed is not None:
                 again = clean_footprint(fixed[0], min_side=shortest,
                                         straight_tol=STRAIGHT_TOL, tolerance=fp.tolerance)
@@ -477,8 +480,12 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
     why = [f"{' and '.join(closed)} closed under the roof (sides under the {shortest:.1f} "
            f"m the {job.style} kit needs)"] if closed else []
     if narrowed:
-        why.append(f"{' and '.join(narrowed)} (narrower than the {shortest:.1f} m the "
-                   f"{job.style} kit needs between two corners)")
+        niches = sum(n for n, _a in narrowed)
+        why.append(f"{niches} niche{'s' if niches > 1 else ''} of "
+                   + (f"{len(narrowed)} courtyards" if len(narrowed) > 1 else "a courtyard")
+                   + f" filled under the roof ({sum(a for _n, a in narrowed):.1f} m²; "
+                   f"narrower than the {shortest:.1f} m the {job.style} kit needs between "
+                   "two corners)")
     if unlined:
         why.append(f"{' and '.join(unlined)} closed under the roof (no layout of the "
                    f"{job.style} kit lines it)")
@@ -488,16 +495,19 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
                     "\n".join(n for n in notes if n) or None)
 
 
-def _niche_filled(poly: shapely.Polygon, hole: int, width: float
-                  ) -> tuple[shapely.Polygon, str] | None:
+def _niche_filled(poly: shapely.Polygon, hole: int, width: float,
+                  party: Sequence[tuple[float, float, float, float]] = ()
+                  ) -> tuple[shapely.Polygon, tuple[int, float]] | None:
     """``poly`` with the niches and slots of its courtyard ``hole`` narrower than
     ``width`` (where a side too short for two corners comes from one) filled under the
     roof, as a light well too small to line is closed: the courtyard's morphological
     opening, square-cornered, so a rectangular courtyard keeps its corners. (The
     outline's narrow notches are cleaning's: it makes them flat walls; a narrow wing is
-    never cut off, and its side is told of.) With what was done, in the user's words;
-    None when that fills nothing, or more than :data:`NARROW_AREA` of the footprint's
-    area (the side is then no narrow niche: the user hears of it as before)."""
+    never cut off, and its side is told of.) With how many niches and m² it filled;
+    None when that fills nothing, more than :data:`NARROW_AREA` of the footprint's area
+    (the side is then no narrow niche: the user hears of it as before), or ground
+    beside another building (one of the ``party`` stretches: a neighbour standing in
+    the niche would be built into: within :data:`NEIGHBOUR` of its ground)."""
     r = width / 2
     square = {"join_style": "mitre", "mitre_limit": 10.0}
     well = shapely.Polygon(poly.interiors[hole])
@@ -507,7 +517,11 @@ def _niche_filled(poly: shapely.Polygon, hole: int, width: float
     if not isinstance(fixed, shapely.Polygon) or not fixed.is_valid \
             or not MIN_NARROW < filled.area <= NARROW_AREA * poly.area:
         return None
-    return fixed, f"a {filled.area:.1f} m² niche of a courtyard filled under the roof"
+    if party and shapely.intersects(shapely.buffer(filled, NEIGHBOUR), shapely.linestrings(
+            [[(x0, y0), (x1, y1)] for x0, y0, x1, y1 in party])).any():
+        return None
+    parts = shapely.get_parts(filled)
+    return fixed, (int((shapely.area(parts) > MIN_NARROW).sum()), float(filled.area))
 
 
 def _courtyard(ring_name: str) -> int | None:
