@@ -38,7 +38,7 @@ from mapbox_earcut import triangulate_float64
 from shapely.geometry import box
 
 from citysynth.export.clip import clip, split
-from citysynth.export.layout import Cut
+from citysynth.export.layout import WHOLE, Cut
 from citysynth.parts_db import Part, PartDB
 from citysynth.parts_db.geometry import Piece, part_pieces
 from citysynth.parts_db.sections import (
@@ -56,7 +56,6 @@ _CACHE: OrderedDict[tuple[str, str, Cut], tuple[Piece, ...]] = OrderedDict()
 _LABELS: dict[tuple[str, str], np.ndarray] = {}
 CAP_PIECE = "walls"    # the material a cap takes (else the part's first piece's)
 POLYGON = shapely.GeometryType.POLYGON
-WHOLE_CAP = 1e5        # m: a solid span reaching this far is the whole cap
 
 
 def cut_pieces(db: PartDB, part: Part, cut: Cut) -> tuple[Piece, ...]:
@@ -222,7 +221,7 @@ def _filled(section, spans: list[tuple[float, float]]) -> shapely.Geometry:
     does."""
     parts = shapely.get_parts(section)
     polys = parts[shapely.get_type_id(parts) == POLYGON]
-    if any(lo <= -WHOLE_CAP and WHOLE_CAP <= hi for lo, hi in spans):
+    if any(lo <= -WHOLE and WHOLE <= hi for lo, hi in spans):
         polys = shapely.polygons(shapely.get_exterior_ring(polys))
     else:
         bands = shapely.union_all([box(lo, -1e6, hi, 1e6) for lo, hi in spans])

@@ -35,14 +35,13 @@ import shapely
 from shapely.geometry import LineString, Polygon
 from shapely.geometry.base import BaseGeometry
 
-from citysynth.export.layout import AXIS_DIGITS, COORD_DIGITS, Cut, Instance
+from citysynth.export.layout import AXIS_DIGITS, COORD_DIGITS, WHOLE, Cut, Instance
 
 ACUTE_DEG = 40.0          # below this angle between the facades, a convex corner gets a nose
 NOSE = 2.0                # m: the width of that end wall
 CHAMFER = 0.25            # m: a convex mitre's overhang is clipped this far out of the corner
 MAX_EXTEND_DEPTHS = 2.0   # an end is extended at most this many part depths
 PLANE_DIGITS = 6          # plane normals in the part frame
-WHOLE = 1e6               # m: a blank plane's solid span when it has no ends
 SPAN_MARGIN = 0.5         # m past a part's box a solid span is kept (an overhang)
 EXTEND_MARGIN = 0.01      # m beyond what the plane needs, so the cut always finds material
 
@@ -257,7 +256,7 @@ def joint_halves(p: np.ndarray, u_in: np.ndarray, u_out: np.ndarray, mass_left: 
 
 
 def clip_convex(poly: list[tuple[float, float]], a: float, b: float, c: float
-          ) -> list[tuple[float, float]]:
+                ) -> list[tuple[float, float]]:
     """A convex polygon (its corners in order) cut to where a*x + b*y <= c, in plain
     floats: a footprint asks this of every part near each shared stretch, and a
     layout of every module as its cuts leave it, thousands of times (GEOS's

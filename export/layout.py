@@ -28,6 +28,7 @@ READS = (1, 2, 3)
 COORD_DIGITS = 4      # 0.1 mm
 AXIS_DIGITS = 6
 VALUE_DIGITS = 6
+WHOLE = 1e6            # m: a blank plane's span (u0, u1) = (-WHOLE, WHOLE) is all along
 
 
 @dataclass(frozen=True)
@@ -68,8 +69,8 @@ class Cut:
 
         planes = tuple((float(a), float(b), float(c)) for a, b, c in d.get("planes", []))
         # a blank plane without its span (files of 2026-11-29) is solid all along
-        blank = tuple((float(a), float(b), float(c), float(u0), float(u1))
-                      for a, b, c, u0, u1 in ([*p, -1e6, 1e6][:5] for p in d.get("blank", [])))
+        blank = tuple((float(a), float(b), float(c), float(u0), float(u1)) for a, b, c, u0, u1
+                      in ([*p, -WHOLE, WHOLE][:5] for p in d.get("blank", [])))
         return cls((float(ext[0]), float(ext[1])), planes, blank)
 
 
