@@ -440,7 +440,9 @@ class _Placer:
         the same layout (a courtyard's facades and the outline's round a wing narrower
         than two building depths, which would run through each other and out of the far
         wall), each keeps what lies nearer its own facade, as between two sides of one
-        structure that share no corner (:meth:`_medial_cuts`)."""
+        structure that share no corner (:meth:`_medial_cuts`). A module's reach counts
+        its extension past a concave mitre joint: a courtyard's end module reached past
+        its corner into the outline's wing beyond and stood in its modules."""
         bands = other.masses()
         tree = shapely.STRtree(bands)
         for s in range(len(self.plan.stages)):
@@ -448,6 +450,8 @@ class _Placer:
             feet = _footprints([self.placed[i] for i in fill], [self.span[i] for i in fill])
             for i, foot in zip(fill, feet, strict=True):
                 self._stop_at_facades(i, s, other, range(len(other.plan.stages)))
+                if self._extension.get(i):   # its ground past a concave mitre too
+                    foot = shapely.union_all([foot, *self._extension[i]])
                 for t in _overlapping(tree, bands, foot):
                     half = self._medial_half(i, s, t, other=other)
                     if half is not None and half not in self.placed[i].halves:

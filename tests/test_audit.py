@@ -154,3 +154,38 @@ def test_a_very_acute_wedge_ends_at_its_nose_and_meets_the_bar(tmp_path, sample_
     name, a = _audit(path, sample_db)
     assert a.band > 300, a.line()
     assert not _failures(name, a)
+
+
+def test_a_courtyard_module_past_its_mitre_corner_stops_at_the_wing_beyond(tmp_path):
+    """A 60 x 60 m building round an off-centre 32 x 16 m courtyard (wings of 14 m on
+    three sides, 30 m on the fourth): at the courtyard's corners the kit joins by mitre,
+    and the end module there, extended past the corner, reached into the 14 m wing
+    beyond and stood in the outline's modules there (20 m² of plan: the extension was
+    not weighed against the other structure). Now no courtyard module shares plan with
+    a part of the outline. (The courtyard's corner parts still overlap the outline's
+    west modules where a corner's block lies in two of its stages; not yet mended.)"""
+    import shapely
+
+    from citysynth.export.audit import GRID, footprint, instance_triangles
+
+    rings = [[(0, 0), (60, 0), (60, 60), (0, 60), (0, 0)],
+             [(14, 14), (46, 14), (46, 30), (14, 30), (14, 14)]]
+    fp = tmp_path / "court.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": "N"}, "geometry": {
+            "type": "Polygon",
+            "coordinates": [lonlat_from_local(r, (24.94, 60.17)) for r in rings]}}]}))
+    out = tmp_path / "run"
+    assert main(["city", "--footprints", str(fp), "--library", str(LIB), "-o", str(out),
+                 "--workers", "1", "--no-overview"]) == 0
+    (usd,) = [p for p in (out / "blocks").glob("*.usda") if p.name.count("_") == 0]
+    feet = {k: footprint(t) for k, t in instance_triangles(usd).items()
+            if "/structure_" in k}
+    court = [f for k, f in feet.items() if "/structure_01/stage_" in k]
+    outline = [f for k, f in feet.items() if "/structure_00/" in k]
+    assert court and outline
+    shared = sum(float(c.intersection(o, grid_size=GRID).area) for c in court
+                 for o in outline if c.intersects(o))
+    print(f"courtyard modules over the outline's parts: {shared:.2f} m²")
+    assert shared < 0.5
+    assert shapely.union_all(court).area > 500
