@@ -18,6 +18,10 @@ spends its work near the answer instead:
    ordered by g + bound, ties broken lexicographically, returns the first k
    sequences in (cost, lexicographic) order (:mod:`citysynth.solver.astar`). For
    k = 1 a wide resource's table is coarse too, where it is at least 6 times smaller.
+4. **Two resources at once.** Where that search makes a sixteenth of its labels
+   without an answer and a pair table applies (:mod:`citysynth.solver.pair_bounds`:
+   a resource every element consumes, with another in steps; a tower's height and
+   floor area), the search starts again with it and the whole budget.
 
 Exact throughout: the bound never exceeds the true cost to go, so nothing cheaper than
 the k-th answer is ever cut, and the sequences are those the other methods return.
