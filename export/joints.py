@@ -273,6 +273,15 @@ def clip_convex(poly: list[tuple[float, float]], a: float, b: float, c: float
     return out
 
 
+def clipped_plan(plan: list[tuple[float, float]], halves: Sequence[HalfPlane]
+                 ) -> list[tuple[float, float]]:
+    """A convex plan (its corners in order, plain floats) as ``halves`` leave it."""
+    for h in halves:
+        nx, ny = float(h.normal[0]), float(h.normal[1])
+        plan = clip_convex(plan, nx, ny, nx * float(h.point[0]) + ny * float(h.point[1]))
+    return plan
+
+
 def half_polygon(n: Sequence[float] | np.ndarray, p: Sequence[float] | np.ndarray,
                  size: float) -> Polygon:
     """The plan of the half-plane (X - p) . n <= 0, as a square ``size`` across."""

@@ -30,12 +30,15 @@ from citysynth.export.joints import (
     HalfPlane,
     Placed,
     clip_convex,
+    clipped_plan,
 )
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.geometry import part_pieces
 
 Segment = tuple[float, float, float, float]   # x0, y0, x1, y1: the building on the left
 
+TOUCH = 0.3       # m: a neighbour this near an edge shares it (how a city finds the
+                  # shared stretches, citysynth.pipeline.city.party)
 INSET = 0.005     # m: a part is cut this far behind the shared line (its cap is not on
                   # the line, where the two buildings' caps would lie in one plane)
 REACH = 0.02      # m: a part reaching further than this past the line reaches into it
@@ -168,11 +171,7 @@ def _extended(p: Placed, xy: np.ndarray) -> np.ndarray:
 
 def _cut_plan(p: Placed, corners: np.ndarray) -> list[tuple[float, float]]:
     """The part's plan (its hull ``corners``, convex) as its cuts so far leave it."""
-    plan = [(float(x), float(y)) for x, y in corners]
-    for h in p.halves:
-        nx, ny = float(h.normal[0]), float(h.normal[1])
-        plan = clip_convex(plan, nx, ny, nx * float(h.point[0]) + ny * float(h.point[1]))
-    return plan
+    return clipped_plan([(float(x), float(y)) for x, y in corners], p.halves)
 
 
 def _area(poly: list[tuple[float, float]]) -> float:

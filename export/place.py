@@ -46,7 +46,7 @@ from citysynth.export.joints import (
     Placed,
     behind,
     bisector,
-    clip_convex,
+    clipped_plan,
     concave_reach,
     facade_span,
     half_polygon,
@@ -1036,14 +1036,19 @@ def _mass_normal(direction: np.ndarray, front: Front) -> np.ndarray:
 
 
 def _footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometry:
-    """A module's plan rectangle (over its span, front overhang to depth): as
-    :func:`_footprints` makes it, in plain floats (the same sums in the same order;
-    a layout asks for thousands one at a time, and small numpy arrays cost more)."""
+    """A module's plan rectangle (over its span, front overhang to depth)."""
+    return shapely.polygons(_plan_corners(placed, span))
+
+
+def _plan_corners(placed: Placed, span: tuple[float, float]) -> list[tuple[float, float]]:
+    """The corners of a module's plan rectangle: as :func:`_footprints` makes them, in
+    plain floats (the same sums in the same order; a layout asks for thousands one at a
+    time, and small numpy arrays cost more)."""
     (x0, x1), (y0, y1) = span, placed.y_range
     (a00, a01), (a10, a11) = placed.a.tolist()
     ox, oy = placed.origin.tolist()
-    return shapely.polygons([(a00 * x + a01 * y + ox, a10 * x + a11 * y + oy)
-                             for x, y in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))])
+    return [(a00 * x + a01 * y + ox, a10 * x + a11 * y + oy)
+            for x, y in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))]
 
 
 def _footprints(placed: Sequence[Placed], spans: Sequence[tuple[float, float]]
@@ -1064,14 +1069,7 @@ def _clipped_footprint(placed: Placed, span: tuple[float, float]) -> BaseGeometr
     """A module's plan rectangle less what its half-planes cut away so far: the
     rectangle of :func:`_footprint` clipped in plain floats (a convex quad stays
     convex; a layout asks this thousands of times)."""
-    (x0, x1), (y0, y1) = span, placed.y_range
-    (a00, a01), (a10, a11) = placed.a.tolist()
-    ox, oy = placed.origin.tolist()
-    plan = [(a00 * x + a01 * y + ox, a10 * x + a11 * y + oy)
-            for x, y in ((x0, y0), (x1, y0), (x1, y1), (x0, y1))]
-    for h in placed.halves:
-        nx, ny = float(h.normal[0]), float(h.normal[1])
-        plan = clip_convex(plan, nx, ny, nx * float(h.point[0]) + ny * float(h.point[1]))
+    plan = clipped_plan(_plan_corners(placed, span), placed.halves)
     return shapely.polygons(plan) if len(plan) >= 3 else shapely.Polygon()
 
 

@@ -70,11 +70,10 @@ def corner_disagrees(mesh, spec: PartSpec, legs: list[float]) -> str | None:
     warning, not an error: a corner may carry decoration at odd angles."""
     if spec.cls != "corner" or spec.angle is None or len(legs) < 2:
         return None
-    tri = mesh.vertices[mesh.faces]
-    normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    normal = mesh.triangles_cross            # (trimesh's, per face: twice the area)
     size = np.linalg.norm(normal, axis=1)
     (dx, dy) = leg_directions(spec)[1]
-    along = tri.mean(axis=1)[:, :2] @ np.array([dx, dy])
+    along = mesh.triangles_center[:, :2] @ np.array([dx, dy])
     wall = (np.abs(normal[:, 2]) < 0.1 * size) & (size > 0) & (along > 0.5 * legs[1])
     if not wall.any():
         return None

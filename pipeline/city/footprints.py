@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import shapely
 
+from citysynth.export.party import TOUCH
 from citysynth.parts_db import Part, PartDB
 from citysynth.pipeline.errors import shown
 from citysynth.pipeline.layouts import BlockedAt
@@ -399,8 +400,6 @@ LIGHT_WELL = 50.0     # m²: a smaller courtyard with a side too short to build 
 NARROW_AREA = 0.05    # of a footprint's area: the most filling a courtyard's niches adds
 MIN_NARROW = 0.01     # m²: less is no change
 MAX_NARROW = 4        # niche fillings tried on one footprint past one per courtyard
-NEIGHBOUR = 0.3       # m: a niche this near a shared wall is not filled (party.TOUCH:
-                      # that module imports this one's users, so it is not imported here)
 RETRY_SIDE = 1.0      # m: a footprint no layout fits is cleaned again with sides this much longer
 
 
@@ -507,7 +506,8 @@ def _niche_filled(poly: shapely.Polygon, hole: int, width: float,
     None when that fills nothing, more than :data:`NARROW_AREA` of the footprint's area
     (the side is then no narrow niche: the user hears of it as before), or ground
     beside another building (one of the ``party`` stretches: a neighbour standing in
-    the niche would be built into: within :data:`NEIGHBOUR` of its ground)."""
+    the niche would be built into: within a shared wall's :data:`TOUCH` of its
+    ground)."""
     r = width / 2
     square = {"join_style": "mitre", "mitre_limit": 10.0}
     well = shapely.Polygon(poly.interiors[hole])
@@ -517,7 +517,7 @@ def _niche_filled(poly: shapely.Polygon, hole: int, width: float,
     if not isinstance(fixed, shapely.Polygon) or not fixed.is_valid \
             or not MIN_NARROW < filled.area <= NARROW_AREA * poly.area:
         return None
-    if party and shapely.intersects(shapely.buffer(filled, NEIGHBOUR), shapely.linestrings(
+    if party and shapely.intersects(shapely.buffer(filled, TOUCH), shapely.linestrings(
             [[(x0, y0), (x1, y1)] for x0, y0, x1, y1 in party])).any():
         return None
     parts = shapely.get_parts(filled)

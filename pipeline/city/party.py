@@ -21,10 +21,9 @@ from shapely.geometry import LineString
 from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
-from citysynth.export.party import Segment
+from citysynth.export.party import TOUCH, Segment
 from citysynth.pipeline.city.overlaps import Footprint
 
-TOUCH = 0.3        # m: a neighbour this near an edge shares it
 MIN_LENGTH = 1.0   # m: a shorter shared stretch is a corner touching, not a wall
 DIGITS = 3         # the stretches' ends to the millimetre (the job's hash covers them)
 
