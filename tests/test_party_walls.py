@@ -186,6 +186,33 @@ def test_the_seam_has_neither_overlap_nor_gap(row):
         assert 0 <= gap <= 0.03
 
 
+def _seam_gap(a: dict[str, np.ndarray], b: dict[str, np.ndarray], x: float,
+              y0: float, y1: float) -> float:
+    """Metres between house ``a`` (west of the shared wall at ``x``) and house ``b``
+    (east of it) where their meshes come nearest the wall between y0 and y1, within
+    1 m of it: what shows of the seam there (negative: they overlap)."""
+    def near(tris):
+        p = np.concatenate([t.reshape(-1, 3) for t in tris.values()])
+        return p[(p[:, 1] > y0) & (p[:, 1] < y1) & (np.abs(p[:, 0] - x) < 1.0), 0]
+    return float(near(b).min() - near(a).max())
+
+
+def test_the_street_front_shows_no_seam(row):
+    """At the street front of a wall shared along a whole side, the two houses' facades
+    meet on the line: the parts reaching past it are cut on it, their caps in one plane
+    facing each other where no view reaches them. Before, each was cut 5 mm short and
+    a 1 cm hairline of sky ran down the front at every seam. (The wall between them is
+    still cut 5 mm behind each facade, out of sight: a cap in a facade's own plane.)"""
+    _jobs, with_walls, without = row
+    for a, b, x in (("west", "middle", 30.0), ("middle", "east", 62.0)):
+        assert abs(_seam_gap(with_walls[a], with_walls[b], x, -2.0, 1.5)) <= 1e-3
+        assert _seam_gap(with_walls[a], with_walls[b], x, 4.0, 10.0) == \
+            pytest.approx(2 * INSET, abs=1e-3)
+    assert abs(_seam_gap(with_walls["middle"], with_walls["east"], 62.0, 12.5, 16.0)) \
+        <= 1e-3                                                   # the back, where free
+    assert _seam_gap(without["west"], without["middle"], 30.0, -2.0, 1.5) < -0.1
+
+
 def test_citysynth_block_gives_touching_features_party_walls(tmp_path):
     """``citysynth block`` lays each feature out alone too: features of its file that
     touch (a row of footprints) stop their parts at the wall they share, as a city's
