@@ -18,7 +18,7 @@ from citysynth.export.audit import _coplanar_roofs, instance_triangles
 from citysynth.export.party import INSET
 from citysynth.pipeline.city import run as city_run
 from citysynth.pipeline.city.config import parse_config
-from citysynth.pipeline.city.party import MIN_LENGTH, TOUCH, shared_stretches
+from citysynth.pipeline.city.party import MIN_LENGTH, TOUCH, closed_gaps, shared_stretches
 from citysynth.pipeline.city.run import prepare
 from citysynth.pipeline.cli import main
 from citysynth.skeletons.geojson import lonlat_from_local
@@ -211,6 +211,49 @@ def test_the_street_front_shows_no_seam(row):
     assert abs(_seam_gap(with_walls["middle"], with_walls["east"], 62.0, 12.5, 16.0)) \
         <= 1e-3                                                   # the back, where free
     assert _seam_gap(without["west"], without["middle"], 30.0, -2.0, 1.5) < -0.1
+
+
+def test_a_gap_under_touch_is_closed_by_the_smaller_footprint():
+    """Neighbours drawn apart by less than TOUCH are made to touch: the smaller grows to
+    the larger's line (which stays as drawn), by the gap and no more; a wider gap (a
+    passage), two corners near each other and a third building are left alone."""
+    a, b = box(0, 0, 20, 17), box(20.2, -3, 38, 14)   # b runs on past a's front
+    assert b.area < a.area
+    (a2, added_a, _), (b2, added_b, towards) = closed_gaps([a, b])
+    assert a2.equals(a) and added_a == 0.0
+    assert added_b == pytest.approx(0.2 * 14, abs=1e-6) and towards == [0]
+    assert b2.intersection(a).area < 1e-9 and b2.distance(a) == 0.0
+    assert b2.difference(b).bounds == pytest.approx((20, 0, 20.2, 14), abs=1e-6)
+    skew = Polygon([(20.05, 0), (40, 0), (40, 14), (20.28, 14)])
+    (_, _, _), (s2, added, _) = closed_gaps([a, skew])
+    assert added == pytest.approx(14 * (0.05 + 0.28) / 2, abs=1e-6)
+    assert s2.intersection(a).area < 1e-9
+    assert all(added == 0.0 for _g, added, _t in closed_gaps([a, box(20.35, 0, 35, 14)]))
+    assert all(added == 0.0 for _g, added, _t in closed_gaps([a, box(20.2, 17.2, 35, 30)]))
+    wall = box(20.05, 0, 20.15, 14)                   # a third footprint in the gap
+    grown = closed_gaps([a, box(20.2, 0, 36, 14), wall])
+    assert sum(g.intersection(wall).area for g, _a, _t in grown[:2]) < 1e-9
+
+
+def test_a_slit_in_the_data_is_not_built(tmp_path):
+    """Two houses drawn 0.2 m apart (within TOUCH: one wall digitised twice) stood each
+    on its own line, a slit their full height between them, sky showing through from
+    the street. The smaller now grows to the larger's line, says so in its note, and the
+    two fronts meet."""
+    scene = {"A": [(0, 0), (20, 0), (20, 14), (0, 14)],
+             "B": [(20.2, 0), (38, 0), (38, 14), (20.2, 14)]}
+    fp = write(tmp_path / "gap.geojson", scene)
+    out = tmp_path / "out"
+    assert main(["city", "--footprints", str(fp), "--library", str(LIB), "-o", str(out),
+                 "--workers", "1", "--no-overview", "--config",
+                 str(_config(tmp_path))]) == 0
+    jobs = {j.footprint.ref: j for j in prepare(None, fp, parse_config({"k": 1}), LIB).jobs}
+    tris = {k: instance_triangles(out / "blocks" / f"{j.id}.usda") for k, j in jobs.items()}
+    assert abs(_seam_gap(tris["A"], tris["B"], 20.0, -2.0, 1.5)) <= 1e-3     # was 0.2 m
+    assert abs(_seam_gap(tris["A"], tris["B"], 20.0, 12.5, 16.0)) <= 1e-3
+    notes = {k: json.loads((out / "blocks" / f"{j.id}.done.json").read_text()).get("note", "")
+             for k, j in jobs.items()}
+    assert "grown by 2.80 m² to meet feature 0 (A)" in notes["B"] and not notes["A"]
 
 
 def test_citysynth_block_gives_touching_features_party_walls(tmp_path):
