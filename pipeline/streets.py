@@ -109,8 +109,8 @@ def _fold(street: LineString, side: str, locate: Locate | None) -> str:
 
 def runs(street: LineString, side: str, offset: float, depth: float,
          locate: Locate | None = None) -> list[Run]:
-    """The facade line of ``side`` cut at its bends, trimmed at bends toward the
-    buildings (left turns) by ``depth`` times the half-turn's tangent on each side. A
+    """The facade line of ``side`` cut at its bends, the run leaving a bend toward the
+    buildings (a left turn) starting behind the row that runs on to it (:func:`_cut`). A
     street that closes on itself (a loop) is a ring: its closing point is a corner like
     the others (:func:`loop_runs`)."""
     if street.is_closed and len(street.coords) >= 4:
@@ -165,7 +165,7 @@ def loop_runs(street: LineString, side: str, offset: float, depth: float) -> lis
 def _ring_cut(pts: np.ndarray, side: str, depth: float, bend: float) -> list[Run]:
     """A closed facade line (``pts``, the first point not repeated, travelled with the
     buildings on its left) cut at its turns of more than ``bend`` degrees, from its
-    sharpest corner, each run trimmed at its left turns."""
+    sharpest corner, each run leaving a left turn starting behind the one before."""
     closed = np.vstack([pts, pts[:1], pts[1:2]])
     turns = np.r_[0.0, _turns(closed)]            # turns[i]: at vertex i (i >= 1)
     turns[0] = turns[len(pts)]
@@ -177,21 +177,37 @@ def _ring_cut(pts: np.ndarray, side: str, depth: float, bend: float) -> list[Run
 def _cut(coords: np.ndarray, turns: np.ndarray, side: str, depth: float,
          bend: float = BEND) -> list[Run]:
     """A facade line cut into runs at the vertices turning by more than ``bend``
-    degrees (its two ends always), each trimmed at a left turn. ``turns`` holds the turn at
-    every vertex, the ends' included (0 for a line's ends, the corner's own turn for a
-    ring's). Runs shorter than :data:`MIN_RUN` stay empty."""
+    degrees (its two ends always). At a left turn (toward the buildings: a block's
+    outer corner) the run arriving runs on to the corner and the one leaving starts
+    behind its row (:func:`behind`): the corner is built, the first row's end wall on
+    the second street. (Both were trimmed by the depth times the half-turn's tangent,
+    which left a square the rows' depth wide open at a square corner, two blank end
+    walls facing each other across it.) ``turns`` holds the turn at every vertex, the
+    ends' included (0 for a line's ends, the corner's own turn for a ring's). Runs
+    shorter than :data:`MIN_RUN` stay empty."""
     cuts = [0] + [i for i in range(1, len(coords) - 1) if abs(turns[i]) > bend] + \
         [len(coords) - 1]
     out: list[Run] = []
     for a, b in zip(cuts, cuts[1:], strict=False):
         line = LineString(coords[a:b + 1])
-        trim0 = depth * math.tan(math.radians(turns[a]) / 2)
-        trim1 = depth * math.tan(math.radians(turns[b]) / 2)
-        lo, hi = max(trim0, 0.0), line.length - max(trim1, 0.0)
-        if hi - lo < MIN_RUN:
+        lo = behind(float(turns[a]), depth)
+        if line.length - lo < MIN_RUN:
             continue
-        out.append(Run(side, len(out), substring(line, lo, hi)))
+        out.append(Run(side, len(out), substring(line, lo, line.length)))
     return out
+
+
+def behind(turn: float, depth: float) -> float:
+    """How far along the run leaving a left turn of ``turn`` degrees its row starts so
+    as to stand clear of the row (``depth`` deep) that runs on to the corner: at a square
+    corner the depth (its first building against the other's back), at a gentler turn
+    the depth times the turn's sine (the other's end lies across the corner), at a
+    sharper one times the half-turn's tangent (its back reaches past the other's end).
+    0 at a right turn (away from the buildings: the rows fan apart behind)."""
+    if turn <= 0.0:
+        return 0.0
+    t = math.radians(min(turn, 179.0))
+    return depth * (math.sin(t) if turn <= 90.0 else math.tan(t / 2))
 
 
 RING_SIMPLIFY = 0.25  # m: a block outline is straightened this much before it is cut
@@ -203,9 +219,10 @@ FOLD = math.sin(math.radians(RING_BEND))   # a row's chords turning by more: fol
 def ring_runs(polygon: shapely.Polygon, depth: float, side: str = "ring") -> list[Run]:
     """The runs of a polygon's rings, the buildings inside (a block's sides: each ring
     travelled with the polygon on its left, from its sharpest corner), straightened
-    by :data:`RING_SIMPLIFY` and cut at every turn, each run trimmed at its convex
-    ends like a street's left turns, so neighbouring runs' rows meet without
-    overlapping; ``side`` names them (``ring_0``, ...)."""
+    by :data:`RING_SIMPLIFY` and cut at every turn, as a street's sides at their left
+    turns: at each convex corner one row runs on to the corner and the next starts
+    behind it, so neighbouring runs' rows meet without overlapping; ``side`` names
+    them (``ring_0``, ...)."""
     poly = shapely.geometry.polygon.orient(polygon.simplify(RING_SIMPLIFY), 1.0)
     out: list[Run] = []
     for ring in [poly.exterior, *poly.interiors]:

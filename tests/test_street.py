@@ -95,14 +95,20 @@ def test_sample_buildings_make_neighbours_matter(sample_db):
         assert (sample_db.cost[i] == 0).any() and (sample_db.cost[:, i] == 0).any()
 
 
-def test_runs_split_at_bends_and_stop_short_of_inner_corners():
+def test_runs_split_at_bends_and_meet_at_inner_corners():
     street = shapely.LineString([(0, 0), (100, 0), (100, 80)])   # a left turn of 90 deg
     left = runs(street, "left", 6.0, 12.0)
     right = runs(street, "right", 6.0, 12.0)
     assert [r.name for r in left] == ["left_0", "left_1"]
-    # left of the line is the inside of the turn: each run stops 12 m (tan 45) short
-    assert left[0].line.length == pytest.approx(100 - 6 - 12)
+    # left of the line is the inside of the turn: the first run goes on to the corner,
+    # the second starts 12 m (the depth) behind it, against its row's back; before,
+    # each stopped 12 m short and a 12 x 12 m square stood open at the corner
+    assert left[0].line.length == pytest.approx(100 - 6)
     assert left[1].line.length == pytest.approx(80 - 6 - 12)
+    bands = [r.line.buffer(12.0, single_sided=True, cap_style="flat", join_style="mitre")
+             for r in left]
+    assert bands[0].intersection(bands[1]).area < 1e-6
+    assert shapely.box(82, 6, 94, 18).difference(shapely.union_all(bands)).area < 1e-6
     # right of it the outside: the runs reach the corner of the offset line
     assert sum(r.line.length for r in right) == pytest.approx(facade_line(
         street, "right", 6.0).length)

@@ -546,6 +546,7 @@ def failure(prep: Prepared, job: BlockJob, db: PartDB, blocked_at: BlockedAt | N
 BLOCK_DEPTH = 15.0    # m: the deepest massing of the sample library (14 m and a 0.6 m variant)
 CUT = "cut"           # marks an outline that is a street block cut back (cleaned faithfully)
 GAP = 3.0             # m: a lane between footprint buildings and what is left of a block
+STREET_TOUCH = 0.01   # m: a piece of a block this near its outline reaches its street
 
 
 def cut_back(blocks: list[shapely.Polygon], buildings: list[shapely.Polygon], *,
@@ -554,10 +555,15 @@ def cut_back(blocks: list[shapely.Polygon], buildings: list[shapely.Polygon], *,
     """Street blocks with the ground of footprint buildings taken out (and ``GAP``
     around them), so that no two facades share ground: what is left of a block is kept
     where it is at least ``depth`` wide (a facade's mass, ``depth`` deep, stays on its
-    own piece), in pieces of ``min_area`` and ``min_width``; the reasons for the rest."""
+    own piece), in pieces of ``min_area`` and ``min_width`` that reach the block's
+    outline (a street); the reasons for the rest. A building's courtyards are its own
+    ground, and a yard the buildings close round has no street: a block was built in
+    the courtyard of a building of the district, another in the yard its neighbours
+    enclose."""
     if not buildings:
         return blocks, []
-    taken = shapely.union_all([b.buffer(GAP, join_style="mitre") for b in buildings])
+    taken = shapely.union_all([shapely.Polygon(p.exterior).buffer(GAP, join_style="mitre")
+                               for b in buildings for p in polygons_in(b)])
     out, why = [], []
     for block in blocks:
         if not block.intersects(taken):
@@ -566,16 +572,25 @@ def cut_back(blocks: list[shapely.Polygon], buildings: list[shapely.Polygon], *,
         left = block.difference(taken).buffer(-depth / 2, join_style="mitre") \
             .buffer(depth / 2, join_style="mitre").intersection(block.difference(taken))
         c = block.representative_point()
-        kept = 0
+        kept = enclosed = 0
+        street = block.exterior.buffer(STREET_TOUCH)
         for piece in shapely.get_parts(left):
             if not isinstance(piece, shapely.Polygon) or piece.is_empty:
                 continue
-            if piece.area >= min_area and 2 * piece.area / piece.length >= min_width:
-                out.append(shapely.geometry.polygon.orient(piece, 1.0))
-                kept += 1
+            if piece.area < min_area or 2 * piece.area / piece.length < min_width:
+                continue
+            if piece.exterior.intersection(street).length < min_width:
+                enclosed += 1
+                continue
+            out.append(shapely.geometry.polygon.orient(piece, 1.0))
+            kept += 1
+        if enclosed:
+            why.append(f"block at ({c.x:.1f}, {c.y:.1f}): {enclosed} yard(s) the footprint "
+                       "buildings close round (no street reaches them) left open")
         if not kept:
             why.append(f"block at ({c.x:.1f}, {c.y:.1f}): its ground is taken by footprint "
-                       "buildings (what is left is too small or too thin for a facade)")
+                       "buildings (what is left is too small or too thin for a facade, "
+                       "or a yard no street reaches)")
     return out, why
 
 
