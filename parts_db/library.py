@@ -395,5 +395,8 @@ def load_library(path: str | Path) -> PartDB:
         return ingest(p)
     if (p / DB_JSON).is_file():
         return load_db(p)
+    if not p.exists():
+        raise LibraryError(f"{p}: no such folder; give the folder of a part library (with "
+                           f"manifest.toml) or of a part database (with {DB_JSON})")
     raise LibraryError(f"{p}: neither a library (no manifest.toml) nor a part database "
                        f"(no {DB_JSON})")

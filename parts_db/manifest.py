@@ -52,6 +52,9 @@ class Manifest:
 def read_manifest(library_dir: str | Path) -> Manifest:
     root = Path(library_dir)
     path = root / "manifest.toml"
+    if not root.exists():
+        raise LibraryError(f"{root}: no such folder; a library is a folder with manifest.toml "
+                           "and mesh files")
     if not root.is_dir():
         raise LibraryError(f"{root}: not a folder; a library is a folder with manifest.toml "
                            "and mesh files")

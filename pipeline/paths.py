@@ -27,8 +27,9 @@ def check_out_dir(out: str | Path, option: str = "-o") -> None:
         raise UsageError(f"{anc}: a file, so {p} cannot be made under it; give another "
                          f"{option} folder")
     if not os.access(anc, os.W_OK | os.X_OK):
-        raise UsageError(f"{anc}: may not be written (read-only or no permission), so "
-                         f"{p} cannot be written; give another {option} folder")
+        made = "" if anc == p.absolute() else f", so {p} cannot be made in it"
+        raise UsageError(f"{anc}: may not be written (read-only or no permission){made}; "
+                         f"give another {option} folder")
 
 
 def check_not_empty(folder: str | Path, option: str) -> None:

@@ -319,10 +319,14 @@ CITY_TOML_SHAPES = {
                           "height = [40, 1e300]\nfar = [2, 4]\n",
 }
 for shape, text in CITY_TOML_SHAPES.items():
-    def make_cfg(tmp: Path, text=text) -> list[str]:
+    def make_cfg(tmp: Path, text=text, shape=shape) -> list[str]:
         f = tmp / "city.toml"
         f.write_text(text)
-        return _toml_argv("city.toml", f)
+        argv = _toml_argv("city.toml", f)
+        if shape == "library-missing":     # --library would win over the file's
+            i = argv.index("--library")
+            del argv[i:i + 2]
+        return argv
     case(f"city.toml-{shape}", make_cfg,
          names="no/such/library" if shape == "library-missing" else "city.toml")
 

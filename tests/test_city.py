@@ -346,7 +346,6 @@ def test_footprints_are_reskinned(tmp_path):
     ("pick = 'random'\n", "pick: must be one of best, vary"),
     ("[setback]\nhighway = { primary = -3 }\n", "setback.highway.primary: must be a positive"),
     ("k = [\n", "not valid TOML"),
-    ("library = '/nope'\n", 'city.toml: library = "/nope": /nope: neither a library'),
     ("style = 'gothic'\n", "city.toml: style: the library 'citysynth sample' has no style "
      '"gothic"; it has classic, modern'),
 ])
@@ -357,6 +356,26 @@ def test_config_errors_name_the_key(tmp_path, capsys, text, fragment):
     err = capsys.readouterr().err
     assert fragment in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "run").exists()
+
+
+def test_the_command_line_library_wins_over_the_config(tmp_path, capsys):
+    """``--library`` wins over city.toml's ``library`` (the config's won: a city was
+    built from another library than the command named, exit 0 without a word, even
+    with ``--library`` a missing folder); without the flag the config's is used, and a
+    missing one is told as such."""
+    cfg = tmp_path / "city.toml"
+    cfg.write_text("library = '/nope'\n")
+    inputs = prepare(DISTRICT, None, load_config(cfg), LIB)
+    assert inputs.jobs and {Path(j.library) for j in inputs.jobs} == {LIB.resolve()}
+    assert main(["city", "--streets", str(DISTRICT), "--config", str(cfg), "-o",
+                 str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert 'city.toml: library = "/nope": /nope: no such folder' in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "run").exists()
+    cfg.write_text(f"library = {json.dumps(str(LIB))}\n")
+    assert main(["city", "--streets", str(DISTRICT), "--config", str(cfg), "--library",
+                 str(tmp_path / "missing"), "-o", str(tmp_path / "run")]) == 2
+    assert "missing: no such folder" in capsys.readouterr().err
 
 
 def test_bad_city_input(tmp_path, capsys, monkeypatch):

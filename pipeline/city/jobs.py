@@ -84,6 +84,8 @@ class BlockRecord(TypedDict):
     storeys: NotRequired[int]              # footprints: the storeys its family has
     note: NotRequired[str]                 # footprints: storeys asked but not matched
     cached: NotRequired[bool]              # set by the run: read from an earlier run
+    machine: NotRequired[bool]             # failed by the machine (disk, rights), not the
+                                           # block: not recorded, and the city exits 2
 
 
 def frame_tuple(frame: Frame) -> tuple[str, float, float]:
@@ -238,7 +240,7 @@ def run_block(job: BlockJob, out_dir: str) -> BlockRecord:
     except Exception as exc:
         env = environment_failure(exc)
         if env is not None:   # failed this time; a rerun (with space, rights) retries it
-            rec["files"] = []
+            rec["files"], rec["machine"] = [], True
             what = str(exc) if isinstance(exc, USER_ERRORS) else f"could not write ({env})"
             return _unrecorded(rec, "failed", t0, f"{what}; a failure of the machine, not "
                                "recorded: fix the disk or permissions and run again")

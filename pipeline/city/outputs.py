@@ -67,6 +67,7 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
         "counts": counts, "blocks": len(inputs.jobs),
         "built_share": counts["built"] / attempted if attempted else 1.0,
         "failed": with_status("failed", "reason"),
+        "machine_failed": [i for i in ids if recs[i].get("machine")],
         "storeys_not_matched": [{"id": i, "note": n} for i in ids
                                 for n in _notes(recs[i]) if "storeys asked" in n],
         "notes": [{"id": i, "note": n} for i in ids for n in _notes(recs[i])],

@@ -320,8 +320,13 @@ def _library_style(s: BuildSettings, library: str | Path | None,
                    zone: str = "", cfg: CityConfig | None = None) -> tuple[PartDB, str, str]:
     """The part database (each library loaded once, kept in ``libraries``), its folder
     and the style a block with settings ``s`` (of a zone of ``kind``) is built in
-    (checked to exist)."""
-    path = s.library or (str(Path(library).resolve()) if library else None)
+    (checked to exist). ``--library`` (``library``) wins over the config's top-level
+    ``library``, as a flag over a file; a zone's own library holds in the zone. (The
+    config's won: a city was built from another library than the command named, exit 0
+    without a word, even with ``--library`` a missing folder.)"""
+    top = cfg.settings.library if cfg is not None else None
+    own = s.library if s.library and (s.library != top or not library) else None
+    path = own or (str(Path(library).resolve()) if library else None)
     if path is None:
         raise ConfigError("no part library: give --library or library = \"...\" in the "
                           "config")
@@ -331,7 +336,7 @@ def _library_style(s: BuildSettings, library: str | Path | None,
         try:
             libraries[path] = load_library(path)
         except LibraryError as exc:   # a library city.toml names: say the key too
-            if not s.library:
+            if not own:
                 raise
             raise ConfigError(f"{where}library = {shown(s.library)}: {exc}") from None
     db = libraries[path]
@@ -583,10 +588,12 @@ def progress_printer(stream: TextIO | None = None, pieces: int = 0) -> Progress:
         state["cached" if rec.get("cached") else "ran"] += 1
         rate = state["ran"] / max(time.perf_counter() - t0, 1e-9)
         bugs = f", internal errors {state['error']}" if state["error"] else ""
-        cache = f" ({state['cached']} cached)" if state["cached"] else ""
+        # cached: blocks an earlier run finished, built or skipped (as the summary
+        # counts them; "built 26 (28 cached)" read as more cached than built)
+        cache = f", cached {state['cached']}" if state["cached"] else ""
         speed = f" ({rate:.1f} blocks/s)" if state["ran"] else ""
-        line = (f"[{done:>{len(str(total))}}/{total}] built {state['built']}{cache}, "
-                f"failed {state['failed']}, skipped {state['skipped']}{bugs}{speed}")
+        line = (f"[{done:>{len(str(total))}}/{total}] built {state['built']}, "
+                f"failed {state['failed']}, skipped {state['skipped']}{cache}{bugs}{speed}")
         if tty:
             print("\r" + line, end="\n" if done == total else "", file=stream, flush=True)
         elif total and (done * 10 // total > state["step"] or done == total):

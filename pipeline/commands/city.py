@@ -16,7 +16,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from citysynth.pipeline.city.process import cpu_count
-from citysynth.pipeline.errors import EXIT_INFEASIBLE, EXIT_INTERNAL, EXIT_OK, UsageError
+from citysynth.pipeline.errors import (
+    EXIT_BAD_INPUT,
+    EXIT_INFEASIBLE,
+    EXIT_INTERNAL,
+    EXIT_OK,
+    UsageError,
+)
 
 if TYPE_CHECKING:
     from citysynth.pipeline.city.outputs import Report
@@ -112,12 +118,20 @@ def report_bugs(report: Report, who: str) -> int:
 
 def exit_code(report: Report, who: str) -> int:
     """A city's exit code: :data:`EXIT_INTERNAL` when a block met a bug (each printed
-    by :func:`report_bugs`), else :data:`EXIT_INFEASIBLE` when a block failed or nothing
-    at all was built (every piece skipped: a pipeline must not read that as a city),
-    else :data:`EXIT_OK`."""
+    by :func:`report_bugs`), else :data:`EXIT_BAD_INPUT` when the machine failed a block
+    (a full disk, no permission: as every command's refusal of the machine; it was 1,
+    which a pipeline reads as "infeasible"), else :data:`EXIT_INFEASIBLE` when a block
+    failed or nothing at all was built (every piece skipped: a pipeline must not read
+    that as a city), else :data:`EXIT_OK`."""
     bugs = report_bugs(report, who)
     if bugs:
         return bugs
+    machine = report.get("machine_failed", [])
+    if machine:
+        why = next(f["reason"] for f in report["failed"] if f["id"] == machine[0])
+        print(f"{who}: {len(machine)} block(s) could not be written, e.g. {machine[0]}: "
+              f"{why}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     c = report["counts"]
     if not c["built"] and not c["failed"] and not c["skipped"]:
         print(f"{who}: nothing was built: the streets enclose no block (a block is the "
