@@ -11,9 +11,7 @@ twice, a few centimetres off) count as touching, a passage between two buildings
 not.
 
 Neighbours drawn apart by less than :data:`TOUCH` are first made to touch
-(:func:`closed_gaps`): each building stops on its own line, so the gap in the data
-stood in the city as a slit the buildings' full height and depth, sky and yard showing
-through it from the street.
+(:mod:`~citysynth.pipeline.city.gaps`).
 """
 
 from __future__ import annotations
@@ -28,12 +26,10 @@ from shapely.geometry.polygon import orient
 
 from citysynth.export.party import TOUCH, Segment
 from citysynth.pipeline.city.footprints import remark
+from citysynth.pipeline.city.gaps import closed_gaps, grown_note
 from citysynth.pipeline.city.overlaps import Footprint
 
 MIN_LENGTH = 1.0   # m: a shorter shared stretch is a corner touching, not a wall
-HAIR = 1e-6        # m: rounding of two lines that are one
-MIN_GAP = 0.001    # m: a gap thinner on average is rounding too (a wall drawn once,
-                   # through a projection), and shows nothing
 DIGITS = 3         # the stretches' ends to the millimetre (the job's hash covers them)
 
 
@@ -53,63 +49,6 @@ def with_party_walls(footprints: list[Footprint]) -> list[Footprint]:
     walls = party_walls([f.polygon for f in grown])
     return [replace(fp, spec=replace(fp.spec, party=w)) if w else fp
             for fp, w in zip(grown, walls, strict=True)]
-
-
-def grown_note(added: float, towards: list[str]) -> str:
-    """What :func:`closed_gaps` did to a footprint, for its note."""
-    return (f"grown by {added:.2f} m² to meet {' and '.join(dict.fromkeys(towards))}: drawn "
-            f"less than {TOUCH:g} m apart, they would have stood with a slit between them")
-
-
-def closed_gaps(shapes: list[BaseGeometry]) -> list[tuple[BaseGeometry, float, list[int]]]:
-    """Each of ``shapes`` with the gaps narrower than :data:`TOUCH` between it and
-    larger neighbours filled (the ground a closing of the two leaves between them, in
-    strips at least :data:`MIN_LENGTH` long), the area added, and those neighbours.
-    Larger first (by area, then order, as overlaps are settled): the larger keeps its
-    line and the smaller grows to it, so the two meet on one line, as a wall drawn once
-    would. A gap wider than :data:`TOUCH` is a passage and stays; nothing grows into
-    a third footprint."""
-    out: list[tuple[BaseGeometry, float, list[int]]] = [(s, 0.0, []) for s in shapes]
-    tree = shapely.STRtree(shapes)
-    order = sorted(range(len(shapes)), key=lambda i: (-shapes[i].area, i))
-    rank = {i: r for r, i in enumerate(order)}
-    r = TOUCH / 2.0
-    for i in order:
-        shape = shapes[i]
-        near = [int(j) for j in tree.query(shape, predicate="dwithin", distance=TOUCH)
-                if int(j) != i]
-        larger = [j for j in near if rank[j] < rank[i]]
-        if not larger:
-            continue
-        # the neighbours near this one only: a 20 km footprint is not buffered again for
-        # each of the thousand houses beside it
-        local = shapely.box(*shape.bounds).buffer(4 * TOUCH, join_style="mitre")
-        others = shapely.union_all([out[j][0] for j in larger]).intersection(local)
-        both = shapely.union_all([shape, others])
-        closed = _opened(both, -r)
-        slit = closed.difference(shapely.union_all([both, *(out[j][0] for j in near)]))
-        # opened by a micrometre: the difference leaves zero-wide hairs along edges that
-        # are one line but for rounding, which would join the building as spikes
-        slit = _opened(slit, HAIR)
-        pieces = [g for g in shapely.get_parts(slit)
-                  if g.length / 2.0 >= MIN_LENGTH and g.area >= MIN_GAP * g.length / 2.0
-                  and g.distance(shape) < 1e-6 and g.distance(others) < 1e-6]
-        if not pieces:
-            continue
-        # closed by a micrometre: the gap's edge and the building's are one line but
-        # for rounding, and a plain union kept the hair between them as two polygons
-        grown = _opened(shapely.union_all([shape, *pieces]), -HAIR)
-        if grown.geom_type != shape.geom_type:     # never splits or joins a building
-            continue
-        towards = [j for j in larger if any(g.distance(out[j][0]) < 1e-6 for g in pieces)]
-        out[i] = (grown, grown.area - shape.area, towards)
-    return out
-
-
-
-def _opened(g: BaseGeometry, by: float) -> BaseGeometry:
-    """``g`` opened by ``by`` (closed by ``-by``), mitred: its corners stay sharp."""
-    return shapely.buffer(shapely.buffer(g, -by, join_style="mitre"), by, join_style="mitre")
 
 
 def party_walls(shapes: list[BaseGeometry]) -> list[tuple[Segment, ...]]:

@@ -226,7 +226,7 @@ def _gaps_closed(args, feats: list) -> list:
     city's footprints (each grown one said on stderr)."""
     from dataclasses import replace
 
-    from citysynth.pipeline.city.party import closed_gaps, grown_note
+    from citysynth.pipeline.city.gaps import closed_gaps, grown_note
 
     out = []
     for f, (shape, added, towards) in zip(feats, closed_gaps([f.geometry for f in feats]),
