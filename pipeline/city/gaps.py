@@ -38,7 +38,8 @@ OVERLAP = 0.01      # m²: a moved side may overlap another footprint by roundin
 
 def grown_note(added: float, towards: list[str]) -> str:
     """What :func:`closed_gaps` did to a footprint, for its note."""
-    return (f"grown by {added:.2f} m² to meet {' and '.join(dict.fromkeys(towards))}: drawn "
+    area = f"{added:.2f} m²" if added >= 0.005 else "under 0.01 m²"
+    return (f"grown by {area} to meet {' and '.join(dict.fromkeys(towards))}: drawn "
             f"less than {TOUCH:g} m apart, they would have stood with a slit between them")
 
 
