@@ -27,6 +27,8 @@ from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
 from citysynth.export.party import TOUCH
+from citysynth.pipeline.city.footprints import remark
+from citysynth.pipeline.city.overlaps import Footprint
 
 MIN_LENGTH = 1.0    # m: a side runs along a neighbour's for at least this, or not at all
 MIN_GAP = 0.001     # m: a thinner gap is rounding of one line (a wall drawn once,
@@ -34,6 +36,21 @@ MIN_GAP = 0.001     # m: a thinner gap is rounding of one line (a wall drawn onc
 PARALLEL = 0.995    # cosine: the two sides run the same way within about 6°
 MAX_SLIDE = 1.0     # m: a corner moves at most this far (the side beside nearly parallel)
 OVERLAP = 0.01      # m²: a moved side may overlap another footprint by rounding only
+
+
+def with_gaps_closed(footprints: list[Footprint]) -> list[Footprint]:
+    """``footprints`` (the ones to build, as :func:`~.overlaps.separate` leaves them)
+    with the gaps under TOUCH between them closed, a grown one's note saying by how
+    much and towards which."""
+    out = []
+    for fp, (shape, added, towards) in zip(
+            footprints, closed_gaps([f.polygon for f in footprints]), strict=True):
+        if added > 0.0:
+            fp = Footprint(shape, remark(fp.spec, grown_note(added, [
+                footprints[j].spec.label if footprints[j].spec.source == fp.spec.source
+                else footprints[j].spec.where for j in towards])))
+        out.append(fp)
+    return out
 
 
 def grown_note(added: float, towards: list[str]) -> str:

@@ -25,8 +25,6 @@ from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
 from citysynth.export.party import TOUCH, Segment
-from citysynth.pipeline.city.footprints import remark
-from citysynth.pipeline.city.gaps import closed_gaps, grown_note
 from citysynth.pipeline.city.overlaps import Footprint
 
 MIN_LENGTH = 1.0   # m: a shorter shared stretch is a corner touching, not a wall
@@ -34,21 +32,12 @@ DIGITS = 3         # the stretches' ends to the millimetre (the job's hash cover
 
 
 def with_party_walls(footprints: list[Footprint]) -> list[Footprint]:
-    """``footprints`` (the ones to build, as :func:`~.overlaps.separate` leaves them),
-    the gaps under :data:`TOUCH` between them closed (a grown one's note says by how
-    much and towards which), each spec carrying the stretches of its outline shared
-    with the others."""
-    grown = []
-    for fp, (shape, added, towards) in zip(
-            footprints, closed_gaps([f.polygon for f in footprints]), strict=True):
-        if added > 0.0:
-            fp = Footprint(shape, remark(fp.spec, grown_note(added, [
-                footprints[j].spec.label if footprints[j].spec.source == fp.spec.source
-                else footprints[j].spec.where for j in towards])))
-        grown.append(fp)
-    walls = party_walls([f.polygon for f in grown])
+    """``footprints`` (the ones to build, as :func:`~.overlaps.separate` and
+    :func:`~.gaps.with_gaps_closed` leave them), each spec carrying the stretches of
+    its outline shared with the others."""
+    walls = party_walls([f.polygon for f in footprints])
     return [replace(fp, spec=replace(fp.spec, party=w)) if w else fp
-            for fp, w in zip(grown, walls, strict=True)]
+            for fp, w in zip(footprints, walls, strict=True)]
 
 
 def party_walls(shapes: list[BaseGeometry]) -> list[tuple[Segment, ...]]:

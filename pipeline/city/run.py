@@ -45,6 +45,7 @@ from citysynth.pipeline.city.footprints import (
     street_crossings,
     style_families,
 )
+from citysynth.pipeline.city.gaps import with_gaps_closed
 from citysynth.pipeline.city.jobs import (
     STATUSES,
     BlockJob,
@@ -221,6 +222,7 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
                 spec = street_crossings(spec, p, lines, tree)
             found.append(Footprint(p, spec))
     built, left = separate(found, cfg.min_area)     # one building's facades per ground
+    built = with_gaps_closed(built)                 # a wall drawn twice is one wall
     built = with_party_walls(built)                 # and none on a wall it shares
     outlines += [("footprint", f.polygon, (), f.spec) for f in built]
     skipped += [_skip("footprint", why, p) for why, p in left]
