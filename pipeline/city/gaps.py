@@ -22,13 +22,13 @@ import math
 
 import numpy as np
 import shapely
-from shapely.geometry import LinearRing, Polygon
+from shapely.geometry import Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.geometry.polygon import orient
 
 from citysynth.export.party import TOUCH
 from citysynth.pipeline.city.footprints import remark
-from citysynth.pipeline.city.overlaps import Footprint
+from citysynth.pipeline.city.overlaps import Footprint, names_of
 
 MIN_LENGTH = 1.0    # m: a side runs along a neighbour's for at least this, or not at all
 MIN_GAP = 0.001     # m: a thinner gap is rounding of one line (a wall drawn once,
@@ -46,17 +46,17 @@ def with_gaps_closed(footprints: list[Footprint]) -> list[Footprint]:
     for fp, (shape, added, towards) in zip(
             footprints, closed_gaps([f.polygon for f in footprints]), strict=True):
         if added > 0.0:
-            fp = Footprint(shape, remark(fp.spec, grown_note(added, [
-                footprints[j].spec.label if footprints[j].spec.source == fp.spec.source
-                else footprints[j].spec.where for j in towards])))
+            fp = Footprint(shape, remark(fp.spec, grown_note(
+                added, names_of(fp.spec, [footprints[j].spec for j in towards]))))
         out.append(fp)
     return out
 
 
-def grown_note(added: float, towards: list[str]) -> str:
-    """What :func:`closed_gaps` did to a footprint, for its note."""
+def grown_note(added: float, towards: str) -> str:
+    """What :func:`closed_gaps` did to a footprint, for its note (``towards``: the
+    neighbours it met, named)."""
     area = f"{added:.2f} m²" if added >= 0.005 else "under 0.01 m²"
-    return (f"grown by {area} to meet {' and '.join(dict.fromkeys(towards))}: drawn "
+    return (f"grown by {area} to meet {towards}: drawn "
             f"less than {TOUCH:g} m apart, they would have stood with a slit between them")
 
 
@@ -163,17 +163,13 @@ def _meet(p: np.ndarray, q: np.ndarray, seg: np.ndarray) -> np.ndarray | None:
 
 def _acceptable(before: BaseGeometry, after: BaseGeometry,
                 others: list[BaseGeometry]) -> bool:
-    """Whether the moved outline is one a building stands on: valid, with as many
-    rings, grown by a strip no wider than TOUCH, and over no other footprint."""
+    """Whether the moved outline is one a building stands on: valid (its rings simple
+    and apart), grown, no corner moved more than :data:`MAX_SLIDE`, and over no other
+    footprint."""
     if not after.is_valid or after.area <= before.area:
-        return False
-    if any(isinstance(r, LinearRing) and not r.is_simple for r in _rings(after)):
         return False
     if after.hausdorff_distance(before) > MAX_SLIDE:
         return False
     return all(after.intersection(o).area - before.intersection(o).area <= OVERLAP
                for o in others)
 
-
-def _rings(g: BaseGeometry) -> list[LinearRing]:
-    return [r for p in shapely.get_parts(g) for r in (p.exterior, *p.interiors)]

@@ -66,7 +66,7 @@ def separate(footprints: list[Footprint], min_area: float
         rest = fp.polygon.difference(shapely.union_all([k.polygon for j in under
                                                         for k in kept[j]]))
         share = 1.0 - rest.area / fp.polygon.area
-        where = _names(fp.spec, [footprints[j].spec for j in under])
+        where = names_of(fp.spec, [footprints[j].spec for j in under])
         if share >= INSIDE:
             left[i] = (f"{fp.spec.where}: {100 * share:.0f} % of it lies inside {where}, "
                        "larger and built; left out (a part of that building, or the same "
@@ -85,8 +85,9 @@ def separate(footprints: list[Footprint], min_area: float
             [left[i] for i in range(len(footprints)) if i in left])
 
 
-def _names(spec: FootprintSpec, others: list[FootprintSpec]) -> str:
-    """The larger footprints, by feature (and file, when theirs is another)."""
+def names_of(spec: FootprintSpec, others: list[FootprintSpec]) -> str:
+    """Other footprints as ``spec``'s messages name them: by feature (and file, when
+    theirs is another), joined by "and"."""
     return " and ".join(o.label if o.source == spec.source else o.where for o in others)
 
 

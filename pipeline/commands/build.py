@@ -233,7 +233,8 @@ def _gaps_closed(args, feats: list) -> list:
                                           strict=True):
         if added > 0.0:
             print(f"citysynth {args.command}: {f.where}: "
-                  f"{grown_note(added, [feats[j].name for j in towards])}", file=sys.stderr)
+                  f"{grown_note(added, ' and '.join(feats[j].name for j in towards))}",
+                  file=sys.stderr)
             f = replace(f, geometry=shape)
         out.append(f)
     return out
