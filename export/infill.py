@@ -18,13 +18,18 @@ from above:
 - **looks**: its top in the roof material and its sides in the wall material of that
   lowest part (the library's own materials, as a cut's caps are).
 
-Street blocks keep their yards: the pipeline asks for infill on footprints only
-(``citysynth city``'s footprints, ``citysynth block --infill``).
+What is roofed (:data:`Roof`): all of it on a footprint (``citysynth city``'s
+footprints, ``citysynth block --infill``), which has no open ground but its courtyards.
+A street block keeps its yards open and roofs only its **pockets**: open ground no
+circle of :data:`YARD` radius fits in, left between wings where they meet at an acute
+corner or behind a nose (a 27 x 18 m block had a 5.5 m diamond of ground showing
+through its roofs; no yard is that narrow).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Literal
 
 import numpy as np
 import shapely
@@ -46,19 +51,25 @@ SLIVER = 0.15          # m: open ground thinner than twice this is a seam, not a
 DROP = 0.3             # m: the infill's top below the lowest back eave round it
 NEIGHBOUR = 0.5        # m: a part this near an open area is round it
 MIN_HEIGHT = 2.5       # m: lower than this, the parts round it are no building
+YARD = 2.5             # m: street-block ground no circle this big fits in is a pocket
 MASS_PIECES = ("walls", "roof")    # the pieces a part's plan is taken from
 TOP_PIECE, SIDE_PIECE = "roof", "walls"
 _PLANS: dict[tuple[str, str], BaseGeometry] = {}
 _EAVES: dict[tuple[str, str], float] = {}
 
+Roof = Literal["all", "pockets", "none"]
+"""What of a layout's open ground is roofed: ``all`` (a footprint), ``pockets`` (a
+street block: its yards stay open, what no circle of :data:`YARD` radius fits in is
+roofed), ``none``."""
 
-def plan_infill(structures: list[dict], instances: Sequence[Instance], db: PartDB
-                ) -> list[Infill]:
-    """The infill of a footprint's layout (its ``structures`` as the layout JSON holds
-    them, its ``instances``): one :class:`Infill` per open area, largest first; none
-    when every bit of ground is covered or no ring is closed."""
+
+def plan_infill(structures: list[dict], instances: Sequence[Instance], db: PartDB,
+                roof: Roof = "all") -> list[Infill]:
+    """The infill of a layout (its ``structures`` as the layout JSON holds them, its
+    ``instances``): one :class:`Infill` per open area ``roof`` asks to roof, largest
+    first; none when every bit of ground is covered or no ring is closed."""
     ground = building_ground(structures)
-    if ground.is_empty or not instances:
+    if roof == "none" or ground.is_empty or not instances:
         return []
     grounds = instance_grounds(db, instances)
     try:
@@ -67,6 +78,8 @@ def plan_infill(structures: list[dict], instances: Sequence[Instance], db: PartD
         open_ = _open_ground(ground, grounds, GRID)
     areas = [p for p in shapely.get_parts(open_)
              if p.geom_type == "Polygon" and p.area >= MIN_AREA]
+    if roof == "pockets":
+        areas = [p for p in areas if is_pocket(p)]
     tree = shapely.STRtree(grounds)
     out = []
     for area in sorted(areas, key=lambda p: (-round(p.area, 3), p.bounds)):
@@ -80,6 +93,12 @@ def plan_infill(structures: list[dict], instances: Sequence[Instance], db: PartD
             continue
         out.append(Infill(part, z, _rings(area)))
     return out
+
+
+def is_pocket(area: Polygon) -> bool:
+    """Whether open ground is too narrow to be a yard: no circle of :data:`YARD` radius
+    fits in it (it vanishes when shrunk by that much)."""
+    return bool(shapely.buffer(area, -YARD).is_empty)
 
 
 def _open_ground(ground: BaseGeometry, grounds: list[BaseGeometry], grid: float | None

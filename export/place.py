@@ -38,7 +38,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from citysynth.export.errors import ExportError
-from citysynth.export.infill import plan_infill
+from citysynth.export.infill import Roof, plan_infill
 from citysynth.export.joints import (
     EXTEND_MARGIN,
     MAX_EXTEND_DEPTHS,
@@ -132,12 +132,13 @@ def y_range(p: Part) -> tuple[float, float]:
 
 
 def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
-           solutions: Sequence[StructureSolution], db: PartDB, infill: bool = False,
+           solutions: Sequence[StructureSolution], db: PartDB, infill: Roof = "pockets",
            party: Sequence[Segment] = ()) -> Layout:
     """The layout of ``solutions[i]`` (the solver's answer for a structure: the part at
-    each key point and the fillers of each stage) on ``plans[i]``, checked. With
-    ``infill`` (a footprint), the ground inside its outline no part covers gets a
-    flat roof (:mod:`~citysynth.export.infill`); ``party`` walls (a footprint's
+    each key point and the fillers of each stage) on ``plans[i]``, checked. The ground
+    inside its outline no part covers gets a flat roof as ``infill`` says (all of it
+    on a footprint, the pockets too narrow for a yard on a street block: see
+    :mod:`~citysynth.export.infill`); ``party`` walls (a footprint's
     stretches shared with a neighbour) stop the parts reaching into it
     (:mod:`~citysynth.export.party`)."""
     parts = db.by_id
@@ -159,8 +160,7 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
             instances = [p.instance() for p in placer.placed]
         out.instances.extend(instances)
         out.structures.append(_summary(placer.plan, placer.sol, placer.record))
-    if infill:
-        out.infill = plan_infill(out.structures, out.instances, db)
+    out.infill = plan_infill(out.structures, out.instances, db, infill)
     return out
 
 

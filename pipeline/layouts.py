@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from citysynth.export.infill import Roof
 from citysynth.export.layout import Layout
 from citysynth.export.party import Segment
 from citysynth.export.place import layout, max_stretch
@@ -107,12 +108,13 @@ def check_facade(name: str, skeletons: list[Skeleton]) -> None:
 
 
 def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
-                  k: int = 1, *, infill: bool = False, party: Sequence[Segment] = (),
+                  k: int = 1, *, infill: Roof = "pockets", party: Sequence[Segment] = (),
                   label: str | None = None, **options) -> Built:
     """The k best layouts of one building or block (checked; see module docstring),
-    each with its roof infill when ``infill`` (a footprint: see
-    :mod:`~citysynth.export.infill`) and its parts stopped at the ``party`` walls it
-    shares with neighbours (:mod:`~citysynth.export.party`). ``options`` go to
+    each with its roof infill as ``infill`` says (``all`` for a footprint, ``pockets``
+    for a street block: see :mod:`~citysynth.export.infill`) and its parts stopped at
+    the ``party`` walls it shares with neighbours (:mod:`~citysynth.export.party`).
+    ``options`` go to
     :func:`~citysynth.pipeline.skeleton_to_structure.skeleton_structure` (corner
     tolerance, mitres, stretch, per-side and per-structure constraints). ``label``:
     how a refusal names it to its user (the file and feature it came from), if not by

@@ -20,7 +20,15 @@ from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
 from citysynth.export.audit import _coplanar_roofs, footprint, instance_triangles
-from citysynth.export.infill import DROP, MIN_HEIGHT, back_eave, infill_pieces, instance_grounds
+from citysynth.export.infill import (
+    DROP,
+    MIN_HEIGHT,
+    YARD,
+    back_eave,
+    infill_pieces,
+    instance_grounds,
+    is_pocket,
+)
 from citysynth.export.layout import Infill, Layout
 from citysynth.export.naming import instance_labels, stage_group, structure_group
 from citysynth.export.rings import building_ground, closed_ring
@@ -175,6 +183,42 @@ def test_street_blocks_keep_their_yards(tmp_path):
     assert "infill_00" in scene.graph.nodes
     assert validate(tmp_path / "roof" / "deep.usda") == []
     assert_clean([tmp_path / "roof" / "deep.glb"])          # Khronos's glTF validator
+
+
+# a 27 x 18 m street block with a nose: its wings leave a 5.5 m diamond of ground open
+# behind the nose, which showed through its roofs from above (the demo district's
+# bb79cf1e1a2, its outline in metres)
+NOSE = [(0.79, 0.4), (27.78, 1.81), (27.5, 7.27), (44.18, 8.16), (27.25, 11.96),
+        (26.85, 19.39), (5.33, 18.38), (4.49, 14.62), (-0.42, 9.09)]
+
+
+def test_street_block_pockets_are_roofed(tmp_path):
+    """A street block (``block`` without --infill) keeps its yards open but roofs the
+    pockets between its wings no yard is as narrow as (no 5 m circle fits in them):
+    the nose block's 17.7 m² diamond is roofed, nothing past the outline, no coplanar
+    roofs; with --infill the same parts and the same roof."""
+    src = tmp_path / "nose.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [feature([NOSE])]}))
+    args = ["block", str(src), "--library", str(LIB), "--no-preview", "--style", "classic"]
+    assert main([*args, "-o", str(tmp_path / "street")]) == 0
+    assert main([*args, "--infill", "-o", str(tmp_path / "fp")]) == 0
+    lay = json.loads((tmp_path / "street" / "deep.layout.json").read_text())
+    fp = json.loads((tmp_path / "fp" / "deep.layout.json").read_text())
+    m = measured(tmp_path / "street" / "deep.usda", lay)
+    print(f"\nopen ground {m['open']:.1f} m² of {m['ground']:.0f}; infill {m['infill']:.1f} m²")
+    assert len(lay["infill"]) == 1 and m["infill"] >= 15.0
+    assert m["open"] <= 2.0                   # seams and specks under 2 m² stay as they are
+    assert m["past_outline"] <= 0.01 and m["on_outline"] <= 0.5 and m["coplanar"] <= 0.5
+    assert m["under_parts"] <= 0.03 * m["infill"]
+    assert lay["instances"] == fp["instances"] and lay["infill"] == fp["infill"]
+    assert validate(tmp_path / "street" / "deep.usda") == []
+
+
+@pytest.mark.parametrize(("width", "pocket"), [(4.8, True), (5.2, False)])
+def test_pocket_or_yard(width, pocket):
+    """Open ground is a pocket when no circle of YARD radius fits in it, however long."""
+    assert 2 * YARD == 5.0
+    assert is_pocket(Polygon([(0, 0), (40, 0), (40, width), (0, width)])) is pocket
 
 
 def test_infill_bad_config(tmp_path, capsys):

@@ -29,6 +29,7 @@ from typing import Literal, NotRequired, TypedDict, cast, get_args
 
 import shapely
 
+from citysynth.export.infill import Roof
 from citysynth.export.layout import SCHEMA, VERSION
 from citysynth.export.place import max_stretch
 from citysynth.export.usd import CUTS_SUFFIX
@@ -348,9 +349,17 @@ def write_block(built: Built, rank: int, db: PartDB, blocks: Path) -> list[Path]
     return paths
 
 
+def _roof(job: BlockJob) -> Roof:
+    """What of a block's open ground is roofed: a footprint's all of it (unless its
+    config turns infill off), a street block's the pockets too narrow for a yard."""
+    if job.footprint is None:
+        return "pockets"
+    return "all" if job.footprint.infill else "none"
+
+
 def _solve(job: BlockJob, db: PartDB, prep: Prepared) -> Built:
     return solve_layouts(job.id, prep.rings, db, job.style, job.k,
-                         infill=job.footprint is not None and job.footprint.infill,
+                         infill=_roof(job),
                          party=job.footprint.party if job.footprint is not None else (),
                          angle_tol=job.corner_tolerance, joint_cost=job.mitre_cost,
                          per_side={n: (lo, hi) for n, lo, hi in job.per_side},

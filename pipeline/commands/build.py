@@ -20,6 +20,7 @@ from citysynth.pipeline.errors import UsageError, check_k, shown
 from citysynth.skeletons.errors import SkeletonError
 
 if TYPE_CHECKING:
+    from citysynth.export.infill import Roof
     from citysynth.pipeline.layouts import BlockedAt, Built
     from citysynth.skeletons import Frame, Skeleton
 
@@ -71,8 +72,8 @@ def register(sub) -> None:
     _common(p)
     p.add_argument("--infill", action="store_true",
                    help="the polygons are building footprints: roof over the ground "
-                        "deeper than the parts reach (a street block keeps its yard "
-                        "open without it)")
+                        "deeper than the parts reach (without it, a street block keeps "
+                        "its yards open and roofs only pockets narrower than 5 m)")
     p.set_defaults(run=run_block, geometry="polygons")
 
 
@@ -215,7 +216,8 @@ def run_block(args) -> int:
     rings = [skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
              for f in feats]
     walls = party_walls([f.geometry for f in feats])   # where features touch
-    built = [(solve_layouts(name, r, db, style, args.k, infill=args.infill, label=label,
+    roof: Roof = "all" if args.infill else "pockets"     # footprints, or street blocks
+    built = [(solve_layouts(name, r, db, style, args.k, infill=roof, label=label,
                             party=w, **_options(args)), r)
              for name, label, r, w in zip(names, labels, rings, walls, strict=True)]
     return _finish(args, db, style, frame, built)
