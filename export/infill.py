@@ -11,7 +11,9 @@ from above:
 - **what**: the outline less every instance's plan (its walls' and roof's faces
   projected on the ground, the part extended and cut as the instance is), opened by
   :data:`SLIVER` so the hairline seams between modules stay as they are; areas under
-  :data:`MIN_AREA` are left out;
+  :data:`MIN_AREA` are left out, and those under :data:`NOTCH` that touch the outline
+  (a notch in a facade, where a plain infill wall would face the street; a speck
+  inside, where hip roofs meet round it, shows the ground through them);
 - **how high**: :data:`DROP` below the lowest back eave of the parts round it (where a
   part's solid cross-section meets its back plane), so the infill never shows above a
   roof it meets and never lies in one plane with a flat roof (no z-fighting);
@@ -46,7 +48,9 @@ from citysynth.export.rings import building_ground
 from citysynth.parts_db import Part, PartDB
 from citysynth.parts_db.geometry import Piece, part_pieces
 
-MIN_AREA = 2.0         # m²: open ground smaller than this is left open
+MIN_AREA = 0.3         # m²: open ground smaller than this is left open
+NOTCH = 2.0            # m²: smaller open ground on the outline is a notch in a facade
+TOUCH = 0.05           # m: open ground this near the outline is on it
 SLIVER = 0.15          # m: open ground thinner than twice this is a seam, not a hole
 DROP = 0.3             # m: the infill's top below the lowest back eave round it
 NEIGHBOUR = 0.5        # m: a part this near an open area is round it
@@ -76,8 +80,10 @@ def plan_infill(structures: list[dict], instances: Sequence[Instance], db: PartD
         open_ = _open_ground(ground, grounds, None)
     except shapely.errors.GEOSException:   # slivers of cuts can tangle a ring: snapped
         open_ = _open_ground(ground, grounds, GRID)
+    edge = ground.boundary
     areas = [p for p in shapely.get_parts(open_)
-             if p.geom_type == "Polygon" and p.area >= MIN_AREA]
+             if p.geom_type == "Polygon" and p.area >= MIN_AREA
+             and (p.area >= NOTCH or p.distance(edge) > TOUCH)]
     if roof == "pockets":
         areas = [p for p in areas if is_pocket(p)]
     tree = shapely.STRtree(grounds)

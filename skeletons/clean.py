@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import shapely
 from shapely.geometry import LinearRing, Polygon
+from shapely.geometry.base import BaseGeometry
 
 from citysynth.skeletons.geojson import angle_between
 
@@ -118,6 +119,7 @@ def _rebuilt(poly: Polygon, clean) -> Polygon | None:
 
 TOLERANCE = 0.5       # metres: a footprint's cleaned outline stays this close to its input
 FILL_ONLY = 0.05      # m²: beyond the tolerance a change may cut off no more than this
+ACROSS = 0.1          # m: growth along a shared wall longer than this is into the neighbour
 
 
 def _hausdorff(a: np.ndarray, ring: LinearRing) -> float:
@@ -172,13 +174,29 @@ def _changed_area(old: np.ndarray, new: np.ndarray) -> float:
     return float(a.symmetric_difference(b).area)
 
 
+def _grown_across(old: np.ndarray, new: np.ndarray, party: BaseGeometry | None) -> float:
+    """How much ground (m²) the new ring grows the footprint by across a wall it shares
+    with a neighbour (``party``: those walls' lines), into the neighbour's ground; 0
+    when it grows along none. A notch filled there put one building's walls inside the
+    other's (a jog in a shared wall, its chord drawn 2 m into the house next door)."""
+    if party is None:
+        return 0.0
+    grown = Polygon(new).buffer(0).difference(Polygon(old).buffer(0))
+    if grown.area <= FILL_ONLY or grown.intersection(party).length <= ACROSS:
+        return 0.0
+    return float(grown.area)
+
+
 def _step(pts: np.ndarray, ring: LinearRing, min_side: float, straight_tol: float,
-          tolerance: float, relaxed: bool) -> np.ndarray | None:
+          tolerance: float, relaxed: bool, party: BaseGeometry | None = None
+          ) -> np.ndarray | None:
     """One absorption: the tip of a spike that is a mere sliver (whatever the
     tolerance: no facade follows one), else the first short run (shortest first) that
     some candidate absorbs within ``tolerance`` of the input ring; ``relaxed``: of
     every short run, the candidate that strays least beyond it while cutting off
-    nothing of the building (a notch filled, never a wing removed)."""
+    nothing of the building (a notch filled, never a wing removed). Either way a
+    candidate that grows across a ``party`` wall (:func:`_grown_across`) is taken only
+    when no other is (:func:`_relaxed_key`)."""
     turns = np.abs(_turns(pts))
     for v in np.flatnonzero(turns > 180.0 - MIN_ANGLE):   # a sliver of a spike: its tip
         cand = np.delete(pts, int(v), axis=0)
@@ -186,33 +204,59 @@ def _step(pts: np.ndarray, ring: LinearRing, min_side: float, straight_tol: floa
                    np.linalg.norm(pts[(v + 1) % len(pts)] - pts[v]))
         if len(cand) >= 3 and 2 * _changed_area(pts, cand) <= tolerance * legs:
             return cand
-    best: tuple[float, np.ndarray] | None = None
+    best: tuple[int, float, float, np.ndarray] | None = None
+    across: np.ndarray | None = None          # the first faithful one that grows across
     for i, j in _short_runs(pts, min_side, straight_tol):
         scored = sorted(((_hausdorff(c, ring), k, c)
                          for k, c in enumerate(_candidates(pts, i, j))), key=lambda t: t[:2])
         for h, _k, cand in scored:
             if h <= tolerance and not relaxed:
-                return cand
-            if relaxed and (best is None or h < best[0]) \
-                    and _removed_area(pts, cand) <= FILL_ONLY:
-                best = (h, cand)
-    return None if best is None else best[1]
+                if not _grown_across(pts, cand, party):
+                    return cand
+                across = cand if across is None else across
+            if relaxed:
+                key = _relaxed_key(pts, cand, h, party)
+                if key is not None and (best is None or key < best[:3]):
+                    best = (*key, cand)
+    if not relaxed:
+        return across
+    return None if best is None else best[3]
+
+
+def _relaxed_key(pts: np.ndarray, cand: np.ndarray, h: float, party: BaseGeometry | None
+                 ) -> tuple[int, float, float] | None:
+    """How a candidate beyond the tolerance ranks (lower first), None when it may not
+    be taken: one that cuts off nothing of the building (a notch filled) and grows
+    across no ``party`` wall by how far it strays; then, beside a party wall, the one
+    that changes least ground of the two buildings, grown into the neighbour plus cut
+    off its own, the one growing less on a tie (a 3.7 m² corner off one house rather
+    than 11.5 m² of it standing inside the next: walls through walls, its roof through
+    theirs)."""
+    removed = _removed_area(pts, cand)
+    grown = _grown_across(pts, cand, party)
+    if removed <= FILL_ONLY and not grown:
+        return (0, h, 0.0)
+    if party is None or removed == float("inf"):
+        return None
+    return (1, removed + grown, grown)
 
 
 def faithful_ring(coords: Any, *, min_side: float, straight_tol: float,
-                  tolerance: float = TOLERANCE) -> np.ndarray:
+                  tolerance: float = TOLERANCE, party: BaseGeometry | None = None
+                  ) -> np.ndarray:
     """A footprint ring with its survey noise, spikes and too-short sides absorbed,
     every change kept within ``tolerance`` of the input ring where one is; a short side
-    that cannot be absorbed so goes only if that fills a notch (never cuts off a wing).
-    What is left short stays, for the caller to report."""
+    that cannot be absorbed so goes only if that fills a notch (never cuts off a wing),
+    and not across a ``party`` wall where another way does. What is left short stays,
+    for the caller to report."""
     ring = LinearRing(np.asarray(coords, dtype=float)[:, :2])
     pts = np.asarray(shapely.simplify(ring, min(NOISE, tolerance)).coords)[:-1, :2]
     for _ in range(4 * len(pts)):
         if len(pts) < 3:
             break
-        nxt = _step(pts, ring, min_side, straight_tol, tolerance, False)
+        nxt = _step(pts, ring, min_side, straight_tol, tolerance, False, party)
         if nxt is None:   # nothing faithful left: one step beyond, then faithful again
-            nxt = _step(pts, ring, min_side, straight_tol, tolerance, True)
+            nxt = _step(pts, ring, min_side, straight_tol, tolerance, True, party)
         if nxt is None:
             break
         pts = nxt
@@ -220,14 +264,17 @@ def faithful_ring(coords: Any, *, min_side: float, straight_tol: float,
 
 
 def clean_footprint(poly: Polygon, *, min_side: float, straight_tol: float,
-                    tolerance: float = TOLERANCE) -> Polygon | None:
+                    tolerance: float = TOLERANCE, party: BaseGeometry | None = None
+                    ) -> Polygon | None:
     """A building footprint cleaned faithfully (:func:`faithful_ring` on every ring):
     the outline facades stand on stays within ``tolerance`` of the input wherever
-    noise and short sides allow, and wings and notches stay. None when nothing valid
-    is left."""
+    noise and short sides allow, and wings and notches stay; ``party``: the lines of
+    the walls it shares with neighbours, which a short side is not absorbed across
+    where it can be otherwise. None when nothing valid is left."""
     poly = shapely.geometry.polygon.orient(poly, 1.0)
     return _rebuilt(poly, lambda coords: faithful_ring(
-        coords, min_side=min_side, straight_tol=straight_tol, tolerance=tolerance))
+        coords, min_side=min_side, straight_tol=straight_tol, tolerance=tolerance,
+        party=party))
 
 
 def outline_distance(built: Any, poly: Polygon) -> float:

@@ -435,8 +435,10 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
         return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,
                         job.slack, None)
     shortest = min_side(db, job.style, job.slack) + longer
+    walls = shapely.multilinestrings([[(x0, y0), (x1, y1)] for x0, y0, x1, y1 in fp.party]) \
+        if fp.party else None
     clean = clean_footprint(poly, min_side=shortest, straight_tol=STRAIGHT_TOL,
-                            tolerance=fp.tolerance)
+                            tolerance=fp.tolerance, party=walls)
     if clean is None:
         return "nothing buildable is left of its outline once cleaned"
     props = {"id": fp.ref} if fp.ref else {}
@@ -461,7 +463,8 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
             fixed = _niche_filled(clean, hole, shortest, fp.party)
             if fixed is not None:
                 again = clean_footprint(fixed[0], min_side=shortest,
-                                        straight_tol=STRAIGHT_TOL, tolerance=fp.tolerance)
+                                        straight_tol=STRAIGHT_TOL, tolerance=fp.tolerance,
+                                        party=walls)
                 if again is not None:
                     narrowed.append(fixed[1])
                     clean = again
