@@ -196,7 +196,7 @@ def _step(pts: np.ndarray, ring: LinearRing, min_side: float, straight_tol: floa
     every short run, the candidate that strays least beyond it while cutting off
     nothing of the building (a notch filled, never a wing removed). Either way a
     candidate that grows across a ``party`` wall (:func:`_grown_across`) is taken only
-    when no other is (:func:`_relaxed_key`)."""
+    when no other is (:func:`_beyond`)."""
     turns = np.abs(_turns(pts))
     for v in np.flatnonzero(turns > 180.0 - MIN_ANGLE):   # a sliver of a spike: its tip
         cand = np.delete(pts, int(v), axis=0)
@@ -204,9 +204,9 @@ def _step(pts: np.ndarray, ring: LinearRing, min_side: float, straight_tol: floa
                    np.linalg.norm(pts[(v + 1) % len(pts)] - pts[v]))
         if len(cand) >= 3 and 2 * _changed_area(pts, cand) <= tolerance * legs:
             return cand
-    best: tuple[int, float, float, np.ndarray] | None = None
+    pool: list[tuple[int, float, float, float, np.ndarray]] = []   # run, h, cut, grown
     across: np.ndarray | None = None          # the first faithful one that grows across
-    for i, j in _short_runs(pts, min_side, straight_tol):
+    for run, (i, j) in enumerate(_short_runs(pts, min_side, straight_tol)):
         scored = sorted(((_hausdorff(c, ring), k, c)
                          for k, c in enumerate(_candidates(pts, i, j))), key=lambda t: t[:2])
         for h, _k, cand in scored:
@@ -215,30 +215,32 @@ def _step(pts: np.ndarray, ring: LinearRing, min_side: float, straight_tol: floa
                     return cand
                 across = cand if across is None else across
             if relaxed:
-                key = _relaxed_key(pts, cand, h, party)
-                if key is not None and (best is None or key < best[:3]):
-                    best = (*key, cand)
-    if not relaxed:
-        return across
-    return None if best is None else best[3]
+                pool.append((run, h, _removed_area(pts, cand),
+                             _grown_across(pts, cand, party), cand))
+    return _beyond(pool) if relaxed else across
 
 
-def _relaxed_key(pts: np.ndarray, cand: np.ndarray, h: float, party: BaseGeometry | None
-                 ) -> tuple[int, float, float] | None:
-    """How a candidate beyond the tolerance ranks (lower first), None when it may not
-    be taken: one that cuts off nothing of the building (a notch filled) and grows
-    across no ``party`` wall by how far it strays; then, beside a party wall, the one
-    that changes least ground of the two buildings, grown into the neighbour plus cut
-    off its own, the one growing less on a tie (a 3.7 m² corner off one house rather
-    than 11.5 m² of it standing inside the next: walls through walls, its roof through
-    theirs)."""
-    removed = _removed_area(pts, cand)
-    grown = _grown_across(pts, cand, party)
-    if removed <= FILL_ONLY and not grown:
-        return (0, h, 0.0)
-    if party is None or removed == float("inf"):
-        return None
-    return (1, removed + grown, grown)
+def _beyond(pool: list[tuple[int, float, float, float, np.ndarray]]) -> np.ndarray | None:
+    """Of the candidates beyond the tolerance (run, Hausdorff h, area cut off, area
+    grown across a party wall, ring), the one taken: of those that cut off nothing of
+    the building (a notch filled) and grow across no party wall, the one straying
+    least; else, of those growing across one, and of the others for the same short
+    run that cut off no more than that run's least growth (a step's corner off the
+    house instead of the house standing in its neighbour), the one changing least
+    ground of the two buildings, the one growing less on a tie (a 3.7 m² corner off
+    one house rather than 11.5 m² of it inside the next: walls through walls, its roof
+    through theirs). Never a wing where no candidate grows across: that short side
+    stays, as before, for the caller to report."""
+    plain = [t for t in pool if t[2] <= FILL_ONLY and not t[3]]
+    if plain:
+        return min(plain, key=lambda t: t[1])[4]
+    growers = [t for t in pool if t[2] <= FILL_ONLY and t[3]]
+    least: dict[int, float] = {}
+    for t in growers:
+        least[t[0]] = min(least.get(t[0], np.inf), t[3])
+    cuts = [t for t in pool if not t[3] and FILL_ONLY < t[2] <= least.get(t[0], 0.0)]
+    options = growers + cuts
+    return min(options, key=lambda t: (t[2] + t[3], t[3]))[4] if options else None
 
 
 def faithful_ring(coords: Any, *, min_side: float, straight_tol: float,

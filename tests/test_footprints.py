@@ -234,6 +234,21 @@ def test_a_step_in_a_shared_wall_is_not_absorbed_into_the_neighbour():
     assert step.union(neighbour).difference(told[0].union(told[1])).area <= 0.01
 
 
+def test_a_wing_never_goes_beside_a_neighbour_either():
+    """Knowing party walls lets a step's corner go instead of growing into the
+    neighbour, never more: a 1.5 m wing on the street side of a house with a neighbour
+    along its back stays whole (its 1.5 m end left for the caller to report; cutting
+    it to a point took 7.5 m² off it)."""
+    wing = Polygon([(0, 0), (10, 0), (10, -10), (11.5, -10), (11.5, 0), (26, 0), (26, 12),
+                    (0, 12)])
+    neighbour = Polygon([(0, 12), (26, 12), (26, 30), (0, 30)])
+    walls = party_walls([wing, neighbour])[0]
+    assert walls
+    lines = shapely.multilinestrings([[(x0, y0), (x1, y1)] for x0, y0, x1, y1 in walls])
+    clean = clean_footprint(wing, min_side=2.5, straight_tol=15.0, party=lines)
+    assert clean is not None and clean.covers(wing.buffer(-0.01))
+
+
 def test_neighbours_built_from_a_stepped_wall_overlap_less(tmp_path):
     """The same two houses as a city's footprints (the party walls found by the run):
     the outlines their layouts stand on share at most the 3.3 m² sliver, and leave
