@@ -72,8 +72,10 @@ def plan_infill(structures: list[dict], instances: Sequence[Instance], db: PartD
     """The infill of a layout (its ``structures`` as the layout JSON holds them, its
     ``instances``): one :class:`Infill` per open area ``roof`` asks to roof, largest
     first; none when every bit of ground is covered or no ring is closed."""
+    if roof == "none" or not instances:
+        return []
     ground = building_ground(structures)
-    if roof == "none" or ground.is_empty or not instances:
+    if ground.is_empty:
         return []
     grounds = instance_grounds(db, instances)
     try:

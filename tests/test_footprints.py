@@ -17,7 +17,7 @@ from shapely.geometry import LineString, Polygon
 from citysynth.examples.footprint_shapes import footprints
 from citysynth.export.rings import building_ground
 from citysynth.pipeline.city.config import load_config, parse_config
-from citysynth.pipeline.city.footprints import part_families
+from citysynth.pipeline.city.footprints import part_families, party_lines
 from citysynth.pipeline.city.party import party_walls
 from citysynth.pipeline.city.run import prepare
 from citysynth.pipeline.cli import main
@@ -218,8 +218,7 @@ def test_a_step_in_a_shared_wall_is_not_absorbed_into_the_neighbour():
     nothing inside the neighbour. Cleaned each on its own, the two still differ by a
     3.3 m² sliver where the neighbour's step goes the other way (33.3 m² untold)."""
     step, neighbour = Polygon(STEP), Polygon(NEXT_DOOR)
-    lines = [shapely.multilinestrings([[(x0, y0), (x1, y1)] for x0, y0, x1, y1 in w])
-             for w in party_walls([step, neighbour])]
+    lines = [party_lines(w) for w in party_walls([step, neighbour])]
     blind = [clean_footprint(p, min_side=2.5, straight_tol=15.0) for p in (step, neighbour)]
     told = [clean_footprint(p, min_side=2.5, straight_tol=15.0, party=w)
             for p, w in zip((step, neighbour), lines, strict=True)]
@@ -244,7 +243,7 @@ def test_a_wing_never_goes_beside_a_neighbour_either():
     neighbour = Polygon([(0, 12), (26, 12), (26, 30), (0, 30)])
     walls = party_walls([wing, neighbour])[0]
     assert walls
-    lines = shapely.multilinestrings([[(x0, y0), (x1, y1)] for x0, y0, x1, y1 in walls])
+    lines = party_lines(walls)
     clean = clean_footprint(wing, min_side=2.5, straight_tol=15.0, party=lines)
     assert clean is not None and clean.covers(wing.buffer(-0.01))
 

@@ -435,8 +435,7 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
         return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,
                         job.slack, None)
     shortest = min_side(db, job.style, job.slack) + longer
-    walls = shapely.multilinestrings([[(x0, y0), (x1, y1)] for x0, y0, x1, y1 in fp.party]) \
-        if fp.party else None
+    walls = party_lines(fp.party)   # cleaning and niche filling keep off them
     clean = clean_footprint(poly, min_side=shortest, straight_tol=STRAIGHT_TOL,
                             tolerance=fp.tolerance, party=walls)
     if clean is None:
@@ -460,7 +459,7 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
         well = shapely.Polygon(clean.interiors[hole]) if hole is not None else None
         if well is not None and hole is not None and well.area >= LIGHT_WELL \
                 and len(narrowed) < tries:
-            fixed = _niche_filled(clean, hole, shortest, fp.party)
+            fixed = _niche_filled(clean, hole, shortest, walls)
             if fixed is not None:
                 again = clean_footprint(fixed[0], min_side=shortest,
                                         straight_tol=STRAIGHT_TOL, tolerance=fp.tolerance,
@@ -497,8 +496,17 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
                     "\n".join(n for n in notes if n) or None)
 
 
+def party_lines(party: Sequence[tuple[float, float, float, float]]
+                ) -> shapely.MultiLineString | None:
+    """A footprint's party walls (its job's stretches, (x0, y0, x1, y1) each) as one
+    geometry, None when it has none."""
+    if not party:
+        return None
+    return shapely.multilinestrings([[(x0, y0), (x1, y1)] for x0, y0, x1, y1 in party])
+
+
 def _niche_filled(poly: shapely.Polygon, hole: int, width: float,
-                  party: Sequence[tuple[float, float, float, float]] = ()
+                  party: shapely.MultiLineString | None = None
                   ) -> tuple[shapely.Polygon, tuple[int, float]] | None:
     """``poly`` with the niches and slots of its courtyard ``hole`` narrower than
     ``width`` (where a side too short for two corners comes from one) filled under the
@@ -508,9 +516,9 @@ def _niche_filled(poly: shapely.Polygon, hole: int, width: float,
     never cut off, and its side is told of.) With how many niches and m² it filled;
     None when that fills nothing, more than :data:`NARROW_AREA` of the footprint's area
     (the side is then no narrow niche: the user hears of it as before), or ground
-    beside another building (one of the ``party`` stretches: a neighbour standing in
-    the niche would be built into: within a shared wall's :data:`TOUCH` of its
-    ground)."""
+    beside another building (on the ``party`` walls' lines, :func:`party_lines`: a
+    neighbour standing in the niche would be built into: within a shared wall's
+    :data:`TOUCH` of its ground)."""
     r = width / 2
     square = {"join_style": "mitre", "mitre_limit": 10.0}
     well = shapely.Polygon(poly.interiors[hole])
@@ -520,8 +528,7 @@ def _niche_filled(poly: shapely.Polygon, hole: int, width: float,
     if not isinstance(fixed, shapely.Polygon) or not fixed.is_valid \
             or not MIN_NARROW < filled.area <= NARROW_AREA * poly.area:
         return None
-    if party and shapely.intersects(shapely.buffer(filled, TOUCH), shapely.linestrings(
-            [[(x0, y0), (x1, y1)] for x0, y0, x1, y1 in party])).any():
+    if party is not None and shapely.intersects(shapely.buffer(filled, TOUCH), party):
         return None
     parts = shapely.get_parts(filled)
     return fixed, (int((shapely.area(parts) > MIN_NARROW).sum()), float(filled.area))
