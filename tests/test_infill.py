@@ -31,6 +31,7 @@ from citysynth.export.infill import (
     infill_pieces,
     instance_grounds,
     is_pocket,
+    open_areas,
 )
 from citysynth.export.layout import Infill, Layout
 from citysynth.export.naming import instance_labels, stage_group, structure_group
@@ -241,6 +242,25 @@ def test_pocket_or_yard(width, pocket):
     """Open ground is a pocket when no circle of YARD radius fits in it, however long."""
     assert 2 * YARD == 5.0
     assert is_pocket(Polygon([(0, 0), (40, 0), (40, width), (0, width)])) is pocket
+
+
+@pytest.mark.parametrize("slit", [0.1, 0.2, 0.28])
+def test_a_wedge_opening_into_a_yard_is_a_pocket(slit):
+    """Two wings diverging from a yard's tip leave a wedge of ground between their
+    backs that opens into the yard through a slit narrower than the seams the infill
+    ignores. It is a pocket, roofed; the yard stays open (before, the yard's opening
+    grew up the slit and took the wedge in: one 418 m² yard, nothing roofed)."""
+    ground = Polygon([(0, 0), (40, 0), (40, 40), (0, 40)])
+    yard = Polygon([(5, 5), (25, 5), (25, 25), (5, 25)])
+    wedge = Polygon([(24.99, 15 - slit / 2), (25, 15 - slit / 2), (31, 12), (31, 18),
+                     (25, 15 + slit / 2), (24.99, 15 + slit / 2)])
+    wings = ground.difference(yard.union(wedge))
+    areas = open_areas(ground, [wings], "pockets")
+    assert len(areas) == 1
+    assert areas[0].difference(wedge).area < 0.05
+    assert areas[0].area == pytest.approx(wedge.area, abs=0.5)
+    everything = open_areas(ground, [wings], "all")
+    assert sum(a.area for a in everything) == pytest.approx(yard.area + wedge.area, abs=0.5)
 
 
 def test_infill_bad_config(tmp_path, capsys):
