@@ -225,8 +225,8 @@ def _step(pts: np.ndarray, ring: LinearRing, min_side: float, straight_tol: floa
                          for k, c in enumerate(_candidates(pts, i, j))), key=lambda t: t[:2])
         for h, _k, cand in scored:
             if h <= tolerance and not relaxed:
-                grown = Polygon(cand).buffer(0).difference(Polygon(pts).buffer(0))
-                if not _grown_across(grown, party):
+                if party is None or not _grown_across(
+                        Polygon(cand).buffer(0).difference(Polygon(pts).buffer(0)), party):
                     return cand
                 across = cand if across is None else across
             if relaxed:
