@@ -150,6 +150,8 @@ def layout(name: str, rank: int, plans: Sequence[PlacementPlan],
     for placer in placers:
         placer.place()
     _medial_between(placers, db)
+    for placer in placers:
+        placer.medial_extensions()
     _reopen(placers)
     for placer in placers:
         instances = [p.instance() for p in placer.placed]
@@ -407,7 +409,8 @@ class _Placer:
         nearer its own facade: the plane of equal depth behind both facades. At a right
         angle this is the corner's bisector; facing each other, the middle. A stage's
         mass is its band, and past a concave mitre joint its end module's extension up
-        to the joint's plane (:meth:`_medial_reach`)."""
+        to the joint's plane (:meth:`_medial_reach`). (An end module's extension is
+        cut against the other stages last: :meth:`medial_extensions`.)"""
         stages = self.plan.stages
         bands = [self._stage_band(s) for s in range(len(stages))]
         tree = shapely.STRtree(bands)
@@ -434,6 +437,18 @@ class _Placer:
                 self._medial_corner(j, self, masses, tree)
         for s in range(len(stages)):
             self._medial_runs(s)
+
+    def medial_extensions(self) -> None:
+        """Each end module's extension past a concave mitre joint against the stages
+        of its structure that share no key point with its own
+        (:meth:`_medial_extension`): last, once every other medial plane of every
+        structure is cut, so that what covers the ground it gives up is known (a plane
+        against a courtyard, cut after, took ground one covered, and giving that plane
+        back reopened a triangle of roof)."""
+        for s in range(len(self.plan.stages)):
+            apart = set(self._apart(s))
+            for i in self.record.stages[s].fill:
+                self._medial_extension(i, s, apart)
 
     def medial_against(self, other: _Placer) -> None:
         """Where this structure's modules reach into the mass of another structure of
@@ -601,6 +616,59 @@ class _Placer:
                 if past.intersection(mass).area >= REACH_SHARE * past.area:
                     self.placed[i].halves.append(half)
                     clipped = None
+
+    def _medial_extension(self, i: int, s: int, apart: set[int]) -> None:
+        """Module i's extension past its concave mitre joint against the band of a
+        stage t that shares no key point with stage s, inside the building: a corner
+        module of a facade whose inner corner lies a wing's width from a third facade
+        reached diagonally behind the corner into that facade's modules (Helsinki
+        feature 162: 12 m deep modules, an east facade 13 m from the inner corner, two
+        masses on 27.6 m²). Cut on the plane of equal depth behind both facades, as
+        where two sides' modules meet (:meth:`_medial_cuts`), only where the other
+        modules (as every other medial plane cuts them: this comes last) or the street
+        cover all the plane takes off
+        (:meth:`_covered_by_others`): the extension is often all that roofs the ground
+        behind a shallower module of t, and a plane's cut there opened a triangle of
+        roof (feature 162's wing: 0.26 m², the ground seen from above). (An extension
+        running out through a facade is :meth:`_stop_at_facades`'s.)"""
+        ext = self._extension.get(i)
+        if not ext:
+            return
+        placed = self.placed[i]
+        mass = _clipped(shapely.union_all(ext), placed)     # as its cuts so far leave it
+        for t in sorted(apart):
+            if mass.is_empty:
+                return
+            if mass.intersection(self._stage_band(t)).area <= MEDIAL_MIN_AREA:
+                continue
+            half = self._medial_half(i, s, t)
+            if half is None or half in placed.halves:
+                continue
+            past = self._past(i, half, mass)
+            if past.area <= MEDIAL_MIN_AREA or not self._covered_by_others(i, t, past):
+                continue
+            placed.halves.append(half)
+            mass = _clipped(mass, replace(placed, halves=[half]))
+
+    def _covered_by_others(self, i: int, t: int, ground: BaseGeometry) -> bool:
+        """Whether the street in front of stage t and the instances other than i (as
+        cut so far) cover all of ``ground`` but :data:`UNCOVERED_AREA`: stage t's
+        modules first (they mostly do), then any other whose box meets what is left."""
+        fill = self.record.stages[t].fill
+        left = ground.difference(shapely.union_all([self._street_band(t), *(
+            _clipped_footprint(self.placed[j], self.span[j]) for j in fill if j != i)]))
+        for j in self._coverers():
+            if left.area <= UNCOVERED_AREA:
+                break
+            if j == i or j in fill:
+                continue
+            near = shapely.box(*left.bounds)
+            ground = self._corners[j] if j in self._corners else shapely.Polygon(
+                _plan_corners(self.placed[j], self.span[j]))    # a corner part's arms
+            if ground.intersects(near) or any(e.intersects(near)
+                                              for e in self._extension.get(j, [])):
+                left = left.difference(self._covered(j))
+        return left.area <= UNCOVERED_AREA
 
     def _stop_at_facades(self, i: int, s: int, other: _Placer, stages: Sequence[int]
                          ) -> None:
@@ -895,6 +963,8 @@ FACADE_INSET = 0.05      # m: an extension running out through a facade stops th
 FACING_AWAY = 0.985      # cos 10°: two facades this near back to back across a wing
 REOPEN_SHARE = 0.8       # of what dropping a medial plane gives back, the share that
                          # must be open ground inside the building (see _reopen)
+UNCOVERED_AREA = 0.01   # m²: the most a cut of a module's extension may leave unroofed
+                        # (in plan; 0.05 left 5 cm triangles open, seen from above)
 REACH_SHARE = 0.5        # a medial plane against a concave extension must remove mostly
                          # ground that extension (or its stage's band) covers
 
