@@ -618,19 +618,18 @@ class _Placer:
                     clipped = None
 
     def _medial_extension(self, i: int, s: int, apart: set[int]) -> None:
-        """Module i's extension past its concave mitre joint against the band of a
-        stage t that shares no key point with stage s, inside the building: a corner
-        module of a facade whose inner corner lies a wing's width from a third facade
-        reached diagonally behind the corner into that facade's modules (Helsinki
-        feature 162: 12 m deep modules, an east facade 13 m from the inner corner, two
-        masses on 27.6 m²). Cut on the plane of equal depth behind both facades, as
-        where two sides' modules meet (:meth:`_medial_cuts`), only where the other
-        modules (as every other medial plane cuts them: this comes last) or the street
-        cover all the plane takes off
-        (:meth:`_covered_by_others`): the extension is often all that roofs the ground
-        behind a shallower module of t, and a plane's cut there opened a triangle of
-        roof (feature 162's wing: 0.26 m², the ground seen from above). (An extension
-        running out through a facade is :meth:`_stop_at_facades`'s.)"""
+        """Module i's extension past its concave mitre joint, where it stays inside the
+        building, against the band of a stage t that shares no key point with stage s:
+        where a third facade stands a wing's width from the inner corner, the extension
+        reached diagonally into that facade's modules (feature 64 of the shipped
+        footprints: ground two instances share 42.3 m², 18.8 since). Cut on the plane
+        of equal depth behind both facades, as where two sides' modules meet
+        (:meth:`_medial_cuts`), only where the other modules and the street cover all
+        the plane takes off (:meth:`_covered_by_others`): the extension may be all that
+        roofs the ground behind a shallower module of t (feature 162's wing at (122,
+        129), where the plane opened a 0.26 m² triangle of roof, so 27.6 m² stay
+        shared). (An extension running out through a facade is
+        :meth:`_stop_at_facades`'s.)"""
         ext = self._extension.get(i)
         if not ext:
             return
@@ -651,9 +650,10 @@ class _Placer:
             mass = _clipped(mass, replace(placed, halves=[half]))
 
     def _covered_by_others(self, i: int, t: int, ground: BaseGeometry) -> bool:
-        """Whether the street in front of stage t and the instances other than i (as
-        cut so far) cover all of ``ground`` but :data:`UNCOVERED_AREA`: stage t's
-        modules first (they mostly do), then any other whose box meets what is left."""
+        """Whether the street in front of stage t and this structure's instances other
+        than i (as cut so far) cover all of ``ground`` but :data:`UNCOVERED_AREA`:
+        stage t's modules first (they mostly do), then any other whose plan (a corner
+        part's arms) or extension meets the box of what is left."""
         fill = self.record.stages[t].fill
         left = ground.difference(shapely.union_all([self._street_band(t), *(
             _clipped_footprint(self.placed[j], self.span[j]) for j in fill if j != i)]))
@@ -663,10 +663,10 @@ class _Placer:
             if j == i or j in fill:
                 continue
             near = shapely.box(*left.bounds)
-            ground = self._corners[j] if j in self._corners else shapely.Polygon(
-                _plan_corners(self.placed[j], self.span[j]))    # a corner part's arms
-            if ground.intersects(near) or any(e.intersects(near)
-                                              for e in self._extension.get(j, [])):
+            plan = self._corners[j] if j in self._corners else shapely.Polygon(
+                _plan_corners(self.placed[j], self.span[j]))
+            if plan.intersects(near) or any(e.intersects(near)
+                                            for e in self._extension.get(j, [])):
                 left = left.difference(self._covered(j))
         return left.area <= UNCOVERED_AREA
 
@@ -963,8 +963,8 @@ FACADE_INSET = 0.05      # m: an extension running out through a facade stops th
 FACING_AWAY = 0.985      # cos 10°: two facades this near back to back across a wing
 REOPEN_SHARE = 0.8       # of what dropping a medial plane gives back, the share that
                          # must be open ground inside the building (see _reopen)
-UNCOVERED_AREA = 0.01   # m²: the most a cut of a module's extension may leave unroofed
-                        # (in plan; 0.05 left 5 cm triangles open, seen from above)
+UNCOVERED_AREA = 0.01    # m²: the most a cut of a module's extension may leave unroofed
+                         # (in plan; 0.05 left 5 cm triangles open, seen from above)
 REACH_SHARE = 0.5        # a medial plane against a concave extension must remove mostly
                          # ground that extension (or its stage's band) covers
 
