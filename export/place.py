@@ -446,7 +446,7 @@ class _Placer:
         against a courtyard, cut after, took ground one covered, and giving that plane
         back reopened a triangle of roof)."""
         for s in range(len(self.plan.stages)):
-            apart = set(self._apart(s))
+            apart = self._apart(s)
             for i in self.record.stages[s].fill:
                 self._medial_extension(i, s, apart)
 
@@ -617,7 +617,7 @@ class _Placer:
                     self.placed[i].halves.append(half)
                     clipped = None
 
-    def _medial_extension(self, i: int, s: int, apart: set[int]) -> None:
+    def _medial_extension(self, i: int, s: int, apart: Sequence[int]) -> None:
         """Module i's extension past its concave mitre joint, where it stays inside the
         building, against the band of a stage t that shares no key point with stage s:
         where a third facade stands a wing's width from the inner corner, the extension
@@ -635,7 +635,7 @@ class _Placer:
             return
         placed = self.placed[i]
         mass = _clipped(shapely.union_all(ext), placed)     # as its cuts so far leave it
-        for t in sorted(apart):
+        for t in apart:
             if mass.is_empty:
                 return
             if mass.intersection(self._stage_band(t)).area <= MEDIAL_MIN_AREA:
@@ -655,8 +655,7 @@ class _Placer:
         stage t's modules first (they mostly do), then any other whose plan (a corner
         part's arms) or extension meets the box of what is left."""
         fill = self.record.stages[t].fill
-        left = ground.difference(shapely.union_all([self._street_band(t), *(
-            _clipped_footprint(self.placed[j], self.span[j]) for j in fill if j != i)]))
+        left = ground.difference(self._cover(t))     # (i is a module of another stage)
         for j in self._coverers():
             if left.area <= UNCOVERED_AREA:
                 break
@@ -743,11 +742,15 @@ class _Placer:
         """Whether stage t's modules (as cut so far) or the street in front of it
         cover nearly all of ``ground`` (:data:`COVER_SHARE`): a medial plane against t
         may then take it off another module without opening the roof."""
-        fill = self.record.stages[t].fill
-        cover = shapely.union_all([self._street_band(t), *(
-            _clipped_footprint(self.placed[j], self.span[j]) for j in fill)])
-        return ground.difference(cover).area <= max(MEDIAL_MIN_AREA,
-                                                    (1 - COVER_SHARE) * ground.area)
+        return ground.difference(self._cover(t)).area <= max(
+            MEDIAL_MIN_AREA, (1 - COVER_SHARE) * ground.area)
+
+    def _cover(self, t: int) -> BaseGeometry:
+        """The ground stage t's modules (as cut so far) and the street in front of it
+        cover."""
+        return shapely.union_all([self._street_band(t), *(
+            _clipped_footprint(self.placed[j], self.span[j])
+            for j in self.record.stages[t].fill)])
 
     def _street_band(self, t: int) -> BaseGeometry:
         """The ground in front of stage t's facades (as deep as its mass behind)."""
