@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from citysynth.export.errors import ExportError
 from citysynth.parts_db.errors import LibraryError
-from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.errors import FarFromFrame, SkeletonError
 from citysynth.solver.errors import ProblemError, TooLargeError
 from citysynth.solver.safe_read import shown  # the one way messages quote a file's value
 
@@ -45,8 +45,8 @@ class ConfigError(UsageError):
 
 
 USER_ERRORS: tuple[type[Exception], ...] = (
-    ProblemError, TooLargeError, LibraryError, SkeletonError, ExportError, UsageError,
-    ConfigError,
+    ProblemError, TooLargeError, LibraryError, SkeletonError, FarFromFrame, ExportError,
+    UsageError, ConfigError,
 )
 """Every error class a user can cause; subclasses are listed too, so the list reads as
 the complete catalogue. ``except USER_ERRORS`` catches exactly the user's mistakes."""

@@ -35,7 +35,12 @@ import shapely
 from shapely.geometry import shape
 from shapely.geometry.base import BaseGeometry
 
-from citysynth.skeletons.errors import InputWarning, SkeletonError
+from citysynth.skeletons.errors import (
+    FarFromFrame,
+    FarFromFrameWarning,
+    InputWarning,
+    SkeletonError,
+)
 from citysynth.skeletons.gis_files import gis_format, read_gis_file
 from citysynth.skeletons.overture import osm_tags
 from citysynth.solver.safe_read import parse_json, read_text, shown
@@ -539,10 +544,11 @@ def _check_frame_scale(to_local: Project, lonlat: Coords, centre: tuple[float, f
         fix = ("run each city or region on its own (or, if the coordinates are metres, "
                "not degrees, give their CRS with --crs)" if chosen is None else
                f"the centre is {chosen}: give data of one place, or an origin near it")
-        raise SkeletonError(f"{what}; a frame holds data within about {keep:,.0f} km of "
-                            f"its centre: {fix}")
-    warnings.warn(f"{what}: buildings there come out that much too large; run regions "
-                  "this far apart on their own", InputWarning, stacklevel=4)
+        raise FarFromFrame(f"{what}; a frame holds data within about {keep:,.0f} km of "
+                           f"its centre: {fix}", reach)
+    warnings.warn(FarFromFrameWarning(f"{what}: buildings there come out that much too "
+                                      "large; run regions this far apart on their own",
+                                      reach), stacklevel=4)
 
 
 def _lonlat_centre(lonlat: Coords) -> tuple[float, float]:

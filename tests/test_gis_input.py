@@ -20,6 +20,7 @@ import copy
 import json
 import re
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -556,6 +557,63 @@ def test_zone_polygons_in_lon_lat_or_in_the_kept_crs(district_gdf, tmp_path):
         got = prepare(f, None, cfg, None)
         assert got.frame.source_crs == "EPSG:3067"
         assert len([j for j in got.jobs if j.zone == "east"]) == len(east)
+
+
+def _moved(path: Path, lon: float, lat: float, out: Path) -> Path:
+    """The GeoJSON at ``path`` moved by (lon, lat) degrees: the same streets elsewhere."""
+    data = json.loads(path.read_text())
+    for f in data["features"]:
+        f["geometry"]["coordinates"] = [[x + lon, y + lat]
+                                        for x, y in f["geometry"]["coordinates"]]
+    out.write_text(json.dumps(data))
+    return out
+
+
+@pytest.mark.parametrize("lon, lat, far", [(-98.95, -19.47, "3,4"),   # New York
+                                           (-10.55, -10.07, "58")])   # Prague
+def test_zones_of_another_city_are_left_out_by_name(tmp_path, lon, lat, far):
+    """The demo's city.toml, whose polygon zones lie in Helsinki, used for the district's
+    streets moved to another city: each zone is named, said to be that far away and
+    left out, and the city is read. 3,440 km away the run was refused saying the data
+    reached too far from the frame centre ("give data of one place"); 584 km away it
+    was warned that buildings there come out 0.4 % too large: neither named the zones,
+    and no building was too large."""
+    streets = _moved(DISTRICT, lon, lat, tmp_path / "streets.geojson")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = prepare(streets, None, load_config(CITY / "city.toml"), None)
+    said = [str(w.message) for w in caught if issubclass(w.category, InputWarning)]
+    for zone in ("rows", "towers"):
+        (line,) = [s for s in said if s.startswith(f"city.toml zone '{zone}'")]
+        assert f"lies {far}" in line and "km east or west" in line and "left out" in line
+    assert not any("too large" in s for s in said), said
+    assert {j.zone for j in got.jobs} <= {"", "main roads"}
+    demo = load_config(CITY / "city.toml")
+    plain = replace(demo, zones=tuple(z for z in demo.zones if not z.polygon))
+    assert [j.id for j in got.jobs] == [j.id for j in prepare(streets, None, plain, None).jobs]
+
+
+def test_a_zone_no_block_falls_in_is_warned_of(tmp_path):
+    """A zone polygon beside the district (1 km east), or with its points given as
+    (lat, lon): no block falls in it, and the user hears so; a zone over blocks is not
+    warned of."""
+    near = [[24.975, 60.160], [24.985, 60.160], [24.985, 60.180], [24.975, 60.180]]
+    over = [[24.9470, 60.160], [24.960, 60.160], [24.960, 60.180], [24.9470, 60.180]]
+    swapped = [[y, x] for x, y in over]
+    cfg = tmp_path / "city.toml"
+    zones = (("near", near), ("over", over), ("swapped", swapped))
+    cfg.write_text(f'library = "{LIB}"\n' + "".join(
+        f'[[zone]]\nname = "{n}"\nstyle = "modern"\npolygon = {p}\n' for n, p in zones))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = prepare(DISTRICT, None, load_config(cfg), None)
+    said = [str(w.message) for w in caught if issubclass(w.category, InputWarning)]
+    (line,) = [s for s in said if "zone 'near'" in s]
+    assert "no block falls in its polygon" in line and "m outside it" in line
+    (line,) = [s for s in said if "zone 'swapped'" in s]
+    assert "km east or west" in line and "lon, lat" in line
+    assert not any("zone 'over'" in s for s in said)
+    assert {j.zone for j in got.jobs} == {"", "over"}
 
 
 def test_a_bare_geometry_is_one_feature():

@@ -20,6 +20,7 @@ from __future__ import annotations
 import os
 import sys
 import time
+import warnings
 from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -73,6 +74,7 @@ from citysynth.pipeline.errors import ConfigError, UsageError, shown
 from citysynth.pipeline.layouts import check_style, default_style
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
+from citysynth.skeletons.errors import FarFromFrame, FarFromFrameWarning, InputWarning
 from citysynth.skeletons.from_geometry import why_invalid
 from citysynth.skeletons.streets import (
     Block,
@@ -120,7 +122,7 @@ def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: City
         skipped += [{"kind": "block", "reason": r} for r in reasons]
     if frame is None:
         raise ConfigError("nothing to build: give --streets, --footprints or both")
-    jobs = _jobs(outlines, cfg, _zone_polygons(cfg, frame, crs), frame, library, skipped)
+    jobs = _jobs(outlines, cfg, _zone_polygons(cfg, frame, crs, outlines), frame, library, skipped)
     return CityInputs(jobs, skipped, frame, {"inputs_s": time.perf_counter() - t0})
 
 
@@ -397,24 +399,64 @@ def _highways(b: Block, feats: list[Feature]) -> tuple[str, ...]:
     return tuple(sorted({c for i in b.streets for c in highway_classes(feats[i].properties)}))
 
 
-def _zone_polygons(cfg: CityConfig, frame: Frame,
-                   crs: str | None) -> list[shapely.Geometry | None]:
+def _zone_polygons(cfg: CityConfig, frame: Frame, crs: str | None,
+                   outlines: list[Outline]) -> list[shapely.Geometry | None]:
     """Each zone's polygon in the city frame (projected like the streets), or None for
     a zone chosen by street class; in the order of ``cfg.zones``. Polygons are lon/lat;
     with projected input they may also be written in the input's CRS (told apart by
-    range: projected metres are never all within +-180, +-90)."""
+    range: projected metres are never all within +-180, +-90).
+
+    A zone polygon no block falls in is warned of, with how far the nearest block is:
+    a zone whose points were mistyped, given as (lat, lon), or kept from another city's
+    city.toml applies to none, which a user should hear. One so far away that the
+    run's frame cannot hold it (the demo's city.toml, whose zones lie in Helsinki, run
+    on New York's streets) is left out as an empty polygon, where the frame's check of
+    far data refused the run, or warned of buildings too large that are not there,
+    without saying that the zones were what lay far."""
     with_poly = [(z.name, z.polygon) for z in cfg.zones if z.polygon]
     if not with_poly:
         return [None] * len(cfg.zones)
     lonlat = all(-180 <= x <= 180 and -90 <= y <= 90 for _, poly in with_poly for x, y in poly)
     zone_crs = None if lonlat else (frame.source_crs or crs)
+    points = shapely.MultiPoint([o[1].representative_point() for o in outlines])
+    geoms = iter([_zone_polygon(name, poly, zone_crs, frame, points)
+                  for name, poly in with_poly])
+    return [next(geoms) if z.polygon else None for z in cfg.zones]
+
+
+def _zone_polygon(name: str, poly: tuple[tuple[float, float], ...], zone_crs: str | None,
+                  frame: Frame, blocks: shapely.MultiPoint) -> shapely.Geometry:
+    """One zone's polygon in the city frame (see :func:`_zone_polygons`); ``blocks``:
+    the point of each block :func:`_zone_for` places by."""
     fc = {"type": "FeatureCollection", "features": [
         {"type": "Feature", "properties": {"name": name},
-         "geometry": {"type": "Polygon", "coordinates": [[*map(list, poly), list(poly[0])]]}}
-        for name, poly in with_poly]}
-    feats, _ = parse_geojson(fc, "city.toml zones", zone_crs, within=frame)
-    geoms = iter(f.geometry for f in feats)
-    return [next(geoms) if z.polygon else None for z in cfg.zones]
+         "geometry": {"type": "Polygon", "coordinates": [[*map(list, poly), list(poly[0])]]}}]}
+    source = f"city.toml zone {name!r}"
+    far = None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            (feat,), _ = parse_geojson(fc, source, zone_crs, within=frame)
+            geom: shapely.Geometry = feat.geometry
+        except FarFromFrame as e:
+            geom, far = shapely.Polygon(), e.reach
+    empty = geom.is_empty or not geom.intersects(blocks)
+    for w in caught:
+        if isinstance(w.message, FarFromFrameWarning) and empty:
+            far = w.message.reach      # said below, as the zone's, not the buildings'
+            continue
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    if far is not None:
+        warnings.warn(f"{source}: its polygon lies {far} east or west of the streets and "
+                      "footprints, and no block falls in it: left out (is this city.toml "
+                      "another place's? a zone's points are lon, lat)", InputWarning,
+                      stacklevel=4)
+        return shapely.Polygon()
+    if empty and not blocks.is_empty:
+        warnings.warn(f"{source}: no block falls in its polygon (the nearest is "
+                      f"{geom.distance(blocks):,.0f} m outside it), so it applies to none",
+                      InputWarning, stacklevel=4)
+    return geom
 
 
 def _zone_for(cfg: CityConfig, zones: list[shapely.Geometry | None], poly: shapely.Polygon,
