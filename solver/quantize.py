@@ -68,6 +68,8 @@ def exact_divisor(values: list[float]) -> Fraction | None:
     g = 0
     for f in fracs:
         g = math.gcd(g, f.numerator * (lcm // f.denominator))
+    if g == 0:   # every value is 0 within 1e-9, none is 0: no divisor (q = 0 divided by 0)
+        return None
     return Fraction(g, lcm)
 
 
@@ -77,6 +79,16 @@ def _rational(v: float) -> Fraction | None:
     1e-9 of it (made once per value: problems from one library repeat its lengths)."""
     f = Fraction(v).limit_denominator(_MAX_DENOMINATOR)
     return f if abs(float(f) - v) <= TOL * max(1.0, abs(v)) else None
+
+
+def _hint(values: list[float]) -> str:
+    """A quantum to suggest for values with no common divisor: 0.1, or a power of ten
+    no larger than the smallest value (values of 1e-8 given a quantum of 0.1 would
+    each count as nothing)."""
+    small = min((abs(v) for v in values if v != 0 and math.isfinite(v)), default=1.0)
+    if small >= 0.1:
+        return "0.1"
+    return f"{10.0 ** max(math.floor(math.log10(small)), -300):g}"
 
 
 def quanta_text(amount: float) -> str:
@@ -106,7 +118,7 @@ def quantise_resource(
         if q_exact is None:
             raise ProblemError(
                 f'resource "{name}": its values have no common divisor (within 1e-9); '
-                f'give one in "quantum", e.g. "quantum": {{"{name}": 0.1}}'
+                f'give one in "quantum", e.g. "quantum": {{"{name}": {_hint(values)}}}'
             )
         q = float(q_exact)
     else:

@@ -18,6 +18,21 @@ def test_no_exact_divisor():
     assert exact_divisor([math.pi, 1.0]) is None
 
 
+@pytest.mark.parametrize("tiny", [1e-10, 1e-200, 5e-324])
+def test_values_that_are_all_zero_within_the_tolerance_have_no_divisor(tiny):
+    """Values of 1e-10 read as 0 within 1e-9, yet none is 0: their divisor came out 0
+    and the quantisation divided by it (a ZeroDivisionError, exit 3, from `solve` on a
+    one-element problem of 1e-10 m). Now no divisor: one line asking for a quantum no
+    larger than the values (0.1 would count each as nothing)."""
+    assert exact_divisor([tiny, 2 * tiny]) is None
+    with pytest.raises(ProblemError, match="no common divisor") as e:
+        quantise_resource("length", [tiny], 2 * tiny, 2 * tiny, None)
+    hint = float(str(e.value).split('{"length": ')[1].rstrip("}"))
+    assert 0 < hint <= max(tiny, 1e-300)
+    with pytest.raises(ProblemError, match="0.1}"):
+        quantise_resource("length", [math.pi, 1.0], 3.0, 3.0, None)
+
+
 def test_exact_quantisation_reports_no_error():
     q, ints = quantise_resource("length", [4.0, 6.2], 83.4, 83.4, None)
     assert q.quantum == pytest.approx(0.2) and q.exact and q.max_error == 0.0
