@@ -155,6 +155,29 @@ def test_a_block_too_large_to_solve_is_told_in_metres_and_megabytes(tmp_path, ca
     assert not any(w in err.lower() for w in SOLVER_WORDS + ("quantum", "states")), err
 
 
+def test_a_block_file_repeating_one_outline_lays_it_out_once(tmp_path, capsys):
+    """One 80 x 40 m polygon given 40 times (a broken export): laid out once, the first
+    copies told one by one and the rest counted in one line. It was laid out 40 times
+    (2,000 copies: minutes without a word, each copy met every other in the gap and
+    party-wall checks first)."""
+    ring = [[24.94, 60.17], [24.9414, 60.17], [24.9414, 60.17036], [24.94, 60.17036],
+            [24.94, 60.17]]
+    f = tmp_path / "copies.geojson"
+    f.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {},
+         "geometry": {"type": "Polygon", "coordinates": [ring]}}] * 40}))
+    out = tmp_path / "out"
+    assert main(["block", str(f), "--library", str(EXAMPLES / "library"), "-o", str(out),
+                 "--no-preview"]) == 0
+    captured = capsys.readouterr()
+    told = [line for line in captured.err.splitlines() if "the same outline as" in line]
+    assert told == [f"citysynth block: {f}: feature {n}: the same outline as feature 0, "
+                    "laid out once" for n in (1, 2, 3)]
+    assert (f"citysynth block: {f}: 36 more features repeat an outline given before "
+            "them; each outline laid out once") in captured.err
+    assert sorted(p.name for p in out.glob("*.layout.json")) == ["copies.layout.json"]
+
+
 def _refused_block(tmp_path: Path, capsys, name: str, ring: list) -> str:
     """``citysynth block`` on one lon/lat ring: refused (exit 2) with nothing written;
     its stderr."""

@@ -202,7 +202,7 @@ def run_block(args) -> int:
     from citysynth.skeletons import skeletons_from_polygons
 
     db, style, feats, frame = _prepare(args)
-    feats = _gaps_closed(args, feats)
+    feats = _gaps_closed(args, _distinct(args, feats))
     stem = safe_name(Path(args.file).stem)
     names, ids, labels = [], [], []
     for f in feats:
@@ -221,6 +221,34 @@ def run_block(args) -> int:
                             party=w, **_options(args)), r)
              for name, label, r, w in zip(names, labels, rings, walls, strict=True)]
     return _finish(args, db, style, frame, built)
+
+
+SAID_COPIES = 3   # repeated outlines told one by one; past this, counted in one line
+
+
+def _distinct(args, feats: list) -> list:
+    """The features less those whose outline an earlier one already has (to the
+    millimetre), each told on stderr, as a city tells its footprints: the same polygon
+    given 2,000 times was laid out 2,000 times, its copies meeting each other in the
+    gap and party-wall checks first, minutes without a word."""
+    from citysynth.pipeline.city.jobs import outline_wkt
+
+    first: dict[str, Any] = {}
+    out, copies = [], 0
+    for f in feats:
+        seen = first.setdefault(outline_wkt(f.geometry), f)
+        if seen is f:
+            out.append(f)
+            continue
+        copies += 1
+        if copies <= SAID_COPIES:
+            print(f"citysynth {args.command}: {f.where}: the same outline as {seen.name}, "
+                  "laid out once", file=sys.stderr)
+    if copies > SAID_COPIES:
+        print(f"citysynth {args.command}: {args.file}: {copies - SAID_COPIES:,} more "
+              "features repeat an outline given before them; each outline laid out once",
+              file=sys.stderr)
+    return out
 
 
 def _gaps_closed(args, feats: list) -> list:
