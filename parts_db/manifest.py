@@ -69,8 +69,9 @@ def read_manifest(library_dir: str | Path) -> Manifest:
                            f"quantum, units), got {shown(lib)}")
     unknown = sorted(set(lib) - _LIB_KEYS)
     if unknown:
-        raise LibraryError(f"{path}: [library] has unknown key(s) {unknown}; "
-                           f"allowed: {sorted(_LIB_KEYS)}")
+        raise LibraryError(f"{path}: [library] has unknown key(s) "
+                           f"{', '.join(map(shown, unknown))}; "
+                           f"allowed: {', '.join(sorted(_LIB_KEYS))}")
     quantum = positive(lib.get("quantum", 0.2), f"{path}: [library] quantum")
     if quantum < MIN_QUANTUM:
         raise LibraryError(f"{path}: [library] quantum {quantum:g} m is finer than "
@@ -118,7 +119,7 @@ def finite(v: object) -> float | None:
 def positive(v: object, where: str) -> float:
     x = finite(v)
     if x is None or x <= 0:
-        raise LibraryError(f"{where}: must be a positive number, got {v!r}")
+        raise LibraryError(f"{where}: must be a positive number, got {shown(v)}")
     return x
 
 
@@ -163,7 +164,8 @@ def _part(p: dict, i: int, path: Path, seen: dict[str, str]) -> PartSpec:
     pid = check_id(pid, where, seen)
     unknown = sorted(set(p) - _PART_KEYS)
     if unknown:
-        raise LibraryError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(_PART_KEYS)}")
+        raise LibraryError(f"{where}: unknown key(s) {', '.join(map(shown, unknown))}; "
+                           f"allowed: {', '.join(sorted(_PART_KEYS))}")
     f = check_file(p.get("file"), where)
     cls = check_class(p.get("class"), where)
     style = check_style(p.get("style", "default"), where)
@@ -226,7 +228,7 @@ def check_attributes(attrs_in: object, where: str,
     attrs = {}
     for k, v in attrs_in.items():
         if not isinstance(k, str) or not k.strip() or not k.isprintable():
-            raise LibraryError(f"{where}: an attribute needs a name (like doors), got {k!r}")
+            raise LibraryError(f"{where}: an attribute needs a name (like doors), got {shown(k)}")
         if k == "length":
             raise LibraryError(f"{where}: an attribute may not be called length: a part's "
                                "length is measured from its mesh (or given as length = 5 "
@@ -236,6 +238,6 @@ def check_attributes(attrs_in: object, where: str,
         if x is None or not 0 <= x <= top:
             what = "a count on one part" if top == MAX_ATTRIBUTE else "a measured amount"
             raise LibraryError(f"{where}: attribute {k} must be a number from 0 to "
-                               f"{top:,g} ({what}), got {v!r}")
+                               f"{top:,g} ({what}), got {shown(v)}")
         attrs[k] = x
     return attrs

@@ -319,7 +319,7 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
     for name in {**(per_side or {}), **(per_structure or {})}:
         if name not in attrs:
             raise SkeletonError(f"{sk.name}: constraint on {name!r}, which no {style} "
-                                f"middle part has (they have {attrs})")
+                                f"middle part has (they have {', '.join(attrs)})")
     stages, placed = _stages(sk, max(db.quantum / 2, slack), keys, chains, oriented,
                              stretch, per_side or {}, attrs, style)
     kp = _key_parts(sk, db, style, keys, chains, oriented, angle_tol, placed)
@@ -551,7 +551,7 @@ def _stages(sk: Skeleton, floor: float, keys: list[int], chains: list[_Chain],
         for name, iv in {**per_side, **chain.constraints}.items():
             if name not in attrs:
                 raise SkeletonError(f"{sk.name}: edge constraint on {name!r}, which no "
-                                    f"{style} middle part has (they have {attrs})")
+                                    f"{style} middle part has (they have {', '.join(attrs)})")
             c[name] = (float(iv[0]), float(iv[1]))
         stages.append(Stage(c, None, lo, hi))
     return stages, placed

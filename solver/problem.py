@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from citysynth.solver.errors import ProblemError
-from citysynth.solver.safe_read import read_json
+from citysynth.solver.safe_read import read_json, shown
 
 _TOP_KEYS = {
     "resources", "quantum", "elements", "transitions", "front", "back", "constraints", "k",
@@ -132,15 +132,15 @@ MAX_COST = 1e15   # a cost past this makes sums of a few thousand inexact, then 
 def _number(value: Any, where: str, *, minimum: float | None = 0.0,
             maximum: float | None = None) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ProblemError(f"{where}: expected a number, got {value!r}")
+        raise ProblemError(f"{where}: expected a number, got {shown(value)}")
     v = float(value)
     if not math.isfinite(v):
-        raise ProblemError(f"{where}: expected a finite number, got {value!r}")
+        raise ProblemError(f"{where}: expected a finite number, got {shown(value)}")
     if minimum is not None and v < minimum:
-        raise ProblemError(f"{where}: must be >= {minimum:g}, got {value!r}")
+        raise ProblemError(f"{where}: must be >= {minimum:g}, got {shown(value)}")
     if maximum is not None and v > maximum:
         raise ProblemError(f"{where}: must be <= {maximum:g} (a cost this large sums to "
-                           f"infinity), got {value!r}; scale the costs down")
+                           f"infinity), got {shown(value)}; scale the costs down")
     return v
 
 
@@ -150,8 +150,8 @@ def check_object(d: Any, allowed: set[str], what: str, source: str) -> None:
         raise ProblemError(f"{source}: the {what} must be a JSON object")
     unknown = sorted(set(d) - allowed)
     if unknown:
-        raise ProblemError(f"{source}: unknown key(s) {unknown}; allowed keys are "
-                           f"{sorted(allowed)}")
+        raise ProblemError(f"{source}: unknown key(s) {', '.join(map(shown, unknown))}; "
+                           f"allowed keys are {', '.join(sorted(allowed))}")
 
 
 def parse_intervals(c_in: Any, resources: Collection[str], where: str, source: str
@@ -167,10 +167,10 @@ def parse_intervals(c_in: Any, resources: Collection[str], where: str, source: s
         at = f"{where}.{rname}"
         if rname not in resources:
             raise ProblemError(f"{source}: {at}: unknown resource; resources are "
-                               f"{list(resources)}")
+                               f"{', '.join(resources)}")
         if not isinstance(iv, list | tuple) or len(iv) != 2:
             raise ProblemError(f"{source}: {at}: must be [min, max] (equal for an "
-                               f"equality), got {iv!r}")
+                               f"equality), got {shown(iv)}")
         lo = _number(iv[0], f"{source}: {at}[0]")
         hi = _number(iv[1], f"{source}: {at}[1]")
         if lo > hi:
@@ -215,7 +215,7 @@ def _parse(d: Any, source: str) -> Problem:
 def parse_k(k: Any, source: str) -> int:
     """``k`` is a positive integer (booleans are not)."""
     if isinstance(k, bool) or not isinstance(k, int) or k < 1:
-        raise ProblemError(f'{source}: "k" must be a positive integer, got {k!r}')
+        raise ProblemError(f'{source}: "k" must be a positive integer, got {shown(k)}')
     return k
 
 
@@ -238,10 +238,10 @@ def _parse_quantum(q_in: Any, resources: list[str], source: str) -> dict[str, fl
     for name, q in q_in.items():
         if name not in resources:
             raise ProblemError(f"{source}: quantum.{name}: unknown resource; resources are "
-                               f"{resources}")
+                               f"{', '.join(resources)}")
         qv = _number(q, f"{source}: quantum.{name}")
         if qv <= 0:
-            raise ProblemError(f"{source}: quantum.{name}: must be > 0, got {q!r}")
+            raise ProblemError(f"{source}: quantum.{name}: must be > 0, got {shown(q)}")
         quantum[name] = qv
     return quantum
 
@@ -266,8 +266,8 @@ def _parse_element(e: Any, where: str, resources: list[str], seen: set[str], sou
                            "optional cost")
     extra = sorted(set(e) - {"id", "resources", "cost"})
     if extra:
-        raise ProblemError(f"{source}: {where}: unknown key(s) {extra}; allowed: id, "
-                           "resources, cost")
+        raise ProblemError(f"{source}: {where}: unknown key(s) "
+                           f"{', '.join(map(shown, extra))}; allowed: id, resources, cost")
     eid = e.get("id")
     if not isinstance(eid, str) or not eid:
         raise ProblemError(f"{source}: {where}.id: must be a non-empty string")
@@ -282,7 +282,7 @@ def _parse_element(e: Any, where: str, resources: list[str], seen: set[str], sou
     for rname, val in res_in.items():
         if rname not in resources:
             raise ProblemError(f"{source}: {where}.resources.{rname}: unknown resource; "
-                               f"resources are {resources}")
+                               f"resources are {', '.join(resources)}")
         res[rname] = _number(val, f"{source}: {where}.resources.{rname}")
     cost = _number(e.get("cost", 0.0), f"{source}: {where}.cost", maximum=MAX_COST)
     return Element(eid, {r: res.get(r, 0.0) for r in resources}, cost)
@@ -302,7 +302,7 @@ def _parse_transitions(tr_in: Any, index: dict[str, int], source: str
     for i, t in enumerate(tr_in):
         where = f"transitions[{i}]"
         if not isinstance(t, list | tuple) or len(t) != 3:
-            raise ProblemError(f"{source}: {where}: must be [from_id, to_id, cost], got {t!r}")
+            raise ProblemError(f"{source}: {where}: must be [from_id, to_id, cost], got {shown(t)}")
         a, b, c = t
         for side, x, out in (("from", a, ia), ("to", b, ib)):
             j = index.get(x) if isinstance(x, str) else None

@@ -20,7 +20,7 @@ def with_(**kw):
 
 
 @pytest.mark.parametrize("data, fragment", [
-    (with_(colour="red"), "unknown key(s) ['colour']"),
+    (with_(colour="red"), 'unknown key(s) "colour"; allowed keys are'),
     (with_(resources=[]), '"resources" must be a non-empty list'),
     (with_(elements=[{"id": "A", "resources": {"length": 1}},
                      {"id": "A", "resources": {"length": 2}}]), 'duplicate element id "A"'),
@@ -50,6 +50,23 @@ def test_bad_input_names_the_place(data, fragment):
     with pytest.raises(ProblemError) as exc:
         Problem.from_dict(data)
     assert fragment in str(exc.value)
+
+
+@pytest.mark.parametrize("data, said", [
+    (with_(constraints={"length": None}), "got null"),
+    (with_(constraints={"length": {"min": 1, "max": 2}}), 'got {"min": 1, "max": 2}'),
+    (with_(elements=[{"id": "A", "resources": {"length": 4.0}, "cost": "0"}]), 'got "0"'),
+    (with_(elements=[{"id": "A", "resources": {"doors": True}}]), "got true"),
+    (with_(constraints={"zz": [1, 2]}), "resources are length, doors"),
+])
+def test_values_are_quoted_as_the_file_spells_them(data, said):
+    """A value in a message reads as JSON writes it (null, true, "0", {"min": 1}), and a
+    list of names as a list: not Python's None, True, '0', {'min': 1} or ['length',
+    'doors'] (found by a probe on 2026-11-30)."""
+    with pytest.raises(ProblemError) as e:
+        Problem.from_dict(data)
+    assert said in str(e.value)
+    assert not any(w in str(e.value) for w in ("None", "True", "'"))
 
 
 def test_defaults():

@@ -150,7 +150,7 @@ class Structure:
         sts = tuple(_checked_stage(i, s, res, els, len(kps), set(legs), err)
                     for i, s in enumerate(stages))
         if isinstance(k, bool) or not isinstance(k, int) or k < 1:
-            raise err(f'"k" must be a positive integer, got {k!r}')
+            raise err(f'"k" must be a positive integer, got {shown(k)}')
         lgs = _checked_legs(legs, res, els, err)
         br = dict(branch)
         closed = _check_shape(sts, kps, br, lgs, err)
@@ -333,7 +333,7 @@ def _parse_keypoints(kps: Any, source: str
             b = kp["branch"]
             if isinstance(b, bool) or not isinstance(b, int):
                 raise ProblemError(f"{source}: keypoints[{j}].branch: must be the index of "
-                                   f"the stage that branches off, got {b!r}")
+                                   f"the stage that branches off, got {shown(b)}")
             branch[j] = b
     return keypoints, branch
 
@@ -351,7 +351,7 @@ def _parse_stages(d: dict, n_keypoints: int, resources: tuple[str, ...], source:
                            '{"constraints": {...}}')
     closed = d.get("closed", False)
     if not isinstance(closed, bool):
-        raise ProblemError(f'{source}: "closed" must be true or false, got {closed!r}')
+        raise ProblemError(f'{source}: "closed" must be true or false, got {shown(closed)}')
     explicit = any(isinstance(s, dict) and ("from" in s or "to" in s) for s in st_in)
     if not explicit:
         need = len(st_in) if closed else len(st_in) + 1
@@ -371,7 +371,7 @@ def _parse_stages(d: dict, n_keypoints: int, resources: tuple[str, ...], source:
         els = s.get("elements")
         if els is not None and not isinstance(els, list):
             raise ProblemError(f"{source}: stages[{i}].elements: must be a list of element "
-                               f"ids, got {els!r}")
+                               f"ids, got {shown(els)}")
         for x in els or []:
             if not isinstance(x, str):
                 raise ProblemError(f"{source}: stages[{i}].elements: unknown element {x!r}")
@@ -405,7 +405,7 @@ def _parse_branch_transitions(d: dict, base: Problem, source: str,
 def _amount(v: Any, where: str, err: _Err) -> float:
     """A finite number >= 0, as a float."""
     if isinstance(v, bool) or not isinstance(v, Real) or not math.isfinite(v) or v < 0:
-        raise err(f"{where}: must be a finite number >= 0, got {v!r}")
+        raise err(f"{where}: must be a finite number >= 0, got {shown(v)}")
     return float(v)
 
 
@@ -421,7 +421,8 @@ def _checked_amounts(values: Mapping[str, float], resources: tuple[str, ...], wh
     """Resource values of an element or leg, every resource present (0 if left out)."""
     for r in values:
         if r not in resources:
-            raise err(f"{where}: unknown resource {r!r}; resources are {list(resources)}")
+            raise err(f"{where}: unknown resource {shown(r)}; resources are "
+                      f"{', '.join(resources)}")
     return {r: _amount(values.get(r, 0.0), f"{where}.{r}", err) for r in resources}
 
 
@@ -431,7 +432,7 @@ def _checked_quantum(quantum: Mapping[str, float], resources: tuple[str, ...], e
     for r, q in quantum.items():
         if r not in resources or _amount(q, f"quantum.{r}", err) == 0:
             raise err(f"quantum.{r}: must be > 0 and name a resource of {list(resources)}, "
-                      f"got {q!r}")
+                      f"got {shown(q)}")
         out[r] = float(q)
     return out
 
@@ -496,7 +497,7 @@ def _checked_intervals(intervals: Mapping[str, Interval], resources: tuple[str, 
     out = {}
     for r, (lo, hi) in intervals.items():
         if r not in resources:
-            raise err(f"{where}.{r}: unknown resource; resources are {list(resources)}")
+            raise err(f"{where}.{r}: unknown resource; resources are {', '.join(resources)}")
         a, b = _amount(lo, f"{where}.{r}[0]", err), _amount(hi, f"{where}.{r}[1]", err)
         if a > b:
             raise err(f"{where}.{r}: min {a:g} is greater than max {b:g}")
