@@ -226,6 +226,12 @@ def _not_json(text: str, p: Path | str, what: str, exc: json.JSONDecodeError) ->
         return (f"{where}: text after the end of the JSON ({shown(rest.strip())}): a "
                 f"{what} file holds one JSON value; remove what follows it, or check "
                 "that the file was saved whole")
+    if body and not body.strip("\x00"):
+        return (f"{p}: {len(body):,} NUL bytes and no JSON: the file was never written "
+                "whole (a crash or a full disk?); write it again")
+    if exc.msg.startswith("Unterminated string") or not text[exc.pos:].strip("\x00 \t\r\n"):
+        return (f"{where}: the file ends inside its JSON, cut short: write it again, or "
+                "check that it was saved or downloaded whole")
     if what == "GeoJSON" and body.startswith("\x1e"):
         return (f"{where}: {exc.msg}; it looks like a GeoJSON Text Sequence (RFC 8142's "
                 "record separators): give one FeatureCollection, e.g. ogr2ogr -f "
@@ -239,7 +245,21 @@ def _not_json(text: str, p: Path | str, what: str, exc: json.JSONDecodeError) ->
             fix = (f"convert it, e.g. ogr2ogr -f GeoJSON out.geojson {p}"
                    if what == "GeoJSON" else "check that it is the right file")
             return f"{p}: {kind}, not JSON; a {what} file holds JSON: {fix}"
-    return f"{where}: {exc.msg}"
+    return f"{where}: {_PARSER_SAYS.get(exc.msg, exc.msg)}"
+
+
+_PARSER_SAYS = {   # the JSON parser's words, as a user reads them
+    "Expecting value": "a value (a number, text in double quotes, true, false, null, a "
+                       "list or an object) was expected here",
+    "Expecting property name enclosed in double quotes":
+        "a key in double quotes was expected here (JSON has no comma before a closing "
+        "brace, and no single quotes)",
+    "Expecting ',' delimiter": "a comma was expected here, between two values",
+    "Expecting ':' delimiter": "a colon was expected here, after a key",
+    "Invalid control character at": "a line break or tab inside text in quotes (write "
+                                    "it as \\n or \\t)",
+    "Invalid \\escape": "a backslash that starts no escape (write a backslash as \\\\)",
+}
 
 
 def _other_format(body: str) -> str:

@@ -497,6 +497,28 @@ def test_a_file_that_is_not_one_geojson_text_says_what_it_looks_like(tmp_path, c
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("text, said", [
+    ("\x00" * 1000, "1,000 NUL bytes and no JSON: the file was never written whole"),
+    ('{"type": "FeatureCollection", "features": [{"type": "Feat',
+     "the file ends inside its JSON, cut short"),
+    ('{"type": "FeatureCollection", "features": [', "the file ends inside its JSON"),
+    ('{"type": "FeatureCollection", "features": [],}', "a key in double quotes was expected"),
+    ('{"type": "FeatureCollection" "features": []}', "a comma was expected here"),
+    ('{"type": "FeatureCollection", "features": [1, ]}', "a value (a number, text in"),
+])
+def test_broken_json_is_told_in_plain_words(tmp_path, capsys, text, said):
+    """A file of NUL bytes, a truncated file and the usual slips (a trailing comma, a
+    missing one) were told in the JSON parser's own words ("Expecting value",
+    "Unterminated string starting at", cut off mid-sentence): found by a probe on
+    2026-11-30."""
+    src = _write(tmp_path / "in.geojson", text)
+    code, err = _run(["street", "--line", str(src), "-o", str(tmp_path / "o"),
+                      "--no-preview"], capsys)
+    assert code == 2 and said in err, err
+    assert not any(w in err for w in ("Expecting", "Unterminated", "delimiter")), err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
 def test_a_non_number_coordinate_is_quoted_as_json_writes_it(tmp_path, capsys):
     """A null coordinate was shown as Python's None."""
     bad = copy.deepcopy(_FC)
