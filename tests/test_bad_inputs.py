@@ -437,7 +437,7 @@ def _manifest_edit(run: Path, edit: Callable[[dict], object]) -> None:
     (run / "manifest.json").write_text(json.dumps(m))
 
 
-def _files_to(target: str) -> Callable[[dict], object]:
+def _files_to(target: object) -> Callable[[dict], object]:
     def go(m: dict) -> None:
         for rec in m["blocks"].values():
             rec["files"] = [target]
@@ -476,6 +476,16 @@ RUN_DAMAGE: dict[str, tuple[Callable[[Path], object], str]] = {
     "files-extra-outside": (lambda r: _manifest_edit(r, lambda m: [rec["files"].append(
         "../../../../etc/passwd") for rec in m["blocks"].values()]),
         "outside the run folder"),
+    # found by a probe on 2026-11-30: each was read as a run (exit 0 "the same", or
+    # exit 1 with files said to differ)
+    "manifest-version-99": (lambda r: _manifest_edit(r, _set(("version",), 99)),
+                            "version 99, which this citysynth does not read"),
+    "rank-text": (lambda r: _manifest_edit(r, lambda m: [rec.update(rank="first")
+                                                         for rec in m["blocks"].values()]),
+                  'rank "first", which citysynth city never writes'),
+    "files-numbers": (lambda r: _manifest_edit(r, _files_to(1)), "manifest.json"),
+    "files-folder": (lambda r: _manifest_edit(r, _files_to("blocks")),
+                     "a folder, where the run's manifest names a block's file"),
     "status-unknown": (lambda r: _manifest_edit(r, lambda m: [rec.update(
         status=5, cost="cheap") for rec in m["blocks"].values()]), "never writes"),
     "files-symlink-outside": (lambda r: (lambda p: (p.unlink(), p.symlink_to(

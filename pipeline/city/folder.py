@@ -9,6 +9,7 @@ MANIFEST = "manifest.json"         # every block's inputs hash, status, files an
 BLOCKS_GEOJSON = "blocks.geojson"  # every block's outline with its status, for a GIS
 REPORT = "report.json"             # counts, timings, failures and errors of the run
 RUN_SCHEMA = "citysynth.run"       # the manifest's "schema"
+RUN_VERSION = 1                    # ... and its "version", which diff reads
 CITY_FILES = ("city.usda", "city.png", "city.glb")   # the city stage, overview, one GLB
 
 

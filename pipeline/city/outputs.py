@@ -28,6 +28,7 @@ from citysynth.pipeline.city.folder import (
     MANIFEST,
     REPORT,
     RUN_SCHEMA,
+    RUN_VERSION,
 )
 from citysynth.pipeline.city.jobs import STATUSES, BlockRecord, frame_tuple
 from citysynth.skeletons import Frame
@@ -49,7 +50,8 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
     by block id); the report."""
     ids = sorted(results)
     recs: dict[str, dict[str, Any]] = {i: dict(results[i]) for i in ids}
-    manifest = {"schema": RUN_SCHEMA, "version": 1, "frame": list(frame_tuple(inputs.frame)),
+    manifest = {"schema": RUN_SCHEMA, "version": RUN_VERSION,
+                "frame": list(frame_tuple(inputs.frame)),
                 "blocks": {i: {k: recs[i][k] for k in _MANIFEST_KEYS
                                if recs[i].get(k) is not None} for i in ids},
                 "skipped": _reasons(inputs.skipped)}

@@ -18,9 +18,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from citysynth.pipeline.city.folder import MANIFEST, RUN_SCHEMA
+from citysynth.pipeline.city.folder import MANIFEST, RUN_SCHEMA, RUN_VERSION
 from citysynth.pipeline.errors import UsageError
-from citysynth.solver.safe_read import decode, parse_json, read_bytes, read_json
+from citysynth.solver.safe_read import decode, parse_json, read_bytes, read_json, shown
 
 
 def register(sub) -> None:
@@ -59,12 +59,23 @@ def _manifest(run: Path) -> dict:
     if not isinstance(m, dict) or m.get("schema") != RUN_SCHEMA:
         raise UsageError(f"{where}: not a {RUN_SCHEMA} manifest; rerun citysynth city "
                          f"into {run}")
+    version = m.get("version")
+    if version != RUN_VERSION or isinstance(version, bool):
+        raise UsageError(f"{where}: a run manifest of version {shown(version)}, which this "
+                         f"citysynth does not read (it writes and reads version "
+                         f"{RUN_VERSION}); rerun citysynth city into {run}")
     blocks = m.get("blocks")
     if not isinstance(blocks, dict) or not all(isinstance(r, dict) and isinstance(
-            r.get("files", []), list) for r in blocks.values()):
+            r.get("files", []), list) and all(isinstance(f, str) for f in r.get("files", []))
+            for r in blocks.values()):
         raise UsageError(f"{where}: \"blocks\" is not an object of block records; rerun "
                          f"citysynth city into {run}")
     for bid, r in sorted(blocks.items()):
+        rank = r.get("rank")
+        if rank is not None and (isinstance(rank, bool) or not isinstance(rank, int)):
+            raise UsageError(f"{where}: block {bid} has rank {shown(rank)}, which citysynth "
+                             f"city never writes (a rank is a whole number); rerun "
+                             f"citysynth city into {run}")
         cost = r.get("cost")
         if r.get("status") not in STATUSES or (cost is not None and (
                 isinstance(cost, bool) or not isinstance(cost, int | float))):
@@ -81,6 +92,9 @@ def _inside(run: Path, bid: str, f: str) -> Path:
     if not path.is_relative_to(run.resolve()) or Path(f).is_absolute():
         raise UsageError(f"{run / MANIFEST}: block {bid} names {f!r}, outside the run "
                          "folder; the manifest is not citysynth's")
+    if path.is_dir():
+        raise UsageError(f"{path}: a folder, where the run's manifest names a block's "
+                         "file; the manifest is not citysynth's")
     return path
 
 
