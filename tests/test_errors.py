@@ -398,14 +398,44 @@ def test_no_error_line_is_longer_than_a_screenful(tmp_path, capsys):
      "must be at most 10, got 1000000000.0"),
     ({"footprints": {"storeys": {"classic": {"a": 100000}}}}, "footprints.storeys.classic.a",
      "a whole number from 1 to 200), got 100,000"),
+    ({"mitre_cost": 1e308}, "mitre_cost", "must be at most 1e+15 (a cost this large sums to "
+                                          "infinity), got 1e+308"),
+    ({"mitre_cost": 1.7e308}, "mitre_cost", "must be at most 1e+15"),
+    ({"mitre_cost": 1e16}, "mitre_cost", "must be at most 1e+15"),
 ])
 def test_config_values_no_city_means_are_refused(data, key, says):
     """city.toml values a probe found taken without a word: a zone named by a number or
     by another zone's name (reports tell zones by name), a corner bent by 360°, a
-    footprint outline moved by a million km, a facade family of 100,000 storeys."""
+    footprint outline moved by a million km, a facade family of 100,000 storeys, a
+    mitre cost past the solver's bound on costs (1e308 summed to infinity, and every
+    footprint with a mitre failed as "allow more stretch")."""
     from citysynth.pipeline.city.config import parse_config
     from citysynth.pipeline.errors import ConfigError
 
     with pytest.raises(ConfigError) as exc:
         parse_config(data)
     assert key in str(exc.value) and says in str(exc.value), str(exc.value)
+
+
+def test_a_mitre_cost_past_the_solvers_bound_is_refused_before_the_run(tmp_path, capsys):
+    """``mitre_cost = 1e308`` was taken: the city ran, and footprints whose costs summed
+    to infinity failed with "its sides can each be made ... but not all of them at
+    once; allow more stretch" (exit 1). Now city.toml is refused at load, one line
+    naming the key and the bound the solver holds costs to (exit 2, nothing written);
+    the bound itself is taken."""
+    from citysynth.pipeline.city.config import parse_config
+    from citysynth.solver.problem import MAX_COST
+    from tests.test_faults import grid_streets
+
+    assert parse_config({"mitre_cost": MAX_COST}).mitre_cost == MAX_COST
+    cfg = tmp_path / "city.toml"
+    cfg.write_text("mitre_cost = 1e308\n")
+    lib = str(Path(__file__).resolve().parent.parent / "examples" / "library")
+    out = tmp_path / "out"
+    assert main(["city", "--streets", str(grid_streets(tmp_path / "s.geojson", 1)),
+                 "--library", lib, "--config", str(cfg), "-o", str(out),
+                 "--workers", "1"]) == 2
+    err = capsys.readouterr().err
+    assert f"{cfg}: mitre_cost: must be at most 1e+15" in err, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert not out.exists()

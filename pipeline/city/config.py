@@ -71,6 +71,7 @@ from citysynth.pipeline.city.footprints import MAX_LEVELS, Storeys
 from citysynth.pipeline.errors import MAX_K, ConfigError, shown
 from citysynth.skeletons.from_geometry import interval_problem, why_invalid
 from citysynth.skeletons.streets import NOT_STREETS, Setbacks
+from citysynth.solver.problem import MAX_COST
 from citysynth.solver.safe_read import read_toml
 
 Pick = Literal["best", "vary"]   # which of a block's k layouts it keeps
@@ -198,7 +199,7 @@ def parse_config(data: dict, path: Path | None = None) -> CityConfig:
     return CityConfig(settings, seed, stretch,
                       _pos(data, "corner_tolerance", 25.0, "", err, zero=True,
                            most=MAX_CORNER_TOLERANCE),
-                      _pos(data, "mitre_cost", 10.0, "", err, zero=True),
+                      _cost(data, "mitre_cost", 10.0, "", err),
                       _pos(data, "min_edge", 4.0, "", err, zero=True),
                       _pos(data, "min_width", 8.0, "", err, zero=True),
                       _pos(data, "min_area", 50.0, "", err, zero=True),
@@ -434,6 +435,18 @@ def _pos(d: dict, key: str, default: float, prefix: str, err: _Err, *,
     if most is not None and v > most:
         raise err(prefix + key, f"must be at most {most:g}, got {shown(v)}")
     return float(v)
+
+
+def _cost(d: dict, key: str, default: float, prefix: str, err: _Err) -> float:
+    """A key that becomes a solver cost (``mitre_cost``): non-negative and at most the
+    solver's :data:`~citysynth.solver.problem.MAX_COST`, as a problem file's costs (1e308
+    was taken, then summed to infinity, and every footprint with a mitre failed as if its
+    sides could not be met together: "allow more stretch")."""
+    v = _pos(d, key, default, prefix, err, zero=True)
+    if v > MAX_COST:
+        raise err(prefix + key, f"must be at most {MAX_COST:g} (a cost this large sums to "
+                                f"infinity), got {shown(v)}; the default is {default:g}")
+    return v
 
 
 def _intervals(d: Any, key: str, err: _Err) -> dict[str, tuple[float, float]]:
