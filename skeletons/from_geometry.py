@@ -13,8 +13,9 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
-from collections.abc import Callable, Iterable
-from typing import Any, cast
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
+from typing import Any, Literal, cast
 
 import networkx as nx
 import numpy as np
@@ -282,43 +283,91 @@ def _split_at_touching_ends(edges: list[Edge], xy: dict[int, np.ndarray]) -> lis
 
 
 CROSSING_CHUNK = 256   # edges whose meetings are asked of the tree at once
+THERE_AND_BACK = "the line goes there and back; end it at the turn"
+
+
+@dataclass(frozen=True)
+class Meeting:
+    """Two edges that meet other than at a key point they share: ``kind`` "twice" (the
+    same edge drawn twice: a line that goes there and back), "overlap" (they run on top
+    of each other) or "cross"; ``span`` is where (local metres): the doubled stretch's
+    two ends, or the crossing point twice."""
+
+    kind: Literal["twice", "overlap", "cross"]
+    first: Edge
+    second: Edge
+    span: tuple[tuple[float, float], tuple[float, float]]
 
 
 def _check_crossings(edges: list[Edge], xy: dict[int, np.ndarray], frame: Frame) -> None:
     """Refuse edges that cross, overlap or repeat: the first such pair, in the order
-    the edges were drawn. Asked :data:`CROSSING_CHUNK` edges at a time: one line drawn
+    the edges were drawn (:func:`_meetings`)."""
+    m = next(_meetings(edges, xy), None)
+    if m is None:
+        return
+    e, f = m.first, m.second
+    one = e.source == f.source     # a line that turns back on itself
+    who = e.source if one else f"{e.source} and {f.source}"
+    if m.kind == "twice":
+        raise SkeletonError(f"{who}: the same edge is drawn twice (from {frame.at(xy[e.a])} "
+                            f"to {frame.at(xy[e.b])}"
+                            + (f"): {THERE_AND_BACK}" if one else "); delete one of them"))
+    if m.kind == "overlap":
+        raise SkeletonError(f"{who}: edges run on top of each other from "
+                            f"{frame.at(m.span[0])}; delete or move the doubled stretch")
+    raise SkeletonError(f"{who}: edges cross at {frame.at(m.span[0])} without a shared key "
+                        "point; split them there or move them apart")
+
+
+def _meetings(edges: list[Edge], xy: dict[int, np.ndarray]) -> Iterator[Meeting]:
+    """The pairs of edges that cross, overlap or repeat, in the order the edges were
+    drawn. Asked of the tree :data:`CROSSING_CHUNK` edges at a time: one line drawn
     20,000 times over meets itself 400 M times, which all at once took gigabytes and
     ended in a crash; the first chunk holds the first pair."""
     geoms = [LineString([xy[e.a], xy[e.b]]) for e in edges]
     tree = shapely.STRtree(geoms)
     for start in range(0, len(geoms), CROSSING_CHUNK):
         left, right = tree.query(geoms[start:start + CROSSING_CHUNK], predicate="intersects")
-        _check_pairs(edges, geoms, (left + start).tolist(), right.tolist(), xy, frame)
+        for i, j in zip((left + start).tolist(), right.tolist(), strict=True):
+            if i >= j:
+                continue
+            e, f = edges[i], edges[j]
+            inter = geoms[i].intersection(geoms[j])
+            if {e.a, e.b} & {f.a, f.b} and inter.geom_type == "Point":
+                continue
+            pts = shapely.get_coordinates(inter)
+            p, q = (float(pts[0][0]), float(pts[0][1])), (float(pts[-1][0]), float(pts[-1][1]))
+            if inter.geom_type in ("LineString", "MultiLineString"):
+                twice = {e.a, e.b} == {f.a, f.b}
+                yield Meeting("twice" if twice else "overlap", e, f, (p, q))
+            else:
+                yield Meeting("cross", e, f, (p, p))
 
 
-def _check_pairs(edges: list[Edge], geoms: list[LineString], left: list[int],
-                 right: list[int], xy: dict[int, np.ndarray], frame: Frame) -> None:
-    for i, j in zip(left, right, strict=True):
-        if i >= j:
-            continue
-        shared = {edges[i].a, edges[i].b} & {edges[j].a, edges[j].b}
-        inter = geoms[i].intersection(geoms[j])
-        if shared and inter.geom_type == "Point":
-            continue
-        p = shapely.get_coordinates(inter)[0]
-        one = edges[i].source == edges[j].source     # a line that turns back on itself
-        who = edges[i].source if one else f"{edges[i].source} and {edges[j].source}"
-        if inter.geom_type in ("LineString", "MultiLineString") and \
-                {edges[i].a, edges[i].b} == {edges[j].a, edges[j].b}:
-            raise SkeletonError(f"{who}: the same edge is drawn twice (from "
-                                f"{frame.at(xy[edges[i].a])} to {frame.at(xy[edges[i].b])}"
-                                + ("): the line goes there and back; end it at the turn"
-                                   if one else "); delete one of them"))
-        if inter.geom_type in ("LineString", "MultiLineString"):
-            raise SkeletonError(f"{who}: edges run on top of each other from "
-                                f"{frame.at(p)}; delete or move the doubled stretch")
-        raise SkeletonError(f"{who}: edges cross at {frame.at(p)} without a shared key "
-                            "point; split them there or move them apart")
+def line_meets_itself(coords: np.ndarray) -> Meeting | None:
+    """Where one line (a street's, in local metres) runs over or crosses itself: the
+    check building lines pass (:func:`_check_crossings`), on the line's segments, each
+    split where a vertex of the line lies on it (within :data:`SNAP`), so a line that
+    turns back over its course meets itself on the same edge ("twice") even where
+    projecting it left the two millimetres apart. Each edge's ``source`` is the index
+    of the segment it lies on (``"0"``: from ``coords[0]`` to ``coords[1]``)."""
+    keys: dict[tuple[int, int], int] = {}
+    xy: dict[int, np.ndarray] = {}
+
+    def node(p: np.ndarray) -> int:
+        k = (round(p[0] / SNAP), round(p[1] / SNAP))
+        if k not in keys:
+            keys[k] = len(keys)
+            xy[keys[k]] = np.array([float(p[0]), float(p[1])])
+        return keys[k]
+
+    edges = []
+    for n, (p, q) in enumerate(zip(coords[:-1], coords[1:], strict=True)):
+        a, b = node(p), node(q)
+        if a != b:
+            edges.append(Edge(a, b, float(np.linalg.norm(xy[b] - xy[a])), "right", {},
+                              str(n)))
+    return next(_meetings(_split_at_touching_ends(edges, xy), xy), None)
 
 
 def skeletons_from_polygons(features: Iterable[Feature], frame: Frame, *,

@@ -164,6 +164,83 @@ def test_repeated_vertices_change_nothing_and_a_crossing_line_is_refused(tmp_pat
     assert "crosses itself" in err and "Traceback" not in err
 
 
+def _lonlat_file(path: Path, coords) -> Path:
+    """A street line in longitude/latitude, as a tester's GIS writes it."""
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": [{
+        "type": "Feature", "properties": {},
+        "geometry": {"type": "LineString", "coordinates": coords}}]}))
+    return path
+
+
+@pytest.mark.parametrize("side", ["both", "left", "right"])
+def test_a_street_that_goes_there_and_back_is_refused_at_the_turn(tmp_path, capsys, side):
+    """A line 100 m east and then 70 m back west over itself (in lon/lat, so that
+    projecting it left the two legs a fraction of a millimetre apart and shapely took
+    the line as simple): its left side was built as one 160 m straight run, rows
+    reaching 60 m past the street's end, exit 0 without a word. Now it is refused at
+    the turn, in the file's coordinates, as a building line is (exit 2, nothing
+    written)."""
+    src = _lonlat_file(tmp_path / "back.geojson",
+                       [[7.1, 50.73], [7.101420454545454, 50.73], [7.100426136363636, 50.73]])
+    out = tmp_path / "out"
+    assert main(["street", "--line", str(src), "--side", side, "--no-preview",
+                 "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "back.geojson: the street line turns back at (7.101420, 50.730000) and runs " \
+           "70." in err, err
+    assert "over its own course, to (7.100426, 50.730000): the line goes there and back; " \
+           "end it at the turn" in err, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("turn, says", [
+    (179.0, "turns back by 179.0° at (690100.00, 5335000.00), a corner of 1.0°, sharper "
+            "than the 5° citysynth builds: its two legs run almost on top of each other "
+            "(the line goes there and back; end it at the turn, or open the turn up)"),
+    (175.5, "turns back by 175.5° at (690100.00, 5335000.00), a corner of 4.5°"),
+])
+def test_a_street_turning_back_almost_on_itself_is_refused_at_the_turn(tmp_path, capsys,
+                                                                       turn, says):
+    """A turn of 179° (the legs 1.2 m apart 70 m on) was built: the outer side's row
+    ran 60 m past the street's end (the offset's mitre, at its limit) and back. A turn
+    sharper than a building line's sharpest corner (5°) is refused there."""
+    a = math.radians(180.0 - turn)
+    src = _line_file(tmp_path / "t.geojson", _at([(0, 0), (100, 0),
+                                                  (100 - 70 * math.cos(a), 70 * math.sin(a))]))
+    assert main(["street", "--line", str(src), "--no-preview", "-o", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"t.geojson: the street line {says}" in err and "Traceback" not in err, err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("points, says", [
+    # round a block and back along its first side: refused where it overlaps
+    ([(0, 0), (100, 0), (100, 20), (50, 20), (50, 0), (20, 0)],
+     "comes back over its own course from (690020.00, 5335000.00) to (690050.00, "
+     "5335000.00) (30.0 m); give it as lines that do not overlap (one run each)"),
+    # ... ending on its own course
+    ([(0, 0), (100, 0), (100, 20), (50, 20), (50, 0)],
+     "touches itself at (690050.00, 5335000.00); give it as lines that do not cross or "
+     "touch"),
+    # ... across it
+    ([(0, 0), (40, 0), (40, 30), (20, 30), (20, -20)],
+     "crosses itself at (690020.00, 5335000.00); give it as lines that do not cross"),
+    # a loop that goes on past its closing point
+    ([(0, 0), (60, 0), (60, 60), (0, 60), (0, 0), (30, 0)],
+     "comes back over its own course from (690000.00, 5335000.00) to (690030.00, "
+     "5335000.00) (30.0 m)"),
+])
+def test_a_street_over_its_own_course_is_refused_saying_where(tmp_path, capsys, points, says):
+    """A line that comes back over itself later (not at one turn) or crosses itself
+    was "the street line crosses itself", where not said; now where, in the file's
+    coordinates."""
+    src = _line_file(tmp_path / "c.geojson", _at(points))
+    assert main(["street", "--line", str(src), "--no-preview", "-o", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"c.geojson: the street line {says}" in err and "Traceback" not in err, err
+
+
 def _shared_ground(out: Path, name: str) -> tuple[float, float, int]:
     """Ground two buildings of the row share (m²), all they cover, and how many."""
     from citysynth.export.audit import footprint, instance_triangles

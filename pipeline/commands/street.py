@@ -114,10 +114,70 @@ def read_line(path: str, crs: str | None):
     line = shapely.simplify(line, DENSE)
     if line.length < SNAP or len(line.coords) < 2:
         raise SkeletonError(f"{path}: the street line has no length")
-    if not line.is_simple:
-        raise SkeletonError(f"{path}: the street line crosses itself; give it as lines that "
-                            "do not cross (one run each)")
+    _check_course(line, frame, path)
+    if not line.is_simple:   # what the check leaves: a line that touches its own course
+        raise SkeletonError(f"{path}: the street line touches itself{_touch(line, frame)}; "
+                            "give it as lines that do not cross or touch (one run each)")
     return line, frame
+
+
+def _touch(line, frame) -> str:
+    """Where a line that is not simple touches itself (" at (x, y)" in the file's
+    coordinates: a point where three or more of its pieces, noded, meet), or ""."""
+    from collections import Counter
+
+    import shapely
+
+    ends = Counter((round(x, 6), round(y, 6)) for part in shapely.get_parts(shapely.node(line))
+                   for x, y in (part.coords[0][:2], part.coords[-1][:2]))
+    at = next((p for p, n in ends.items() if n >= 3), None)
+    return f" at {frame.at(at)}" if at is not None else ""
+
+
+def _check_course(line, frame, path: str) -> None:
+    """Refuse a street line that goes back over its own course, said where in the
+    file's coordinates: there and back at a turn (a street 100 m east, then 70 m back
+    west over itself, was built with one side a straight 160 m run whose rows reached
+    60 m past the street's end), a turn so sharp that its legs run almost on top of
+    each other (a corner under the 5° building lines are held to), a stretch it comes
+    back over later, or a crossing. The check is the one building lines pass
+    (:func:`~citysynth.skeletons.from_geometry.line_meets_itself`)."""
+    import numpy as np
+
+    from citysynth.pipeline.skeleton_to_structure import MIN_CORNER_DEG
+    from citysynth.pipeline.streets import _turns
+    from citysynth.skeletons.from_geometry import THERE_AND_BACK, line_meets_itself
+
+    coords = np.asarray(line.coords)[:, :2]
+    closed = line.is_closed and len(coords) >= 4
+    m = line_meets_itself(coords)
+    if m is not None:
+        (p, q), (s, t) = m.span, sorted((int(m.first.source), int(m.second.source)))
+        if m.kind == "cross":
+            raise SkeletonError(f"{path}: the street line crosses itself at {frame.at(p)}; "
+                                "give it as lines that do not cross (one run each)")
+        back = float(np.hypot(q[0] - p[0], q[1] - p[1]))
+        if t == s + 1 or (closed and (s, t) == (0, len(coords) - 2)):
+            turn = coords[t] if t == s + 1 else coords[0]   # a loop's: its closing point
+            far = q if np.hypot(*(np.asarray(p) - turn)) < np.hypot(*(np.asarray(q) - turn)) \
+                else p
+            raise SkeletonError(f"{path}: the street line turns back at {frame.at(turn)} "
+                                f"and runs {back:.1f} m over its own course, to "
+                                f"{frame.at(far)}: {THERE_AND_BACK}")
+        raise SkeletonError(f"{path}: the street line comes back over its own course from "
+                            f"{frame.at(p)} to {frame.at(q)} ({back:.1f} m); give it as "
+                            "lines that do not overlap (one run each)")
+    turns = _turns(np.vstack([coords, coords[1:2]]) if closed else coords)
+    for i, turn in enumerate(turns, start=1):
+        corner = 180.0 - abs(float(turn))
+        if round(corner, 3) < MIN_CORNER_DEG:
+            d = 1 if round(corner, 1) < MIN_CORNER_DEG else 3    # never "5.0°, under 5°"
+            raise SkeletonError(
+                f"{path}: the street line turns back by {180.0 - corner:.{d}f}° at "
+                f"{frame.at(coords[i % (len(coords) - 1) if closed else i])}, a corner of "
+                f"{corner:.{d}f}°, sharper than the {MIN_CORNER_DEG:g}° citysynth builds: its "
+                f"two legs run almost on top of each other ({THERE_AND_BACK}, or open the "
+                "turn up)")
 
 
 def run(args) -> int:
