@@ -274,18 +274,12 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
         raise SkeletonError(f"{path}: layer {name!r} has no features; export the layer "
                             "with its features, or leave the file out")
     geoms = shapely.from_wkb(np.asarray(wkb, dtype=object), on_invalid="ignore")
-    geometries = geojson_geometries(geoms)
     names = [str(n) for n in meta["fields"]]
     columns = [_values(c) for c in fields]
     rows: Sequence[int] = range(len(geoms))
     if fmt == DXF:   # its texts, dimensions and hatches are no streets or buildings
-        rows = _cad_entities(path, geoms, accept, layer,
-                             columns[names.index("Layer")] if "Layer" in names
-                             else [""] * len(geoms))
-        names.append("id")
-        handles = columns[names.index("EntityHandle")] if "EntityHandle" in names else \
-            [None] * len(geoms)
-        columns.append(handles)
+        geoms, rows = _cad_rows(path, geoms, accept, layer, names, columns)
+    geometries = geojson_geometries(geoms)
     features = []
     for i in rows:
         props = {k: col[i] for k, col in zip(names, columns, strict=True)
@@ -338,6 +332,52 @@ def _cad_entities(path: Path, geoms: np.ndarray, accept: str, layer: str | None,
         raise SkeletonError(f"{path}: no {what}{on} in this drawing; name the CAD layer "
                             f"that holds them as {path}{LAYER_SEP}LAYER")
     return rows
+
+
+def _cad_rows(path: Path, geoms: np.ndarray, accept: str, layer: str | None,
+              names: list[str], columns: list[Any]) -> tuple[np.ndarray, list[int]]:
+    """A drawing's entities to read (:func:`_cad_entities`), its footprints with their
+    courtyards (:func:`_cad_courtyards`); ``names`` and ``columns`` gain the entity
+    handle as each feature's id."""
+    rows = _cad_entities(path, geoms, accept, layer,
+                         columns[names.index("Layer")] if "Layer" in names
+                         else [""] * len(geoms))
+    names.append("id")
+    columns.append(columns[names.index("EntityHandle")] if "EntityHandle" in names
+                   else [None] * len(geoms))
+    return _cad_courtyards(geoms, rows) if accept == "polygons" else (geoms, rows)
+
+
+def _cad_courtyards(geoms: np.ndarray, rows: list[int]) -> tuple[np.ndarray, list[int]]:
+    """A drawing's closed polylines read as CAD draws courtyards: a polyline inside
+    another is a hole in it, one inside that hole a building again (even-odd, by how
+    many of the others enclose it; the smallest of those is its ring's owner). A
+    drawing has no polygon with holes to give: each courtyard, a closed polyline of
+    its own, was left out as "lies inside" its building, and the building built solid.
+    Polylines that cross or touch another's line are left as they are."""
+    polys = {i: geoms[i] for i in rows if geoms[i] is not None
+             and shapely.get_type_id(geoms[i]) == shapely.GeometryType.POLYGON.value
+             and geoms[i].is_valid and not geoms[i].is_empty}
+    if len(polys) < 2:
+        return geoms, rows
+    keys = list(polys)
+    tree = shapely.STRtree([polys[i] for i in keys])
+    outer, inner = tree.query([polys[i] for i in keys], predicate="contains_properly")
+    owners: dict[int, list[int]] = {}
+    for a, b in zip(outer.tolist(), inner.tolist(), strict=True):   # a holds b
+        owners.setdefault(keys[b], []).append(keys[a])
+    holes: dict[int, list[int]] = {}
+    for i, around in owners.items():
+        if len(around) % 2 == 1:             # an odd number round it: a courtyard
+            owner = min(around, key=lambda j: (polys[j].area, j))
+            holes.setdefault(owner, []).append(i)
+    out = geoms.copy()
+    for owner, yards in holes.items():
+        shell = polys[owner]
+        out[owner] = shapely.Polygon(shell.exterior, [*shell.interiors,
+                                                      *(polys[y].exterior for y in yards)])
+    yards = {y for ys in holes.values() for y in ys}
+    return out, [i for i in rows if i not in yards]
 
 
 _OSM_TABLES = {"nodes": "node", "ways": "way", "polygons_standalone": "way"}

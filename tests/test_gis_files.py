@@ -495,6 +495,31 @@ def _dxf(polygons, lines, path: Path) -> None:
     path.write_text("\n".join(out) + "\n")
 
 
+def test_a_closed_polyline_inside_another_is_its_courtyard(tmp_path):
+    """A drawing has no polygon with holes: a courtyard is a closed polyline inside the
+    building's, and a kiosk inside the courtyard a building again (even-odd, as CAD
+    fills). The courtyard was left out as "100 % of it lies inside" the building, and
+    the building built solid (a tester's drawing of the demo district: 7 courtyards
+    lost)."""
+    from citysynth.pipeline.city.config import parse_config
+    from citysynth.pipeline.city.run import prepare
+
+    x0, y0 = 385000.0, 6672000.0
+    square = [(0, 0), (60, 0), (60, 60), (0, 60)]
+    yard = [(20, 20), (40, 20), (40, 40), (20, 40)]
+    kiosk = [(25, 25), (35, 25), (35, 35), (25, 35)]
+    loose = [(100, 0), (130, 0), (130, 20), (100, 20)]     # a house on its own
+    drawing = tmp_path / "yard.dxf"
+    _dxf([[(x0 + x, y0 + y) for x, y in r] for r in (square, yard, kiosk, loose)], [],
+         drawing)
+    inputs = prepare(None, f"{drawing}::BUILDINGS", parse_config({"k": 1}), LIB,
+                     "EPSG:3067")
+    shapes = sorted((shapely.from_wkt(j.wkt) for j in inputs.jobs), key=lambda g: -g.area)
+    assert [round(g.area) for g in shapes] == [3200, 600, 100]
+    assert [len(g.interiors) for g in shapes] == [1, 0, 0]
+    assert not any("lies inside" in s["reason"] for s in inputs.skipped), inputs.skipped
+
+
 def test_a_cad_drawing_builds_the_city_its_geojson_does(files, tmp_path, capsys):
     """A DXF drawing in EPSG:3067 (``--crs``: a drawing has no CRS): its STREETS layer's
     polylines are the streets, its BUILDINGS layer's closed polylines the footprints,
