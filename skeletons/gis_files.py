@@ -376,8 +376,8 @@ def _cad_courtyards(geoms: np.ndarray, rows: list[int]) -> tuple[np.ndarray, lis
         shell = polys[owner]
         out[owner] = shapely.Polygon(shell.exterior, [*shell.interiors,
                                                       *(polys[y].exterior for y in yards)])
-    yards = {y for ys in holes.values() for y in ys}
-    return out, [i for i in rows if i not in yards]
+    inner = {y for ys in holes.values() for y in ys}
+    return out, [i for i in rows if i not in inner]
 
 
 _OSM_TABLES = {"nodes": "node", "ways": "way", "polygons_standalone": "way"}
