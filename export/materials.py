@@ -11,11 +11,13 @@ function's inverse (IEC 61966-2-1).
 
 from __future__ import annotations
 
+import math
 import re
+from functools import lru_cache
 from typing import Any
 
 from citysynth.parts_db.geometry import Piece
-from citysynth.skeletons.geojson import LONLAT_FRAME
+from citysynth.skeletons.geojson import LONLAT_FRAME, kept_crs_parts
 
 _FRAME = re.compile(r"^(?P<crs>.*), origin (?P<x>-?[\d.]+), (?P<y>-?[\d.]+)(?P<rest>.*)$")
 
@@ -60,30 +62,51 @@ def roughness(piece: Piece) -> float:
 
 def georeference(frame: str) -> dict[str, Any]:
     """The layout frame's description ("<CRS>, origin <x>, <y>[ ...]", as a layout
-    records it) as data: the CRS, the origin in it and, for the local transverse
-    Mercator of lon/lat input, the origin's longitude and latitude. Empty when the
-    frame names no origin (a layout built in plain local metres)."""
+    records it) as data: the CRS, the origin in it and the origin's longitude and
+    latitude. Empty when the frame names no origin (a layout built in plain local
+    metres).
+
+    For a projected CRS kept as it is, ``crs`` is its identifier (an authority code
+    such as "EPSG:3067", or its WKT when it has none), which pyproj, GDAL and QGIS
+    resolve, and ``crs_name`` its name. The transformer to lon/lat is built once per
+    CRS (:func:`_lonlat_transformer`), not once per layer written."""
     m = _FRAME.match(frame)
     if m is None:
         return {}
     out: dict[str, Any] = {"crs": m["crs"], "origin": [float(m["x"]), float(m["y"])]}
     if m["crs"] == LONLAT_FRAME:
         out["origin_lon"], out["origin_lat"] = out["origin"]
-    else:
-        lonlat = _to_lonlat(m["crs"], out["origin"])
-        if lonlat is not None:
-            out["origin_lon"], out["origin_lat"] = lonlat
+        return out
+    kept = kept_crs_parts(m["crs"])
+    if kept is not None:
+        out["crs"], out["crs_name"] = kept[1], kept[0]
+    lonlat = _to_lonlat(out["crs"], out["origin"])
+    if lonlat is not None:
+        out["origin_lon"], out["origin_lat"] = lonlat
     return out
 
 
 def _to_lonlat(crs: str, xy: list[float]) -> tuple[float, float] | None:
     """A projected origin as lon/lat (rounded to 1e-7 degrees, about 1 cm), or None
-    when pyproj does not know the CRS text."""
+    when pyproj does not know the CRS."""
+    tf = _lonlat_transformer(crs)
+    if tf is None:
+        return None
+    lon, lat = tf.transform(xy[0], xy[1])
+    if not (math.isfinite(lon) and math.isfinite(lat)):
+        return None
+    return round(float(lon), 7), round(float(lat), 7)
+
+
+@lru_cache(maxsize=16)
+def _lonlat_transformer(crs: str) -> Any:
+    """pyproj's transformer from ``crs`` (any text pyproj resolves) to lon/lat, or None
+    when it resolves none; made once per CRS and process (a city writes a layer per
+    block in one frame, and building one from a CRS's name, a search of PROJ's
+    database, took 0.2-0.6 s)."""
     import pyproj
 
     try:
-        tf = pyproj.Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
-        lon, lat = tf.transform(xy[0], xy[1])
-    except pyproj.exceptions.CRSError:
+        return pyproj.Transformer.from_crs(crs, "EPSG:4326", always_xy=True)
+    except pyproj.exceptions.ProjError:     # CRSError among them
         return None
-    return round(float(lon), 7), round(float(lat), 7)

@@ -333,10 +333,13 @@ def _op_order(name: str) -> Vt.TokenArray:
 
 
 def _georeference(spec: Sdf.PrimSpec, frame: str) -> dict:
-    """The frame's CRS and origin (lon/lat) as attributes on ``spec``; the data."""
+    """The frame's CRS (an identifier pyproj resolves, and the name when they differ)
+    and origin (lon/lat) as attributes on ``spec``; the data."""
     geo = georeference(frame)
     if geo:
         _user(spec, "crs", geo["crs"], Sdf.ValueTypeNames.String)
+        if "crs_name" in geo:
+            _user(spec, "crs_name", geo["crs_name"], Sdf.ValueTypeNames.String)
         _user(spec, "origin", Gf.Vec2d(*geo["origin"]), Sdf.ValueTypeNames.Double2)
         if "origin_lon" in geo:
             _user(spec, "origin_lon", geo["origin_lon"], Sdf.ValueTypeNames.Double)

@@ -100,7 +100,10 @@ class Features(list[Feature]):
 class Frame:
     """How local metres relate to the input: the frame, its origin (lon/lat for the
     local transverse Mercator, input coordinates for projected input kept as it is) and
-    the input's CRS when it was not plain lon/lat (``source_crs``, e.g. "EPSG:3857")."""
+    the input's CRS when it was not plain lon/lat (``source_crs``, e.g. "EPSG:3857").
+    A kept projected frame's ``crs`` names the CRS for people and for tools alike
+    (:func:`kept_crs`: "ETRS89 / TM35FIN(E,N) (projected, EPSG:3067)"), so a layout's
+    frame, which is all a writer sees, says which CRS its georeference is in."""
 
     crs: str
     origin: tuple[float, float]   # input coordinates (or lon/lat) of the local (0, 0)
@@ -632,7 +635,31 @@ def _kept_projected(allc: Coords, given: pyproj.CRS, origin: tuple[float, float]
     unit = _unit(given)
     shift = np.array(centre)
     return (lambda c: (c - shift) * unit), \
-        Frame(f"{given.name} (projected)", centre, given.to_string())
+        Frame(kept_crs(given), centre, given.to_string())
+
+
+_KEPT = re.compile(r"^(?P<name>.*?) \(projected, (?P<id>.+)\)$", re.S)
+
+
+def crs_id(crs: pyproj.CRS) -> str:
+    """What names ``crs`` so that pyproj (and GDAL, QGIS) resolve it: its authority
+    code ("EPSG:3067") when one matches it exactly, else its WKT on one line."""
+    auth = crs.to_authority(min_confidence=100)
+    return ":".join(auth) if auth else crs.to_wkt()
+
+
+def kept_crs(crs: pyproj.CRS) -> str:
+    """A kept projected frame's CRS as a frame (and a layout's ``frame``) records it:
+    its name, for people, and its identifier, for tools
+    ("ETRS89 / TM35FIN(E,N) (projected, EPSG:3067)")."""
+    return f"{crs.name} (projected, {crs_id(crs)})"
+
+
+def kept_crs_parts(text: str) -> tuple[str, str] | None:
+    """The name and the identifier in a frame's CRS text written by :func:`kept_crs`;
+    None for any other (the local transverse Mercator of lon/lat input)."""
+    m = _KEPT.match(text)
+    return None if m is None else (m["name"], m["id"])
 
 
 def _into_kept(allc: Coords, given: pyproj.CRS | None, source: str, within: Frame

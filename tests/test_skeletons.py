@@ -300,7 +300,7 @@ def test_a_bad_geometry_is_located_in_a_kept_projected_crs_in_its_unit():
     data = dict(fc(feat("Polygon", [ring])),
                 crs={"type": "name", "properties": {"name": "EPSG:2263"}})
     feats, frame = parse_geojson(data)
-    assert frame.crs.endswith("(projected)")
+    assert frame.crs.endswith("(projected, EPSG:2263)")
     with pytest.raises(SkeletonError, match="self-intersection at") as exc:
         skeletons_from_polygons(feats, frame)
     import shapely
