@@ -28,6 +28,7 @@ class UsageError(ValueError):
 
 
 MAX_K = 100   # layouts a command writes: each is its own files (100 are ~50 MB a block)
+MAX_STRETCH = 0.05   # stretch a city.toml or --stretch may ask: more shows in parts
 
 
 def check_k(k: int, name: str = "--k", what: str = "layouts") -> None:

@@ -104,7 +104,8 @@ def _geojson(tmp_path: Path, name: str, geometry: dict) -> Path:
      "50.730000): no row of the classic kit's parts fits it between the parts its ends "
      "take (the nearest they make there is 7.80 m)"),
     ("block", "Polygon", "the 2.50 m side from (7.100000, 50.730000) to (7.100035, "
-     "50.730000): the classic kit makes 2.8 m here; allow 12.0 % stretch"),
+     "50.730000): the classic kit makes 2.8 m here, 12 % away, past the 5 % stretch "
+     "allowed: the side's length in the data must change"),
 ])
 def test_a_building_or_block_that_cannot_be_built_is_told_in_sides_and_metres(
         tmp_path, capsys, command, geometry, side):

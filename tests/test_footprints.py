@@ -360,7 +360,13 @@ def test_a_side_the_kit_cannot_make_says_what_it_makes():
                if part_families(p.id, "abcd") <= {"c"}]
     text = side_advice(1.9, 1.85, 1.95, fillers, db.quantum, "classic")
     assert text is not None and text.startswith("the classic kit makes ")
-    assert re.search(r"makes (\d+\.\d or )?\d+\.\d m here; allow \d+\.\d % stretch", text)
+    # 2.8 m is 47 % away from 1.9 m: no stretch a city.toml or --stretch may ask (5 %)
+    # makes it, and "allow 47.4 % stretch" was advice no one could follow
+    assert re.search(r"makes 2\.8 m here, 47 % away, past the 5 % stretch allowed: the "
+                     r"side's length in the data must change$", text), text
+    near = side_advice(2.7, 2.69, 2.71, fillers, db.quantum, "classic")
+    assert near is not None and re.search(r"makes 2\.8 m here; allow 3\.7 % stretch$",
+                                          near), near
 
 
 def test_footprint_config_is_validated(tmp_path):

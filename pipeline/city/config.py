@@ -68,7 +68,7 @@ from typing import Any, Literal, get_args
 from shapely.geometry import Polygon
 
 from citysynth.pipeline.city.footprints import MAX_LEVELS, Storeys
-from citysynth.pipeline.errors import MAX_K, ConfigError, shown
+from citysynth.pipeline.errors import MAX_K, MAX_STRETCH, ConfigError, shown
 from citysynth.skeletons.from_geometry import interval_problem, why_invalid
 from citysynth.skeletons.streets import NOT_STREETS, Setbacks
 from citysynth.solver.problem import MAX_COST
@@ -193,9 +193,9 @@ def parse_config(data: dict, path: Path | None = None) -> CityConfig:
     if isinstance(seed, bool) or not isinstance(seed, int):
         raise err("seed", f"must be an integer, got {shown(seed)}")
     stretch = _pos(data, "stretch", 0.005, "", err, zero=True)
-    if stretch > 0.05:
-        raise err("stretch", f"{stretch:g} would stretch parts by more than 5 %; use at "
-                             "most 0.05")
+    if stretch > MAX_STRETCH:
+        raise err("stretch", f"{stretch:g} would stretch parts by more than "
+                             f"{100 * MAX_STRETCH:g} %; use at most {MAX_STRETCH:g}")
     return CityConfig(settings, seed, stretch,
                       _pos(data, "corner_tolerance", 25.0, "", err, zero=True,
                            most=MAX_CORNER_TOLERANCE),
@@ -234,9 +234,10 @@ def _footprints(data: dict, err: _Err) -> FootprintSettings:
         raise err("footprints", "must be a table")
     _known(fp, _FOOTPRINTS, "footprints.", err)
     stretch = _pos(fp, "stretch", 0.02, "footprints.", err, zero=True)
-    if stretch > 0.05:
+    if stretch > MAX_STRETCH:
         raise err("footprints.stretch", f"{stretch:g} would stretch parts by more than "
-                                        "5 %; use at most 0.05")
+                                        f"{100 * MAX_STRETCH:g} %; use at most "
+                                        f"{MAX_STRETCH:g}")
     tol = fp.get("storey_tolerance", 0)
     if isinstance(tol, bool) or not isinstance(tol, int) or tol < 0:
         raise err("footprints.storey_tolerance", f"must be a whole number >= 0, got {shown(tol)}")

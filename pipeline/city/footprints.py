@@ -23,7 +23,7 @@ import shapely
 
 from citysynth.export.party import TOUCH
 from citysynth.parts_db import Part, PartDB
-from citysynth.pipeline.errors import shown
+from citysynth.pipeline.errors import MAX_STRETCH, shown
 from citysynth.pipeline.layouts import BlockedAt
 from citysynth.pipeline.skeleton_to_structure import _chains, shortest_stage
 from citysynth.skeletons import Feature, Frame, Skeleton, skeletons_from_polygons
@@ -270,6 +270,11 @@ def side_advice(length: float, lo: float, hi: float, fillers: list[Part], quantu
     gap = min(abs(length - float(x)) for x in near)
     add = f" or add a {max(quantum, length - float(below[-1])):.1f} m part" if len(below) \
         else ""
+    if gap / length > MAX_STRETCH:   # no stretch city.toml takes makes it: say so
+        return (f"the {style} kit makes {' or '.join(near)} m here, "
+                f"{100 * gap / length:.0f} % away, past the {100 * MAX_STRETCH:g} % "
+                f"stretch allowed: the side's length in the data must change"
+                f"{add.replace(' or add', ', or add')}")
     return (f"the {style} kit makes {' or '.join(near)} m here; allow "
             f"{100 * gap / length:.1f} % stretch{add}")
 

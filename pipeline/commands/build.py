@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from citysynth.parts_db.files import all_or_nothing
-from citysynth.pipeline.errors import UsageError, check_k, shown
+from citysynth.pipeline.errors import MAX_STRETCH, UsageError, check_k, shown
 from citysynth.skeletons.errors import SkeletonError
 
 if TYPE_CHECKING:
@@ -27,7 +27,6 @@ if TYPE_CHECKING:
 # What the commands run (the solver, shapely, USD) is imported in the functions that
 # run it, so the command line starts without it (see pipeline.cli).
 
-MAX_STRETCH = 0.05   # as city.toml: more would stretch parts visibly
 
 
 def _options(args) -> dict[str, Any]:
