@@ -186,8 +186,12 @@ def check_file(f: object, where: str) -> str:
     if not isinstance(f, str) or not f:
         raise LibraryError(f"{where}: needs a file (path of its mesh, relative to the library)")
     if PurePosixPath(f).is_absolute() or PureWindowsPath(f).is_absolute():
-        raise LibraryError(f"{where}: file {f!r} must be a path relative to the library "
-                           "folder (so the library can be moved and shared)")
+        raise LibraryError(f"{where}: file {shown(f)} must be a path relative to the "
+                           "library folder (so the library can be moved and shared)")
+    if ".." in PurePosixPath(f.replace("\\", "/")).parts:
+        raise LibraryError(f"{where}: file {shown(f)} climbs out of the library folder "
+                           "(..); keep the part's mesh inside it, so the library can be "
+                           "moved and shared")
     return f
 
 

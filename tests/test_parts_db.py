@@ -213,7 +213,9 @@ GLB = GOOD.export(file_type="glb")
      "attribute doors must be a number from 0 to 10,000"),
     ([("A", "a.stl", GOOD, 'class = "window"')], "", "unknown class 'window'"),
     ([("A", "/etc/passwd", None, 'class = "middle"')], "",
-     "file '/etc/passwd' must be a path relative to the library folder"),
+     'file "/etc/passwd" must be a path relative to the library folder'),
+    ([("A", "../other/a.stl", None, 'class = "middle"')], "",
+     'file "../other/a.stl" climbs out of the library folder'),
     ([("A", "a.stl", GOOD, 'class = "corner"')], "", "a corner needs an angle"),
     ([("A", "a.stl", GOOD, 'class = "middle"')], 'units = "furlong"', 'units "furlong"'),
     # measured, but past what a database may hold (it was written, then every reader
