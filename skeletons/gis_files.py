@@ -271,8 +271,7 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
     except unreadable as exc:
         raise _cannot_read(path, fmt, exc) from None
     if wkb is None or len(wkb) == 0:
-        raise SkeletonError(f"{path}: layer {name!r} has no features; export the layer "
-                            "with its features, or leave the file out")
+        raise _no_features(path, fmt, name, accept)
     geoms = shapely.from_wkb(np.asarray(wkb, dtype=object), on_invalid="ignore")
     names = [str(n) for n in meta["fields"]]
     columns = [_values(c) for c in fields]
@@ -332,6 +331,18 @@ def _cad_entities(path: Path, geoms: np.ndarray, accept: str, layer: str | None,
         raise SkeletonError(f"{path}: no {what}{on} in this drawing; name the CAD layer "
                             f"that holds them as {path}{LAYER_SEP}LAYER")
     return rows
+
+
+def _no_features(path: Path, fmt: str, layer: str, accept: str) -> SkeletonError:
+    """The file's layer is empty: for an OpenStreetMap file, what it lacks in its
+    terms (GDAL's layer names, "multipolygons", mean nothing to a user of OSM data)."""
+    if fmt == OSM:
+        what = {"lines": "streets (ways tagged highway=*)",
+                "polygons": "buildings (areas tagged building=*)"}[accept]
+        return SkeletonError(f"{path}: no {what} in this OpenStreetMap file; check that "
+                             "the extract covers them, or leave the file out")
+    return SkeletonError(f"{path}: layer {layer!r} has no features; export the layer "
+                         "with its features, or leave the file out")
 
 
 def _cad_rows(path: Path, geoms: np.ndarray, accept: str, layer: str | None,

@@ -673,6 +673,28 @@ def test_an_osm_file_giving_an_id_twice_says_so(tmp_path, capsys, kind):
     assert "osmium merge" in err and not (tmp_path / "run").exists()
 
 
+@pytest.mark.parametrize("option, what", [
+    ("--footprints", "no buildings (areas tagged building=*) in this OpenStreetMap file"),
+    ("--streets", "no streets (ways tagged highway=*) in this OpenStreetMap file")])
+def test_an_osm_file_without_what_is_asked_says_so_in_osm_terms(tmp_path, capsys, option,
+                                                                what):
+    """An extract with neither buildings nor streets (a park's paths only): told in
+    OpenStreetMap's terms, not as GDAL's empty layer ("layer 'multipolygons' has no
+    features"), found by a probe on 2026-11-30."""
+    nodes = [f'<node id="{n}" lat="{50.73 + n * 1e-4}" lon="7.1" version="1"/>'
+             for n in range(1, 4)]
+    way = ('<way id="100" version="1"><nd ref="1"/><nd ref="2"/><nd ref="3"/>'
+           '<tag k="leisure" v="park"/></way>')
+    f = tmp_path / "park.osm"
+    f.write_text('<?xml version="1.0" encoding="UTF-8"?>\n<osm version="0.6">\n'
+                 + "\n".join([*nodes, way]) + "\n</osm>\n")
+    assert main(["city", option, str(f), "--library", str(LIB), "-o",
+                 str(tmp_path / "run"), "--no-overview"]) == 2
+    err = capsys.readouterr().err
+    assert what in err and "multipolygons" not in err, err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "run").exists()
+
+
 def test_a_shapefile_cut_short_is_told_so(files, tmp_path, capsys):
     """A .shp shorter than its header says: GDAL gave its lost shapes as features
     without geometry, told as "no geometry (null)"."""
