@@ -63,6 +63,10 @@ def test_every_error_class_of_citysynth_is_a_listed_user_error():
 @pytest.mark.parametrize("argv, fragment", [
     (["solve", str(EXAMPLES / "facade_small.json"), "--k", "0"],
      "--k must be a positive integer, got 0"),
+    # the option's fault, not the problem file's (it was said as "facade_small.json: the
+    # memory budget must be ...")
+    (["solve", str(EXAMPLES / "facade_small.json"), "--max-memory", "-1"],
+     "error: --max-memory: the memory budget must be a positive number"),
     (["city", "--streets", str(DISTRICT), "--workers", "0"], "--workers must be at least 1"),
     # a worker holds ~150 MB: 100,000 of them filled the machine until the OOM killer came
     (["city", "--streets", str(DISTRICT), "--workers", "100000"], "GB in all"),

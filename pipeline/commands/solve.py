@@ -45,11 +45,16 @@ def run(args) -> int:
 
 def _run(args) -> int:
     from citysynth.solver import Problem, solve  # numba: when run (see pipeline.cli)
+    from citysynth.solver.entry import check_budget
     from citysynth.solver.problem import load_json
     from citysynth.solver.structures import Structure
 
     if args.k is not None and args.k < 1:
         raise UsageError(f"--k must be a positive integer, got {args.k}")
+    try:                       # an option's fault, said before the file is read
+        check_budget(args.max_memory)
+    except ProblemError as exc:
+        raise UsageError(f"--max-memory: {exc}") from None
     data = load_json(args.file)
     if isinstance(data, dict) and "stages" in data:
         return run_structure(args, Structure.from_dict(data, args.file))
