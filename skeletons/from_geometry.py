@@ -117,6 +117,23 @@ def _classify(ids: Iterable[int], xy: dict[int, np.ndarray], g: nx.Graph, edges:
     return kps
 
 
+class _Nodes:
+    """Key points by position: a point within :data:`SNAP` of one seen (on SNAP's
+    grid) is that key point; called with a point, its key point's index; ``xy``: each
+    index's position, as first seen."""
+
+    def __init__(self) -> None:
+        self.keys: dict[tuple[int, int], int] = {}
+        self.xy: dict[int, np.ndarray] = {}
+
+    def __call__(self, p: np.ndarray) -> int:
+        k = (round(p[0] / SNAP), round(p[1] / SNAP))
+        if k not in self.keys:
+            self.keys[k] = len(self.keys)
+            self.xy[self.keys[k]] = np.array([float(p[0]), float(p[1])])
+        return self.keys[k]
+
+
 def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "skeleton",
                         *, min_edge: float = 0.0, straight_tol: float = STRAIGHT_TOL
                         ) -> Skeleton:
@@ -125,16 +142,9 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
     features = list(features)
     sources = sorted({f.source for f in features if f.source})
     prefix = "".join(f"{s}: " for s in sources[:1])     # messages name the file
-    keys: dict[tuple[int, int], int] = {}
-    xy: dict[int, np.ndarray] = {}
+    node = _Nodes()
+    xy = node.xy
     edges: list[Edge] = []
-
-    def node(p: np.ndarray) -> int:
-        k = (round(p[0] / SNAP), round(p[1] / SNAP))
-        if k not in keys:
-            keys[k] = len(keys)
-            xy[keys[k]] = np.array([float(p[0]), float(p[1])])
-        return keys[k]
 
     drawn: list[tuple[Feature, np.ndarray]] = []
     for f in features:
@@ -351,16 +361,8 @@ def line_meets_itself(coords: np.ndarray) -> Meeting | None:
     turns back over its course meets itself on the same edge ("twice") even where
     projecting it left the two millimetres apart. Each edge's ``source`` is the index
     of the segment it lies on (``"0"``: from ``coords[0]`` to ``coords[1]``)."""
-    keys: dict[tuple[int, int], int] = {}
-    xy: dict[int, np.ndarray] = {}
-
-    def node(p: np.ndarray) -> int:
-        k = (round(p[0] / SNAP), round(p[1] / SNAP))
-        if k not in keys:
-            keys[k] = len(keys)
-            xy[keys[k]] = np.array([float(p[0]), float(p[1])])
-        return keys[k]
-
+    node = _Nodes()
+    xy = node.xy
     edges = []
     for n, (p, q) in enumerate(zip(coords[:-1], coords[1:], strict=True)):
         a, b = node(p), node(q)
