@@ -24,8 +24,11 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path to write; on success it is renamed to ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}{TMP_MARK}",
-                               suffix=path.suffix)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}{TMP_MARK}",
+                                   suffix=path.suffix)
+    except OSError as exc:   # a read-only folder: said of the file asked for, not the
+        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None  # temp
     os.close(fd)
     try:
         yield Path(tmp)

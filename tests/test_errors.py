@@ -162,6 +162,26 @@ def test_a_disk_that_fills_while_usd_is_written_is_one_line_exit_2(tmp_path, cap
     assert len(err.strip().splitlines()) == 1
 
 
+def test_a_folder_that_takes_no_file_is_said_of_the_file_asked_for(tmp_path, capsys,
+                                                                    monkeypatch):
+    """A read-only output folder (a probe's read-only mount): the temporary file a write
+    starts with cannot be made, and the message named it (".map.tmp-qljrwxxf.png", for
+    `diff --png map.png`); it names the file asked for."""
+    import errno
+    import tempfile
+
+    def refused(dir=None, prefix="", suffix="", **kwargs):
+        raise PermissionError(errno.EACCES, "Permission denied",
+                              f"{dir}/{prefix}qljrwxxf{suffix}")
+    monkeypatch.setattr(tempfile, "mkstemp", refused)
+    code = main(["block", str(ROOT / "examples" / "blocks" / "block.geojson"), "--library",
+                 str(LIB), "-o", str(tmp_path / "out"), "--no-preview"])
+    err = capsys.readouterr().err
+    assert code == EXIT_BAD_INPUT and "Permission denied" in err, err
+    assert ".tmp-" not in err and f"{tmp_path / 'out'}/block" in err, err
+    assert len(err.strip().splitlines()) == 1
+
+
 def test_a_bound_past_any_count_is_no_bound(tmp_path):
     """doors = [0, 1e20] on a side: no int64 overflow (it crashed), the same layout as
     no bound at all."""
