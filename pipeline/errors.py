@@ -10,6 +10,10 @@ from numpy) is a bug in citysynth: it keeps its traceback and is reported as one
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
+from typing import Any
+
 from citysynth.export.errors import ExportError
 from citysynth.parts_db.errors import LibraryError
 from citysynth.skeletons.errors import FarFromFrame, SkeletonError
@@ -43,6 +47,24 @@ def check_k(k: int, name: str = "--k", what: str = "layouts") -> None:
 class ConfigError(UsageError):
     """A bad ``city.toml`` (the message names the key), or a city run asked for what it
     cannot do (no inputs, no library, an unreachable Dask scheduler)."""
+
+
+def names_its_file(attr: str) -> Callable[[Callable[[Any], int]], Callable[[Any], int]]:
+    """A command's ``run(args)`` whose skeleton errors all name its input file
+    (``args.<attr>``): a feature's or a line's own checks name the feature ("feature 0
+    (h): edge constraint on 'unicorns' ...") but not the file it is in."""
+    def wrap(run: Callable[[Any], int]) -> Callable[[Any], int]:
+        @functools.wraps(run)
+        def named(args: Any) -> int:
+            try:
+                return run(args)
+            except SkeletonError as exc:
+                path = str(getattr(args, attr))
+                if path in str(exc):
+                    raise
+                raise SkeletonError(f"{path}: {exc}") from None
+        return named
+    return wrap
 
 
 USER_ERRORS: tuple[type[Exception], ...] = (

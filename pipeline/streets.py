@@ -36,6 +36,7 @@ from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import street_front_problem
 from citysynth.skeletons import InputWarning
+from citysynth.skeletons.errors import SkeletonError
 from citysynth.solver import Problem, Result, solve
 from citysynth.solver.diagnose import nearest
 
@@ -83,10 +84,10 @@ def facade_line(street: LineString, side: str, offset: float,
             break
         line = _offset(street.simplify(tol), side, offset)
     if not isinstance(line, LineString) or line.is_empty:
-        raise UsageError(f"the street line offset by {offset:g} m to the {side} is not one "
-                         "line (a bend tighter than the offset folds it, "
-                         f"{_fold(street, side, locate)}); use a smaller --offset, or give "
-                         "the street as two lines at the bend")
+        raise SkeletonError(f"the street line offset by {offset:g} m to the {side} is not "
+                            "one line (a bend tighter than the offset folds it, "
+                            f"{_fold(street, side, locate)}); use a smaller --offset, or "
+                            "give the street as two lines at the bend")
     return line if side == "left" else line.reverse()
 
 
@@ -154,9 +155,9 @@ def loop_runs(street: LineString, side: str, offset: float, depth: float) -> lis
     inside = (side == "left") == area.exterior.is_ccw    # the buildings within the loop
     ring = area.buffer(-offset if inside else offset, join_style="mitre", mitre_limit=10.0)
     if not isinstance(ring, shapely.Polygon) or ring.is_empty:
-        raise UsageError(f"the street loop offset by {offset:g} m to the {side} is not one "
-                         "ring (the loop is narrower than the offset); use a smaller "
-                         "--offset")
+        raise SkeletonError(f"the street loop offset by {offset:g} m to the {side} is not "
+                            "one ring (the loop is narrower than the offset); use a smaller "
+                            "--offset")
     pts = np.asarray(shapely.geometry.polygon.orient(ring, 1.0 if inside else -1.0)
                      .exterior.coords)[:-1]
     return _ring_cut(pts, side, depth, BEND)

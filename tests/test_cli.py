@@ -179,6 +179,33 @@ def test_a_block_file_repeating_one_outline_lays_it_out_once(tmp_path, capsys):
     assert sorted(p.name for p in out.glob("*.layout.json")) == ["copies.layout.json"]
 
 
+def test_a_features_own_fault_names_its_file(tmp_path, capsys):
+    """A block feature's constraint no part has, and a street line whose offset folds
+    at a tight bend: the message named the feature, or said "the street line", but not
+    the file (found by a probe on 2026-11-30)."""
+    ring = [[7.1, 50.73], [7.1008, 50.73], [7.1008, 50.7305], [7.1, 50.7305], [7.1, 50.73]]
+    f = tmp_path / "h.geojson"
+    f.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": "h", "constraints": {"unicorns": [1, 2]}},
+         "geometry": {"type": "Polygon", "coordinates": [ring]}}]}))
+    assert main(["block", str(f), "--library", str(EXAMPLES / "library"), "-o",
+                 str(tmp_path / "o"), "--no-preview"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"citysynth block: error: {f}: feature 0 (h): ") and \
+        "'unicorns'" in err, err
+    from citysynth.skeletons.geojson import lonlat_from_local
+    spiral = lonlat_from_local([(0, 0), (40, 0), (40, 3), (1, 3), (1, 1.5), (30, 1.5)],
+                               (7.1, 50.73))
+    s = tmp_path / "spiral.geojson"
+    s.write_text(json.dumps({"type": "Feature", "properties": {},
+                             "geometry": {"type": "LineString", "coordinates": spiral}}))
+    assert main(["street", "--line", str(s), "-o", str(tmp_path / "o"),
+                 "--no-preview"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"citysynth street: error: {s}: the street line "), err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
 def _refused_block(tmp_path: Path, capsys, name: str, ring: list) -> str:
     """``citysynth block`` on one lon/lat ring: refused (exit 2) with nothing written;
     its stderr."""

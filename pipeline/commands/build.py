@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from citysynth.parts_db.files import all_or_nothing
-from citysynth.pipeline.errors import MAX_STRETCH, UsageError, check_k, shown
+from citysynth.pipeline.errors import MAX_STRETCH, UsageError, check_k, names_its_file, shown
 from citysynth.skeletons.errors import SkeletonError
 
 if TYPE_CHECKING:
@@ -195,6 +195,7 @@ def run_building(args) -> int:
     return _finish(args, db, style, frame, [(built, [sk])])
 
 
+@names_its_file("file")
 def run_block(args) -> int:
     from citysynth.pipeline.city.party import party_walls
     from citysynth.pipeline.layouts import solve_layouts

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 from citysynth.examples import SAMPLE_LIBRARY
 from citysynth.parts_db.files import all_or_nothing
 from citysynth.pipeline.commands.build import safe_name
-from citysynth.pipeline.errors import UsageError, check_k
+from citysynth.pipeline.errors import UsageError, check_k, names_its_file
 from citysynth.skeletons.errors import SkeletonError
 
 if TYPE_CHECKING:
@@ -180,6 +180,7 @@ def _check_course(line, frame, path: str) -> None:
                 "turn up)")
 
 
+@names_its_file("line")
 def run(args) -> int:
     from citysynth.parts_db import load_library
     from citysynth.pipeline.streets import solve_street
