@@ -49,20 +49,25 @@ class ConfigError(UsageError):
     cannot do (no inputs, no library, an unreachable Dask scheduler)."""
 
 
-def names_its_file(attr: str) -> Callable[[Callable[[Any], int]], Callable[[Any], int]]:
-    """A command's ``run(args)`` whose skeleton errors all name its input file
-    (``args.<attr>``): a feature's or a line's own checks name the feature ("feature 0
-    (h): edge constraint on 'unicorns' ...") but not the file it is in."""
+def names_its_file(attr: str, *kinds: type[Exception]
+                   ) -> Callable[[Callable[[Any], int]], Callable[[Any], int]]:
+    """A command's ``run(args)`` whose errors of ``kinds`` (default: skeleton errors)
+    all name its input file (``args.<attr>``): a feature's or a line's own checks name
+    the feature ("feature 0 (h): edge constraint on 'unicorns' ...") but not the file it
+    is in. The error keeps its class and attributes (a TooLargeError its figures); only
+    its message gains the file."""
+    caught = kinds or (SkeletonError,)
+
     def wrap(run: Callable[[Any], int]) -> Callable[[Any], int]:
         @functools.wraps(run)
         def named(args: Any) -> int:
             try:
                 return run(args)
-            except SkeletonError as exc:
+            except caught as exc:
                 path = str(getattr(args, attr))
-                if path in str(exc):
-                    raise
-                raise SkeletonError(f"{path}: {exc}") from None
+                if path not in str(exc):
+                    exc.args = (f"{path}: {exc}", *exc.args[1:])
+                raise
         return named
     return wrap
 

@@ -28,7 +28,6 @@ if TYPE_CHECKING:
 # run it, so the command line starts without it (see pipeline.cli).
 
 
-
 def _options(args) -> dict[str, Any]:
     """What --stretch and --slack mean to the structure (the city's stretch and slack)."""
     return {"stretch": args.stretch, "slack": args.slack}

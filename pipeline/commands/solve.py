@@ -7,7 +7,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from citysynth.pipeline.commands.results_text import format_result
-from citysynth.pipeline.errors import UsageError
+from citysynth.pipeline.errors import UsageError, names_its_file
 from citysynth.solver.errors import ProblemError
 from citysynth.solver.methods import DEFAULT_MAX_MEMORY_MB, METHODS
 
@@ -33,14 +33,10 @@ def register(sub) -> None:
     p.set_defaults(run=run)
 
 
+@names_its_file("file", ProblemError)   # TooLargeError too
 def run(args) -> int:
     """Solve the file's problem or structure; every error names the file."""
-    try:
-        return _run(args)
-    except ProblemError as exc:    # TooLargeError too
-        if str(args.file) in str(exc):
-            raise
-        raise type(exc)(f"{args.file}: {exc}") from None
+    return _run(args)
 
 
 def _run(args) -> int:
