@@ -132,7 +132,7 @@ def read_geojson(path: str | Path, crs: str | None = None,
     caller that takes any geometry still knows which layer it wants."""
     gis = gis_format(path)
     if gis is not None:
-        data = read_gis_file(*gis, layer_of or accept)
+        data = read_gis_file(*gis, layer_of or accept, crs_given=crs is not None)
     else:
         data = _read_json_or_sequence(Path(path))
     return parse_geojson(data, str(path), crs, origin, origin_digits, accept=accept,

@@ -45,6 +45,7 @@ FORMATS = {                         # file signature -> format name
     b"\x00\x00\x27\x0a": "Shapefile",
     b"fgb\x03": "FlatGeobuf",
     b"PK\x03\x04": "zipped Shapefile",
+    b"PK\x05\x06": "zipped Shapefile",   # an empty zip archive
     b"PAR1": PARQUET,
 }
 SUFFIXES = {".gpkg": "GeoPackage", ".shp": "Shapefile", ".fgb": "FlatGeobuf",
@@ -212,8 +213,10 @@ def _check_unpacked(path: Path, fmt: str) -> None:
         try:
             with zipfile.ZipFile(path) as archive:
                 size = sum(member.file_size for member in archive.infolist())
+                members = [m.filename for m in archive.infolist() if not m.is_dir()]
         except (zipfile.BadZipFile, OSError):
             return        # GDAL names what is wrong with it
+        _check_zip_holds(path, fmt, members)
         how = "unzipped"
     elif fmt in ("Shapefile", "MapInfo table"):
         size = sum(f.stat().st_size for f in path.parent.iterdir()
@@ -225,15 +228,49 @@ def _check_unpacked(path: Path, fmt: str) -> None:
                     SkeletonError)
 
 
+def _check_zip_holds(path: Path, fmt: str, members: list[str]) -> None:
+    """Refuse a zip archive that is not the format it was taken for: one without a
+    .shp (a zipped GeoJSON or GeoPackage, or a zip renamed .geojson) or a KMZ without
+    a .kml, naming what it holds, so the user unzips it rather than reading GDAL's
+    "not recognized as being in a supported file format"."""
+    wanted = ".kml" if fmt == "KMZ" else ".shp"
+    if any(m.lower().endswith(wanted) for m in members):
+        return
+    held = ", ".join(members[:3]) + (f" and {len(members) - 3} more"
+                                     if len(members) > 3 else "")
+    raise SkeletonError(f"{path}: a zip archive holding {held or 'nothing'}, with no "
+                        f"{wanted} file in it (a zipped "
+                        f"{'KML' if fmt == 'KMZ' else 'Shapefile'} is read as it is); "
+                        "unzip it and give the file inside")
+
+
+def _warn_unread_prj(path: Path, fmt: str, crs: object) -> None:
+    """Warn when a Shapefile's .prj is there but GDAL read no CRS from it (a damaged or
+    hand-written one) and ``crs`` (the file's, or True for the user's ``--crs``) is
+    none: its coordinates are then taken as GeoJSON's lon/lat, which is wrong for
+    projected data."""
+    if fmt != "Shapefile" or crs:
+        return
+    prj = [f for f in path.parent.glob("*") if f.stem.lower() == path.stem.lower()
+           and f.suffix.lower() == ".prj" and f.is_file()]
+    if prj:
+        warnings.warn(f"{prj[0]}: not a coordinate system GDAL can read; the "
+                      f"coordinates of {path.name} are taken as lon/lat (give --crs if "
+                      "they are projected, or export the layer again)", InputWarning,
+                      stacklevel=2)
+
+
 def _xml(head: bytes) -> bool:
     """Whether a file starts as XML (a GeoJSON property may hold "<kml" or "<osm")."""
     return head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<")
 
 
-def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[str, Any]:
+def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str,
+                  crs_given: bool = False) -> dict[str, Any]:
     """The layer of the GIS file at ``path`` as a GeoJSON FeatureCollection (a dict);
     ``accept`` ("lines", "polygons" or "any") picks the layer when ``layer`` is None
-    (a GeoParquet file's ``layer`` is a geometry column; it has one table)."""
+    (a GeoParquet file's ``layer`` is a geometry column; it has one table);
+    ``crs_given``: the user said which CRS its coordinates are in (``--crs``)."""
     if fmt == PARQUET:
         return read_geoparquet(path, layer)
     import pyogrio  # GDAL: loaded only when such a file is given
@@ -272,6 +309,7 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str) -> dict[
         raise _cannot_read(path, fmt, exc) from None
     if wkb is None or len(wkb) == 0:
         raise _no_features(path, fmt, name, accept)
+    _warn_unread_prj(path, fmt, meta.get("crs") or crs_given)
     geoms = shapely.from_wkb(np.asarray(wkb, dtype=object), on_invalid="ignore")
     names = [str(n) for n in meta["fields"]]
     columns = [_values(c) for c in fields]

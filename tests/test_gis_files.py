@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import warnings
 import zipfile
 from pathlib import Path
 
@@ -757,3 +758,42 @@ def test_an_osm_pbf_street_with_a_gap_in_its_nodes_is_warned_of(tmp_path):
     gaps = [str(w.message) for w in caught if "name nodes this file does not hold" in
             str(w.message)]
     assert len(gaps) == 1 and "1 street way(s) (e.g. way 100)" in gaps[0], gaps
+
+
+@pytest.mark.parametrize("inside", ["x.geojson", "city.gpkg", ""])
+def test_a_zip_without_a_shapefile_says_what_it_holds(files, tmp_path, capsys, inside):
+    """A zipped GeoJSON renamed .geojson (or a zip of a GeoPackage, or an empty one) was
+    called a zipped Shapefile GDAL did not recognise; now it is said to be a zip
+    archive, with what it holds and no .shp, to unzip."""
+    given = tmp_path / "streets.geojson"
+    with zipfile.ZipFile(given, "w") as archive:
+        if inside:
+            archive.write(STREETS if inside.endswith("json") else files / inside, inside)
+    assert city(tmp_path / "o", "--streets", str(given)) == 2
+    err = capsys.readouterr().err
+    assert f"a zip archive holding {inside or 'nothing'}, with no .shp file" in err, err
+    assert "unzip it" in err and "not recognized" not in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+def test_a_shapefile_whose_prj_is_not_read_is_warned_of(files, tmp_path):
+    """A .prj GDAL cannot read (damaged, hand-written) left the Shapefile without a CRS,
+    silently taken as lon/lat; now warned of, naming the .prj; not when --crs says the
+    CRS."""
+    from citysynth.skeletons import InputWarning
+    from citysynth.skeletons.geojson import read_geojson
+    for ext in ("shp", "shx", "dbf"):
+        shutil.copy(files / f"streets.{ext}", tmp_path / f"s.{ext}")
+    (tmp_path / "s.prj").write_text("bad prj garbage")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        read_geojson(tmp_path / "s.shp", crs="EPSG:3067", accept="lines")
+    assert not [w for w in caught if "s.prj" in str(w.message)]
+    with pytest.warns(InputWarning) as caught:
+        try:
+            read_geojson(tmp_path / "s.shp", accept="lines")
+        except Exception:
+            pass   # projected coordinates taken as lon/lat are refused after the warning
+    said = [str(w.message) for w in caught if "s.prj" in str(w.message)]
+    assert len(said) == 1 and "not a coordinate system GDAL can read" in said[0], said
+    assert "give --crs" in said[0]
