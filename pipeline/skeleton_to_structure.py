@@ -268,7 +268,12 @@ def _check_noses(sk: Skeleton, chains: list[_Chain]) -> None:
     for k in sk.keypoints:
         if k.kind != "corner" or not k.convex or k.angle is None or k.angle >= ACUTE_DEG:
             continue
-        back = NOSE / (2 * math.sin(math.radians(max(k.angle, 1e-9)) / 2))
+        if round(k.angle, 1) == 0:   # its nose would be "2030998.7 m back"
+            raise SkeletonError(
+                f"{sk.name}: at {sk.frame.at(k.xy)} a side turns straight back on itself "
+                "(a spike: out and back along one line, a corner of 0.0°); remove the "
+                "spike's point")
+        back = NOSE / (2 * math.sin(math.radians(k.angle) / 2))
         sides = [c.length for c in chains if k.id in (c.a, c.b)]
         if sides and back >= min(sides):
             raise SkeletonError(

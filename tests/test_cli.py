@@ -218,6 +218,17 @@ def _refused_block(tmp_path: Path, capsys, name: str, ring: list) -> str:
     return err
 
 
+def test_a_spike_in_an_outline_is_refused_as_one(tmp_path, capsys):
+    """A ring point going out and straight back (a corner of 0°) was told as a nose
+    "2030998.7 m back along each facade"; now as the spike it is, where it is."""
+    from citysynth.skeletons.geojson import lonlat_from_local
+    ring = lonlat_from_local([(0, 0), (40, 0), (40, 20), (70, 20), (40, 20 + 1e-4),
+                              (40, 40), (0, 40), (0, 0)], (7.1, 50.73))
+    err = _refused_block(tmp_path, capsys, "spiky", ring)
+    assert err.count("\n") == 1 and "a side turns straight back on itself" in err, err
+    assert "a spike" in err and "m back along" not in err, err
+
+
 @pytest.mark.parametrize("degrees, code", [(0.7, 2), (1.0, 2), (5.0, 0)])
 def test_a_hairpin_too_sharp_for_its_sides_is_refused_where_it_is(tmp_path, capsys, degrees,
                                                                    code):
