@@ -73,6 +73,12 @@ class Lot:
             c = polylabel(poly, tolerance=0.01)
         return cls(poly, (round(c.x, 6), round(c.y, 6)), _long_side_angle(poly), frame)
 
+    def inland(self) -> Lot:
+        """The lot with the tower axis on its most inland point (the centre of the
+        widest circle inside it)."""
+        c = polylabel(self.polygon, tolerance=0.01)
+        return replace(self, centre=(round(c.x, 6), round(c.y, 6)))
+
 
 def _long_side_angle(poly: Polygon) -> float:
     rect = poly.minimum_rotated_rectangle
@@ -105,9 +111,30 @@ def _extent(g: BaseGeometry) -> tuple[float, float]:
     return x1 - x0, y1 - y0
 
 
-def check_lot(db: PartDB, lot: Lot, style: str | None) -> None:
-    """One clear message when no ground floor or no roof fits the lot at all (the
-    solver would only say there is no tower)."""
+def _fits_both(db: PartDB, lot: Lot, style: str | None) -> bool:
+    """Does some ground floor and some roof of the library fit the lot?"""
+    return all(any(fits(p, lot) for p in db.parts if p.cls == cls and
+                   (style is None or p.style == style)) for cls in ("ground_floor", "roof"))
+
+
+def fitted_lot(db: PartDB, lot: Lot, style: str | None) -> Lot | None:
+    """The lot with its tower axis where a ground floor and a roof of the library fit:
+    its centre, else its most inland point (a centroid a few metres beside a courtyard
+    or between an easement's holes took no tower though a circle of 68 m fitted
+    elsewhere); None where neither takes one."""
+    for placed in (lot, lot.inland()):
+        if _fits_both(db, placed, style):
+            return placed
+    return None
+
+
+def check_lot(db: PartDB, lot: Lot, style: str | None) -> Lot:
+    """The lot as :func:`fitted_lot` places its tower; one clear message when no ground
+    floor or no roof fits it at all (the solver would only say there is no tower)."""
+    placed = fitted_lot(db, lot, style)
+    if placed is not None:
+        return placed
+    lot = lot.inland()
     for cls in ("ground_floor", "roof"):
         cands = [p for p in db.parts if p.cls == cls and (style is None or p.style == style)]
         if not cands or any(fits(p, lot) for p in cands):
@@ -122,6 +149,7 @@ def check_lot(db: PartDB, lot: Lot, style: str | None) -> None:
                          f"lot ({lot.area:g} m², {lw:.1f} x {ld:.1f} m{hole}; the widest "
                          f"circle inside it is {wide:.1f} m across): the smallest, "
                          f"{small.id}, needs {pw:.1f} x {pd:.1f} m; give a larger lot")
+    return lot
 
 
 MAX_FAR = 500.0   # a 1,000 m tower covering its whole lot has a ratio of about 300
@@ -278,7 +306,7 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
         raise UsageError(f"a tower of {hi:g} m: citysynth stacks towers of at most "
                          f"{MAX_TOWER_HEIGHT:,.0f} m (the tallest building stands 828 m); "
                          "ask for a lower one")
-    check_lot(db, lot, style)
+    lot = check_lot(db, lot, style)
     t0 = time.perf_counter()
     area = (far[0] * lot.area, far[1] * lot.area)
     problem = tower_problem(db, hi, area, style=style, k=k, area_quantum=AREA_QUANTUM,
@@ -399,12 +427,6 @@ def cut_lots(ground: BaseGeometry, size: float) -> list[Polygon]:
                     back = shapely.transform(back, lambda xy: np.round(xy, 3))
                     lots.append(orient(back.simplify(0.0), 1.0))
     return lots
-
-
-def fits_a_tower(db: PartDB, lot: Lot, style: str | None) -> bool:
-    """Does some ground floor and some roof of the library fit the lot?"""
-    return all(any(fits(p, lot) for p in db.parts if p.cls == cls and
-                   (style is None or p.style == style)) for cls in ("ground_floor", "roof"))
 
 
 def towers_layout(name: str, rank: int, towers: list[Layout]) -> Layout:

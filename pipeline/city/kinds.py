@@ -43,7 +43,7 @@ from citysynth.pipeline.streets import (
     ring_runs,
     solve_runs,
 )
-from citysynth.pipeline.towers import Lot, cut_lots, fits_a_tower, solve_tower, towers_layout
+from citysynth.pipeline.towers import Lot, cut_lots, fitted_lot, solve_tower, towers_layout
 from citysynth.skeletons import Frame
 from citysynth.skeletons.geojson import format_xy, input_xy
 
@@ -98,8 +98,8 @@ def _towers(job: BlockJob, db: PartDB, ground: shapely.Geometry, frame: str,
             where: str) -> Built | str:
     zk = job.zone_kind
     assert zk is not None
-    lots = [lot for lot in (Lot.from_polygon(p, frame) for p in cut_lots(ground, zk.lot))
-            if fits_a_tower(db, lot, job.style)]
+    lots = [lot for lot in (fitted_lot(db, Lot.from_polygon(p, frame), job.style)
+                            for p in cut_lots(ground, zk.lot)) if lot is not None]
     if not lots:
         return (f"no lot of about {zk.lot:g} m cut from it takes a ground floor and a roof "
                 f"of the {job.style} towers (a smaller lot in the zone would)")
