@@ -10,6 +10,7 @@ from numpy) is a bug in citysynth: it keeps its traceback and is reported as one
 
 from __future__ import annotations
 
+import errno
 import functools
 from collections.abc import Callable
 from typing import Any
@@ -82,3 +83,25 @@ the complete catalogue. ``except USER_ERRORS`` catches exactly the user's mistak
 __all__ = ["EXIT_BAD_INPUT", "EXIT_INFEASIBLE", "EXIT_INTERNAL", "EXIT_OK", "USER_ERRORS",
            "ConfigError", "ExportError", "LibraryError", "ProblemError", "SkeletonError",
            "TooLargeError", "UsageError"]
+
+
+_FIXES = {errno.ENOSPC: "free space", errno.EDQUOT: "free space",
+          errno.EACCES: "fix the permissions", errno.EPERM: "fix the permissions",
+          errno.EROFS: "write to a writable folder",
+          errno.ENAMETOOLONG: "choose a shorter output folder or name",
+          # a file where a folder should be (mkdir of it, or a path through it)
+          errno.EEXIST: "move that file out of the way or choose another path",
+          errno.ENOTDIR: "a file stands where a folder should be: move it or choose "
+                         "another path",
+          errno.EISDIR: "a folder stands where a file should be: choose another name"}
+
+
+def environment_message(exc: OSError) -> str:
+    """One line for a failure of the machine (disk full, no permission, a path too
+    long): what, where, the fix for that failure, and that running again once it is
+    fixed is safe (a city run folder resumes; other commands write all or nothing)."""
+    where = f"{exc.filename}: " if exc.filename else ""
+    if exc.errno == errno.ENAMETOOLONG and exc.filename and len(str(exc.filename)) > 120:
+        where = f"{str(exc.filename)[:60]}...{str(exc.filename)[-40:]}: "
+    fix = _FIXES.get(exc.errno or 0, "free space or fix the permissions")
+    return f"{where}{exc.strerror or exc}; {fix} and run again"

@@ -46,7 +46,7 @@ from citysynth.pipeline.city.footprints import (
     well_blocking,
 )
 from citysynth.pipeline.city.kinds import solve_kind
-from citysynth.pipeline.errors import USER_ERRORS
+from citysynth.pipeline.errors import USER_ERRORS, environment_message
 from citysynth.pipeline.layouts import Built, ranked_files, solve_layouts, write_outputs
 from citysynth.skeletons import Frame
 
@@ -242,9 +242,13 @@ def run_block(job: BlockJob, out_dir: str) -> BlockRecord:
         env = environment_failure(exc)
         if env is not None:   # failed this time; a rerun (with space, rights) retries it
             rec["files"], rec["machine"] = [], True
-            what = str(exc) if isinstance(exc, USER_ERRORS) else f"could not write ({env})"
-            return _unrecorded(rec, "failed", t0, f"{what}; a failure of the machine, not "
-                               "recorded: fix the disk or permissions and run again")
+            if isinstance(exc, USER_ERRORS):
+                what = f"{exc}; fix the disk or permissions and run again"
+            else:   # "...cuts.usdc: No space left on device; free space and run again"
+                what = (f"could not write {'' if env.filename else 'its files: '}"
+                        f"{environment_message(env)}")
+            return _unrecorded(rec, "failed", t0, f"{what} (a failure of the machine, not "
+                               "recorded: the next run builds the block)")
         if isinstance(exc, USER_ERRORS):   # one bad block never stops the city
             return _finish(out, rec, "failed", t0, reason=str(exc) or type(exc).__name__)
         rec["error"] = f"{type(exc).__name__}: {exc}"     # a bug: never cached
