@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from citysynth.pipeline.city.folder import MANIFEST, RUN_SCHEMA, RUN_VERSION
+from citysynth.pipeline.commands.diff_places import same_places
 from citysynth.pipeline.errors import UsageError
 from citysynth.solver.safe_read import decode, parse_json, read_bytes, read_json, shown
 
@@ -140,6 +141,11 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
     ma, mb = _manifest(a), _manifest(b)
     ba, bb = ma["blocks"], mb["blocks"]
     added, removed = sorted(set(bb) - set(ba)), sorted(set(ba) - set(bb))
+    renamed = [_renamed(a, b, old, new, apart) for old, new, apart
+               in same_places(a, b, removed, added)]
+    paired = {r["a"] for r in renamed} | {r["b"] for r in renamed}
+    added, removed = [i for i in added if i not in paired], [i for i in removed
+                                                             if i not in paired]
     status: list[dict[str, Any]] = []
     changed: list[dict[str, Any]] = []
     geometry: list[dict[str, Any]] = []   # the kept layout the same, other files not
@@ -169,9 +175,35 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
             continue
         changed.append({**_block_change(bid, pa, pb), "files": files})
     return {"added": added, "removed": removed, "status": status, "changed": changed,
-            "files_changed": geometry, "same": same,
-            "identical": not (added or removed or status or changed or geometry),
+            "files_changed": geometry, "same": same, "renamed": renamed,
+            "identical": not (added or removed or status or changed or geometry or renamed),
             "libraries": {k: sorted(v) for k, v in libraries.items()}}
+
+
+def _renamed(a: Path, b: Path, old: str, new: str, apart: float) -> dict[str, Any]:
+    """A block run B drew in the same place as run A under a new id: its status, or
+    its kept layout compared (None when cost, rank, constraint values and parts agree:
+    the same layout, its parts moved as little as the outline)."""
+    ra, rb = _manifest(a)["blocks"][old], _manifest(b)["blocks"][new]
+    out: dict[str, Any] = {"a": old, "b": new, "apart_m": apart, "status": None,
+                           "change": None}
+    if ra.get("status") != rb.get("status"):
+        out["status"] = [ra.get("status"), rb.get("status")]
+        return out
+    la, lb = _layout(a, old, ra), _layout(b, new, rb)
+    if la is not None and lb is not None:
+        pa, pb = _parsed(a, la[1], la[2]), _parsed(b, lb[1], lb[2])
+        change = _block_change(new, pa, pb)
+        if _sides_met(pa) == _sides_met(pb):   # its sides numbered from another corner
+            change["met"] = []
+        if "infill" in change and change["infill"][0] == change["infill"][1]:
+            del change["infill"]               # its pockets moved with the outline
+        moved = {k: v for k, v in change.items() if k not in (
+            "id", "cost_a", "cost_b", "rank_a", "rank_b", "cost_delta")}
+        if (change["cost_delta"] or change["rank_a"] != change["rank_b"]
+                or any(moved.values())):
+            out["change"] = {**change, "files": []}   # every file is named anew
+    return out
 
 
 def _files_differing(a: Path, b: Path, bid: str, ra: dict, rb: dict,
@@ -261,6 +293,13 @@ def _block_change(bid: str, la: dict, lb: dict) -> dict:
     return change
 
 
+def _sides_met(lay: dict) -> list[list[str]]:
+    """Each structure's sides' constraint values, in no order: an outline redrawn can
+    start at another corner, which numbers the same sides otherwise."""
+    return [sorted(json.dumps(t["met"], sort_keys=True) for t in st["stages"])
+            for st in lay["structures"]]
+
+
 def _infill_area(infill: list[dict]) -> float:
     """The plan area of a layout's roof infill (m²; shells less holes, by the shoelace
     formula: a diff loads no geometry library)."""
@@ -296,8 +335,9 @@ def run(args) -> int:
           f"{len(d['changed'])} changed, " + (
               f"{len(d['files_changed'])} with the same layout but other files, "
               if d["files_changed"] else "") +
-          f"{len(d['added'])} added, {len(d['removed'])} removed, {len(d['status'])} "
-          "changed status")
+          f"{len(d['added'])} added, {len(d['removed'])} removed, " +
+          (f"{len(d['renamed'])} in the same place under a new id, " if d["renamed"]
+           else "") + f"{len(d['status'])} changed status")
     if d["libraries"]["a"] != d["libraries"]["b"]:
         print(f"  the runs used different part libraries: {', '.join(d['libraries']['a'])} "
               f"-> {', '.join(d['libraries']['b'])}; blocks differ in their parts even where "
@@ -310,6 +350,14 @@ def run(args) -> int:
     for s in d["status"]:
         print(f"  status {s['id']}: {s['a']} -> {s['b']}" +
               (f" ({s['reason']})" if s["reason"] else ""))
+    for r in d["renamed"]:
+        said = (f"renamed {r['a']} -> {r['b']} (the same block, its outline moved "
+                f"{r['apart_m'] * 1000:.1f} mm)")
+        if r["change"]:
+            _print_change(r["change"], said)
+        else:
+            print(f"  {said}: " + (f"status {r['status'][0]} -> {r['status'][1]}"
+                                   if r["status"] else "the same layout"))
     for bid in d["added"]:
         print(f"  added {bid}")
     for bid in d["removed"]:
@@ -320,9 +368,10 @@ def run(args) -> int:
     return 0 if d["identical"] else 1
 
 
-def _print_change(c: dict) -> None:
-    """One changed block: its cost, ranks, library, what it met, parts, infill, files."""
-    print(f"  changed {c['id']}: cost {c['cost_a']:g} -> {c['cost_b']:g} "
+def _print_change(c: dict, said: str = "") -> None:
+    """One changed block (``said``: how it is named; by default "changed ID"): its
+    cost, ranks, library, what it met, parts, infill, files."""
+    print(f"  {said or 'changed ' + c['id']}: cost {c['cost_a']:g} -> {c['cost_b']:g} "
           f"({c['cost_delta']:+g}), layout #{c['rank_a']} -> #{c['rank_b']}" +
           (f", library {c['library'][0]} -> {c['library'][1]}" if "library" in c else ""))
     for m in c["met"][:8]:

@@ -40,8 +40,9 @@ NOT_BUILT = (248, 248, 248)
 EDGE = (90, 90, 90)
 
 
-def _outlines(run: Path) -> dict[str, tuple[shapely.Geometry, str]]:
-    """Block id -> (outline, status) from the run's ``blocks.geojson``."""
+def outlines(run: Path) -> tuple[dict[str, tuple[shapely.Geometry, str]], str | None]:
+    """Block id -> (outline, status) from the run's ``blocks.geojson``; and its CRS
+    member's name (None: lon/lat)."""
     path = run / BLOCKS
     if not path.exists():
         raise UsageError(f"{path}: missing; --png draws the blocks citysynth city lists "
@@ -60,7 +61,11 @@ def _outlines(run: Path) -> dict[str, tuple[shapely.Geometry, str]]:
                              f"rerun citysynth city into {run}") from None
         if not geom.is_empty:
             out[bid] = (geom, str(props.get("status", "")))
-    return out
+    try:
+        crs = data["crs"]["properties"]["name"]
+    except (KeyError, TypeError):
+        crs = None
+    return out, crs if isinstance(crs, str) else None
 
 
 def _states(d: dict[str, Any]) -> dict[str, str]:
@@ -70,13 +75,20 @@ def _states(d: dict[str, Any]) -> dict[str, str]:
                                              ("changed", "changed")) for c in d[key]}
     out.update({bid: state for key, state in (("removed", "removed"), ("added", "added"))
                 for bid in d[key]})
+    out.update({r["b"]: renamed_state(r) for r in d.get("renamed", [])})
     return out
+
+
+def renamed_state(r: dict[str, Any]) -> str:
+    """What happened to a block drawn in the same place under a new id (its layout
+    compared as a block both runs have)."""
+    return "status" if r["status"] else "changed" if r["change"] else "same"
 
 
 def write_map(d: dict[str, Any], run_a: Path, run_b: Path, png: Path) -> Path:
     """Draw the diff ``d`` of ``run_a`` and ``run_b`` (:func:`..diff.diff_runs`) as a
     plan at ``png`` (written whole or not at all)."""
-    a, b, states = _outlines(run_a), _outlines(run_b), _states(d)
+    (a, _), (b, _), states = outlines(run_a), outlines(run_b), _states(d)
     shapes: list[tuple[shapely.Geometry, tuple[int, int, int], bool]] = []
     marks: list[tuple[shapely.Point, tuple[int, int, int]]] = []   # small changes show
     for bid, (geom, status) in sorted(b.items()):
@@ -148,6 +160,8 @@ def _legend(draw: ImageDraw.ImageDraw, d: dict[str, Any], size: tuple[int, int],
     counts = {"same": d["same"], "files": len(d["files_changed"]),
               "changed": len(d["changed"]), "status": len(d["status"]),
               "added": len(d["added"]), "removed": len(d["removed"])}
+    for r in d.get("renamed", []):   # drawn in their state, so counted in it
+        counts[renamed_state(r)] += 1
     x = size[0] - LEGEND + 10
     draw.text((x, 12), f"A: {run_a.name}", fill=(0, 0, 0), font=font)
     draw.text((x, 32), f"B: {run_b.name}", fill=(0, 0, 0), font=font)
