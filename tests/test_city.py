@@ -269,6 +269,25 @@ def test_diff_pairs_blocks_redrawn_in_the_same_place_under_new_ids(district, tmp
     assert not (d["added"] or d["removed"] or d["changed"] or d["status"]), d
 
 
+def test_diff_says_a_layout_that_only_changed_its_name(district, tmp_path, capsys):
+    """A footprint's structure is named by its place in the input file: the same
+    buildings in another order (another tool's export) changed blocks "+0" with nothing
+    said; the new name is said now."""
+    import shutil
+
+    other = tmp_path / "other"
+    shutil.copytree(district, other)
+    path = sorted((other / "blocks").glob("*.layout.json"))[0]
+    lay = json.loads(path.read_text())
+    was = lay["structures"][0]["name"]
+    lay["structures"][0]["name"] = "feature 99"
+    path.write_text(json.dumps(lay))
+    assert main(["diff", str(district), str(other)]) == 1
+    out = capsys.readouterr().out
+    assert f"(+0), layout #{lay['rank']} -> #{lay['rank']}" in out
+    assert f"named {was} -> feature 99 (the input's features in another order" in out, out
+
+
 def test_diff_sees_a_byte_changed_in_place_and_loads_no_solver(district, tmp_path):
     """A cut file with one byte changed and its size kept differs (the diff compares
     bytes, not sizes or times); a missing file on both sides is no difference. The diff

@@ -114,6 +114,22 @@ def test_runs_split_at_bends_and_meet_at_inner_corners():
         street, "right", 6.0).length)
 
 
+@pytest.mark.parametrize("turn", [150.0, 165.0, 175.0])
+def test_the_outer_rows_of_a_hairpin_stop_near_the_turn(turn):
+    """The outer facade line of a street turning back by 150-175° was mitred up to ten
+    offsets past the bend (a 170° turn's rows ran 60 m past the street's end); it is
+    bevelled now at :data:`MITRE_LIMIT` offsets, and the rows end there."""
+    from citysynth.pipeline.streets import MITRE_LIMIT
+
+    a = math.radians(180 - turn)
+    street = shapely.LineString([(0, 0), (100, 0), (100 - 100 * math.cos(a),
+                                                    100 * math.sin(a))])
+    built = runs(street, "right", 6.0, 12.0)
+    assert sum(r.line.length for r in built) > 190
+    far = max(street.distance(shapely.Point(xy)) for r in built for xy in r.line.coords)
+    assert far <= (MITRE_LIMIT + 0.25) * 6.0, far   # GEOS bevels just past the limit
+
+
 @pytest.mark.parametrize("args, code, text", [
     (["--side", "both", "--offset", "0"], 2, "--offset must be a positive number"),
     (["--doors", "5", "2"], 2, "--doors LO HI needs 0 <= LO <= HI"),

@@ -198,6 +198,9 @@ def _renamed(a: Path, b: Path, old: str, new: str, apart: float) -> dict[str, An
             change["met"] = []
         if "infill" in change and change["infill"][0] == change["infill"][1]:
             del change["infill"]               # its pockets moved with the outline
+        names = [n for n in change.pop("names", []) if str(n[0]).replace(old, new) != n[1]]
+        if names:                              # a street block's name holds its id
+            change["names"] = names
         moved = {k: v for k, v in change.items() if k not in (
             "id", "cost_a", "cost_b", "rank_a", "rank_b", "cost_delta")}
         if (change["cost_delta"] or change["rank_a"] != change["rank_b"]
@@ -285,6 +288,11 @@ def _block_change(bid: str, la: dict, lb: dict) -> dict:
                        if pa.get(p, 0) != pb.get(p, 0)}
     if len(la["structures"]) != len(lb["structures"]):
         change["structures"] = [len(la["structures"]), len(lb["structures"])]
+    names = [[sa.get("name"), sb.get("name")] for sa, sb in
+             zip(la["structures"], lb["structures"], strict=False)
+             if sa.get("name") != sb.get("name")]
+    if names:   # a footprint is named by its place in the file: another order renames
+        change["names"] = names
     ia, ib = la.get("infill", []), lb.get("infill", [])
     if ia != ib:
         change["infill"] = [_infill_area(ia), _infill_area(ib)]
@@ -384,6 +392,9 @@ def _print_change(c: dict, said: str = "") -> None:
         print(f"      roof infill: {c['infill'][0]:g} -> {c['infill'][1]:g} m²")
     if "version" in c:
         print(f"      layout JSON version {c['version'][0]} -> {c['version'][1]}")
+    for na, nb in c.get("names", [])[:8]:
+        print(f"      named {na} -> {nb} (the input's features in another order, or "
+              "renamed)")
     if others := [describe_file(f, c["id"]) for f in c["files"]
                   if not f.endswith(".layout.json")]:
         print(f"      files that differ: {', '.join(others)}")
