@@ -213,14 +213,17 @@ def _distinct(lines: list) -> list:
 
 def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict], float] = 6.0,
                   *, min_area: float = 50.0,
-                  skipped_shapes: list[Polygon | None] | None = None
+                  skipped_shapes: list[Polygon | None] | None = None,
+                  locate: Callable[[tuple[float, float]], str] | None = None
                   ) -> tuple[list[Block], list[str]]:
     """The blocks between street centre lines, each cut back by the setbacks of the
     streets around it, sorted by position; and the reasons for the pieces skipped
     (features that are not lines come first: a Point of an Overpass export is no
     street). ``Block.streets`` index ``features``. ``skipped_shapes``, when given,
     receives each skipped piece's outline (None for a feature), in step with the
-    reasons, so a run can show where they were."""
+    reasons, so a run can show where they were. ``locate`` words a local point as the
+    user's data has it (a frame's ``at``: lon/lat or the input's CRS); without it, a
+    point is given in local metres."""
     shapes: list[Polygon | None] = skipped_shapes if skipped_shapes is not None else []
     feats = list(features)
     lines, owners, at, skipped = [], [], [], []
@@ -253,7 +256,8 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
             else face
         left = shapely.simplify(left, 0.01)   # drop the collinear vertices cuts leave
         parts = [p for p in shapely.get_parts(left) if isinstance(p, Polygon) and not p.is_empty]
-        where = f"block {i} at ({face.centroid.x:.1f}, {face.centroid.y:.1f})"
+        xy = (face.centroid.x, face.centroid.y)
+        where = f"block {i} at {locate(xy) if locate else f'({xy[0]:.1f}, {xy[1]:.1f}) m'}"
         if not parts:
             skipped.append(f"{where}: nothing left after the street setbacks")
             shapes.append(face)

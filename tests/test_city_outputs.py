@@ -7,6 +7,7 @@ reader, each outline lands on its block's outline in the city frame within 1 mm.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -63,6 +64,12 @@ def _check_round_trip(doc: dict, inputs) -> None:
     if doc.get("crs") is None:        # lon/lat: the pieces lie among the blocks
         area = shapely.union_all([shape(f["geometry"]) for f in blocks]).envelope.buffer(0.01)
         assert all(shape(f["geometry"]).within(area) for f in pieces)
+        # and their reasons say where in lon/lat, as the data has it (local metres
+        # before: "block 3 at (-375.5, -376.9)")
+        for f in pieces:
+            x, y = map(float, re.search(r" at \((-?[\d.]+), (-?[\d.]+)\)",
+                                        f["properties"]["reason"]).groups())
+            assert shapely.Point(x, y).within(area), f["properties"]["reason"]
     feats, _frame = parse_geojson({**doc, "features": blocks}, "blocks.geojson",
                                   origin=inputs.frame.origin)
     for feat, job in zip(feats, inputs.jobs, strict=True):

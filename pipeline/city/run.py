@@ -145,18 +145,18 @@ def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
     feats = _streets_only(feats, cfg.not_streets, streets, skipped)
     shapes: list = []
     blocks, reasons = street_blocks(feats, cfg.setbacks, min_area=cfg.min_area,
-                                    skipped_shapes=shapes)
+                                    skipped_shapes=shapes, locate=frame.at)
     skipped += [_skip("block", r, g) for r, g in zip(reasons, shapes, strict=True)]
     for b in blocks:
         width = 2 * b.polygon.area / b.polygon.length
         c = b.polygon.centroid
         if b.streets and all(is_roundabout(feats[i].properties) for i in b.streets):
-            skipped.append(_skip("block", f"block at ({c.x:.1f}, {c.y:.1f}): a roundabout's "
+            skipped.append(_skip("block", f"block at {frame.at((c.x, c.y))}: a roundabout's "
                                  "island (every street round it is junction=roundabout)",
                                  b.polygon))
             continue
         if width < cfg.min_width:
-            skipped.append(_skip("block", f"block at ({c.x:.1f}, {c.y:.1f}): a sliver, "
+            skipped.append(_skip("block", f"block at {frame.at((c.x, c.y))}: a sliver, "
                                  f"{width:.1f} m wide on average (min_width "
                                  f"{cfg.min_width:g} m)", b.polygon))
             continue
