@@ -218,6 +218,31 @@ def _mount_tmpfs(where: Path, size: str) -> None:
         pytest.skip(reason)
 
 
+def test_a_failed_street_block_is_not_called_feature_0(clean, tmp_path, monkeypatch):
+    """A street block's skeleton is named "feature 0 (<id>)": its failure was reported
+    as "failed b95829418cb: feature 0 (b95829418cb): the convex corner of ...". The
+    reason beside its id now starts with what failed."""
+    from citysynth.pipeline.city import jobs
+    from citysynth.skeletons import SkeletonError
+
+    streets, _, snap = clean
+    victim = sorted(n[:-len(".layout.json")] for n in snap if n.endswith(".layout.json"))[0]
+    solve = jobs.solve_block
+
+    def sharp(job, db):
+        if job.id == victim:
+            raise SkeletonError(f"feature 0 ({job.id}): the convex corner of 14.5° at "
+                                "(7.1, 50.7) is too sharp for its sides")
+        return solve(job, db)
+
+    monkeypatch.setattr(jobs, "solve_block", sharp)
+    assert main(city_args(streets, tmp_path / "run", "--workers", "1")) == 1
+    report = json.loads((tmp_path / "run" / "report.json").read_text())
+    (failed,) = report["failed"]
+    assert failed["id"] == victim and failed["reason"].startswith("the convex corner of "), \
+        failed
+
+
 def test_a_block_the_machine_cannot_write_exits_2_and_the_rerun_recovers(clean, tmp_path,
                                                                         capsys, monkeypatch):
     """A block whose files the machine refuses (no permission, here) fails unrecorded,

@@ -250,7 +250,8 @@ def run_block(job: BlockJob, out_dir: str) -> BlockRecord:
             return _unrecorded(rec, "failed", t0, f"{what} (a failure of the machine, not "
                                "recorded: the next run builds the block)")
         if isinstance(exc, USER_ERRORS):   # one bad block never stops the city
-            return _finish(out, rec, "failed", t0, reason=str(exc) or type(exc).__name__)
+            return _finish(out, rec, "failed", t0,
+                           reason=_of_block(job, str(exc)) or type(exc).__name__)
         rec["error"] = f"{type(exc).__name__}: {exc}"     # a bug: never cached
         rec["traceback"] = traceback.format_exc()
         return _unrecorded(rec, "error", t0)
@@ -369,6 +370,14 @@ def _solve(job: BlockJob, db: PartDB, prep: Prepared) -> Built:
                          per_side={n: (lo, hi) for n, lo, hi in job.per_side},
                          per_structure={n: (lo, hi) for n, lo, hi in job.per_block},
                          **prep.options())
+
+
+def _of_block(job: BlockJob, reason: str) -> str:
+    """A failed block's reason as the report says it beside the block's id: a street
+    block's skeleton is named "feature 0 (<id>)" (the one polygon it was built from;
+    the name its layouts carry), which told a user nothing, so it is left out."""
+    return reason.removeprefix(f"feature 0 ({job.id}): ") if job.kind == "block" \
+        else reason
 
 
 def _finish(out: Path, rec: BlockRecord, status: BlockStatus, t0: float,
