@@ -58,7 +58,8 @@ def test_a_real_city_centre_is_built(helsinki):
     for f in report["failed"] + report["skipped"]:
         assert f["reason"]                     # every block not built says why
     assert any("sliver" in s["reason"] for s in report["skipped"])
-    for key in ("inputs_s", "solve_s", "write_s", "blocks_wall_s", "overview_s", "total_s"):
+    for key in ("inputs_s", "clean_s", "solve_s", "write_s", "blocks_wall_s", "overview_s",
+                "total_s"):
         assert key in report["timings"]
     png = (helsinki / "city.png").read_bytes()
     assert png[:4] == b"\x89PNG" and len(png) > 50_000
@@ -509,6 +510,39 @@ def test_pool_batches_keep_order_and_take_a_short_tail_along():
     assert pool_batches(todo, 4, 100) == [todo]
     assert pool_batches([], 2, 5) == []
     assert [j for b in pool_batches(todo, 3, 1) for j in b] == todo
+
+
+def test_a_leftover_block_loses_a_tip_too_sharp_for_its_nose(tmp_path):
+    """What footprints leave of a street block (cleaned faithfully, short sides kept)
+    can end in a 14.5° tip beside a 3 m side, where the nose squaring off the tip (7.9
+    m back along each facade) does not fit: the block failed whole ("the convex corner
+    of 14.5° ... is too sharp for its sides"; two leftover blocks of Prague-Bubeneč).
+    The tip is cut off along the chord instead, and the block is built, inside its
+    outline. A tip whose nose fits is left as it is."""
+    import math
+
+    import shapely
+
+    from citysynth.export.joints import ACUTE_DEG, NOSE
+    from citysynth.skeletons.clean import without_tips
+    from citysynth.skeletons.from_geometry import STRAIGHT_TOL
+
+    a = math.radians(14.5)
+    tip = [(0, 0), (3, 0), (60, -20), (70, 20), (60 * math.cos(a), 60 * math.sin(a))]
+    poly = shapely.Polygon(tip)
+    job = replace(prepare(str(DISTRICT), None, load_config(None), str(LIB)).jobs[0],
+                  wkt=jobs.outline_wkt(poly), cut=True)
+    prep, built = jobs.solve_block(job, jobs.worker_library(job.library))
+    assert built.status == "ok" and len(built.layouts) == 3
+    (ring,) = prep.rings
+    corners = [k for k in ring.keypoints if k.kind == "corner"]
+    assert min(k.angle for k in corners) > 30 and len(corners) == 3   # the tip is gone
+    kept = without_tips(poly, acute_deg=ACUTE_DEG, nose=NOSE, straight_tol=STRAIGHT_TOL)
+    assert (0.0, 0.0) not in list(kept.exterior.coords) and kept.within(poly.buffer(1e-9))
+    roomy = shapely.Polygon([(0, 0), (30, 0), (60, -20), (70, 20),
+                             (60 * math.cos(a), 60 * math.sin(a))])
+    assert without_tips(roomy, acute_deg=ACUTE_DEG, nose=NOSE,
+                        straight_tol=STRAIGHT_TOL) is roomy
 
 
 def test_the_parent_solves_one_block_before_the_workers_fork(tmp_path):

@@ -21,13 +21,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import shapely
 
+from citysynth.export.joints import ACUTE_DEG, NOSE
 from citysynth.export.party import TOUCH
 from citysynth.parts_db import Part, PartDB
 from citysynth.pipeline.errors import MAX_STRETCH, shown
 from citysynth.pipeline.layouts import BlockedAt
 from citysynth.pipeline.skeleton_to_structure import _chains, shortest_stage
 from citysynth.skeletons import Feature, Frame, Skeleton, skeletons_from_polygons
-from citysynth.skeletons.clean import absorb_short_edges, clean_footprint
+from citysynth.skeletons.clean import absorb_short_edges, clean_footprint, without_tips
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.from_geometry import STRAIGHT_TOL
 from citysynth.skeletons.geojson import format_xy, input_xy
@@ -424,6 +425,8 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
                                 straight_tol=STRAIGHT_TOL, tolerance=GAP / 6)
         if clean is None:
             return "nothing buildable is left of it once cleaned"
+        clean = without_tips(clean, acute_deg=ACUTE_DEG, nose=NOSE,
+                             straight_tol=STRAIGHT_TOL)
         c = poly.representative_point()
         rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
         return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,
@@ -435,6 +438,8 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
         if clean is None:
             return ("nothing buildable is left once its sides too short for corners are "
                     "absorbed")
+        clean = without_tips(clean, acute_deg=ACUTE_DEG, nose=NOSE,
+                             straight_tol=STRAIGHT_TOL)
         c = poly.representative_point()
         rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
         return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,

@@ -156,7 +156,8 @@ def summary_table(report: Report) -> str:
                   for k, v in report["kinds"].items()]
     t = report["timings"]
     lines += ["", f"{'stage':<22}{'seconds':>8}", "-" * 30]
-    names = [("inputs_s", "streets -> blocks"), ("structure_s", "structures (CPU)"),
+    names = [("inputs_s", "streets -> blocks"), ("clean_s", "outlines, retries (CPU)"),
+             ("structure_s", "structures (CPU)"),
              ("solve_s", "solve (CPU)"), ("layout_s", "layout + checks (CPU)"),
              ("write_s", "JSON + USD (CPU)"), ("blocks_wall_s", "all blocks (wall)"),
              ("city_stage_s", "city stage"), ("overview_s", "overview PNG"),
