@@ -308,6 +308,19 @@ def _step(pts: np.ndarray, ring: LinearRing, min_side: float, straight_tol: floa
     return _beyond(pool, ring) if relaxed else across
 
 
+def _allowed(pool: list[_Option]) -> list[_Option]:
+    """The ways :func:`_beyond` chooses among, growers first, then cuts, each in pool
+    order: those not across a party wall when there are any. A cut may take off the
+    house no more than the least growth of its run."""
+    growers = [o for o in pool if o.cut <= FILL_ONLY]
+    least: dict[int, float] = {}
+    for o in growers:
+        least[o.run] = min(least.get(o.run, np.inf), o.grown)
+    cuts = [o for o in pool if FILL_ONLY < o.cut <= least.get(o.run, 0.0)]
+    options = growers + cuts
+    return [o for o in options if not o.across] or options
+
+
 def _beyond(pool: list[_Option], ring: LinearRing) -> np.ndarray | None:
     """Of the ways beyond the tolerance, the one taken: of those that cut off nothing
     of the building (a notch filled, the footprint grown) and of those that cut off no
@@ -318,15 +331,9 @@ def _beyond(pool: list[_Option], ring: LinearRing) -> np.ndarray | None:
     else does (the house in its neighbour: walls through walls, its roof through
     theirs). Never a wing where nothing grows: a run every way of absorbing which cuts
     the building (a wing's end) stays, for the caller to report."""
-    growers = [o for o in pool if o.cut <= FILL_ONLY]
-    least: dict[int, float] = {}
-    for o in growers:
-        least[o.run] = min(least.get(o.run, np.inf), o.grown)
-    cuts = [o for o in pool if FILL_ONLY < o.cut <= least.get(o.run, 0.0)]
-    options = growers + cuts
-    if not options:
+    inside = _allowed(pool)
+    if not inside:
         return None
-    inside = [o for o in options if not o.across] or options
     first = min((o.cut + o.grown, o.across) for o in inside)
     tied = [(g, o) for g, o in enumerate(inside) if (o.cut + o.grown, o.across) == first]
     if len(tied) == 1:

@@ -52,16 +52,11 @@ def _reference_step(pts, ring, min_side, straight_tol, tolerance, relaxed, party
                 pool.append((h, clean._option(run, k, pts, cand, party)))
     if not relaxed:
         return across
-    growers = [(h, o) for h, o in pool if o.cut <= clean.FILL_ONLY]
-    least: dict[int, float] = {}
-    for _h, o in growers:
-        least[o.run] = min(least.get(o.run, np.inf), o.grown)
-    cuts = [(h, o) for h, o in pool if clean.FILL_ONLY < o.cut <= least.get(o.run, 0.0)]
-    options = growers + cuts
-    if not options:
+    measured = {id(o): h for h, o in pool}
+    inside = clean._allowed([o for _h, o in pool])   # in the measured order
+    if not inside:
         return None
-    inside = [(h, o) for h, o in options if not o.across] or options
-    return min(inside, key=lambda t: (t[1].cut + t[1].grown, t[1].across, t[0]))[1].ring
+    return min(inside, key=lambda o: (o.cut + o.grown, o.across, measured[id(o)])).ring
 
 
 def _both(poly: shapely.Polygon, min_side: float, tolerance: float, monkeypatch):
