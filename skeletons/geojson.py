@@ -65,8 +65,15 @@ Project = Callable[[Coords], Coords]
 
 
 def feature_label(index: int, properties: dict[str, Any]) -> str:
-    """``feature 3``, or ``feature 3 (Main Street)`` when the feature has an id or name."""
+    """``feature 3``, or ``feature 3 (Main Street)`` when the feature has an id or name;
+    an OpenStreetMap object without either by its OSM id (``feature 3 (way 180464601)``,
+    as GDAL names it: ``osm_way_id`` a closed way's, ``osm_id`` a line's way or a
+    multipolygon's relation), so a user finds it in the map."""
     fid = properties.get("id", properties.get("name"))
+    if fid is None and properties.get("osm_way_id") is not None:
+        fid = f"way {properties['osm_way_id']}"
+    elif fid is None and properties.get("osm_id") is not None:
+        fid = f"OSM id {properties['osm_id']}"
     return f"feature {index}" + (f" ({fid})" if fid is not None else "")
 
 

@@ -797,3 +797,14 @@ def test_a_shapefile_whose_prj_is_not_read_is_warned_of(files, tmp_path):
     said = [str(w.message) for w in caught if "s.prj" in str(w.message)]
     assert len(said) == 1 and "not a coordinate system GDAL can read" in said[0], said
     assert "give --crs" in said[0]
+
+
+def test_an_osm_object_without_a_name_is_named_by_its_osm_id(files):
+    """Messages named an OpenStreetMap building without a name "feature 107", which no
+    map shows; it is named by its way's id now, as GDAL reads it."""
+    from citysynth.skeletons.geojson import read_geojson
+    feats, _frame = read_geojson(files / "map.osm", accept="polygons")
+    unnamed = [f for f in feats if "name" not in f.properties]
+    assert unnamed, [f.properties for f in feats]
+    for f in unnamed:
+        assert f.name == f"feature {f.index} (way {f.properties['osm_way_id']})", f.name
