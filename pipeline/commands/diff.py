@@ -3,7 +3,8 @@
 Layout JSON and USD are byte-identical for identical inputs, so "changed" is exact: a
 block changed when its layout file differs. For each changed block the diff gives the
 cost delta, the resources met that moved (per structure and stage) and the parts that
-differ; blocks added, removed or whose status changed are listed too. A block whose
+differ; blocks added, removed or whose status changed are listed too, and blocks one
+run drew in the same place as the other under a new id (:mod:`.diff_places`). A block whose
 kept layout is the same can still look different: another of its k layouts changed,
 or the geometry of the parts cut at its joints (an export change). Those blocks are
 listed with the files that differ, so a regression shows even when no layout moved.
@@ -30,7 +31,8 @@ def register(sub) -> None:
                                    "citysynth city): which layouts changed, cost deltas, "
                                    "constraint values, blocks whose other files (another of "
                                    "the k layouts, the cut geometry) differ, blocks added or "
-                                   "removed. Exit 0 when identical, 1 when not.")
+                                   "removed, blocks drawn in the same place under a new id "
+                                   "(renamed). Exit 0 when identical, 1 when not.")
     p.add_argument("run_a", metavar="RUN_A")
     p.add_argument("run_b", metavar="RUN_B")
     p.add_argument("--json", action="store_true", help="print the differences as JSON")
