@@ -143,7 +143,7 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
     ma, mb = _manifest(a), _manifest(b)
     ba, bb = ma["blocks"], mb["blocks"]
     added, removed = sorted(set(bb) - set(ba)), sorted(set(ba) - set(bb))
-    renamed = [_renamed(a, b, old, new, apart) for old, new, apart
+    renamed = [_renamed(a, b, ba[old], bb[new], old, new, apart) for old, new, apart
                in same_places(a, b, removed, added)]
     paired = {r["a"] for r in renamed} | {r["b"] for r in renamed}
     added, removed = [i for i in added if i not in paired], [i for i in removed
@@ -182,11 +182,12 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
             "libraries": {k: sorted(v) for k, v in libraries.items()}}
 
 
-def _renamed(a: Path, b: Path, old: str, new: str, apart: float) -> dict[str, Any]:
-    """A block run B drew in the same place as run A under a new id: its status, or
-    its kept layout compared (None when cost, rank, constraint values and parts agree:
-    the same layout, its parts moved as little as the outline)."""
-    ra, rb = _manifest(a)["blocks"][old], _manifest(b)["blocks"][new]
+def _renamed(a: Path, b: Path, ra: dict, rb: dict, old: str, new: str,
+             apart: float) -> dict[str, Any]:
+    """A block run B drew in the same place as run A under a new id (``ra``, ``rb``:
+    its records): its status, or its kept layout compared (None when cost, rank,
+    constraint values and parts agree: the same layout, its parts moved as little as
+    the outline)."""
     out: dict[str, Any] = {"a": old, "b": new, "apart_m": apart, "status": None,
                            "change": None}
     if ra.get("status") != rb.get("status"):
