@@ -146,26 +146,20 @@ def without_tips(poly: Polygon, *, acute_deg: float, nose: float,
 
 def _corner_sides(ring: np.ndarray, corner: np.ndarray) -> np.ndarray:
     """For each vertex, the shorter of the two sides it joins, each measured along the
-    ring to the next corner (``corner``: which vertices are corners)."""
+    ring to the next corner (``corner``: which vertices are corners; with none, the
+    whole ring). By the distance travelled along the ring, so a densely drawn curve
+    costs one pass, not a walk from every vertex."""
     n = len(ring)
     seg = np.linalg.norm(np.roll(ring, -1, axis=0) - ring, axis=1)
-    ahead, behind = np.zeros(n), np.zeros(n)
-    for i in range(n):
-        k, run = i, 0.0
-        for _ in range(n):
-            run += seg[k]
-            k = (k + 1) % n
-            if corner[k]:
-                break
-        ahead[i] = run
-        k, run = i, 0.0
-        for _ in range(n):
-            k = (k - 1) % n
-            run += seg[k]
-            if corner[k]:
-                break
-        behind[i] = run
-    return np.minimum(ahead, behind)
+    at = np.concatenate([[0.0], np.cumsum(np.tile(seg, 3))])   # three laps: wrap both ways
+    cs = np.flatnonzero(corner)
+    if not len(cs):
+        return np.full(n, at[n])
+    laps = np.concatenate([cs, cs + n, cs + 2 * n])
+    here = np.arange(n) + n                                   # each vertex on the middle lap
+    ahead = laps[np.searchsorted(laps, here, side="right")]   # the next corner after it
+    behind = laps[np.searchsorted(laps, here, side="left") - 1]   # the last one before it
+    return np.minimum(at[ahead] - at[here], at[here] - at[behind])
 
 
 # --- footprints: faithful cleaning -------------------------------------------------------
