@@ -69,9 +69,8 @@ class Lot:
         when the centroid lies outside, as in an L-shaped lot), turned to the longer
         side of its minimum rotated rectangle (of two equal sides, the one nearer +X)."""
         c = poly.centroid
-        if not poly.contains(c):
-            c = polylabel(poly, tolerance=0.01)
-        return cls(poly, (round(c.x, 6), round(c.y, 6)), _long_side_angle(poly), frame)
+        lot = cls(poly, (round(c.x, 6), round(c.y, 6)), _long_side_angle(poly), frame)
+        return lot if poly.contains(c) else lot.inland()
 
     def inland(self) -> Lot:
         """The lot with the tower axis on its most inland point (the centre of the

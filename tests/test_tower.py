@@ -170,17 +170,11 @@ def test_a_lot_round_a_courtyard_says_so(tmp_path, capsys):
 def test_a_lot_whose_centre_is_beside_a_hole_takes_its_tower_inland(tmp_path, capsys):
     """A 200 m lot with a 30 m courtyard just east of its middle: its centroid lies
     3 m from the courtyard, where no 16 m ground floor fits, and the lot was refused
-    ("the widest circle inside it is 85 m across ... needs 16.0 x 16.0 m; give a
+    ("the widest circle inside it is 109.9 m across ... needs 16.0 x 16.0 m; give a
     larger lot"). The tower now stands on the lot's most inland point, clear of it."""
-    from citysynth.skeletons.geojson import lonlat_from_local
-
-    rings = [[(0, 0), (200, 0), (200, 200), (0, 200), (0, 0)],
-             [(101, 85), (101, 115), (131, 115), (131, 85), (101, 85)]]
-    lot = tmp_path / "lot.geojson"
-    lot.write_text(json.dumps({"type": "FeatureCollection", "features": [{
-        "type": "Feature", "properties": {}, "geometry": {
-            "type": "Polygon",
-            "coordinates": [lonlat_from_local(r, (24.94, 60.17)) for r in rings]}}]}))
+    lot = _lot_file(tmp_path, "lot", shapely.Polygon(
+        [(0, 0), (200, 0), (200, 200), (0, 200)],
+        [[(101, 85), (101, 115), (131, 115), (131, 85)]]))
     assert main(["tower", "--height", "60", "--far", "0.1", "--far-tolerance", "0.5",
                  "--lot", str(lot), "-o", str(tmp_path / "out"), "--no-preview"]) == 0, \
         capsys.readouterr().err

@@ -409,6 +409,29 @@ MAX_NARROW = 4        # niche fillings tried on one footprint past one per court
 RETRY_SIDE = 1.0      # m: a footprint no layout fits is cleaned again with sides this much longer
 
 
+def _street_block(job: BlockJob, db: PartDB, poly: shapely.Polygon,
+                  frame: Frame) -> Prepared | str:
+    """A street block cleaned into its ring (what footprints leave of one faithfully,
+    no bulging; a whole one with its short sides absorbed), less any tip too sharp for
+    its nose; or why nothing is left of it."""
+    if job.cut:
+        clean = clean_footprint(poly, min_side=min_side(db, job.style, job.slack),
+                                straight_tol=STRAIGHT_TOL, tolerance=GAP / 6)
+        gone = "nothing buildable is left of it once cleaned"
+    else:
+        clean = absorb_short_edges(poly, min_edge=job.min_edge,
+                                   min_stage=shortest_stage(db, job.style),
+                                   straight_tol=STRAIGHT_TOL)
+        gone = "nothing buildable is left once its sides too short for corners are absorbed"
+    if clean is None:
+        return gone
+    clean = without_tips(clean, acute_deg=ACUTE_DEG, nose=NOSE, straight_tol=STRAIGHT_TOL)
+    c = poly.representative_point()
+    rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
+    return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,
+                    job.slack, None)
+
+
 def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
             close: tuple[tuple[float, float], ...] = ()) -> Prepared | str:
     """Clean the job's outline into rings (a footprint faithfully, a street block as
@@ -420,30 +443,8 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
     poly = shapely.from_wkt(job.wkt)
     frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
     fp = job.footprint
-    if job.cut:   # what footprints leave of a block: cleaned faithfully, no bulging
-        clean = clean_footprint(poly, min_side=min_side(db, job.style, job.slack),
-                                straight_tol=STRAIGHT_TOL, tolerance=GAP / 6)
-        if clean is None:
-            return "nothing buildable is left of it once cleaned"
-        clean = without_tips(clean, acute_deg=ACUTE_DEG, nose=NOSE,
-                             straight_tol=STRAIGHT_TOL)
-        c = poly.representative_point()
-        rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
-        return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,
-                        job.slack, None)
     if fp is None:
-        clean = absorb_short_edges(poly, min_edge=job.min_edge,
-                                   min_stage=shortest_stage(db, job.style),
-                                   straight_tol=STRAIGHT_TOL)
-        if clean is None:
-            return ("nothing buildable is left once its sides too short for corners are "
-                    "absorbed")
-        clean = without_tips(clean, acute_deg=ACUTE_DEG, nose=NOSE,
-                             straight_tol=STRAIGHT_TOL)
-        c = poly.representative_point()
-        rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
-        return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,
-                        job.slack, None)
+        return _street_block(job, db, poly, frame)
     shortest = min_side(db, job.style, job.slack) + longer
     walls = party_lines(fp.party)   # cleaning and niche filling keep off them
     clean = clean_footprint(poly, min_side=shortest, straight_tol=STRAIGHT_TOL,
