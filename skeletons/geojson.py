@@ -765,6 +765,12 @@ def input_xy(frame: tuple[str, float, float], source_crs: str, xy: Any) -> tuple
     return lon, lat
 
 
+def local_xy(p: tuple[float, float]) -> str:
+    """A point in a run's local metres, as messages give it where no frame is known to
+    put it in the input's coordinates (:meth:`Frame.at` does)."""
+    return f"({p[0]:.1f}, {p[1]:.1f}) m"
+
+
 def format_xy(p: tuple[float, float]) -> str:
     """A point as messages give it: 6 decimals for lon/lat, 2 (cm) for metres."""
     nd = 6 if abs(p[0]) <= 180 and abs(p[1]) <= 90 else 2

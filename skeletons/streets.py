@@ -22,7 +22,7 @@ import shapely
 from shapely.geometry import LineString, MultiLineString, Polygon
 
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.skeletons.geojson import Feature
+from citysynth.skeletons.geojson import Feature, local_xy
 
 _NUMBER = re.compile(r"\s*((?:\d+(?:[.,]\d+)?|[.,]\d+)(?:[eE][+-]?\d+)?)")
 # OSM's feet: 40' or 40'6" (feet and inches), or 40 ft
@@ -257,7 +257,7 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
         left = shapely.simplify(left, 0.01)   # drop the collinear vertices cuts leave
         parts = [p for p in shapely.get_parts(left) if isinstance(p, Polygon) and not p.is_empty]
         xy = (face.centroid.x, face.centroid.y)
-        where = f"block {i} at {locate(xy) if locate else f'({xy[0]:.1f}, {xy[1]:.1f}) m'}"
+        where = f"block {i} at {(locate or local_xy)(xy)}"
         if not parts:
             skipped.append(f"{where}: nothing left after the street setbacks")
             shapes.append(face)

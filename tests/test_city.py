@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -391,6 +392,10 @@ def test_impossible_blocks_are_reported_and_do_not_stop_the_city(tmp_path, capsy
     assert report["counts"]["failed"] >= 1 and report["counts"]["built"] >= 1
     assert all("side from" in f["reason"] for f in report["failed"])
     assert "failed b" in capsys.readouterr().out
+    for f in report["failed"]:   # where, in the data's lon/lat ("at (495.6, -42.3)" before)
+        lon, lat = map(float, re.match(r"block b\w+ at \((-?[\d.]+), (-?[\d.]+)\)",
+                                       f["reason"]).groups())
+        assert 24.9 < lon < 25.0 and 60.1 < lat < 60.2, f["reason"]
 
 
 def test_footprints_are_reskinned(tmp_path):

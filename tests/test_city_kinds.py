@@ -209,6 +209,10 @@ def test_a_row_zone_refusal_says_once_what_to_loosen_in_city_toml():
     assert reason.count("no row") <= 1 and "--" not in reason, reason
     assert "per_side in city.toml" in reason and f"the {job.style} buildings" in reason, reason
     assert reason.count("widen") + reason.count("allow more") == 1, reason
+    # where the block is, in the data's lon/lat (the run's local metres before)
+    lon, lat = map(float, re.match(rf"block {job.id} at \((-?[\d.]+), (-?[\d.]+)\): ",
+                                   reason).groups())
+    assert 24.9 < lon < 25.0 and 60.1 < lat < 60.2, reason
     # a side no row measures: the length's knobs as city.toml names them
     ask = StreetAsk(("left",), style="classic", loosen=CITY_LOOSEN)
     side = Run("side", 1, shapely.LineString([(0, 0), (13.3, 0)]))

@@ -78,6 +78,20 @@ def _check_round_trip(doc: dict, inputs) -> None:
         assert shapely.hausdorff_distance(feat.geometry, want) < 1e-3
 
 
+def test_what_footprints_take_of_a_street_block_is_told_in_lonlat():
+    """A street block whose ground the footprints take, or whose yards they close, is
+    skipped with where it is in the data's lon/lat (the run's local metres before:
+    "block at (-375.5, -376.9)")."""
+    inputs = prepare(DISTRICT, CITY / "district_buildings.geojson",
+                     load_config(CITY / "city.toml"), LIB)
+    taken = [s["reason"] for s in inputs.skipped if "footprint buildings" in s["reason"]]
+    assert taken
+    for reason in taken:
+        lon, lat = map(float, re.match(r"block at \((-?[\d.]+), (-?[\d.]+)\): ",
+                                       reason).groups())
+        assert 24.9 < lon < 25.0 and 60.1 < lat < 60.2, reason
+
+
 def test_blocks_geojson_in_lonlat(tmp_path):
     inputs = prepare(DISTRICT, None, load_config(CITY / "city.toml"), LIB)
     path = write_blocks_geojson(tmp_path / BLOCKS_GEOJSON, inputs, _records(inputs))

@@ -14,7 +14,7 @@ what the kit makes near that length.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
@@ -31,7 +31,7 @@ from citysynth.skeletons import Feature, Frame, Skeleton, skeletons_from_polygon
 from citysynth.skeletons.clean import absorb_short_edges, clean_footprint, without_tips
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.from_geometry import STRAIGHT_TOL
-from citysynth.skeletons.geojson import format_xy, input_xy
+from citysynth.skeletons.geojson import format_xy, input_xy, local_xy
 from citysynth.skeletons.streets import osm_number, tag_values
 
 if TYPE_CHECKING:   # the job module imports this one
@@ -426,10 +426,16 @@ def _street_block(job: BlockJob, db: PartDB, poly: shapely.Polygon,
     if clean is None:
         return gone
     clean = without_tips(clean, acute_deg=ACUTE_DEG, nose=NOSE, straight_tol=STRAIGHT_TOL)
-    c = poly.representative_point()
     rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
-    return Prepared(rings, f"block {job.id} at ({c.x:.1f}, {c.y:.1f})", job.stretch,
-                    job.slack, None)
+    return Prepared(rings, block_where(job, poly), job.stretch, job.slack, None)
+
+
+def block_where(job: BlockJob, poly: shapely.Polygon) -> str:
+    """How messages name a street or zone block: its id and a point inside it in the
+    input's coordinates (lon/lat, or the projected CRS kept), as a GIS finds it; the
+    run's local metres until 2026-11-30 ("block b2d14cdec07 at (495.6, -42.3)")."""
+    c = poly.representative_point()
+    return f"block {job.id} at {format_xy(input_xy(job.frame, '', (c.x, c.y)))}"
 
 
 def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
@@ -571,7 +577,8 @@ STREET_TOUCH = 0.01   # m: a piece of a block this near its outline reaches its 
 
 
 def cut_back(blocks: list[shapely.Polygon], buildings: list[shapely.Polygon], *,
-             min_area: float, min_width: float, depth: float = BLOCK_DEPTH
+             min_area: float, min_width: float, depth: float = BLOCK_DEPTH,
+             locate: Callable[[tuple[float, float]], str] = local_xy
              ) -> tuple[list[shapely.Polygon], list[str]]:
     """Street blocks with the ground of footprint buildings taken out (and ``GAP``
     around them), so that no two facades share ground: what is left of a block is kept
@@ -580,7 +587,8 @@ def cut_back(blocks: list[shapely.Polygon], buildings: list[shapely.Polygon], *,
     outline (a street); the reasons for the rest. A building's courtyards are its own
     ground, and a yard the buildings close round has no street: a block was built in
     the courtyard of a building of the district, another in the yard its neighbours
-    enclose."""
+    enclose. ``locate`` words a point for the reasons (the run's :meth:`Frame.at`: the
+    input's coordinates)."""
     if not buildings:
         return blocks, []
     taken = shapely.union_all([shapely.Polygon(p.exterior).buffer(GAP, join_style="mitre")
@@ -606,16 +614,17 @@ def cut_back(blocks: list[shapely.Polygon], buildings: list[shapely.Polygon], *,
             out.append(shapely.geometry.polygon.orient(piece, 1.0))
             kept += 1
         if enclosed:
-            why.append(f"block at ({c.x:.1f}, {c.y:.1f}): {enclosed} yard(s) the footprint "
+            why.append(f"block at {locate((c.x, c.y))}: {enclosed} yard(s) the footprint "
                        "buildings close round (no street reaches them) left open")
         if not kept:
-            why.append(f"block at ({c.x:.1f}, {c.y:.1f}): its ground is taken by footprint "
+            why.append(f"block at {locate((c.x, c.y))}: its ground is taken by footprint "
                        "buildings (what is left is too small or too thin for a facade, "
                        "or a yard no street reaches)")
     return out, why
 
 
-def cut_back_outlines(outlines: list, *, min_area: float, min_width: float
+def cut_back_outlines(outlines: list, *, min_area: float, min_width: float,
+                      locate: Callable[[tuple[float, float]], str] = local_xy
                       ) -> tuple[list, list[str]]:
     """:func:`cut_back` on a run's outlines ``(kind, polygon, highways, spec)``: street
     blocks lose the ground of the footprints among them; each piece left keeps its
@@ -626,7 +635,8 @@ def cut_back_outlines(outlines: list, *, min_area: float, min_width: float
         if o[0] != "block":
             out.append(o)
             continue
-        pieces, reasons = cut_back([o[1]], buildings, min_area=min_area, min_width=min_width)
+        pieces, reasons = cut_back([o[1]], buildings, min_area=min_area, min_width=min_width,
+                                   locate=locate)
         out += [(o[0], p, o[2], CUT if p is not o[1] else o[3]) for p in pieces]
         why += reasons
     return out, why

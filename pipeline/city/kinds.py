@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import shapely
 
 from citysynth.parts_db import PartDB
-from citysynth.pipeline.city.footprints import Prepared
+from citysynth.pipeline.city.footprints import Prepared, block_where
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.streets import (
     CITY_LOOSEN,
@@ -64,8 +64,7 @@ def solve_kind(job: BlockJob, db: PartDB) -> str | tuple[Prepared, Built]:
 def _solve_kind(job: BlockJob, db: PartDB) -> Built | str:
     assert job.zone_kind is not None
     poly = shapely.from_wkt(job.wkt)
-    c = poly.representative_point()
-    where = f"block {job.id} at ({c.x:.1f}, {c.y:.1f})"
+    where = block_where(job, poly)
     setback = job.zone_kind.setback
     ground = poly.buffer(-setback, join_style="mitre") if setback else poly
     if ground.is_empty:

@@ -117,8 +117,9 @@ def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: City
         fframe = _footprint_outlines(footprints, cfg, crs, frame, lines, outlines, skipped)
         frame = frame or fframe
     if streets is not None and footprints is not None:   # no two facades share ground
+        assert frame is not None       # both readers set it
         outlines, reasons = cut_back_outlines(outlines, min_area=cfg.min_area,
-                                              min_width=cfg.min_width)
+                                              min_width=cfg.min_width, locate=frame.at)
         skipped += [{"kind": "block", "reason": r} for r in reasons]
     if frame is None:
         raise ConfigError("nothing to build: give --streets, --footprints or both")
