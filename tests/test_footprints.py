@@ -578,6 +578,24 @@ def test_a_zero_width_spike_is_repaired_and_a_bowtie_named_where_it_crosses(tmp_
     assert "left out (fix the outline so it does not cross itself in your GIS)" in skip, skip
 
 
+def test_a_footprint_refused_at_a_corner_is_named_with_its_file(tmp_path):
+    """A footprint whose 36.9° corner leaves no room for the nose before its 3 m side
+    ends failed as "feature 180 (424090060): the convex corner ..." (Kotka), where
+    every other footprint message names the file first."""
+    import math
+
+    a = math.radians(36.9)
+    sharp = [(0, 0), (30, 0), (30, 12), (3 * math.cos(a), 3 * math.sin(a)), (0, 0)]
+    fp = tmp_path / "sharp.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": "sharp-1"}, "geometry": {
+            "type": "Polygon", "coordinates": [lonlat_from_local(sharp, (24.94, 60.17))]}}]}))
+    assert run_city(tmp_path / "run", fp, workers=1) == 1
+    (failed,) = json.loads((tmp_path / "run" / "report.json").read_text())["failed"]
+    assert failed["reason"].startswith(f"{fp}: feature 0 (sharp-1): the convex corner of "
+                                       "36.9° at (24.940000, 60.170000) is too sharp"), failed
+
+
 def test_a_footprint_of_two_distinct_corners_is_left_out_in_words(tmp_path):
     """GEOS's "Too few points in geometry component" reached the report as it was."""
     ring = [(0, 0), (30, 0), (0, 0), (0, 0)]

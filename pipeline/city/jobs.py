@@ -380,9 +380,15 @@ def _solve(job: BlockJob, db: PartDB, prep: Prepared) -> Built:
 def _of_block(job: BlockJob, reason: str) -> str:
     """A failed block's reason as the report says it beside the block's id: a street
     block's skeleton is named "feature 0 (<id>)" (the one polygon it was built from;
-    the name its layouts carry), which told a user nothing, so it is left out."""
-    return reason.removeprefix(f"feature 0 ({job.id}): ") if job.kind == "block" \
-        else reason
+    the name its layouts carry), which told a user nothing, so it is left out; a
+    footprint's skeleton is named as its feature without the file ("feature 180
+    (424090060): the convex corner ..."), which every other footprint message gives,
+    so the file is put before it."""
+    fp = job.footprint
+    if fp is None:
+        return reason.removeprefix(f"feature 0 ({job.id}): ")
+    return f"{fp.where}: {reason.removeprefix(f'{fp.label}: ')}" \
+        if reason.startswith(f"{fp.label}: ") else reason
 
 
 def _finish(out: Path, rec: BlockRecord, status: BlockStatus, t0: float,
