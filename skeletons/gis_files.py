@@ -308,7 +308,8 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str,
     except unreadable as exc:
         raise _cannot_read(path, fmt, exc) from None
     if wkb is None or len(wkb) == 0:
-        raise _no_features(path, fmt, name, accept)
+        raise _no_features(path, fmt, name, accept, _listed(path, name) if where is None
+                           else 0)
     _warn_unread_prj(path, fmt, meta.get("crs") or crs_given)
     geoms = shapely.from_wkb(np.asarray(wkb, dtype=object), on_invalid="ignore")
     names = [str(n) for n in meta["fields"]]
@@ -371,9 +372,27 @@ def _cad_entities(path: Path, geoms: np.ndarray, accept: str, layer: str | None,
     return rows
 
 
-def _no_features(path: Path, fmt: str, layer: str, accept: str) -> SkeletonError:
+def _listed(path: Path, layer: str) -> int:
+    """How many features the header of the file's ``layer`` lists (0 when it cannot
+    tell)."""
+    import pyogrio
+    try:
+        return max(int(pyogrio.read_info(path, layer=layer)["features"]), 0)
+    except Exception:   # noqa: BLE001 - GDAL's many errors: the count is only a hint
+        return 0
+
+
+def _no_features(path: Path, fmt: str, layer: str, accept: str, listed: int = 0
+                 ) -> SkeletonError:
     """The file's layer is empty: for an OpenStreetMap file, what it lacks in its
-    terms (GDAL's layer names, "multipolygons", mean nothing to a user of OSM data)."""
+    terms (GDAL's layer names, "multipolygons", mean nothing to a user of OSM data);
+    a file whose header lists features none of which could be read is cut short (a
+    FlatGeobuf copied part-way was "layer 'b' has no features")."""
+    if listed:
+        return SkeletonError(f"{path}: its header lists {listed} feature"
+                             f"{'s' if listed > 1 else ''} in layer {layer!r} but none could "
+                             f"be read: the {fmt} is cut short or damaged; copy or export "
+                             "it again")
     if fmt == OSM:
         what = {"lines": "streets (ways tagged highway=*)",
                 "polygons": "buildings (areas tagged building=*)"}[accept]

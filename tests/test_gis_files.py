@@ -710,6 +710,21 @@ def test_a_shapefile_cut_short_is_told_so(files, tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+def test_a_flatgeobuf_cut_after_its_header_is_told_so(files, tmp_path, capsys):
+    """A FlatGeobuf copied part-way, its header whole and no feature after it, read as
+    "layer 'few' has no features; export the layer with its features": its header
+    lists 12, none could be read."""
+    data = (files / "few.fgb").read_bytes()
+    header = 12 + int.from_bytes(data[8:12], "little")   # magic, size, header
+    (tmp_path / "few.fgb").write_bytes(data[:header])
+    assert city(tmp_path / "o", "--footprints", str(tmp_path / "few.fgb")) == 2
+    err = capsys.readouterr().err
+    assert err.endswith(f"{tmp_path / 'few.fgb'}: its header lists 12 features in layer "
+                        "'few' but none could be read: the FlatGeobuf is cut short or "
+                        "damaged; copy or export it again\n"), err
+    assert not (tmp_path / "o").exists()
+
+
 def test_an_osm_street_with_a_gap_in_its_nodes_is_warned_of(tmp_path, capsys):
     """An extract clipped with osmium's simple strategy keeps ways whose nodes outside
     it are gone; GDAL joins the nodes either side of a gap straight, a chord the map
