@@ -300,6 +300,31 @@ def test_a_full_disk_is_never_cached_and_the_rerun_recovers(clean, tmp_path, cap
         subprocess.run(["umount", "-l", str(disk)], check=False)
 
 
+def test_a_full_disk_at_the_city_glb_still_prints_the_summary(clean, tmp_path, capsys,
+                                                               monkeypatch):
+    """``--glb`` on a disk that fills up at the city's GLB: the blocks are built and
+    cached, but the run ended on the GLB's one line with no word of them (the summary
+    table was printed after the city's files). It is printed first, then the line."""
+    import errno
+
+    from citysynth.pipeline.city import outputs
+
+    streets, _, _snap = clean
+
+    def full(out, inputs, report):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(out / "city.glb"))
+
+    monkeypatch.setattr(outputs, "write_city_glb", full)
+    out = tmp_path / "run"
+    assert main(city_args(streets, out, "--workers", "1", "--glb")) == 2
+    cap = capsys.readouterr()
+    assert "built / attempted" in cap.out and "100.0%" in cap.out, cap.out
+    last = cap.err.strip().splitlines()[-1]    # after the progress lines
+    assert last.endswith(f"{out / 'city.glb'}: No space left on device; free space and "
+                         "run again"), cap.err
+    assert "Traceback" not in cap.err
+
+
 def test_a_full_disk_in_block_names_the_file_and_leaves_only_whole_files(tmp_path, capsys):
     """``block`` on a disk that fills up while it writes: exit 2, one line naming the file
     it could not write (Python's full-disk error on flush names none), and every file

@@ -98,8 +98,12 @@ def run(args) -> int:
     if report["counts"]["cached"]:
         print(f"{report['counts']['cached']} blocks were unchanged since the last run in "
               f"{args.out}/ and were not built again")
-    city, png = finish_city(inputs, report, Path(args.out), overview=not args.no_overview,
-                            started=t0, glb=args.glb)
+    try:
+        city, png = finish_city(inputs, report, Path(args.out), overview=not args.no_overview,
+                                started=t0, glb=args.glb)
+    except OSError:   # a full disk at the city's files: what the blocks came to, then why
+        print(summary_table(report))
+        raise
     glb = Path(args.out) / "city.glb"
     print(summary_table(report))
     print(f"wrote {city}" + (f", {png}" if png else "") + (f", {glb}" if args.glb and
