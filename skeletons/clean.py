@@ -225,11 +225,14 @@ def _lengthened(pts: np.ndarray, i: int, j: int, min_side: float
     out = []
     for end, step in ((i, -1), (j, 1)):       # its first corner back, its last on
         into = seg[end] if step < 0 else -seg[(end - 1) % n]   # along the run, inward
+        if not np.linalg.norm(into) > 1e-9:
+            continue
         moved = pts[end] - more * into / np.linalg.norm(into)
         side, far = (end + step) % n, (end + 2 * step) % n     # the side moved, its far end
         q = _meet(moved, pts[side] - pts[end], pts[far], pts[side] - pts[far])
-        if q is None or np.dot(q - moved, pts[side] - pts[end]) <= 0 \
-                or np.dot(q - pts[far], pts[side] - pts[far]) <= 0:   # a side turned over
+        if q is None or not np.all(np.isfinite(q)) \
+                or not np.dot(q - moved, pts[side] - pts[end]) > 0 \
+                or not np.dot(q - pts[far], pts[side] - pts[far]) > 0:   # a side turned over
             continue
         cand = pts.copy()
         cand[end], cand[side] = moved, q
