@@ -28,7 +28,7 @@ import numpy as np
 import pyproj
 import shapely
 
-from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.errors import SkeletonError, cannot_read
 from citysynth.solver.safe_read import check_data_size, check_file
 
 FORMAT = "GeoParquet"
@@ -84,8 +84,7 @@ def read_geoparquet(path: Path, column: str | None) -> dict[str, Any]:
 
 def _cannot_read(path: Path, exc: Exception) -> SkeletonError:
     detail = " ".join(str(exc).split())[:200]
-    return SkeletonError(f"{path}: cannot read this {FORMAT} ({detail}); check that it is "
-                         "whole, or export the layer as GeoJSON")
+    return cannot_read(path, FORMAT, detail)
 
 
 def _check_size(path: Path, parquet, pq, unreadable: tuple[type[Exception], ...]) -> None:

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from citysynth.skeletons.errors import InputWarning, SkeletonError
+from citysynth.skeletons.errors import InputWarning, SkeletonError, cannot_read
 from citysynth.skeletons.geoparquet import FORMAT as PARQUET
 from citysynth.skeletons.geoparquet import geojson_geometries, json_value, read_geoparquet
 from citysynth.solver.safe_read import check_data_size, check_file
@@ -472,8 +472,7 @@ def _cannot_read(path: Path, fmt: str, exc: Exception) -> SkeletonError:
     whole = {"Shapefile": " (a Shapefile needs its .shx and .dbf beside it)",
              "MapInfo table": " (a .tab needs its .dat, .map and .id beside it)"}.get(
         fmt.removeprefix("zipped "), "")
-    return SkeletonError(f"{path}: cannot read this {fmt} ({detail}); check that it is "
-                         f"whole{whole}, or export the layer as GeoJSON")
+    return cannot_read(path, fmt, detail, whole)
 
 
 def _layer(path: Path, layer: str | None, fmt: str, accept: str, layers: np.ndarray) -> str:

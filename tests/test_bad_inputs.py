@@ -765,12 +765,16 @@ def test_bad_input_end_to_end(name, tmp_path, good_db, good_run):
 
 @pytest.mark.parametrize("data, text", [
     # read as they are now (skeletons/gis_files.py): damaged ones are one line too
-    (b"SQLite format 3\x00" + bytes(200), "cannot read this GeoPackage (file is not a "
-                                          "database); check that it is whole, or export"),
+    # damage in plain words (GDAL's and SQLite's, in brackets, until 2026-11-30)
+    (b"SQLite format 3\x00" + bytes(200), "cannot read this GeoPackage: its database is "
+                                          "damaged, or it is not one (cut short, or another "
+                                          "kind of file renamed); check that it is whole, or "
+                                          "export"),
     (b"\x00\x00\x27\x0a" + bytes(96), "cannot read this Shapefile ("),
     (b"fgb\x03fgb\x00" + bytes(64), "this FlatGeobuf holds no layer (damaged, or saved"),
     (b"PK\x03\x04" + bytes(64), "cannot read this zipped Shapefile ("),
-    (b"PAR1" + bytes(64), "cannot read this GeoParquet ("),
+    (b"PAR1" + bytes(64), "cannot read this GeoParquet: it is cut short, or not a Parquet "
+                          "file"),
     (b"  0\nSECTION\n  2\nENTITIES\n  0\nLWPOLYLINE\n 10\nabc\n",
      "cannot read this DXF (error at line 10 of "),
     (b"!table\n!version 300\n", "cannot read this MapInfo table ("),

@@ -390,7 +390,8 @@ def test_a_parquet_table_with_a_wkb_column_and_no_metadata_is_lon_lat(tmp_path, 
     cut = tmp_path / "cut.parquet"
     cut.write_bytes(plain.read_bytes()[:60])
     assert city(tmp_path / "o", "--streets", str(cut)) == 2
-    assert f"{cut}: cannot read this GeoParquet (" in capsys.readouterr().err
+    assert f"{cut}: cannot read this GeoParquet: it is cut short, or not a Parquet file" \
+        in capsys.readouterr().err
 
 
 def test_geojson_text_sequences_are_read_record_by_record(tmp_path, capsys):
@@ -723,6 +724,11 @@ def test_a_flatgeobuf_cut_after_its_header_is_told_so(files, tmp_path, capsys):
                         "'few' but none could be read: the FlatGeobuf is cut short or "
                         "damaged; copy or export it again\n"), err
     assert not (tmp_path / "o").exists()
+    # cut part-way through its features: GDAL's "(Fatal error parsing feature)" before
+    (tmp_path / "few.fgb").write_bytes(data[:(header + len(data)) // 2])
+    assert city(tmp_path / "o", "--footprints", str(tmp_path / "few.fgb")) == 2
+    assert "cannot read this FlatGeobuf: it ends part-way through its features (cut short " \
+        "or damaged); check that it is whole" in capsys.readouterr().err
 
 
 def test_an_osm_street_with_a_gap_in_its_nodes_is_warned_of(tmp_path, capsys):
