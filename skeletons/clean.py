@@ -212,10 +212,10 @@ def _lengthened(pts: np.ndarray, i: int, j: int, min_side: float
                 ) -> list[tuple[np.ndarray, tuple[int, int]]]:
     """Ways to build the short run i..j (corner to corner) instead of absorbing it: the
     side before it (or after it) moved parallel to itself until the run is the kit's
-    shortest side long, its end sliding on along the run's own line. A stepped
-    terrace's 2.45 m step (5 cm short of the kit's 2.5 m) or a 2 m wing's end keeps
-    its corners; absorbing them took a step off the house or cut the wing, past the
-    tolerance. Each with the two vertices it moves."""
+    shortest side long, its end sliding on along the run's own line: a stepped
+    terrace's 2.45 m step (5 cm short of the kit's 2.5 m) or a 2.05 m wing's end that
+    nothing absorbs keeps its corners (:func:`_built_longer`). Each with the two
+    vertices it moves."""
     n = len(pts)
     if n - ((j - i) % n + 1) < 2:     # the run and the two sides it moves are the ring
         return []
