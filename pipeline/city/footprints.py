@@ -430,12 +430,18 @@ def _street_block(job: BlockJob, db: PartDB, poly: shapely.Polygon,
     return Prepared(rings, block_where(job, poly), job.stretch, job.slack, None)
 
 
+def job_frame(job: BlockJob) -> Frame:
+    """The run's frame as the job carries it (its CRS and origin), for its rings and
+    for :meth:`Frame.at` in its messages."""
+    return Frame(job.frame[0], (job.frame[1], job.frame[2]))
+
+
 def block_where(job: BlockJob, poly: shapely.Polygon) -> str:
     """How messages name a street or zone block: its id and a point inside it in the
     input's coordinates (lon/lat, or the projected CRS kept), as a GIS finds it; the
     run's local metres until 2026-11-30 ("block b2d14cdec07 at (495.6, -42.3)")."""
     c = poly.representative_point()
-    return f"block {job.id} at {format_xy(input_xy(job.frame, '', (c.x, c.y)))}"
+    return f"block {job.id} at {job_frame(job).at((c.x, c.y))}"
 
 
 def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
@@ -447,7 +453,7 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
     sides between joints fit only some lengths); ``close`` holds a point in each
     light well to close (a retry when one blocks every layout, :func:`well_blocking`)."""
     poly = shapely.from_wkt(job.wkt)
-    frame = Frame(job.frame[0], (job.frame[1], job.frame[2]))
+    frame = job_frame(job)
     fp = job.footprint
     if fp is None:
         return _street_block(job, db, poly, frame)

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import shapely
 
 from citysynth.parts_db import PartDB
-from citysynth.pipeline.city.footprints import Prepared, block_where
+from citysynth.pipeline.city.footprints import Prepared, block_where, job_frame
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.streets import (
     CITY_LOOSEN,
@@ -44,8 +44,6 @@ from citysynth.pipeline.streets import (
     solve_runs,
 )
 from citysynth.pipeline.towers import Lot, cut_lots, fitted_lot, solve_tower, towers_layout
-from citysynth.skeletons import Frame
-from citysynth.skeletons.geojson import format_xy, input_xy
 
 if TYPE_CHECKING:   # the job module imports this one
     from citysynth.pipeline.city.jobs import BlockJob
@@ -69,7 +67,7 @@ def _solve_kind(job: BlockJob, db: PartDB) -> Built | str:
     ground = poly.buffer(-setback, join_style="mitre") if setback else poly
     if ground.is_empty:
         return f"nothing is left of it once inset by the zone's setback ({setback:g} m)"
-    frame = Frame(job.frame[0], (job.frame[1], job.frame[2])).describe()
+    frame = job_frame(job).describe()
     if job.zone_kind.kind == "row":
         return _row(job, db, ground, frame, where)
     return _towers(job, db, ground, frame, where)
@@ -111,7 +109,7 @@ def _towers(job: BlockJob, db: PartDB, ground: shapely.Geometry, frame: str,
         for key, v in b.timings.items():
             timings[key] = timings.get(key, 0.0) + v
         if b.status != "ok":
-            at = format_xy(input_xy(job.frame, "", lot.centre))   # lon/lat or the kept CRS
+            at = job_frame(job).at(lot.centre)   # lon/lat or the kept CRS
             return Built(job.id, "infeasible", timings=timings, reason=(
                 f"{where}: lot {i} at {at}: no tower of the {job.style} "
                 f"parts that fit it meets {b.reason}; widen the zone's height or far"))
