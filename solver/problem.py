@@ -127,10 +127,11 @@ def load_json(path: str | Path) -> Any:
 
 
 MAX_COST = 1e15   # a cost past this makes sums of a few thousand inexact, then infinite
+MAX_AMOUNT = 1e15  # likewise an element's amount of a resource (its totals are summed)
 
 
 def _number(value: Any, where: str, *, minimum: float | None = 0.0,
-            maximum: float | None = None) -> float:
+            maximum: float | None = None, what: str = "cost") -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ProblemError(f"{where}: expected a number, got {shown(value)}")
     v = float(value)
@@ -139,8 +140,9 @@ def _number(value: Any, where: str, *, minimum: float | None = 0.0,
     if minimum is not None and v < minimum:
         raise ProblemError(f"{where}: must be >= {minimum:g}, got {shown(value)}")
     if maximum is not None and v > maximum:
-        raise ProblemError(f"{where}: must be <= {maximum:g} (a cost this large sums to "
-                           f"infinity), got {shown(value)}; scale the costs down")
+        article = "an" if what[0] in "aeiou" else "a"
+        raise ProblemError(f"{where}: must be <= {maximum:g} ({article} {what} this large sums to "
+                           f"infinity), got {shown(value)}; scale the {what}s down")
     return v
 
 
@@ -283,7 +285,8 @@ def _parse_element(e: Any, where: str, resources: list[str], seen: set[str], sou
         if rname not in resources:
             raise ProblemError(f"{source}: {where}.resources.{rname}: unknown resource; "
                                f"resources are {', '.join(resources)}")
-        res[rname] = _number(val, f"{source}: {where}.resources.{rname}")
+        res[rname] = _number(val, f"{source}: {where}.resources.{rname}",
+                             maximum=MAX_AMOUNT, what="amount")
     cost = _number(e.get("cost", 0.0), f"{source}: {where}.cost", maximum=MAX_COST)
     return Element(eid, {r: res.get(r, 0.0) for r in resources}, cost)
 

@@ -45,6 +45,10 @@ def with_(**kw):
     (with_(elements=[{"id": "A", "resources": {"length": 1}, "cost": 1e308}]),
      "elements[0].cost: must be <= 1e+15"),
     (with_(transitions=[["A", "B", 1e300]]), "transitions[0] cost: must be <= 1e+15"),
+    # an amount of a resource no constraint bounds overflowed the totals (a traceback)
+    (with_(elements=[{"id": "A", "resources": {"length": 4.0, "doors": 1.7e308}},
+                     {"id": "B", "resources": {"length": 6.2}}]),
+     "elements[0].resources.doors: must be <= 1e+15 (an amount this large"),
 ])
 def test_bad_input_names_the_place(data, fragment):
     with pytest.raises(ProblemError) as exc:
