@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import pyproj
+import shapely
 import pytest
 
 from citysynth.skeletons import (
@@ -146,6 +147,30 @@ def test_street_setbacks_follow_width_lanes_and_class():
     assert (x1 - x0) == pytest.approx(100 - 12 - 5, abs=0.01)   # primary on one side
     assert (y1 - y0) == pytest.approx(100 - 5 - 5, abs=0.01)
     assert len(block.streets) == 4 and not skipped
+
+
+def test_streets_split_anywhere_give_the_same_blocks():
+    """A network exported as two-point segments (or cut every few metres) gives the
+    blocks the whole lines give: a square cap at every piece's end put a corner of it
+    into the block at each bend, a saw-tooth of notches (one failed its side)."""
+    ring = [(0, 0), (60, -8), (120, 0), (112, 60), (120, 120), (60, 128), (0, 120),
+            (8, 60), (0, 0)]      # bent out and in: a cap's corner stands in the block
+    whole = [feat("LineString", metres(ring[i:i + 3])) for i in (0, 2, 4, 6)]
+    pieces = [feat("LineString", metres([a, b])) for a, b in zip(ring, ring[1:])]
+    halves = [feat("LineString", metres([a, ((a[0] + b[0]) / 2, (a[1] + b[1]) / 2)]))
+              for a, b in zip(ring, ring[1:])] + \
+        [feat("LineString", metres([((a[0] + b[0]) / 2, (a[1] + b[1]) / 2), b]))
+         for a, b in zip(ring, ring[1:])]
+    got = []
+    for lines in (whole, pieces, halves):
+        feats, _frame = parse_geojson(fc(*lines))
+        (block,), _skipped = blocks_from_streets(feats, setback=6.0)
+        got.append(shapely.normalize(block))
+    inset = shapely.Polygon(ring).buffer(-6.0, join_style="mitre")
+    for block in got:   # the street's inset, its 8 corners and no notch anywhere
+        assert block.area == pytest.approx(inset.area, rel=1e-4)
+        assert len(block.exterior.coords) == len(ring), block.wkt
+        assert block.symmetric_difference(got[0]).area < 1e-3
 
 
 @pytest.mark.parametrize("features, kind, fragment", [
