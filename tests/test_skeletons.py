@@ -6,8 +6,8 @@ from __future__ import annotations
 import json
 
 import pyproj
-import shapely
 import pytest
+import shapely
 
 from citysynth.skeletons import (
     SkeletonError,
@@ -156,11 +156,11 @@ def test_streets_split_anywhere_give_the_same_blocks():
     ring = [(0, 0), (60, -8), (120, 0), (112, 60), (120, 120), (60, 128), (0, 120),
             (8, 60), (0, 0)]      # bent out and in: a cap's corner stands in the block
     whole = [feat("LineString", metres(ring[i:i + 3])) for i in (0, 2, 4, 6)]
-    pieces = [feat("LineString", metres([a, b])) for a, b in zip(ring, ring[1:])]
+    pieces = [feat("LineString", metres([a, b])) for a, b in zip(ring[:-1], ring[1:], strict=True)]
     halves = [feat("LineString", metres([a, ((a[0] + b[0]) / 2, (a[1] + b[1]) / 2)]))
-              for a, b in zip(ring, ring[1:])] + \
+              for a, b in zip(ring[:-1], ring[1:], strict=True)] + \
         [feat("LineString", metres([((a[0] + b[0]) / 2, (a[1] + b[1]) / 2), b]))
-         for a, b in zip(ring, ring[1:])]
+         for a, b in zip(ring[:-1], ring[1:], strict=True)]
     got = []
     for lines in (whole, pieces, halves):
         feats, _frame = parse_geojson(fc(*lines))
