@@ -29,6 +29,7 @@ STRAIGHT: tuple[PartClass, ...] = ("middle", "building", "end_left", "end_right"
 STACKED: tuple[PartClass, ...] = ("floor", "ground_floor", "roof")
 PLAUSIBLE_LENGTH = (0.2, 150.0)  # metres along the primary axis
 PLAUSIBLE_STOREY = (0.5, 30.0)   # metres of a floor, ground floor or roof
+PLAUSIBLE_SPAN = (0.2, 1000.0)   # metres: the mesh's size along its largest axis
 
 
 @dataclass
@@ -112,9 +113,25 @@ def _facade_section(mesh, direction, dist, outward_end: bool, labels):
     return plane_section(mesh, d * dist, travel, u, np.array([0.0, 0.0, 1.0]), labels)
 
 
+def _check_span(lo: np.ndarray, hi: np.ndarray, where: str) -> None:
+    """A mesh no building part can be: one stray vertex a modelling tool left 1e30 m
+    away (its sections then failed inside trimesh: a traceback), or a part a
+    micrometre long (its sections were empty, and the user heard "not closed")."""
+    span = hi - lo
+    axis = int(np.argmax(span))
+    lo_ok, hi_ok = PLAUSIBLE_SPAN
+    if not lo_ok <= float(span[axis]) <= hi_ok:
+        far = " (a stray vertex far from the rest?)" if span[axis] > hi_ok else ""
+        raise LibraryError(f"{where}: {float(span[axis]):g} m across along "
+                           f"{'XYZ'[axis]}, implausible for a building part (expected "
+                           f"{lo_ok:g}-{hi_ok:g} m){far}; check [library] units and the "
+                           "mesh's vertices")
+
+
 def measure(mesh, spec: PartSpec, where: str) -> Measured:
     v = mesh.vertices
     lo, hi = v.min(axis=0), v.max(axis=0)
+    _check_span(lo, hi, where)
     labels = body_labels(mesh)
     height = float(hi[2] - lo[2])
     if spec.cls in STACKED:
@@ -131,6 +148,8 @@ def measure(mesh, spec: PartSpec, where: str) -> Measured:
                      origin=(0.0, 0.0, float(lo[2])))
     elif spec.cls in STRAIGHT:
         length = float(hi[0] - lo[0])
+        if length < PLAUSIBLE_LENGTH[0]:   # before its sections: a 1 µm one has none
+            _check_length(length, where)
         d = (1.0, 0.0)
         sec_in = _facade_section(mesh, d, lo[0] + EPS, True, labels)
         sec_out = _facade_section(mesh, d, hi[0] - EPS, True, labels)
@@ -163,8 +182,13 @@ def measure(mesh, spec: PartSpec, where: str) -> Measured:
             raise LibraryError(f"{where}: measures {total:g} m along its primary axis but the "
                                f"manifest says {spec.length:g} m{hint}; check [library] "
                                "units and the canonical frame")
-        lo_ok, hi_ok = PLAUSIBLE_LENGTH
-        if not lo_ok <= total <= hi_ok:
-            raise LibraryError(f"{where}: {total:g} m along its primary axis is implausible "
-                               f"(expected {lo_ok:g}-{hi_ok:g} m); check [library] units")
+        _check_length(total, where)
     return m
+
+
+def _check_length(total: float, where: str) -> None:
+    """A part's length along its primary axis is a building part's."""
+    lo_ok, hi_ok = PLAUSIBLE_LENGTH
+    if not lo_ok <= total <= hi_ok:
+        raise LibraryError(f"{where}: {total:g} m along its primary axis is implausible "
+                           f"(expected {lo_ok:g}-{hi_ok:g} m); check [library] units")

@@ -218,10 +218,20 @@ GLB = GOOD.export(file_type="glb")
      'file "../other/a.stl" climbs out of the library folder'),
     ([("A", "a.stl", GOOD, 'class = "corner"')], "", "a corner needs an angle"),
     ([("A", "a.stl", GOOD, 'class = "middle"')], 'units = "furlong"', 'units "furlong"'),
-    # measured, but past what a database may hold (it was written, then every reader
-    # refused it, telling the user to ingest again)
+    # past what a database may hold (it was written, then every reader refused it,
+    # telling the user to ingest again): now refused as measured
     ([("A", "a.stl", _box(0, 3, 0, 10, 0, 100_000), 'class = "middle"')], "",
-     "height must be a number above 0 to 10,000, got 100000.0 (measured from"),
+     "100000 m across along Z, implausible for a building part (expected 0.2-1000 m)"),
+    # a modelling tool's stray vertex 1e30 m up: trimesh's sections failed (a traceback)
+    ([("A", "a.obj", b"v 0 0 0\nv 3 0 0\nv 3 10 0\nv 0 10 0\nv 0 0 6\nv 3 0 6\n"
+      b"v 3 10 6\nv 0 10 6\nv 1 1 1e30\nf 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\n"
+      b"f 1 2 6\nf 1 6 5\nf 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n"
+      b"f 5 6 9\n", 'class = "middle"')], "", "(a stray vertex far from the rest?)"),
+    # a micrometre box was "not closed" (its sections were empty)
+    ([("A", "a.stl", _box(0, 1e-6, 0, 1e-6, 0, 1e-6), 'class = "middle"')], "",
+     "1e-06 m across along X, implausible for a building part"),
+    ([("A", "a.stl", _box(0, 1e-6, 0, 10, 0, 6), 'class = "middle"')], "",
+     "1e-06 m along its primary axis is implausible (expected 0.2-150 m)"),
 ])
 def test_bad_input_is_one_message_exit_2_nothing_written(tmp_path, capsys, parts, extra_lib,
                                                          fragment):
