@@ -407,6 +407,7 @@ def _checked_polygon(poly: BaseGeometry, where: str, min_area: float, frame: Fra
     """A valid polygon of some area, oriented counter-clockwise (holes clockwise)."""
     if not isinstance(poly, Polygon):
         raise SkeletonError(f"{where}: expected a Polygon, got {poly.geom_type}")
+    _check_courtyards_apart(poly, where, frame)
     if not poly.is_valid:
         what, fix = why_invalid(poly, frame)
         raise SkeletonError(f"{where}: invalid polygon ({what}); {fix}")
@@ -414,6 +415,27 @@ def _checked_polygon(poly: BaseGeometry, where: str, min_area: float, frame: Fra
         raise SkeletonError(f"{where}: degenerate polygon (area {poly.area:.2f} m²)")
     return shapely.orient_polygons(poly) if hasattr(shapely, "orient_polygons") \
         else shapely.geometry.polygon.orient(poly, 1.0)
+
+
+COURT_TOUCH = 0.01   # m: a courtyard this near the outline or another courtyard meets it
+
+
+def _check_courtyards_apart(poly: Polygon, where: str, frame: Frame) -> None:
+    """Each courtyard has ground all round it. One that touches the outline (or
+    another courtyard) at a point is a valid polygon, but its ring and the outline's
+    meet with no wall between: the facades of both were laid out on from that point,
+    and a block's parts stood 28 m past its outline. (Given in lon/lat, the same
+    courtyard crosses the outline by a hair once projected: told the same way.)"""
+    rings = [poly.exterior, *poly.interiors]
+    for i in range(1, len(rings)):
+        for j in range(i):
+            if shapely.distance(rings[i], rings[j]) < COURT_TOUCH:
+                x, y = shapely.get_coordinates(shapely.shortest_line(rings[i], rings[j]))[0]
+                other = "the outline" if j == 0 else f"courtyard {j}"
+                raise SkeletonError(
+                    f"{where}: courtyard {i} reaches {other} at {frame.at((x, y))}, "
+                    "with no wall between; move the courtyard in from it, or make it a "
+                    "notch of the outline")
 
 
 def why_invalid(poly: Polygon, frame: Frame | None) -> tuple[str, str]:

@@ -28,6 +28,7 @@ import re
 import warnings
 import zipfile
 from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -288,7 +289,8 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str,
             {"DXF_CLOSED_LINE_AS_POLYGON": "TRUE" if accept == "polygons" else "FALSE"})
     unreadable = (DataSourceError, DataLayerError, OSError, RuntimeError)
     try:
-        layers = pyogrio.list_layers(path)
+        with _gdal_quiet():
+            layers = pyogrio.list_layers(path)
     except unreadable as exc:
         raise _cannot_read(path, fmt, exc) from None
     where = None
@@ -303,8 +305,9 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str,
     else:
         name = _layer(path, layer, fmt, accept, layers)
     try:
-        meta, _, wkb, fields = pyogrio.raw.read(path, layer=name, force_2d=True,
-                                                datetime_as_string=True, where=where)
+        with _gdal_quiet():
+            meta, _, wkb, fields = pyogrio.raw.read(path, layer=name, force_2d=True,
+                                                    datetime_as_string=True, where=where)
     except unreadable as exc:
         raise _cannot_read(path, fmt, exc) from None
     if wkb is None or len(wkb) == 0:
@@ -330,6 +333,17 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str,
     if meta.get("crs"):
         data["crs"] = {"type": "name", "properties": {"name": str(meta["crs"])}}
     return data
+
+
+@contextmanager
+def _gdal_quiet() -> Iterator[None]:
+    """GDAL's own warnings kept off the user's screen: an Esri JSON's
+    ``"wkid": 102100`` (Web Mercator as Esri numbered it) printed two RuntimeWarnings
+    with pyogrio's source lines ("EPSG:102100 is not a valid CRS code", "CRS
+    EPSG:102100 is deprecated") before a run that read it right."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        yield
 
 
 def _cad_layer(path: Path, layer: str | None) -> str | None:
@@ -488,14 +502,38 @@ def _layer(path: Path, layer: str | None, fmt: str, accept: str, layers: np.ndar
         return layer
     fits = GEOMETRIES.get(accept)
     usable = [n for n, t in found if (_plain(t) in fits if fits else t not in ("", "None"))]
+    if fits and not usable and len(found) > 1:   # layers of no declared type: by features
+        usable = [n for n, t in found if _plain(t) == "Unknown" and _holds(path, n, fits)]
     if len(usable) == 1 or (len(found) == 1 and not usable):
         return usable[0] if usable else found[0][0]   # one layer: its features are checked
     what = {"lines": "line", "polygons": "polygon"}.get(accept, "geometry")
     if not usable:
-        raise SkeletonError(f"{path}: no {what} layer; its layers are {listed}; give "
+        raise SkeletonError(f"{path}: no {what} layer; its layers are {listed}; name "
+                            f"the one to read as {path}{LAYER_SEP}{found[0][0]}, or give "
                             f"the {fmt} that holds the {what} layer")
     raise SkeletonError(f"{path}: {len(usable)} {what} layers ({', '.join(usable)}); "
                         f"name the one to read as {path}{LAYER_SEP}{usable[0]}")
+
+
+SNIFF = 100   # features a layer of no declared geometry type is judged by
+
+
+def _holds(path: Path, name: str, fits: tuple[str, ...]) -> bool:
+    """Whether the first :data:`SNIFF` features of layer ``name`` are all of the
+    geometry types ``fits``: a layer whose type GDAL cannot declare (every folder of a
+    KML, a GeoPackage layer written as generic geometry) is picked by what it holds,
+    so ``--streets both.kml --footprints both.kml`` reads each its layer."""
+    import pyogrio
+    from pyogrio.errors import DataLayerError, DataSourceError
+    try:
+        _meta, _, wkb, _fields = pyogrio.raw.read(path, layer=name, columns=[],
+                                                  max_features=SNIFF, force_2d=True)
+    except (DataSourceError, DataLayerError, OSError, RuntimeError):
+        return False   # an unreadable layer is told when it is read, if it is chosen
+    geoms = shapely.from_wkb(np.asarray(wkb if wkb is not None else [], dtype=object),
+                             on_invalid="ignore")
+    kinds = {g.geom_type for g in geoms if g is not None}
+    return bool(kinds) and kinds <= set(fits)
 
 
 def _tags(hstore: str) -> dict[str, str]:

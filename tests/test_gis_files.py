@@ -829,3 +829,44 @@ def test_an_osm_object_without_a_name_is_named_by_its_osm_id(files):
     assert unnamed, [f.properties for f in feats]
     for f in unnamed:
         assert f.name == f"feature {f.index} (way {f.properties['osm_way_id']})", f.name
+
+
+def test_layers_of_no_declared_type_are_picked_by_their_features(files, tmp_path, capsys):
+    """A KML of two folders (ogr2ogr's, or Google Earth's) and a GeoPackage written as
+    generic geometry declare no geometry type ("Unknown"): each option reads the layer
+    whose features it takes (both were refused as "no line layer")."""
+    from citysynth.skeletons.gis_files import read_gis_file
+    streets = gpd.read_file(files / "city.gpkg", layer="streets").iloc[:40]
+    houses = gpd.read_file(files / "city.gpkg", layer="buildings").iloc[:6]
+    for name, driver, extra in (("both.kml", "KML", {}),
+                                ("generic.gpkg", "GPKG", {"geometry_type": "Unknown"})):
+        path = tmp_path / name
+        streets.to_file(path, layer="streets", driver=driver, **extra)
+        houses.to_file(path, layer="buildings", driver=driver, **extra)
+        fmt = "KML" if driver == "KML" else "GeoPackage"
+        lines = read_gis_file(path, None, fmt, "lines")["features"]
+        polygons = read_gis_file(path, None, fmt, "polygons")["features"]
+        assert len(lines) == 40 and {f["geometry"]["type"] for f in lines} <= \
+            {"LineString", "MultiLineString"}, name
+        assert len(polygons) == 6 and {f["geometry"]["type"] for f in polygons} <= \
+            {"Polygon", "MultiPolygon"}, name
+
+
+def test_an_esri_json_numbered_102100_reads_without_gdal_warnings(files, tmp_path):
+    """Esri's own number for Web Mercator (``"wkid": 102100`` without ``latestWkid``,
+    as older ArcGIS servers send it) printed GDAL's RuntimeWarnings with pyogrio's
+    source lines before a run that read it right."""
+    web = gpd.read_file(files / "few3857.geojson")
+    data = esri_json(web)
+    data["spatialReference"] = {"wkid": 102100}
+    path = tmp_path / "old.esri.json"
+    path.write_text(json.dumps(data))
+    import warnings
+
+    from citysynth.skeletons.gis_files import read_gis_file
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        got = read_gis_file(path, None, "Esri JSON", "polygons")
+    assert len(got["features"]) == len(web)
+    assert not [w for w in seen if issubclass(w.category, RuntimeWarning)], \
+        [str(w.message) for w in seen]

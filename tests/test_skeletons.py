@@ -183,6 +183,18 @@ def test_streets_split_anywhere_give_the_same_blocks():
     ([feat("Polygon", [metres([(0, 0), (20, 0), (20, 20), (0, 20), (0, 0)]),
                        metres([(30, 0), (35, 0), (35, 5), (30, 5), (30, 0)])])], "poly",
      "); move the courtyard inside the outline, or drop it"),
+    # a courtyard touching the outline is valid, but no wall stands between: a block's
+    # parts were laid out 28 m past its outline
+    ([feat("Polygon", [metres([(0, 0), (60, 0), (60, 50), (0, 50), (0, 0)]),
+                       metres([(0, 0), (30, 20), (30, 10), (0, 0)])], id="v")], "poly",
+     "feature 0 (v): courtyard 1 reaches the outline at ("),
+    ([feat("Polygon", [metres([(0, 0), (60, 0), (60, 50), (0, 50), (0, 0)]),
+                       metres([(30, 0), (20, 20), (40, 20), (30, 0)])])], "poly",
+     "), with no wall between; move the courtyard in from it, or make it a notch"),
+    ([feat("Polygon", [metres([(0, 0), (60, 0), (60, 50), (0, 50), (0, 0)]),
+                       metres([(10, 10), (10, 20), (20, 20), (20, 10), (10, 10)]),
+                       metres([(20, 20), (20, 30), (30, 30), (30, 20), (20, 20)])])],
+     "poly", "courtyard 2 reaches courtyard 1 at ("),
     ([feat("LineString", metres([(0, 0), (2, 0), (2, 30)]))], "lines", "shorter than the "
      "smallest part"),
     ([feat("LineString", metres([(0, 0), (30, 0)])),
