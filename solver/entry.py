@@ -300,6 +300,11 @@ def _rcksp(problem: Problem, cp: Compiled, k: int, max_memory_mb: float, table: 
     return seqs, t1
 
 
+# bytes FGS holds a label by at most: its five arrays and heap slot (56 B), the copy a
+# growth makes beside them, and the state table's share (a state a label at most)
+FGS_LABEL_BYTES = 128
+
+
 def _fgs(problem: Problem, cp: Compiled, k: int, max_memory_mb: float, table: str,
          stats: dict) -> tuple[list[list[int]], float]:
     """The baseline. It needs no row table, only a node table: dense when the box is
@@ -313,7 +318,7 @@ def _fgs(problem: Problem, cp: Compiled, k: int, max_memory_mb: float, table: st
     def enumerate_k(kk: int) -> list[list[int]]:
         status, seqs, _, settled, labels = fgs(
             cp, kk, dense=dense, size_hint=size_hint,
-            max_labels=max(int(max_memory_mb * 2**20) // 64, 1024))
+            max_labels=max(int(max_memory_mb * 2**20) // FGS_LABEL_BYTES, 1024))
         if status != 0:
             raise TooLargeError(
                 f"FGS stopped after {labels:,} labels: the search exceeds the memory "

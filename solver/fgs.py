@@ -210,9 +210,11 @@ def _fgs(K, n, r, lo, cap, stride, S, off, sptr, selem, sw, front_order, omega, 
         if hs == 0 or nres >= K:
             break
         if nl + 3 > len(lab_cost):
-            if nl > max_labels:
+            if len(lab_cost) >= max_labels:
                 return STATUS_TOO_LARGE, results[:0], lab_par, lab_elem, nnodes, nl
-            m = 2 * len(lab_cost)
+            # never past the budget: doubling from just under it asked for twice the
+            # budget (2.65 GB of a 2 GB budget, then numpy's MemoryError, exit 3)
+            m = min(2 * len(lab_cost), max_labels + 3)
             lab_cost, lab_par, lab_j = grow_f64(lab_cost, m), grow_i64(lab_par, m), \
                 grow_i64(lab_j, m)
             lab_elem, lab_state = grow_i64(lab_elem, m), grow_i64(lab_state, m)

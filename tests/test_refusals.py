@@ -218,3 +218,44 @@ def test_a_length_no_multiple_of_the_parts_reaches_is_told_at_once(monkeypatch):
     cp = compile_problem(_every_part_a_multiple(3001.0))
     reason, _details = diag.diagnose(cp, max_rows=8)
     assert "more than the memory budget" in reason and "front" not in reason, reason
+
+
+_FGS_CHILD = """
+import json, resource, sys
+from citysynth.solver import Problem, TooLargeError, solve
+p = Problem.from_dict(json.loads(sys.argv[1]))
+try:
+    solve(p, method=sys.argv[2], max_memory_mb=float(sys.argv[3]))
+    print("solved")
+except TooLargeError as exc:
+    print("refused", str(exc).splitlines()[0])
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024)
+"""
+
+
+def test_fgs_stays_within_its_memory_budget():
+    """FGS checked its label budget only before doubling its arrays: from just under
+    it, they grew to twice the budget (2.65 GB of 2 GB on a 10,000 km street, then
+    numpy's MemoryError: a traceback, exit 3). Its peak above the interpreter now
+    stays within the budget, and it refuses as the budget says."""
+    import json
+    import subprocess
+    import sys
+    big = {"resources": ["length", "doors"], "quantum": {"length": 0.2},
+           "elements": [{"id": "A", "resources": {"length": 4.0, "doors": 1}},
+                        {"id": "B", "resources": {"length": 6.2}}],
+           "transitions": [["A", "B", 0.5], ["B", "A", 0.25], ["B", "B", 1.0]],
+           "constraints": {"length": [1e7, 1e7], "doors": [1, 3]}}
+    small = {**big, "constraints": {"length": [10.2, 10.2]}}
+
+    def run(problem, budget):
+        out = subprocess.run([sys.executable, "-c", _FGS_CHILD, json.dumps(problem), "fgs",
+                              str(budget)], capture_output=True, text=True, check=True)
+        said, peak = out.stdout.strip().splitlines()
+        return said, int(peak)
+
+    said, base = run(small, 256)
+    assert said == "solved"
+    said, peak = run(big, 256)
+    assert said.startswith("refused FGS stopped after") and "256 MB" in said, said
+    assert peak - base < 256, (peak, base)
