@@ -305,3 +305,16 @@ def test_infill_mesh(rings):
         "x", 1, {"name": "l", "hash": "h", "quantum": 0.2}, "classic", "local", [],
         [], [fill]).to_json()))
     assert back.infill == [fill]
+
+
+def test_infill_rings_have_no_point_twice():
+    """Two corners a hair apart round (to the layout JSON's 0.1 mm) to one point: kept
+    twice, the infill's wall had two faces of no area (28 of the demo district's 1,081
+    rings; trimesh and a renderer see degenerate triangles)."""
+    from citysynth.export.infill import _rings
+    # the demo district's block f1115f5dd36, its first infill (GEOS's simplification
+    # keeps both corners)
+    (ring,) = _rings(shapely.Polygon([(-178.662, -413.2248), (-175.4287, -416.1699),
+                                      (-175.42871, -416.16992), (-175.5733, -413.0724)]))
+    assert ring == ((-178.662, -413.2248), (-175.4287, -416.1699), (-175.5733, -413.0724))
+    assert all(a != b for a, b in zip(ring, ring[1:] + ring[:1], strict=True))
