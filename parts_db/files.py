@@ -12,6 +12,7 @@ import contextlib
 import os
 import tempfile
 from collections.abc import Iterator
+from contextvars import ContextVar
 from pathlib import Path
 
 _UMASK = os.umask(0)
@@ -33,6 +34,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     try:
         yield Path(tmp)
         os.chmod(tmp, 0o666 & ~_UMASK)   # mkstemp makes 0600; outputs are shared files
+        _keep_for_undo(path)
         os.replace(tmp, path)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
@@ -64,19 +66,45 @@ def sweep_temporaries(folder: str | Path) -> int:
     return n
 
 
+# the files an all_or_nothing block replaced, each with a hard link to its old content
+_UNDO: ContextVar[list[tuple[Path, Path]] | None] = ContextVar("undo", default=None)
+
+
+def _keep_for_undo(path: Path) -> None:
+    """Within :func:`all_or_nothing`, a file about to be replaced keeps its old content
+    under a hidden link (a temporary's name: a killed run's is swept), to be put back
+    if the block fails. Best effort: a file system without hard links keeps none."""
+    undo = _UNDO.get()
+    if undo is None or not path.is_file() or any(p == path for p, _b in undo):
+        return
+    keep = path.parent / f".{path.stem}{TMP_MARK}undo-{os.getpid()}{path.suffix}"
+    try:
+        os.link(path, keep)
+    except OSError:
+        return
+    undo.append((path, keep))
+
+
 @contextlib.contextmanager
 def all_or_nothing(folder: str | Path) -> Iterator[None]:
-    """Files and folders made in ``folder`` by the block go again if it fails: a command
-    that writes several files (a layout's JSON, its USD, the part files it references)
-    and meets an error after the first (a part's mesh damaged since ingest, a name the
-    file system refuses) leaves the folder as it found it, not half a result. (A file it
-    replaced keeps its new content; only what was not there before goes.)"""
+    """Files and folders made in ``folder`` by the block go again if it fails, and the
+    files it replaced get their old content back: a command that writes several files
+    (a layout's JSON, its USD, the part files it references) and meets an error after
+    the first (a disk that filled, a part's mesh damaged since ingest, a name the file
+    system refuses) leaves the folder as it found it, not half a result (a street run
+    again into its folder left the new JSON and USD beside the old GLB)."""
     root = Path(folder)
     existed = root.exists()
     before = set(root.rglob("*")) if existed else set()
+    undo: list[tuple[Path, Path]] = []
+    token = _UNDO.set(undo)
     try:
         yield
     except BaseException:
+        _UNDO.reset(token)
+        for path, keep in reversed(undo):
+            with contextlib.suppress(OSError):
+                os.replace(keep, path)
         made = (set(root.rglob("*")) if root.exists() else set()) - before
         for p in sorted(made, key=lambda q: len(q.parts), reverse=True):   # deepest first
             with contextlib.suppress(OSError):
@@ -85,3 +113,6 @@ def all_or_nothing(folder: str | Path) -> Iterator[None]:
             with contextlib.suppress(OSError):
                 root.rmdir()
         raise
+    _UNDO.reset(token)
+    for _path, keep in undo:
+        keep.unlink(missing_ok=True)

@@ -160,14 +160,17 @@ def chosen_formats(preview: bool) -> list[Format]:
 
 def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
                   formats: Sequence[Format] = FORMATS, k: int | None = None,
-                  selected: int = 1) -> list[Path]:
+                  selected: int = 1, inputs: Sequence[str | Path] = ()) -> list[Path]:
     """Write each layout of ``built`` in ``formats`` to ``out_dir``; the file paths.
     Export and preview times add up in ``built.timings``. With several layouts the
-    variant stage selects rank ``selected`` (a city block: the one its run picked)."""
+    variant stage selects rank ``selected`` (a city block: the one its run picked).
+    None of the files may be one of ``inputs`` (the command's input files)."""
     out = Path(out_dir)
     k = len(built.layouts) if k is None else k
     paths = []
     stems = [out / output_stem(lay, k) for lay in built.layouts]
+    if inputs and built.layouts:
+        _check_not_inputs([*stems, out / built.layouts[0].name], formats, inputs)
     for fmt in formats:
         t = time.perf_counter()
         paths.extend(write_ranks(built.layouts, db, stems, fmt))
@@ -178,6 +181,20 @@ def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
     if built.layouts:
         _sweep_stale(out, built.layouts[0].name, formats, paths)
     return paths
+
+
+def _check_not_inputs(stems: Sequence[Path], formats: Sequence[Format],
+                      inputs: Sequence[str | Path]) -> None:
+    """Refuse to write over an input file: ``street --line out/ok.layout.usda -o out``
+    replaced the street line with the USD it made from it, and exited 0."""
+    given = [Path(i) for i in inputs if Path(i).is_file()]
+    suffixes = [x for f in formats for x in (SUFFIX[f], *BESIDE.get(f, ()))]
+    for stem in stems:
+        for p in (Path(f"{stem}{x}") for x in suffixes):
+            hit = next((i for i in given if p.is_file() and os.path.samefile(p, i)), None)
+            if hit is not None:
+                raise UsageError(f"{hit}: the output {p.name} would overwrite this input "
+                                 "file; write to another folder (-o) or rename the input")
 
 
 def _sweep_stale(out: Path, name: str, formats: Sequence[Format], written: list[Path]

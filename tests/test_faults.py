@@ -484,3 +484,34 @@ def test_sigterm_after_the_blocks_still_exits_143(clean, tmp_path, monkeypatch, 
     assert main(city_args(streets, tmp_path / "run", "--workers", "1")) == 143
     assert "terminated" in capsys.readouterr().err
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_a_failed_rewrite_leaves_the_earlier_result_whole(tmp_path, monkeypatch, capsys):
+    """``street`` run again into its folder, the disk filling at the GLB: the new
+    layout JSON and USD stood beside the old GLB (a mixed result, exit 2). The files
+    it replaced get their old content back, and its new ones go."""
+    import errno
+
+    from citysynth.export import writers
+    line = tmp_path / "main.geojson"
+    line.write_text(json.dumps({
+        "type": "FeatureCollection",
+        "crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::25832"}},
+        "features": [{"type": "Feature", "properties": {}, "geometry": {
+            "type": "LineString", "coordinates": [[690000.0, 5335000.0],
+                                                  [690120.0, 5335000.0]]}}]}))
+    out = tmp_path / "out"
+    assert main(["street", "--line", str(line), "--side", "right", "--no-preview",
+                 "-o", str(out)]) == 0
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+
+    def full(lay, db, path):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+    monkeypatch.setitem(writers.WRITERS, "glb", full)
+    capsys.readouterr()
+    assert main(["street", "--line", str(line), "--side", "both", "--no-preview",
+                 "-o", str(out)]) == 2
+    assert "No space left on device" in capsys.readouterr().err
+    after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert after.keys() == before.keys()
+    assert [k for k in before if after[k] != before[k]] == []

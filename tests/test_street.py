@@ -389,3 +389,31 @@ def test_a_zigzag_street_is_told_why_it_stays_empty(tmp_path, capsys):
         warnings.simplefilter("error", InputWarning)
         assert main(["street", "--line", str(_line_file(tmp_path / "m.geojson")),
                      "-o", str(tmp_path / "m"), "--no-preview"]) == 0
+
+
+def test_an_output_never_overwrites_the_input(tmp_path, capsys):
+    """``street --line out/ok.layout.usda -o out`` replaced the street line with the
+    USD made from it (exit 0); ``tower --lot`` and ``block`` likewise. Refused, the
+    input untouched, nothing written."""
+    line = _line_file(tmp_path / "ok.layout.usda")
+    before = line.read_bytes()
+    assert main(["street", "--line", str(line), "--side", "right", "--no-preview",
+                 "-o", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{line}: the output ok.layout.usda would overwrite this input file" in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert line.read_bytes() == before and sorted(tmp_path.iterdir()) == [line]
+    lot = tmp_path / "lot" / "t.glb"
+    lot.parent.mkdir()
+    lot.write_text(json.dumps({
+        "type": "FeatureCollection", "crs": {"type": "name", "properties": {
+            "name": "urn:ogc:def:crs:EPSG::25832"}},
+        "features": [{"type": "Feature", "properties": {}, "geometry": {
+            "type": "Polygon", "coordinates": [[[690000, 5335000], [690030, 5335000],
+                                                [690030, 5335022], [690000, 5335022],
+                                                [690000, 5335000]]]}}]}))
+    before = lot.read_bytes()
+    assert main(["tower", "--height", "30", "--far", "3", "--lot", str(lot), "--name", "t",
+                 "--no-preview", "-o", str(lot.parent)]) == 2
+    assert "t.glb would overwrite this input file" in capsys.readouterr().err
+    assert lot.read_bytes() == before and sorted(lot.parent.iterdir()) == [lot]

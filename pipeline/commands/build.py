@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 from citysynth.parts_db.files import all_or_nothing
 from citysynth.pipeline.errors import MAX_STRETCH, UsageError, check_k, names_its_file, shown
 from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.gis_files import LAYER_SEP
 
 if TYPE_CHECKING:
     from citysynth.export.infill import Roof
@@ -169,7 +170,9 @@ def _finish(args, db, style: str, frame: Frame,
                   f"{_why(args, db, style, frame, rings, built)}", file=sys.stderr)
             status = 1
     with all_or_nothing(args.out):
-        written = [(built, write_outputs(built, db, args.out, formats=formats, k=args.k))
+        inputs = [args.file, str(args.file).rpartition(LAYER_SEP)[0]]   # FILE::LAYER too
+        written = [(built, write_outputs(built, db, args.out, formats=formats, k=args.k,
+                                         inputs=inputs))
                    for built, _rings in built_all if built.status == "ok"]
     for built, paths in written:
         print(f"{built.name}: {len(built.layouts)} layout(s)")

@@ -71,6 +71,7 @@ def street_front_step() -> int:
 def run(args) -> int:
     from citysynth.export.usd import validate  # when run (see pipeline.cli)
     from citysynth.parts_db import load_library
+    from citysynth.parts_db.files import all_or_nothing
     from citysynth.pipeline.city.config import load_config
     from citysynth.pipeline.city.outputs import finish_city
     from citysynth.pipeline.city.run import prepare, progress_printer, run_city
@@ -90,7 +91,8 @@ def run(args) -> int:
     for built in (building, block):
         if built.status != "ok":
             raise ExportError(f"demo: {built.name} is infeasible: {built.reason}")
-        paths = write_outputs(built, db, out)
+        with all_or_nothing(out):   # a disk that fills leaves no half of a building
+            paths = write_outputs(built, db, out)
         print(f"{built.name}: wrote {len(paths)} files")
         for lay in built.layouts:
             print("  " + summary_line(lay))

@@ -201,7 +201,8 @@ def _write(args, db, built: Built) -> int:
 
     formats = chosen_formats(preview=not args.no_preview)
     with all_or_nothing(args.out):
-        paths = write_outputs(built, db, args.out, formats=formats, k=args.k)
+        paths = write_outputs(built, db, args.out, formats=formats, k=args.k,
+                              inputs=[args.line])
     print(f"{built.name}: {len(built.layouts)} row(s)")
     for lay in built.layouts:
         print("  " + summary_line(lay))

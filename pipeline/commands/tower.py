@@ -115,7 +115,8 @@ def _write(args, db, built: Built) -> int:
 
     formats = chosen_formats(preview=not args.no_preview)
     with all_or_nothing(args.out):
-        paths = write_outputs(built, db, args.out, formats=formats, k=args.k)
+        paths = write_outputs(built, db, args.out, formats=formats, k=args.k,
+                              inputs=[args.lot] if args.lot else [])
     print(f"{built.name}: {len(built.layouts)} tower(s)")
     for lay in built.layouts:
         met = lay.structures[0]["resources"]
