@@ -96,11 +96,21 @@ def render_meshes(mesh: trimesh.Trimesh, out_png: str | Path, *, title: str = ""
     return out
 
 
-def render_layout(lay, db: PartDB, out_png: str | Path, **kw) -> Path:
-    """The preview of a layout (see :func:`render_meshes`)."""
-    from citysynth.export.assemble import world_mesh
+MAX_TRIANGLES = 3_000_000   # a preview's full geometry; past it, each part as its box
 
-    return render_meshes(world_mesh(lay, db), out_png, **kw)
+
+def render_layout(lay, db: PartDB, out_png: str | Path, **kw) -> Path:
+    """The preview of a layout (see :func:`render_meshes`): its full geometry up to
+    :data:`MAX_TRIANGLES`, else each part as its bounding box, as a city's overview
+    does. (A 100 km building's full mesh asked VTK for gigabytes: std::bad_alloc, an
+    abort, and half its files left.)"""
+    from citysynth.export.assemble import triangle_count, world_boxes, world_mesh
+
+    if triangle_count(lay, db) <= MAX_TRIANGLES:
+        return render_meshes(world_mesh(lay, db), out_png, **kw)
+    if kw.get("title"):
+        kw["title"] += " (each part as its box)"
+    return render_meshes(world_boxes(lay, db), out_png, **kw)
 
 
 def contact_sheet(db: PartDB, library_dir: str | Path, out_png: str | Path, *,

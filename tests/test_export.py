@@ -278,3 +278,22 @@ def test_plain_float_shapes_are_the_array_ones():
         span = tuple(rng.uniform(-3, 12, 2))
         assert shapely.to_wkb(_footprint(placed, span)) == \
             shapely.to_wkb(_footprints([placed], [span])[0])
+
+
+def test_a_preview_past_its_triangles_draws_each_part_as_its_box(tmp_path, monkeypatch):
+    """A 100 km building's full mesh asked VTK for gigabytes (std::bad_alloc: an abort,
+    its files half written). Past MAX_TRIANGLES a preview draws each part as its box,
+    as a city's overview does; the full mesh is never made."""
+    from citysynth.export import assemble, preview
+
+    def never(*_a, **_k):
+        raise AssertionError("the full mesh was made")
+    monkeypatch.setattr(preview, "MAX_TRIANGLES", 1000)
+    monkeypatch.setattr(assemble, "world_mesh", never)
+    root = Path(__file__).resolve().parent.parent
+    out = tmp_path / "o"
+    assert main(["building", str(root / "examples/skeletons/t_building.geojson"),
+                 "--library", str(root / "examples/library"), "--k", "1",
+                 "-o", str(out)]) == 0
+    png = out / "t_building.png"
+    assert png.is_file() and png.stat().st_size > 10_000

@@ -288,16 +288,17 @@ def write_city_glb(out: Path, inputs: CityInputs, report: Report) -> Path | None
 
 
 def render_overview(out: Path, inputs: CityInputs, report: Report, *,
-                    max_triangles: int = 3_000_000) -> Path | None:
+                    max_triangles: int | None = None) -> Path | None:
     """``city.png``: the built blocks from a perspective and from above; full geometry
     when it fits ``max_triangles``, else each part as its bounding box."""
     import trimesh
 
     from citysynth.export.assemble import triangle_count, world_boxes, world_mesh
-    from citysynth.export.preview import render_meshes
+    from citysynth.export.preview import MAX_TRIANGLES, render_meshes
 
     if not report["built"]:
         return None
+    max_triangles = MAX_TRIANGLES if max_triangles is None else max_triangles
     lays = [(lay, db) for _bid, lay, db in _built_layouts(out, inputs, report)]
     total = sum(triangle_count(lay, db) for lay, db in lays)
     make = world_mesh if total <= max_triangles else world_boxes
