@@ -29,7 +29,14 @@ from citysynth.parts_db.costs import allowed_matrix, cost_matrix
 from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.files import atomic_path, write_text
 from citysynth.parts_db.manifest import Manifest, PartClass, read_manifest
-from citysynth.parts_db.measure import STACKED, STRAIGHT, corner_disagrees, measure, snap_legs
+from citysynth.parts_db.measure import (
+    STACKED,
+    STRAIGHT,
+    corner_disagrees,
+    measure,
+    off_frame,
+    snap_legs,
+)
 from citysynth.parts_db.meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh, mesh_bytes
 
 FORMAT_VERSION = 2
@@ -240,6 +247,8 @@ def _ingest_part(root: Path, m: Manifest, spec, warnings: list[str]) -> Part:
         warnings.append(f"{spec.id}: snapped by {change:.3f} m to the {q:g} m grid")
     if (wrong := corner_disagrees(mesh, spec, meas.legs)) is not None:
         warnings.append(f"{spec.id}: {wrong}")
+    if (off := off_frame(mesh, spec.cls)) is not None:
+        warnings.append(f"{spec.id}: {off}")
     if spec.ignored:   # a corner labelled with another class would be used as that
         warnings.append(f"{spec.id}: {' and '.join(spec.ignored)} ignored: only corners "
                         f"have them, and its class is {spec.cls} (set class = \"corner\" "

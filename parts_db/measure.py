@@ -128,6 +128,29 @@ def _check_span(lo: np.ndarray, hi: np.ndarray, where: str) -> None:
                            "mesh's vertices")
 
 
+OFF_FRAME = 1.0   # m: a facade part this far from y = 0, or off the ground, is warned of
+
+
+def off_frame(mesh, cls: str) -> str | None:
+    """Why a facade part lies off its canonical frame, or None: its facade far from the
+    plane y = 0 the skeleton line runs in, or its body not on the ground z = 0. Ingest
+    measured such a part as any other, and a building stood 100 km behind its street
+    (a part exported with its world position) or buried 50 m deep, its preview framed
+    on it and looking right."""
+    if cls in STACKED:
+        return None
+    lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+    if lo[1] > OFF_FRAME or hi[1] < -OFF_FRAME:
+        far = float(lo[1] if lo[1] > 0 else -hi[1])
+        side = "behind" if lo[1] > 0 else "in front of"
+        return (f"it lies {far:g} m {side} the facade plane y = 0 (the skeleton line); "
+                "move it to its canonical frame (see README)")
+    if lo[2] > OFF_FRAME or hi[2] < 0.0:
+        return (f"its lowest point is at z = {float(lo[2]):g} m, not on the ground "
+                "z = 0; move it to its canonical frame (see README)")
+    return None
+
+
 def measure(mesh, spec: PartSpec, where: str) -> Measured:
     v = mesh.vertices
     lo, hi = v.min(axis=0), v.max(axis=0)

@@ -357,3 +357,19 @@ def test_a_manifest_link_that_loops_is_not_called_missing(tmp_path, capsys):
     assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 2
     err = capsys.readouterr().err
     assert "symbolic links" in err and "missing" not in err, err
+
+
+def test_a_part_off_its_canonical_frame_is_warned_of(tmp_path, capsys):
+    """A part exported at its world position (100 km out) or below the ground was
+    measured as any other: its building stood 100 km behind the street, or buried,
+    with no word. Ingest warns, naming the part and how far."""
+    lib = _library(tmp_path, [("far", "a.stl", _box(0, 3, 1e5, 1e5 + 10, 0, 6),
+                               'class = "middle"'),
+                              ("deep", "b.stl", _box(0, 3, 0, 10, -50, -44),
+                               'class = "middle"'),
+                              ("ok", "c.stl", GOOD, 'class = "middle"')])
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 0
+    out = capsys.readouterr().out
+    assert "far: it lies 100000 m behind the facade plane y = 0 (the skeleton line)" in out
+    assert "deep: its lowest point is at z = -50 m, not on the ground z = 0" in out
+    assert "ok:" not in out
