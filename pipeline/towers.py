@@ -302,7 +302,7 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
         raise UsageError(f"--height must be a positive number of metres, got {lo:g}"
                          + (f"-{hi:g}" if hi != lo else ""))
     if hi > MAX_TOWER_HEIGHT:
-        raise UsageError(f"a tower of {hi:g} m: citysynth stacks towers of at most "
+        raise UsageError(f"a tower of {hi:.12g} m: citysynth stacks towers of at most "
                          f"{MAX_TOWER_HEIGHT:,.0f} m (the tallest building stands 828 m); "
                          "ask for a lower one")
     lot = check_lot(db, lot, style)
@@ -312,6 +312,7 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
                             keep=lambda p: fits(p, lot))
     problem["constraints"]["height"] = [lo, hi]
     at = _said(lo) if lo == hi else f"{_said(lo)}-{_said(hi)}"
+    ratio = f"{far[0]:g}" if far[0] == far[1] else f"{far[0]:g}-{far[1]:g}"   # not "10-10"
     asked = Problem.from_dict(problem)
     lowest = _lowest(problem)
     try:
@@ -326,14 +327,14 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
         if area[0] <= most:   # the search itself: said in towers, not labels and quanta
             budget = f"the {exc.budget_mb:,.0f} MB" if exc.budget_mb else "the"
             raise TooLargeError(
-                f"a tower of {at} m with a floor-area ratio of {far[0]:g}-{far[1]:g} on a "
+                f"a tower of {at} m with a floor-area ratio of {ratio} on a "
                 f"{lot.area:g} m² lot: its floors stack in too many ways to search for "
                 f"the best within {budget} memory budget; ask for a lower height, a wider "
                 "floor-area ratio interval or fewer towers (k)", need_mb=exc.need_mb,
                 budget_mb=exc.budget_mb, k=exc.k) from None
         # a floor area more floors than a search can count, and range tables too large
         # to tell (a lot of 1e12 m² is told by them)
-        return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
+        return Built(name, "infeasible", reason=f"floor-area ratio {ratio} at "
                      f"{at} m on a {lot.area:g} m² lot: every stack of the tower parts of "
                      f"that height has a floor-area ratio of at most {most / lot.area:.4g}",
                      timings={"solve_s": time.perf_counter() - t0})
@@ -342,7 +343,7 @@ def solve_tower(name: str, db: PartDB, lot: Lot, height: float | tuple[float, fl
     if result is None or result.status != "ok":
         why = _why(result.details if result is not None else told or [], lot, area, reach,
                    hi, lowest)
-        return Built(name, "infeasible", reason=f"floor-area ratio {far[0]:g}-{far[1]:g} at "
+        return Built(name, "infeasible", reason=f"floor-area ratio {ratio} at "
                      f"{at} m on a {lot.area:g} m² lot: {why}", timings=timings)
     parts = db.by_id
     layouts = [tower_layout(name, rank, sol.sequence, sol.cost, parts, db, lot,

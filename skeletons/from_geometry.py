@@ -25,7 +25,7 @@ from shapely.geometry.base import BaseGeometry
 from shapely.validation import explain_validity
 
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.skeletons.geojson import Feature, Frame, angle_between, format_xy
+from citysynth.skeletons.geojson import Feature, Frame, angle_between, format_xy, side_words
 from citysynth.skeletons.model import (
     FRONTS,
     Edge,
@@ -246,9 +246,9 @@ def _check_sides(sk: Skeleton, min_edge: float, where: str = "") -> None:
             if length < min_edge:
                 a, b = kp[start].xy, kp[v].xy
                 raise SkeletonError(
-                    f"{where or sk.edges[first].source or sk.name}: the {length:.2f} m side from "
-                    f"{sk.frame.at(a)} to {sk.frame.at(b)} is shorter than the smallest "
-                    f"part ({min_edge:.2f} m)")
+                    f"{where or sk.edges[first].source or sk.name}: "
+                    f"{side_words(length, sk.frame.at(a), sk.frame.at(b))} is shorter than "
+                    f"the smallest part ({min_edge:.2f} m)")
 
 
 def seamed(kps: list[KeyPoint]) -> list[KeyPoint]:

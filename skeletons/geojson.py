@@ -774,4 +774,13 @@ def local_xy(p: tuple[float, float]) -> str:
 def format_xy(p: tuple[float, float]) -> str:
     """A point as messages give it: 6 decimals for lon/lat, 2 (cm) for metres."""
     nd = 6 if abs(p[0]) <= 180 and abs(p[1]) <= 90 else 2
-    return f"({p[0]:.{nd}f}, {p[1]:.{nd}f})"
+    x, y = (f"{v:.{nd}f}" for v in p)
+    return f"({x.removeprefix('-') if float(x) == 0 else x}, " \
+        f"{y.removeprefix('-') if float(y) == 0 else y})"   # no "-0.000000"
+
+
+def side_words(length: float, a: str, b: str) -> str:
+    """'the 6.00 m side from (x, y) to (x, y)' (its ends as messages give them); a side
+    shorter than their precision (5 cm in lon/lat's 6 decimals) is 'at' its one point,
+    not from a point to itself."""
+    return f"the {length:.2f} m side " + (f"at {a}" if a == b else f"from {a} to {b}")

@@ -193,6 +193,14 @@ def test_a_features_own_fault_names_its_file(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith(f"citysynth block: error: {f}: feature 0 (h): ") and \
         "'unicorns'" in err, err
+    line = tmp_path / "l.geojson"   # and a building's line (its own fault named no file)
+    line.write_text(json.dumps({"type": "Feature", "properties": {
+        "constraints": {"unicorns": [1, 2]}}, "geometry": {
+        "type": "LineString", "coordinates": [[7.1, 50.73], [7.1008, 50.73]]}}))
+    assert main(["building", str(line), "--library", str(EXAMPLES / "library"), "-o",
+                 str(tmp_path / "o"), "--no-preview"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"citysynth building: error: {line}: ") and "'unicorns'" in err, err
     from citysynth.skeletons.geojson import lonlat_from_local
     spiral = lonlat_from_local([(0, 0), (40, 0), (40, 3), (1, 3), (1, 1.5), (30, 1.5)],
                                (7.1, 50.73))

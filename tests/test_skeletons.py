@@ -431,3 +431,17 @@ def test_a_multipolygon_whose_parts_overlap_is_refused_where_they_do():
     apart = [[x + 60.0, y] for x, y in a]
     feats, frame = _utm(feat("MultiPolygon", [[a], [apart]]))
     assert len(skeletons_from_polygons(feats, frame)) == 2
+
+
+def test_points_and_sides_in_messages():
+    """A side shorter than the points' precision (5 cm in lon/lat's 6 decimals) was
+    "from (7.100000, 50.730000) to (7.100000, 50.730000)"; a point just west of
+    Greenwich "(-0.000000, ...)"."""
+    from citysynth.skeletons.geojson import format_xy, side_words
+    assert format_xy((-1e-7, 89.9999)) == "(0.000000, 89.999900)"
+    assert format_xy((-0.001, 12.0)) == "(-0.001000, 12.000000)"
+    assert format_xy((-0.001, 500.0)) == "(0.00, 500.00)"
+    p = format_xy((7.1, 50.73))
+    assert side_words(0.05, p, p) == "the 0.05 m side at (7.100000, 50.730000)"
+    assert side_words(6.0, "(0.00, 0.00)", "(6.00, 0.00)") == \
+        "the 6.00 m side from (0.00, 0.00) to (6.00, 0.00)"

@@ -127,6 +127,9 @@ def test_tower_on_a_drawn_lot_is_centred_and_turned(tmp_path):
     (["--far", "1e300"], 2, "--far 1e+300: a floor-area ratio past any tower"),
     (["--far", "10", "--height", "120.1"], 1, "at 120.1 m on a 400 m² lot: no stack of the "
                                               "tower parts has that height; the nearest are "),
+    # rounded, the refusal contradicted itself ("a tower of 1000 m: ... at most 1,000 m")
+    (["--far", "10", "--height", "1000.0001"], 2, "a tower of 1000.0001 m: citysynth "
+                                                  "stacks towers of at most 1,000 m"),
 ])
 def test_tower_bad_or_impossible_asks(tmp_path, capsys, args, code, text):
     argv = ["tower", "--height", "120", "--lot-area", "400", "--no-preview",

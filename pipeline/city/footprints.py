@@ -31,7 +31,7 @@ from citysynth.skeletons import Feature, Frame, Skeleton, skeletons_from_polygon
 from citysynth.skeletons.clean import absorb_short_edges, clean_footprint, without_tips
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.from_geometry import STRAIGHT_TOL
-from citysynth.skeletons.geojson import format_xy, input_xy, local_xy
+from citysynth.skeletons.geojson import format_xy, input_xy, local_xy, side_words
 from citysynth.skeletons.streets import osm_number, tag_values
 
 if TYPE_CHECKING:   # the job module imports this one
@@ -329,8 +329,8 @@ def stage_side(rings: list[Skeleton], blocked_at: BlockedAt | None):
 def describe_side(frame: tuple[str, float, float], source_crs: str, a: Any, b: Any,
                   length: float) -> str:
     """'the 6.00 m side from (x, y) to (x, y)', in the input's coordinates."""
-    return (f"the {length:.2f} m side from {format_xy(input_xy(frame, source_crs, a))} to "
-            f"{format_xy(input_xy(frame, source_crs, b))}")
+    return side_words(length, format_xy(input_xy(frame, source_crs, a)),
+                      format_xy(input_xy(frame, source_crs, b)))
 
 
 def explain(where: str, frame: tuple[str, float, float], source_crs: str,

@@ -185,6 +185,7 @@ def _finish(args, db, style: str, frame: Frame,
     return status
 
 
+@names_its_file("file")
 def run_building(args) -> int:
     from citysynth.pipeline.layouts import solve_layouts
     from citysynth.skeletons import skeleton_from_lines
