@@ -397,6 +397,34 @@ def _blamed(problem: dict, ask: StreetAsk) -> list[str] | None:
                     "together; widen one of the intervals"]
 
 
+FAR_PAST, SOME = 2.0, 10.0   # an asked count past twice (and 10 more) what a row can have
+
+
+def _past_reach(problem: dict, cons: dict, ask: StreetAsk) -> list[str]:
+    """The asked counts no row of the run's length comes near, found at once: no
+    building has more doors (windows, ...) a metre than the densest, nor fewer than the
+    sparsest, so a row of L metres has between those rates times L. Far past them (10
+    million windows on 200 m), the solver searched minutes for a table of counts no row
+    reaches, or was refused in its own words (``--max-memory``, a quantum) that
+    ``street`` has no option for. Near them, the solver's answer says more (the rows
+    the count allows measure 48 m), so it is left to say it."""
+    lo_len, hi_len = cons["length"]
+    said = []
+    for a, lo, hi in ask.constraints:
+        rates = [e["resources"].get(a, 0.0) / e["resources"]["length"]
+                 for e in problem["elements"] if e["resources"].get("length", 0) > 0]
+        if not rates:
+            continue
+        most, least = max(rates) * hi_len, min(rates) * lo_len
+        if lo > FAR_PAST * most + SOME or FAR_PAST * hi + SOME < least:
+            bound = f"at most {math.floor(most + 1e-9):,}" if lo > most \
+                else f"at least {math.ceil(least - 1e-9):,}"
+            said.append(f"its {a} in [{lo:g}, {hi:g}] cannot be met by {_kind(ask)}, "
+                        f"which make {bound} there; widen "
+                        f"{ask.loosen.interval.format(name=a)}")
+    return said
+
+
 def _kind(ask: StreetAsk) -> str:
     """The buildings a street asks for, as a refusal names them."""
     return f"the {ask.style} buildings" if ask.style else "the buildings"
@@ -444,6 +472,10 @@ def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
                 **{a: [lo, hi] for a, lo, hi in ask.constraints}}
         problem = street_front_problem(db, run.line.length, style=ask.style, k=ask.k)
         problem["constraints"] = cons
+        far = _past_reach(problem, cons, ask)
+        if far:
+            return Built(name, "infeasible", reason=_why(run, [], ask, locate, far),
+                         timings={"solve_s": time.perf_counter() - t0})
         r = solve(Problem.from_dict(problem))
         if r.status != "ok":
             blamed = (_blamed(problem, ask) if not r.details or any(

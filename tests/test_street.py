@@ -138,9 +138,17 @@ def test_the_outer_rows_of_a_hairpin_stop_near_the_turn(turn):
     (["--doors", "60", "70"], 1, " m, from (690000.00, 5335006.00) to (690199.55, "),
     (["--doors", "60", "70"], 1, ")): its doors in [60, 70] cannot be met by the buildings, "
                                  "which make "),
-    # the length alone is met: the windows asked are the cause, said so
-    (["--windows", "0", "0"], 1, ")): its length cannot be filled by the buildings with windows "
-                                 "in [0, 0]; widen the windows interval or leave it out"),
+    # counts no row of the length comes near: answered at once from the buildings'
+    # densest rate (10 million windows searched for minutes; 1e12 doors were refused
+    # "raise the budget (--max-memory MB)", an option street has not)
+    (["--windows", "1e7", "1e7"], 1, ")): its windows in [1e+07, 1e+07] cannot be met by "
+                                     "the buildings, which make at most "),
+    (["--doors", "1e12", "1e12"], 1, "its doors in [1e+12, 1e+12] cannot be met by the "
+                                     "buildings, which make at most "),
+    # the length alone is met: the windows asked are the cause, said so (every building
+    # has windows: told at once by the sparsest rate)
+    (["--windows", "0", "0"], 1, ")): its windows in [0, 0] cannot be met by the buildings, "
+                                 "which make at least "),
 ])
 def test_street_bad_or_impossible_asks(tmp_path, capsys, args, code, text):
     argv = ["street", "--line", str(_line_file(tmp_path / "s.geojson")), "--no-preview",
