@@ -88,12 +88,14 @@ def _refusal(cp: Compiled, labels: int, budget_bytes: int) -> TooLargeError:
     widest = int(np.argmax(cp.cap))
     name = cp.bounded[widest]
     q = cp.quant[widest].quantum
+    values = int(cp.cap[widest]) + 1
     return TooLargeError(
-        f"problem too large: the cost-bounded search stopped after {labels:,} labels, "
-        f"the memory budget of {budget_bytes / 2**20:,.0f} MB (the graph states within "
-        f'reach of the k-th cost do not fit). The widest resource is "{name}": use a '
-        f'coarser quantum for it (e.g. "quantum": {{"{name}": {2 * q:g}}}), tighten the '
-        "bounds, ask for a smaller k, or raise the budget (--max-memory MB)",
+        f"problem too large: the search stopped at the memory budget of "
+        f"{budget_bytes / 2**20:,.0f} MB after {labels:,} partial sequences, and more "
+        f"come as close to the best cost. The widest resource is \"{name}\" ({values:,} "
+        f"values at quantum {q:g}): use a quantum for it several times coarser (e.g. "
+        f'"quantum": {{"{name}": {10 * q:g}}}), tighten the bounds, ask for a smaller k, '
+        "or raise the budget (--max-memory MB)",
         budget_mb=budget_bytes / 2**20)
 
 

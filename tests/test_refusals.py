@@ -39,6 +39,14 @@ def test_too_large_is_refused_with_estimate_and_advice():
     msg = str(exc.value)
     assert "graph states" in msg and "512 MB" in msg
     assert "coarser quantum" in msg and "--max-memory" in msg
+    # the quantum it suggests fits the budget (doubling was advised whatever the
+    # overshoot: 18,692 MB against 2,048 was told "0.4" for 0.2, and refused again)
+    import json
+    import re
+    suggested = json.loads(re.search(r'"quantum": (\{[^}]*\})', msg).group(1))
+    assert set(suggested) == {"length", "floor_area"}   # both wide: coarser alike
+    coarse = Problem.from_dict({**p.to_dict(), "quantum": suggested})
+    solve(coarse, method="rcksp", max_memory_mb=512)   # no TooLargeError
     # the figures ride on the error (a city words its own message from them), and
     # survive the trip from a worker process
     import pickle
