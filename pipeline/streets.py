@@ -316,10 +316,12 @@ class StreetAsk:
 
 
 def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
-                 frame: str = "local", locate: Locate | None = None) -> Built:
+                 frame: str = "local", locate: Locate | None = None, source: str = ""
+                 ) -> Built:
     """The k best rows of buildings along ``street`` (each run's i-th best, or its last
     when it has fewer), or infeasible with the first run that has none (``locate``: a
-    local point in the input's coordinates, as text, to say where that run lies)."""
+    local point in the input's coordinates, as text, to say where that run lies;
+    ``source``: the line's file, which a refusal names)."""
     parts = db.select("building", ask.style)
     if not parts:
         raise UsageError(f"the library {db.name!r} has no complete buildings"
@@ -333,7 +335,7 @@ def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
     all_runs = _apart(found, depth, locate)
     if not all_runs:
         bends = int((np.abs(_turns(np.asarray(street.coords))) > BEND).sum())
-        raise UsageError(f"{name}: the street line has no straight run of at least "
+        raise UsageError(f"{source or name}: the street line has no straight run of at least "
                          f"{MIN_RUN:g} m to build on"
                          + (f" (it bends by more than {BEND:g}° at {bends} of its points "
                             f"over its {street.length:.0f} m: straighten it, e.g. simplify "

@@ -390,6 +390,7 @@ def test_a_zigzag_street_is_told_why_it_stays_empty(tmp_path, capsys):
                  "-o", str(tmp_path / "g"), "--no-preview"]) == 2
     err = capsys.readouterr().err
     assert "no straight run of at least 6 m" in err and "bends by more than 5° at" in err
+    assert f"error: {tmp_path / 'g.geojson'}: the street line" in err   # its file, not "g"
     assert "stay empty" not in err and "Traceback" not in err
     # the 200 m street of the other tests, bent by 3° once: no such warning
     import warnings

@@ -189,7 +189,7 @@ def run(args) -> int:
     line, frame = read_line(args.line, args.crs)
     db = load_library(args.library)
     built = solve_street(safe_name(Path(args.line).stem), line, db, ask, frame.describe(),
-                         frame.at)
+                         frame.at, source=str(args.line))
     if built.status != "ok":
         print(f"citysynth street: {built.name}: infeasible: {built.reason}", file=sys.stderr)
         return 1
