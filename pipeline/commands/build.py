@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import re
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -173,7 +174,8 @@ def _finish(args, db, style: str, frame: Frame,
         inputs = [args.file, str(args.file).rpartition(LAYER_SEP)[0]]   # FILE::LAYER too
         written = [(built, write_outputs(built, db, args.out, formats=formats, k=args.k,
                                          inputs=inputs))
-                   for built, _rings in built_all if built.status == "ok"]
+                   for built in _told([b for b, _rings in built_all if b.status == "ok"],
+                                      "written")]
     for built, paths in written:
         print(f"{built.name}: {len(built.layouts)} layout(s)")
         for lay in built.layouts:
@@ -222,8 +224,22 @@ def run_block(args) -> int:
     roof: Roof = "all" if args.infill else "pockets"     # footprints, or street blocks
     built = [(solve_layouts(name, r, db, style, args.k, infill=roof, label=label,
                             party=w, **_options(args)), r)
-             for name, label, r, w in zip(names, labels, rings, walls, strict=True)]
+             for name, label, r, w in _told(list(zip(names, labels, rings, walls,
+                                                     strict=True)), "laid out")]
     return _finish(args, db, style, frame, built)
+
+
+TOLD_FROM = 20   # features from which a command says how far it has got
+
+
+def _told(items: list, done: str) -> Iterator:
+    """``items``, saying on stderr how many are ``done`` at each tenth when there are
+    :data:`TOLD_FROM` or more: 500 blocks with previews ran minutes without a word."""
+    n = len(items)
+    for i, item in enumerate(items, start=1):
+        yield item
+        if n >= TOLD_FROM and 10 * i // n > 10 * (i - 1) // n:   # a tenth more
+            print(f"  {done} {i} of {n} ({100 * i // n} %)", file=sys.stderr, flush=True)
 
 
 SAID_COPIES = 3   # repeated outlines told one by one; past this, counted in one line
