@@ -248,3 +248,17 @@ def test_a_lot_that_crosses_itself_is_refused_where_it_does(tmp_path, capsys):
     assert "the lot is not a valid polygon (self-intersection at (690015.00, 5335015.00))" \
         in err and "does not cross itself" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_lot_drawn_round_the_globe_is_refused(tmp_path, capsys):
+    """``--lot-area`` past a million km² was refused, but a lot drawn that large (lon
+    ±170, lat ±80) was taken: "a 6.87253e+12 m² lot"."""
+    lot = tmp_path / "huge.geojson"
+    lot.write_text(json.dumps({"type": "Feature", "properties": {}, "geometry": {
+        "type": "Polygon", "coordinates": [[[-170, -80], [170, -80], [170, 80], [-170, 80],
+                                            [-170, -80]]]}}))
+    assert main(["tower", "--height", "60", "--far", "3", "--lot", str(lot),
+                 "--no-preview", "-o", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"{lot}: a lot of " in err and "is no building lot (at most 1e+12 m²" in err, err
+    assert not (tmp_path / "o").exists()

@@ -101,6 +101,9 @@ def run(args) -> int:
                          f"{MAX_LOT_AREA:g} m², a million km²); give the lot's area in "
                          "square metres")
     lot = read_lot(args.lot, args.crs) if args.lot else Lot.square(args.lot_area)
+    if args.lot and lot.area > MAX_LOT_AREA:   # a lot drawn round the globe was taken
+        raise UsageError(f"{args.lot}: a lot of {lot.area:.3g} m² is no building lot (at "
+                         f"most {MAX_LOT_AREA:g} m², a million km²); draw the lot itself")
     db = load_library(args.library)
     built = solve_tower(_name(args, far), db, lot, args.height, far, style=args.style,
                         k=args.k)
