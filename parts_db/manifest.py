@@ -86,8 +86,12 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     if extra:
         raise LibraryError(f"{path}: unknown table(s) {extra}; use [library] and [[part]]")
     parts_in = data.get("part", [])
+    if isinstance(parts_in, dict):   # [part], one table: TOML's array needs two brackets
+        raise LibraryError(f"{path}: [part] is one table; write each part as a [[part]] "
+                           "table (two brackets)")
     if not isinstance(parts_in, list) or not parts_in:
-        raise LibraryError(f"{path}: no parts; add [[part]] tables")
+        what = "" if "part" not in data else f" (part = {shown(parts_in)} is no table)"
+        raise LibraryError(f"{path}: no parts{what}; add [[part]] tables")
     parts: list[PartSpec] = []
     seen: dict[str, str] = {}   # id_key -> id
     for i, p in enumerate(parts_in):

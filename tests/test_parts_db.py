@@ -373,3 +373,22 @@ def test_a_part_off_its_canonical_frame_is_warned_of(tmp_path, capsys):
     assert "far: it lies 100000 m behind the facade plane y = 0 (the skeleton line)" in out
     assert "deep: its lowest point is at z = -50 m, not on the ground z = 0" in out
     assert "ok:" not in out
+
+
+@pytest.mark.parametrize("manifest, said", [
+    ('[library]\nname = "t"\n[part]\nid = "A"\nfile = "a.stl"\nclass = "middle"\n',
+     "[part] is one table; write each part as a [[part]] table (two brackets)"),
+    ('part = 3\n[library]\nname = "t"\n',
+     "no parts (part = 3 is no table); add [[part]] tables"),
+    ('[library]\nname = "t"\n', "no parts; add [[part]] tables"),
+])
+def test_a_manifest_without_part_tables_says_what_it_has(tmp_path, capsys, manifest, said):
+    """``[part]`` (one table, one bracket) and ``part = 3`` were both told "no parts;
+    add [[part]] tables", which the first already looks like it has."""
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    GOOD.export(lib / "a.stl")
+    (lib / "manifest.toml").write_text(manifest)
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 2
+    err = capsys.readouterr().err
+    assert said in err and len(err.strip().splitlines()) == 1, err
