@@ -115,7 +115,7 @@ class Placed:
             c = ((float(h.point[0]) - ox) * nx + (float(h.point[1]) - oy) * ny) / norm
             out.append(((round(gx / norm, PLANE_DIGITS) + 0.0,
                          round(gy / norm, PLANE_DIGITS) + 0.0,
-                         round(c, COORD_DIGITS) + 0.0), h))
+                         round(c, PLANE_DIGITS) + 0.0), h))
         return out
 
     def cut(self) -> Cut | None:

@@ -79,6 +79,23 @@ def test_a_sharp_v_building_does_not_run_through_itself(tmp_path, sample_db, ang
     assert a_.overlap_share < MAX_OVERLAP and a_.beyond_max <= MAX_BEYOND, a_.line()
 
 
+@pytest.mark.parametrize("angle, length", [(5.0, 100.0), (5.1, 100.0), (5.2, 30.0)])
+def test_a_sharp_concave_corner_from_5_degrees_builds(tmp_path, angle, length):
+    """The corner the other way (its mass outside the V) at 5.0-5.2°: each module is cut
+    on the bisector at a glancing angle, and the cut's offset rounded to 0.1 mm moved
+    its facade's end by that over sin 2.5° (1.1 mm): "stage 1: parts do not meet at
+    (-50.00, -4.36), 1.1 mm apart" (found by a probe on 2026-11-30; 5.05° built)."""
+    a = math.radians(angle)
+    line = [(length, 0.0), (0.0, 0.0), (length * math.cos(a), length * math.sin(a))]
+    src = tmp_path / "v.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [{
+        "type": "Feature", "properties": {"id": "v"},
+        "geometry": {"type": "LineString",
+                     "coordinates": [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in line]}}]}))
+    assert main(["building", str(src), "--library", str(LIB), "--crs", "EPSG:25833",
+                 "-o", str(tmp_path), "--no-preview"]) == 0
+
+
 @pytest.mark.parametrize("angle", [1.0, 3.0, 4.9])
 def test_a_hairpin_building_is_refused_where_it_turns(tmp_path, capsys, angle):
     """A line bent back on itself by under 5 degrees: its cuts came out millimetres
