@@ -56,6 +56,16 @@ def test_a_narrow_l_meets_the_audit_bar(narrow_l, sample_db):
     assert not failures, "\n".join(failures)
 
 
+def _v_file(tmp_path: Path, line: list[tuple[float, float]]) -> Path:
+    """A building line (local metres about ORIGIN, EPSG:25833) as a GeoJSON file."""
+    src = tmp_path / "v.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [{
+        "type": "Feature", "properties": {"id": "v"},
+        "geometry": {"type": "LineString",
+                     "coordinates": [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in line]}}]}))
+    return src
+
+
 @pytest.mark.parametrize("angle", [5.0, 15.0])
 def test_a_sharp_v_building_does_not_run_through_itself(tmp_path, sample_db, angle):
     """A building skeleton bent back at a sharp angle, its mass inside the V: the two
@@ -67,11 +77,7 @@ def test_a_sharp_v_building_does_not_run_through_itself(tmp_path, sample_db, ang
     nothing here; overlap and overshoot do."""
     a = math.radians(angle)
     line = [(60 * math.cos(a), 60 * math.sin(a)), (0.0, 0.0), (60.0, 0.0)]
-    src = tmp_path / "v.geojson"
-    src.write_text(json.dumps({"type": "FeatureCollection", "features": [{
-        "type": "Feature", "properties": {"id": "v"},
-        "geometry": {"type": "LineString",
-                     "coordinates": [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in line]}}]}))
+    src = _v_file(tmp_path, line)
     assert main(["building", str(src), "--library", str(LIB), "--style", "classic",
                  "--crs", "EPSG:25833", "-o", str(tmp_path), "--no-preview"]) == 0
     name, a_ = _audit(tmp_path / "v.layout.json", sample_db)
@@ -87,11 +93,7 @@ def test_a_sharp_concave_corner_from_5_degrees_builds(tmp_path, angle, length):
     (-50.00, -4.36), 1.1 mm apart" (found by a probe on 2026-11-30; 5.05° built)."""
     a = math.radians(angle)
     line = [(length, 0.0), (0.0, 0.0), (length * math.cos(a), length * math.sin(a))]
-    src = tmp_path / "v.geojson"
-    src.write_text(json.dumps({"type": "FeatureCollection", "features": [{
-        "type": "Feature", "properties": {"id": "v"},
-        "geometry": {"type": "LineString",
-                     "coordinates": [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in line]}}]}))
+    src = _v_file(tmp_path, line)
     assert main(["building", str(src), "--library", str(LIB), "--crs", "EPSG:25833",
                  "-o", str(tmp_path), "--no-preview"]) == 0
 
