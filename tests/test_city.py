@@ -267,7 +267,13 @@ def test_diff_pairs_blocks_redrawn_in_the_same_place_under_new_ids(district, tmp
     capsys.readouterr()
     assert main(["diff", str(tmp_path / "c"), str(tmp_path / "d"), "--json"]) == 1
     d = json.loads(capsys.readouterr().out)
-    assert d["renamed"] and all(r["change"] is None for r in d["renamed"]), d["renamed"]
+    # the same layouts; a pocket's roof may differ by a speck with the outline moved
+    # by a millimetre (18.5 -> 18.6 m² on one block since 2026-11-30's street joins)
+    changed = [r["change"] for r in d["renamed"] if r["change"] is not None]
+    assert d["renamed"] and all(
+        c["cost_delta"] == 0 and not c["parts"] and not c["met"] and not c["files"]
+        and c["rank_a"] == c["rank_b"] and abs(c["infill"][0] - c["infill"][1]) <= 0.5
+        for c in changed), json.dumps(changed)
     assert not (d["added"] or d["removed"] or d["changed"] or d["status"]), d
 
 

@@ -29,7 +29,7 @@ ROOT = Path(__file__).resolve().parent.parent
 LIB = ROOT / "examples" / "library"
 CITY = ROOT / "examples" / "city"
 DISTRICT = CITY / "district_streets.geojson"
-PERIMETER = "b9583357492"       # one perimeter block of the district, for company
+PERIMETER = "b325e596302"       # one perimeter block of the district, for company
 
 
 def _inputs():

@@ -19,7 +19,6 @@ from typing import TYPE_CHECKING, Any
 from citysynth.parts_db.files import all_or_nothing
 from citysynth.pipeline.errors import MAX_STRETCH, UsageError, check_k, names_its_file, shown
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.skeletons.gis_files import LAYER_SEP
 
 if TYPE_CHECKING:
     from citysynth.export.infill import Roof
@@ -162,6 +161,7 @@ def _finish(args, db, style: str, frame: Frame,
     """Write every layout (after all were solved and checked: a bad one writes
     nothing), report, and choose the exit code."""
     from citysynth.pipeline.layouts import chosen_formats, summary_line, write_outputs
+    from citysynth.skeletons.gis_files import LAYER_SEP  # numpy: only when run (cli)
 
     formats = chosen_formats(preview=not args.no_preview)
     status = 0
