@@ -257,7 +257,7 @@ def test_a_hairpin_too_sharp_for_its_sides_is_refused_where_it_is(tmp_path, caps
     assert got == code, err
     if code:
         back = 2.0 / (2 * math.sin(a / 2))
-        assert err == (f"citysynth building: error: pin: the convex corner of {degrees:.1f}° "
+        assert err == (f"citysynth building: error: {f}: pin: the convex corner of {degrees:.1f}° "
                        "at (7.100567, 50.730000) is too sharp for its sides: its tip is "
                        f"squared off by a 2 m end wall {back:.1f} m back along each facade, "
                        "past the end of its 40.0 m side; open the corner up or lengthen its "
