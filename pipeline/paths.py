@@ -26,10 +26,25 @@ def check_out_dir(out: str | Path, option: str = "-o") -> None:
     if not anc.is_dir():
         raise UsageError(f"{anc}: a file, so {p} cannot be made under it; give another "
                          f"{option} folder")
-    if not os.access(anc, os.W_OK | os.X_OK):
-        made = "" if anc == p.absolute() else f", so {p} cannot be made in it"
+    made = "" if anc == p.absolute() else f", so {p} cannot be made in it"
+    if not os.access(anc, os.W_OK | os.X_OK) or not _can_make_in(anc):
         raise UsageError(f"{anc}: may not be written (read-only or no permission){made}; "
                          f"give another {option} folder")
+
+
+def _can_make_in(folder: Path) -> bool:
+    """A folder can be made in ``folder`` (and is taken away again): the permission
+    bits say yes to root everywhere, also in /proc, /sys or a read-only mount, where
+    the first file written would fail only after the whole solve."""
+    probe = folder / f".citysynth-probe-{os.getpid()}"
+    try:
+        probe.mkdir()
+    except FileExistsError:
+        return True
+    except OSError:
+        return False
+    probe.rmdir()
+    return True
 
 
 def check_not_empty(folder: str | Path, option: str) -> None:

@@ -281,15 +281,16 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
             else face
         left = shapely.simplify(left, 0.01)   # drop the collinear vertices cuts leave
         parts = [p for p in shapely.get_parts(left) if isinstance(p, Polygon) and not p.is_empty]
-        xy = (face.centroid.x, face.centroid.y)
-        where = f"block {i} at {(locate or local_xy)(xy)}"
+        def where(i=i, face=face) -> str:   # said only of a piece skipped: placing a
+            xy = (face.centroid.x, face.centroid.y)   # point in lon/lat costs time
+            return f"block {i} at {(locate or local_xy)(xy)}"
         if not parts:
-            skipped.append(f"{where}: nothing left after the street setbacks")
+            skipped.append(f"{where()}: nothing left after the street setbacks")
             shapes.append(face)
             continue
         for p in sorted(parts, key=lambda q: -q.area):
             if p.area < min_area:
-                skipped.append(f"{where}: {p.area:.1f} m² after the setbacks, below "
+                skipped.append(f"{where()}: {p.area:.1f} m² after the setbacks, below "
                                f"{min_area:g} m²")
                 shapes.append(p)
                 continue

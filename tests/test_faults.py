@@ -426,6 +426,18 @@ def test_a_read_only_output_folder_is_one_message(tmp_path, capsys, cmd):
         subprocess.run(["umount", "-l", str(ro)], check=False)
 
 
+def test_an_output_folder_in_proc_is_refused_before_the_solve(capsys):
+    """Root may write anywhere by the permission bits, /proc too, where no folder can
+    be made: the refusal comes before the solve, not from the first file written."""
+    lines = ROOT / "examples" / "skeletons" / "t_building.geojson"
+    assert main(["building", str(lines), "--library", str(LIB), "-o",
+                 "/proc/citysynth-out"]) == 2
+    err = capsys.readouterr().err
+    assert "/proc: may not be written" in err and "citysynth-out cannot be made" in err
+    assert len(err.strip().splitlines()) == 1
+    assert not any(p.name.startswith(".citysynth-probe") for p in Path("/proc").iterdir())
+
+
 def test_a_read_only_cache_folder_falls_back(tmp_path, monkeypatch, capsys):
     """$CITYSYNTH_CACHE on a read-only file system: the database is cached in the user
     cache folder instead, and the command works."""
