@@ -127,6 +127,11 @@ def test_tower_on_a_drawn_lot_is_centred_and_turned(tmp_path):
     (["--far", "1e300"], 2, "--far 1e+300: a floor-area ratio past any tower"),
     (["--far", "10", "--height", "120.1"], 1, "at 120.1 m on a 400 m² lot: no stack of the "
                                               "tower parts has that height; the nearest are "),
+    # an exact ratio: a search of minutes (326 s) that ended in a memory refusal
+    (["--far", "10", "--far-tolerance", "0"], 2,
+     "a floor-area ratio of 10 on a 400 m² lot asks for a floor area of 4000.00 m², an "
+     "interval narrower than 0.5 m²"),
+    (["--far", "10", "10.0001"], 2, "give a wider one (--far-tolerance 6.3e-05 or more"),
     # rounded, the refusal contradicted itself ("a tower of 1000 m: ... at most 1,000 m")
     (["--far", "10", "--height", "1000.0001"], 2, "a tower of 1000.0001 m: citysynth "
                                                   "stacks towers of at most 1,000 m"),
@@ -262,3 +267,24 @@ def test_a_lot_drawn_round_the_globe_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"{lot}: a lot of " in err and "is no building lot (at most 1e+12 m²" in err, err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_narrow_floor_area_interval_is_counted_in_finer_quanta():
+    """A floor area asked to within a square metre either side: counted in whole m²,
+    few stacks whose rounded total met it met it in m², and a 200 m tower was searched
+    for 80 s and refused; in quanta fifty times finer than the interval it is found."""
+    from citysynth.pipeline.towers import Lot, area_quantum, solve_tower
+    db = load_library(SAMPLE_LIBRARY)
+    area = (14914.0, 14916.0)
+    built = solve_tower("narrow", db, Lot.square(400), 200.0, (area[0] / 400, area[1] / 400))
+    assert built.status == "ok"
+    parts = db.by_id
+    (lay,) = built.layouts
+    got = math.fsum(parts[i.part].floor_area or 0.0 for i in lay.instances
+                    if parts[i.part].cls != "roof")
+    assert area[0] <= got <= area[1]
+    problem = {"elements": [{"resources": {"floor_area": a}} for a in (296.39, 0.0)]}
+    assert area_quantum(problem, area, str) == pytest.approx(0.04)
+    assert area_quantum(problem, (0.0, 500.0), str) == 1.0
+    whole = {"elements": [{"resources": {"floor_area": a}} for a in (400.0, 0.0)]}
+    assert area_quantum(whole, (4000.0, 4000.0), str) == 1.0   # counted exactly
