@@ -116,3 +116,20 @@ def all_or_nothing(folder: str | Path) -> Iterator[None]:
     _UNDO.reset(token)
     for _path, keep in undo:
         keep.unlink(missing_ok=True)
+
+
+def no_such_folder(path: Path) -> str:
+    """Why ``path`` is no folder, as a message starts it: "no such folder", or, for a
+    symbolic link, where it leads (a loop of links read as "no such folder", sending
+    the user to look for a folder that is there)."""
+    if not os.path.islink(path):
+        return "no such folder"
+    try:
+        path.resolve(strict=True)
+    except RuntimeError:   # Python 3.11 says a loop so
+        return "a symbolic link that leads back to itself (a loop of links)"
+    except OSError as exc:
+        if exc.errno == 40:   # ELOOP
+            return "a symbolic link that leads back to itself (a loop of links)"
+    return f"a symbolic link to {os.readlink(path)}, which does not exist"
+

@@ -27,7 +27,7 @@ import shapely.errors
 from citysynth.parts_db import stored
 from citysynth.parts_db.costs import allowed_matrix, cost_matrix
 from citysynth.parts_db.errors import LibraryError
-from citysynth.parts_db.files import atomic_path, write_text
+from citysynth.parts_db.files import atomic_path, no_such_folder, write_text
 from citysynth.parts_db.manifest import Manifest, PartClass, read_manifest
 from citysynth.parts_db.measure import (
     STACKED,
@@ -405,7 +405,7 @@ def load_library(path: str | Path) -> PartDB:
     if (p / DB_JSON).is_file():
         return load_db(p)
     if not p.exists():
-        raise LibraryError(f"{p}: no such folder; give the folder of a part library (with "
+        raise LibraryError(f"{p}: {no_such_folder(p)}; give the folder of a part library (with "
                            f"manifest.toml) or of a part database (with {DB_JSON})")
     raise LibraryError(f"{p}: neither a library (no manifest.toml) nor a part database "
                        f"(no {DB_JSON})")

@@ -14,6 +14,7 @@ from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Literal, get_args
 
 from citysynth.parts_db.errors import LibraryError
+from citysynth.parts_db.files import no_such_folder
 from citysynth.solver.safe_read import read_toml, shown
 
 PartClass = Literal["end_left", "end_right", "middle", "corner", "t_junction", "floor",
@@ -53,8 +54,8 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     root = Path(library_dir)
     path = root / "manifest.toml"
     if not root.exists():
-        raise LibraryError(f"{root}: no such folder; a library is a folder with manifest.toml "
-                           "and mesh files")
+        raise LibraryError(f"{root}: {no_such_folder(root)}; a library is a folder with "
+                           "manifest.toml and mesh files")
     if not root.is_dir():
         raise LibraryError(f"{root}: not a folder; a library is a folder with manifest.toml "
                            "and mesh files")

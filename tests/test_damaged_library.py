@@ -299,3 +299,22 @@ def test_a_damaged_cache_is_measured_again_not_refused(tmp_path, monkeypatch):
     again = load_library(lib)
     assert not again.cache_hit and again.part(MID).scale > 0
     assert load_library(lib).cache_hit
+
+
+@pytest.mark.parametrize("cmd", ["ingest", "building"])
+def test_a_library_link_that_loops_or_dangles_says_so(tmp_path, capsys, cmd):
+    """A library named through a loop of symbolic links was "no such folder", sending
+    the user to look for a folder that is there; a link to nothing names its target."""
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    (tmp_path / "gone").symlink_to(tmp_path / "moved_away")
+    line = Path(__file__).parents[1] / "examples" / "skeletons" / "t_building.geojson"
+    for name, said in (("a", "a symbolic link that leads back to itself (a loop of links)"),
+                       ("gone", f"a symbolic link to {tmp_path / 'moved_away'}, which does "
+                                "not exist")):
+        lib = str(tmp_path / name)
+        argv = (["ingest", lib, "-o", str(tmp_path / "out")] if cmd == "ingest" else
+                ["building", str(line), "--library", lib, "-o", str(tmp_path / "out")])
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert f"{lib}: {said}; " in err and len(err.strip().splitlines()) == 1
