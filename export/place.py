@@ -891,13 +891,18 @@ class _Placer:
 
     # -- mitre joints ---------------------------------------------------------------------
 
-    def _cut_reaching(self, order, half: HalfPlane, s: int, t: int) -> None:
+    def _cut_reaching(self, order, half: HalfPlane, s: int, t: int, *,
+                      bisector: bool = False) -> None:
         """Add ``half`` to the modules of stage s, nearest the corner first, whose
         footprint reaches past it; the first (the one at the corner) always. A module
         whose mass past the plane misses stage t (the other side of the joint) and lies
         in a stage sharing no corner with s is left to the medial plane between those
         two (:meth:`_medial_cuts`): past a short side t (an acute corner cut off by a
-        few metres of facade) the joint's plane would leave a wedge of roof open."""
+        few metres of facade) the joint's plane would leave a wedge of roof open. No
+        facade of a straight stage lies past the ``bisector`` (through the corner), so
+        a module whose facade lies wholly past it is on a stage that curved back (a
+        crescent round a roundabout), and no part of the corner: it is left. (A nose's
+        plane takes whole facades near an acute corner by design.)"""
         other, far = self._stage_band(t), self._far_band(s)
         for n, i in enumerate(order):
             placed = self.placed[i]
@@ -906,6 +911,10 @@ class _Placer:
                 + placed.origin
             if n > 0 and not ((corners - half.point) @ np.asarray(half.normal) > TOL).any():
                 return
+            if bisector and n > 0 and (self._facade(i) @ np.asarray(half.normal)
+                                       > float(np.asarray(half.point) @ np.asarray(
+                                           half.normal)) + TOL).all():
+                continue
             past = self._past(i, half) if n > 0 else None
             if past is not None and past.intersection(other).area <= MEDIAL_MIN_AREA \
                     and past.intersection(far).area > MEDIAL_MIN_AREA:
@@ -939,12 +948,12 @@ class _Placer:
         before, after, how, trim = joint_halves(self.kxy[j], u_in, u_out, mass_left)
         # every module near the corner whose mass reaches past a plane is cut by it (at
         # a right angle, the modules within a building depth of the corner)
-        for half in before:
+        for m, half in enumerate(before):   # the first through the corner, the bisector
             self._cut_reaching([*reversed(fill_in), *self._end_part(s_in, start=True)], half,
-                               s_in, s_out)
-        for half in after:
+                               s_in, s_out, bisector=m == 0)
+        for m, half in enumerate(after):
             self._cut_reaching([*fill_out, *self._end_part(s_out, start=False)], half, s_out,
-                               s_in)
+                               s_in, bisector=m == 0)
         if how == "mitre" and not is_convex(u_in, u_out, mass_left):
             for s, u, half, incoming in ((s_in, u_in, before[0], True),
                                          (s_out, u_out, after[0], False)):

@@ -286,9 +286,11 @@ def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path,
         for piece in prototype_pieces(db, inst):
             materials.setdefault(material_name(piece), piece)
         path = out_dir / part_file(proto)
-        if inst.cut is None and path.name not in parts:
+        if inst.cut is None and (path.name not in parts
+                                 or not _of_library(path, db.library_hash)):
             write_part(db, inst, path)
             written.append(path)
+            _OF_LIBRARY[str(path)] = db.library_hash
     looks = _file_names(out_dir / PARTS_DIR / MATERIALS_DIR)
     for name, piece in sorted(materials.items()):
         mat = out_dir / PARTS_DIR / material_file(name)
@@ -296,6 +298,27 @@ def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path,
             write_material(piece, mat)
             written.append(mat)
     return written
+
+
+_OF_LIBRARY: dict[str, str] = {}   # part file -> the library hash it was found to hold
+
+
+def _of_library(path: Path, library_hash: str) -> bool:
+    """Whether the part file ``path`` was written from the library of ``library_hash``
+    (read once a process). A folder written again with the library's meshes edited, or
+    another library of the same part ids, kept the old part files: the layers showed
+    the old meshes, and ``citysynth diff`` saw nothing."""
+    key = str(path)
+    if key not in _OF_LIBRARY:
+        try:
+            layer = Sdf.Layer.OpenAsAnonymous(key)
+        except Tf.ErrorException:
+            layer = None
+        root = layer.GetPrimAtPath(layer.defaultPrim) if layer is not None and \
+            layer.defaultPrim else None
+        data = root.customData.get("citysynth", {}) if root is not None else {}
+        _OF_LIBRARY[key] = str(data.get("library", ""))
+    return _OF_LIBRARY[key] == library_hash
 
 
 def _file_names(folder: Path) -> set[str]:

@@ -50,7 +50,12 @@ from citysynth.pipeline.errors import (
     USER_ERRORS,
     environment_message,
 )
-from citysynth.pipeline.paths import check_not_empty, check_numbers, check_out_dir
+from citysynth.pipeline.paths import (
+    check_names_encodable,
+    check_not_empty,
+    check_numbers,
+    check_out_dir,
+)
 from citysynth.skeletons import InputWarning
 from citysynth.solver.interrupts import interrupt_in
 
@@ -158,6 +163,10 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(argv: list[str] | None) -> int:
     warnings.formatwarning = _format_warning
+    for stream in (sys.stdout, sys.stderr):   # a Latin-1 terminal: "≤" as "?", not a
+        encoding = (getattr(stream, "encoding", None) or "utf-8").lower()   # crash
+        if encoding.replace("-", "") != "utf8" and hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="replace")   # after the work is written
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as stop:     # --help, --version (0) or a usage mistake (2)
@@ -169,6 +178,7 @@ def _run(argv: list[str] | None) -> int:
             check_not_empty(args.cache, "--cache")
             os.environ[CACHE_ENV] = os.path.abspath(args.cache)
         check_numbers(args)
+        check_names_encodable(args)
         if getattr(args, "out", None) is not None:
             check_out_dir(args.out)
         if args.command in SOLVING:

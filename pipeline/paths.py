@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from argparse import Namespace
 from pathlib import Path
 
@@ -60,3 +61,28 @@ def check_numbers(args: Namespace) -> None:
         if isinstance(value, float) and not math.isfinite(value):
             raise UsageError(f"--{name.replace('_', '-')}: {value} is not a finite number; "
                              "give a number")
+
+
+def check_names_encodable(args: Namespace) -> None:
+    """Every name given on the command line can be a file name usd-core writes: it
+    names files in UTF-8 whatever the locale, so under a Latin-1 locale a folder
+    ``out_ä`` got its USD files written beside it in ``out_Ã¤`` and empty ones in it
+    (exit 0); and bytes that are no UTF-8 at all (a name from another system) ended in
+    a traceback."""
+    utf8 = sys.getfilesystemencoding().lower().replace("-", "") == "utf8"
+    for name, value in sorted(vars(args).items()):
+        if not isinstance(value, str) or value.isascii():
+            continue
+        option = f"--{name.replace('_', '-')}" if name != "out" else "-o"
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:
+            raise UsageError(f"{option}: {value.encode('utf-8', 'surrogateescape')!r} is "
+                             "not UTF-8 text; rename it, or give a name in plain ASCII"
+                             ) from None
+        if not utf8:
+            raise UsageError(
+                f"{option}: {value!a} holds letters outside ASCII, and this locale "
+                f"encodes file names in {sys.getfilesystemencoding()}, not the UTF-8 "
+                "usd-core writes them in; run in a UTF-8 locale (e.g. LC_ALL=C.UTF-8) "
+                "or give a name in plain ASCII")

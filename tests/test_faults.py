@@ -438,6 +438,42 @@ def test_an_output_folder_in_proc_is_refused_before_the_solve(capsys):
     assert not any(p.name.startswith(".citysynth-probe") for p in Path("/proc").iterdir())
 
 
+def test_a_latin1_locale_refuses_names_usd_core_would_misspell(tmp_path, capsys,
+                                                                 monkeypatch):
+    """usd-core names files in UTF-8 whatever the locale: under a Latin-1 locale the
+    USD of ``-o out_ä`` went to ``out_Ã¤`` and ``out_ä`` kept empty files (exit 0)."""
+    import citysynth.pipeline.paths as paths
+    monkeypatch.setattr(paths.sys, "getfilesystemencoding", lambda: "iso8859-1")
+    out = tmp_path / "out_ä"
+    assert main(["tower", "--height", "60", "--far", "5", "--lot-area", "900",
+                 "--no-preview", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "-o: " in err and "this locale encodes file names in iso8859-1" in err
+    assert "LC_ALL=C.UTF-8" in err and not out.exists()
+    assert main(["tower", "--height", "60", "--far", "5", "--lot-area", "900",
+                 "--no-preview", "-o", str(tmp_path / "out")]) == 0   # ASCII names are fine
+
+
+def test_bytes_that_are_no_utf8_in_a_name_are_one_message(tmp_path):
+    out = os.fsencode(tmp_path) + b"/out_\xe4"
+    res = subprocess.run([*CLI, "tower", "--height", "60", "--far", "5", "--lot-area",
+                          "900", "--no-preview", "-o", out], capture_output=True, text=True,
+                         cwd=ROOT, timeout=300)
+    assert res.returncode == 2 and "Traceback" not in res.stderr, res.stderr
+    assert "is not UTF-8 text" in res.stderr and not os.path.exists(out)
+
+
+def test_a_latin1_terminal_gets_the_summary_not_a_crash(tmp_path):
+    """"≤" in a summary line crashed a command on a Latin-1 terminal after writing its
+    files (exit 3, "a bug")."""
+    env = {**os.environ, "PYTHONIOENCODING": "iso8859-1"}
+    res = subprocess.run([*CLI, "tower", "--height", "60", "--far", "5", "--lot-area",
+                          "900", "--no-preview", "-o", str(tmp_path)], capture_output=True,
+                         cwd=ROOT, timeout=300, env=env)
+    assert res.returncode == 0, res.stderr
+    assert b"stretch ? 0.00 %" in res.stdout and b"floor area" in res.stdout
+
+
 def test_a_read_only_cache_folder_falls_back(tmp_path, monkeypatch, capsys):
     """$CITYSYNTH_CACHE on a read-only file system: the database is cached in the user
     cache folder instead, and the command works."""

@@ -119,3 +119,29 @@ def test_a_hairpin_building_is_refused_where_it_turns(tmp_path, capsys, angle):
     assert f"the corner of {angle:.1f}° at ({ORIGIN[0]:.2f}, {ORIGIN[1]:.2f})" in err
     assert "open the corner up" in err
     assert not out.exists() or not any(out.iterdir())
+
+
+# a crescent beside a roundabout (momepy's test_rabs, EPSG:2062, as the city cleans it):
+# its long side bends gently at every 5 m and curves back past the plane of its own
+# acute (43°) corner 30 m away
+CRESCENT = [(31.34, -10.42), (26.76, -1.19), (23.61, 3.01), (19.79, 6.15), (14.79, 9.79),
+            (9.72, 11.79), (4.37, 12.88), (-1.08, 12.99), (-6.47, 12.13), (-11.62, 10.33),
+            (-16.35, 7.65), (-19.56, 4.99), (-21.74, 1.27), (-25.41, -1.65), (-28.46, -8.39),
+            (-29.31, -13.13), (-12.77, -7.55), (7.02, -5.25), (25.13, -8.08), (31.34, -10.42)]
+
+
+def test_a_crescent_curving_back_past_its_corner_plane_builds(tmp_path, sample_db):
+    """The corner's mitre plane, which cuts every module whose mass reaches past it,
+    also cut two short pieces of modules folded round the crescent's gentle bends 30 m
+    along, whose facades lay past the plane: their whole facades went, and the block
+    failed with "stage 0: parts do not meet at (-2.26, 13.03), 330.6 mm apart" in local
+    metres. A module whose facade lies past its own corner's plane is no part of that
+    corner now."""
+    src = tmp_path / "crescent.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        _feature("crescent", CRESCENT)]}))
+    assert main(["block", str(src), "--library", str(LIB), "--style", "classic",
+                 "--crs", "EPSG:25833", "-o", str(tmp_path), "--no-preview"]) == 0
+    name, a = _audit(tmp_path / "crescent.layout.json", sample_db)
+    assert a.footprint > 500, f"{name}: {a.line()}"
+    assert not _failures(name, a), a.line()

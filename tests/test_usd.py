@@ -157,3 +157,36 @@ def test_city_by_reference_when_asked(run_dir):
     assert len(_instances(stage)) == len(_layout(run_dir / "t_building_1.layout.json")
                                          .instances)
     city.unlink()
+
+
+def test_part_files_of_another_library_are_written_again(tmp_path):
+    """A folder written again from an edited library (or another of the same part
+    ids) kept its old ``parts/*.usdc``: the layers showed the old meshes, and
+    ``citysynth diff`` saw nothing. A part file is now written again unless it holds
+    the library's hash, and one left empty (a disk that filled) too."""
+    import shutil
+
+    lib = tmp_path / "lib"
+    shutil.copytree(LIB, lib, ignore=shutil.ignore_patterns(".citysynth"))
+    line = ROOT / "examples" / "skeletons" / "t_building.geojson"
+
+    def build(out: Path) -> None:
+        assert main(["building", str(line), "--library", str(lib), "--style", "classic",
+                     "--no-preview", "-o", str(out)]) == 0
+
+    build(tmp_path / "used")
+    with (lib / "manifest.toml").open("a") as f:
+        f.write("\n# edited\n")   # a new library hash, as an edited mesh gives
+    part = sorted((tmp_path / "used" / "parts").glob("*.usdc"))[0]
+    part.write_bytes(b"")
+    import citysynth.export.usd as usd
+    getattr(usd, "_OF_LIBRARY", {}).clear()   # a new process: the files are unknown
+    build(tmp_path / "used")
+    build(tmp_path / "fresh")
+    for fresh in sorted((tmp_path / "fresh" / "parts").glob("*.usdc")):
+        used = tmp_path / "used" / "parts" / fresh.name
+        assert used.read_bytes() == fresh.read_bytes(), fresh.name
+    layer = Sdf.Layer.FindOrOpen(str(part))
+    from citysynth.parts_db import load_library
+    assert layer.GetPrimAtPath(layer.defaultPrim).customData["citysynth"]["library"] \
+        == load_library(lib).library_hash
