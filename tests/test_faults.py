@@ -325,6 +325,17 @@ def test_a_full_disk_at_the_city_glb_still_prints_the_summary(clean, tmp_path, c
     assert "Traceback" not in cap.err
 
 
+def test_a_rerun_sweeps_the_temporaries_a_killed_run_left_in_the_materials(tmp_path):
+    """A run killed while it wrote a library material left its zero-byte temporary in
+    ``blocks/parts/materials``, which no later run swept."""
+    streets, out = grid_streets(tmp_path / "s.geojson", 1), tmp_path / "run"
+    assert main(city_args(streets, out, "--workers", "1")) == 0
+    left = out / "blocks" / "parts" / "materials" / ".trim_f6f2e8.tmp-tvp_2ehb.usda"
+    left.write_bytes(b"")
+    assert main(city_args(streets, out, "--workers", "1")) == 0
+    assert not left.exists()
+
+
 def test_a_full_disk_in_block_names_the_file_and_leaves_only_whole_files(tmp_path, capsys):
     """``block`` on a disk that fills up while it writes: exit 2, one line naming the file
     it could not write (Python's full-disk error on flush names none), and every file

@@ -31,6 +31,7 @@ from typing import Protocol, TextIO
 import shapely
 
 from citysynth.export.cuts import load_kernels
+from citysynth.export.usd import MATERIALS_DIR, PARTS_DIR
 from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.files import sweep_temporaries
@@ -599,7 +600,8 @@ def run_city(inputs: CityInputs, out_dir: str | Path, *, workers: int = 1,
     out = Path(out_dir)
     client = connect(scheduler) if scheduler else None
     with run_lock(out), terminate_as_interrupt():
-        for folder in (out, out / BLOCKS_DIR, out / BLOCKS_DIR / "parts"):
+        for folder in (out, out / BLOCKS_DIR, out / BLOCKS_DIR / PARTS_DIR,
+                       out / BLOCKS_DIR / PARTS_DIR / MATERIALS_DIR):
             sweep_temporaries(folder)
         _remove_stale(out, {j.id for j in inputs.jobs})
         t0 = time.perf_counter()
