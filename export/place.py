@@ -913,7 +913,7 @@ class _Placer:
                 return
             if bisector and n > 0 and (self._facade(i) @ np.asarray(half.normal)
                                        > float(np.asarray(half.point) @ np.asarray(
-                                           half.normal)) + TOL).all():
+                                           half.normal)) + TOL).any():
                 continue
             past = self._past(i, half) if n > 0 else None
             if past is not None and past.intersection(other).area <= MEDIAL_MIN_AREA \

@@ -371,5 +371,12 @@ def _infeasible(cp: Compiled, stats: dict, t0: float, max_memory_mb: float,
     stats.setdefault("solve_s", 0.0)
     if not explain:
         return Result("infeasible", [], stats, "infeasible (not diagnosed)", [])
+    if stats.get("rejected_by_rounding"):   # the quantised problem had answers
+        worst = max((q for q in cp.quant if not q.exact), key=lambda q: q.max_error)
+        return Result("infeasible", [], stats, (
+            f"the {stats['rejected_by_rounding']} sequence(s) whose totals meet the "
+            f"constraints in quanta all break them in the amounts given (each amount of "
+            f'"{worst.resource}" is rounded to the quantum {worst.quantum:g}, by up to '
+            f"{worst.max_error:.3g}); give a finer quantum, or widen the interval"), [])
     reason, details = diagnose(cp, max_rows)
     return Result("infeasible", [], stats, reason, details)

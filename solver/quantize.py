@@ -155,7 +155,15 @@ def bounds_in_quanta(lo: float, hi: float, q: float) -> tuple[int, int]:
 
 def _capped(m: float, to_int, toward: float) -> int:
     """m quanta rounded by ``to_int`` after allowing the tolerance ``toward`` it, within
-    +-2**62 (also when m overflowed to infinity: 1e308 m in 0.2 m quanta)."""
+    +-2**62 (also when m overflowed to infinity: 1e308 m in 0.2 m quanta). The
+    tolerance is for the float error of m = bound / quantum: 1e-9 of m, but at most
+    :data:`SLACK_QUANTA` of a quantum (or a few of m's last bits, where they are
+    coarser): 1e-9 of 2e9 quanta (1e7 m in 0.005 m quanta) was two whole quanta, and an
+    equality of 1e7 m took sequences of 10,000,000.01 m."""
     if not abs(m) < QUANTA_CAP:
         return QUANTA_CAP if m > 0 else -QUANTA_CAP
-    return max(-QUANTA_CAP, min(QUANTA_CAP, to_int(m + toward * TOL * max(1.0, m))))
+    slack = min(TOL * max(1.0, abs(m)), max(SLACK_QUANTA, 8 * math.ulp(m)))
+    return max(-QUANTA_CAP, min(QUANTA_CAP, to_int(m + toward * slack)))
+
+
+SLACK_QUANTA = 1e-6   # quanta: far above the float error of bound / quantum

@@ -69,3 +69,39 @@ def test_values_without_common_divisor_ask_for_a_quantum():
     })
     with pytest.raises(ProblemError, match='give one in "quantum"'):
         solve(p)
+
+
+def test_an_equality_of_many_quanta_is_not_widened_by_whole_quanta():
+    """The float tolerance on bound / quantum was 1e-9 of it: two whole quanta at 2e9
+    quanta (1e7 m in 0.005 m), and 1e7 m asked exactly took 10,000,000.01 m. It is at
+    most a millionth of a quantum now (found by an outside brute force, 2026-11-30)."""
+    from citysynth.solver import Problem, solve
+    from citysynth.solver.quantize import bounds_in_quanta
+    assert bounds_in_quanta(1e7, 1e7, 0.005) == (2_000_000_000, 2_000_000_000)
+    assert bounds_in_quanta(83.4, 83.4, 0.2) == (417, 417)   # float noise still absorbed
+    p = Problem.from_dict({
+        "resources": ["len"],
+        "elements": [{"id": "A", "resources": {"len": 1000000.005}},
+                     {"id": "B", "resources": {"len": 1000000}, "cost": 1}],
+        "transitions": [["A", "A", 0], ["A", "B", 0], ["B", "A", 0], ["B", "B", 0]],
+        "constraints": {"len": [1e7, 1e7]}})
+    r = solve(p, k=3)
+    assert [s.sequence for s in r.solutions] == [["B"] * 10]
+    assert r.solutions[0].resources["len"] == 1e7
+
+
+def test_an_answer_lost_to_rounding_is_said_so():
+    """Every sequence whose rounded totals met the one constraint broke it in the
+    amounts given: the reason said "each constraint can be met alone but not all
+    together" of a single constraint."""
+    from citysynth.solver import Problem, solve
+    p = Problem.from_dict({
+        "resources": ["len"],
+        "elements": [{"id": "A", "resources": {"len": 0.3}},
+                     {"id": "B", "resources": {"len": 0.5}}],
+        "transitions": [["A", "A", 0], ["A", "B", 0], ["B", "A", 0], ["B", "B", 0]],
+        "constraints": {"len": [0.6, 0.6]}, "quantum": {"len": 0.2}})
+    r = solve(p)
+    assert r.status == "infeasible" and r.stats["rejected_by_rounding"] == 3
+    assert 'each amount of "len" is rounded to the quantum 0.2, by up to 0.1' in r.reason
+    assert "give a finer quantum" in r.reason and "not all together" not in r.reason
