@@ -900,9 +900,10 @@ class _Placer:
         two (:meth:`_medial_cuts`): past a short side t (an acute corner cut off by a
         few metres of facade) the joint's plane would leave a wedge of roof open. No
         facade of a straight stage lies past the ``bisector`` (through the corner), so
-        a module whose facade lies wholly past it is on a stage that curved back (a
-        crescent round a roundabout), and no part of the corner: it is left. (A nose's
-        plane takes whole facades near an acute corner by design.)"""
+        a module (after the corner's own) whose facade reaches past it is on a stage
+        that curved back (a crescent round a roundabout, a sliver's bending side), and
+        no part of the corner: it is left. (A nose's plane takes whole facades near an
+        acute corner by design.)"""
         other, far = self._stage_band(t), self._far_band(s)
         for n, i in enumerate(order):
             placed = self.placed[i]
