@@ -9,6 +9,7 @@ at worst a hidden ``.name.tmp-*`` temporary, which :func:`sweep_temporaries` rem
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import tempfile
 from collections.abc import Iterator
@@ -129,7 +130,7 @@ def no_such_folder(path: Path) -> str:
     except RuntimeError:   # Python 3.11 says a loop so
         return "a symbolic link that leads back to itself (a loop of links)"
     except OSError as exc:
-        if exc.errno == 40:   # ELOOP
+        if exc.errno == errno.ELOOP:
             return "a symbolic link that leads back to itself (a loop of links)"
     return f"a symbolic link to {os.readlink(path)}, which does not exist"
 

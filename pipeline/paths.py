@@ -59,7 +59,7 @@ def check_numbers(args: Namespace) -> None:
     """Every number given on the command line is finite (``--setback nan`` is not)."""
     for name, value in sorted(vars(args).items()):
         if isinstance(value, float) and not math.isfinite(value):
-            raise UsageError(f"--{name.replace('_', '-')}: {value} is not a finite number; "
+            raise UsageError(f"{_option(name)}: {value} is not a finite number; "
                              "give a number")
 
 
@@ -73,7 +73,7 @@ def check_names_encodable(args: Namespace) -> None:
     for name, value in sorted(vars(args).items()):
         if not isinstance(value, str) or value.isascii():
             continue
-        option = f"--{name.replace('_', '-')}" if name != "out" else "-o"
+        option = _option(name)
         try:
             value.encode("utf-8")
         except UnicodeEncodeError:
@@ -86,3 +86,8 @@ def check_names_encodable(args: Namespace) -> None:
                 f"encodes file names in {sys.getfilesystemencoding()}, not the UTF-8 "
                 "usd-core writes them in; run in a UTF-8 locale (e.g. LC_ALL=C.UTF-8) "
                 "or give a name in plain ASCII")
+
+
+def _option(name: str) -> str:
+    """The command-line option of an argparse destination, as the user typed it."""
+    return "-o" if name == "out" else f"--{name.replace('_', '-')}"

@@ -725,7 +725,7 @@ def _check_lonlat(allc: Coords, source: str, given: pyproj.CRS | None) -> None:
 
 def _local_tmerc(centre: tuple[float, float]) -> Project:
     """Lon/lat -> metres in a transverse Mercator centred on ``centre``."""
-    tf = _transformer("EPSG:4326", _tmerc_proj4(centre))
+    tf = transformer("EPSG:4326", tmerc_proj4(centre))
 
     def to_local(c: Coords) -> Coords:
         return np.column_stack(tf.transform(c[:, 0], c[:, 1]))
@@ -737,13 +737,14 @@ def angle_between(u: np.ndarray, v: np.ndarray) -> float:
     return math.degrees(math.atan2(u[0] * v[1] - u[1] * v[0], u[0] * v[0] + u[1] * v[1]))
 
 
-def _tmerc_proj4(centre: tuple[float, float]) -> str:
+def tmerc_proj4(centre: tuple[float, float]) -> str:
+    """The local transverse Mercator centred on ``centre`` (lon, lat) a run's frame is."""
     return (f"+proj=tmerc +lat_0={centre[1]} +lon_0={centre[0]} +k=1 +x_0=0 +y_0=0 "
             "+ellps=WGS84 +units=m +no_defs")
 
 
 @functools.lru_cache(maxsize=16)
-def _transformer(src: str, dst: str) -> pyproj.Transformer:
+def transformer(src: str, dst: str) -> pyproj.Transformer:
     """A transformer between two CRSs, made once: making one takes about 12 ms (PROJ's
     database), and messages place points one by one (a 1,000-block city's street
     blocks took 14 s naming where each was before it was kept)."""
@@ -754,7 +755,7 @@ def lonlat_from_local(points: Any, origin: tuple[float, float]) -> list[list[flo
     """Local metric points (x east, y north, metres) around ``origin`` (lon, lat) ->
     lon/lat, through the same transverse Mercator the reader uses; for writing example
     and test input in metres. Rounded to 1e-9 degrees (0.1 mm)."""
-    tf = _transformer(_tmerc_proj4(origin), "EPSG:4326")
+    tf = transformer(tmerc_proj4(origin), "EPSG:4326")
     xy = np.asarray(points, dtype=float)
     lon, lat = tf.transform(xy[:, 0], xy[:, 1])
     return [[round(float(a), 9), round(float(b), 9)] for a, b in zip(lon, lat, strict=True)]
@@ -767,7 +768,7 @@ def input_xy(frame: tuple[str, float, float], source_crs: str, xy: Any) -> tuple
         return float(xy[0]) / unit + frame[1], float(xy[1]) / unit + frame[2]
     lon, lat = lonlat_from_local([xy], (frame[1], frame[2]))[0]
     if source_crs:
-        x, y = _transformer("EPSG:4326", source_crs).transform(lon, lat)
+        x, y = transformer("EPSG:4326", source_crs).transform(lon, lat)
         return float(x), float(y)
     return lon, lat
 

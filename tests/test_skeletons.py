@@ -190,10 +190,10 @@ def test_street_blocks_place_only_the_pieces_they_skip():
     blocks, skipped = street_blocks(feats, 6.0, locate=locate)
     assert len(blocks) == 2 and len(skipped) == 2   # the 3 m strips between x=100 and 103
     assert len(placed) == len(skipped) and all(" at (" in r for r in skipped)
-    geojson._transformer.cache_clear()
+    geojson.transformer.cache_clear()
     for _ in range(3):
         frame.at((5.0, 5.0))
-    assert geojson._transformer.cache_info().misses == 1
+    assert geojson.transformer.cache_info().misses == 1
 
 
 @pytest.mark.parametrize("features, kind, fragment", [

@@ -32,7 +32,7 @@ from citysynth.pipeline.city.folder import (
 )
 from citysynth.pipeline.city.jobs import STATUSES, BlockRecord, frame_tuple
 from citysynth.skeletons import Frame
-from citysynth.skeletons.geojson import LONLAT_FRAME
+from citysynth.skeletons.geojson import LONLAT_FRAME, tmerc_proj4, transformer
 
 if TYPE_CHECKING:   # the run imports this module to write its summary
     from citysynth.export.layout import Layout
@@ -116,11 +116,7 @@ def to_input_crs(frame: Frame) -> Callable[[np.ndarray], np.ndarray]:
             .unit_conversion_factor
         shift = np.asarray(frame.origin, dtype=float)
         return lambda xy: xy / unit + shift
-    lon0, lat0 = frame.origin
-    local = pyproj.CRS.from_proj4(f"+proj=tmerc +lat_0={lat0} +lon_0={lon0} +k=1 +x_0=0 "
-                                  "+y_0=0 +ellps=WGS84 +units=m +no_defs")
-    target = frame.source_crs or "EPSG:4326"
-    tf = pyproj.Transformer.from_crs(local, target, always_xy=True)
+    tf = transformer(tmerc_proj4(frame.origin), frame.source_crs or "EPSG:4326")
     return lambda xy: np.column_stack(tf.transform(xy[:, 0], xy[:, 1]))
 
 
