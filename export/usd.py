@@ -272,6 +272,21 @@ def write_material(piece: Piece, path: Path) -> None:
     _export(layer, path)
 
 
+def _library_refs(db: PartDB, prototypes: dict[str, Instance], more: Sequence[Piece] = ()
+                  ) -> tuple[dict[str, Instance], dict[str, Piece]]:
+    """The library files a layer of ``prototypes`` (and ``more`` pieces, a roof
+    infill's) references: each uncut part's file (relative to the layer's folder) with
+    an instance of it, and each material it binds, cut or not, with a piece of it."""
+    materials: dict[str, Piece] = {material_name(p): p for p in more}
+    parts: dict[str, Instance] = {}
+    for proto, inst in sorted(prototypes.items()):
+        for piece in prototype_pieces(db, inst):
+            materials.setdefault(material_name(piece), piece)
+        if inst.cut is None:
+            parts[part_file(proto)] = inst
+    return parts, dict(sorted(materials.items()))
+
+
 def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path,
                  more: Sequence[Piece] = ()) -> list[Path]:
     """Write the library part files (``parts/<part>.usdc``) a layer references that
@@ -280,24 +295,46 @@ def ensure_parts(db: PartDB, prototypes: dict[str, Instance], out_dir: Path,
     a run folder belongs to one library, see ``write_layout``). Cut prototypes go in
     the layer's own file, :func:`write_cuts`."""
     written = []
-    materials: dict[str, Piece] = {material_name(p): p for p in more}
-    parts = _file_names(out_dir / PARTS_DIR)
-    for proto, inst in sorted(prototypes.items()):
-        for piece in prototype_pieces(db, inst):
-            materials.setdefault(material_name(piece), piece)
-        path = out_dir / part_file(proto)
-        if inst.cut is None and (path.name not in parts
-                                 or not _of_library(path, db.library_hash)):
+    parts, materials = _library_refs(db, prototypes, more)
+    present = _file_names(out_dir / PARTS_DIR)
+    for name, inst in parts.items():
+        path = out_dir / name
+        if path.name not in present or not _of_library(path, db.library_hash):
             write_part(db, inst, path)
             written.append(path)
             _OF_LIBRARY[str(path)] = db.library_hash
     looks = _file_names(out_dir / PARTS_DIR / MATERIALS_DIR)
-    for name, piece in sorted(materials.items()):
+    for name, piece in materials.items():
         mat = out_dir / PARTS_DIR / material_file(name)
-        if mat.name not in looks:
+        if mat.name not in looks or not _whole(mat):
             write_material(piece, mat)
             written.append(mat)
     return written
+
+
+def library_files(layouts: Sequence[Layout], db: PartDB) -> list[str]:
+    """The library files the layers of ``layouts`` reference, relative to their folder
+    (``parts/<part>.usdc``, ``parts/materials/<material>.usda``): files shared by every
+    block of a city, so no block's marker vouches for them by hash. A resumed city
+    checks them (:func:`library_file_ok`): one deleted or emptied after a run made
+    every block that used it show nothing, and the rerun rewrote none."""
+    parts, materials = _library_refs(db, _prototypes(layouts), [
+        p for lay in layouts for f in lay.infill for p in infill_pieces(f, db)])
+    return [*parts, *(f"{PARTS_DIR}/{material_file(m)}" for m in materials)]
+
+
+def library_file_ok(path: Path, library_hash: str) -> bool:
+    """Whether ``path`` (one of :func:`library_files`) is there, not empty, and (a
+    part file) written from the library of ``library_hash``."""
+    return _whole(path) and (path.suffix != ".usdc" or _of_library(path, library_hash))
+
+
+def _whole(path: Path) -> bool:
+    """Whether ``path`` is a file with something in it (an emptied one is written again)."""
+    try:
+        return path.is_file() and path.stat().st_size > 0
+    except OSError:
+        return False
 
 
 _OF_LIBRARY: dict[str, str] = {}   # part file -> the library hash it was found to hold
@@ -438,10 +475,7 @@ def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | P
     if len(folders) != 1 or len(names) != 1 or len(files) != len(layouts):
         raise ValueError("write_layouts: one path per layout, layouts of one name, one folder")
     folder, name = folders.pop(), names.pop()
-    prototypes: dict[str, Instance] = {}
-    for lay in layouts:
-        for proto, inst in lay.prototypes().items():
-            prototypes.setdefault(proto, inst)
+    prototypes = _prototypes(layouts)
     infill = [[infill_pieces(f, db) for f in lay.infill] for lay in layouts]
     ensure_parts(db, prototypes, folder,
                  [p for fills in infill for pieces in fills for p in pieces])
@@ -452,6 +486,15 @@ def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | P
     written = [_write_layer(lay, path, cpath.name, fills)
                for lay, path, fills in zip(layouts, files, infill, strict=True)]
     return written + ([cpath] if cuts else [])
+
+
+def _prototypes(layouts: Sequence[Layout]) -> dict[str, Instance]:
+    """Every prototype the layouts show (ranks share most), with one instance of it."""
+    prototypes: dict[str, Instance] = {}
+    for lay in layouts:
+        for proto, inst in lay.prototypes().items():
+            prototypes.setdefault(proto, inst)
+    return prototypes
 
 
 def write_layout(lay: Layout, db: PartDB, path: str | Path) -> Path:

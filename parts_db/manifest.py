@@ -202,7 +202,7 @@ def check_file(f: object, where: str) -> str:
 
 def check_class(cls: object, where: str) -> PartClass:
     if cls not in CLASSES:
-        raise LibraryError(f"{where}: unknown class {cls!r}; classes are {', '.join(CLASSES)}")
+        raise LibraryError(f"{where}: unknown class {shown(cls)}; classes are {', '.join(CLASSES)}")
     return cls
 
 

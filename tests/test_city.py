@@ -116,6 +116,35 @@ def test_a_rerun_skips_unchanged_blocks(district, tmp_path, capsys):
     assert {p: p.stat().st_mtime_ns for p in before} == before
 
 
+def test_a_rerun_rewrites_shared_part_files_lost_since(district, tmp_path):
+    """Part and material files are shared by every block, so no block's marker hashes
+    them: a rerun used to keep every block cached while the deleted part showed
+    nothing in the USD. Blocks that use a lost or emptied file are built again."""
+    import shutil
+
+    out = tmp_path / "run"
+    shutil.copytree(district, out)
+    parts = out / "blocks" / "parts"
+    markers = [json.loads(m.read_text()) for m in sorted((out / "blocks").glob("*.done.json"))]
+    users = {name: {m["id"] for m in markers if name in m.get("library_files", [])}
+             for m in markers for name in m.get("library_files", [])}
+    gone = next(n for n in sorted(users) if n.endswith(".usdc"))
+    emptied = next(n for n in sorted(users) if n.endswith(".usda"))
+    (out / "blocks" / gone).unlink()
+    (out / "blocks" / emptied).write_bytes(b"")
+    assert city(out, "--workers", "2", "--no-overview") == 0
+    report = json.loads((out / "report.json").read_text())
+    built = report["counts"]["built"] + report["counts"]["failed"]
+    assert report["counts"]["cached"] == built - len(users[gone] | users[emptied])
+    assert (out / "blocks" / gone).stat().st_size > 0
+    assert (out / "blocks" / emptied).read_bytes() == (district / "blocks" / emptied).read_bytes()
+    for name in users:   # every file a block's USD references is there again
+        assert (out / "blocks" / name).read_bytes() == (district / "blocks" / name).read_bytes()
+    assert sorted(p.name for p in parts.rglob("*")) == \
+        sorted(p.name for p in (district / "blocks" / "parts").rglob("*"))
+    assert layouts(out) == layouts(district)
+
+
 def test_a_killed_run_resumes_with_no_partial_file(district, tmp_path):
     out = tmp_path / "run"
     cmd = [sys.executable, "-m", "citysynth.pipeline.cli", "city", "--streets", str(DISTRICT),
@@ -416,6 +445,31 @@ def test_footprints_are_reskinned(tmp_path):
     assert all(b.startswith("f") for b in report["built"])
     for f in report["failed"]:      # in the user's words: the feature and its side
         assert "feature" in f["reason"] and "side" in f["reason"]
+
+
+def test_footprints_named_another_way_stay_cached(tmp_path, monkeypatch):
+    """The footprints file as typed (relative, through a link) used to be in each
+    footprint block's input hash: the same data reached another way rebuilt them all.
+    The manifest names the feature as this run's command line does."""
+    data = json.loads((CITY / "district_buildings.geojson").read_text())
+    data["features"] = data["features"][:8]
+    (tmp_path / "data").mkdir()
+    (tmp_path / "data" / "b.geojson").write_text(json.dumps(data))
+    (tmp_path / "link").symlink_to(tmp_path / "data")
+    monkeypatch.chdir(tmp_path)
+    run = ["city", "--library", str(LIB), "-o", "run", "--workers", "1", "--no-overview"]
+    assert main([*run, "--footprints", "data/b.geojson"]) in (0, 1)
+    first = json.loads(Path("run/manifest.json").read_text())["blocks"]
+    again = str(tmp_path / "link" / "b.geojson")
+    assert main([*run, "--footprints", again]) in (0, 1)
+    report = json.loads(Path("run/report.json").read_text())
+    c = report["counts"]
+    assert c["built"] >= 6 and c["cached"] == c["built"] + c["failed"]
+    blocks = json.loads(Path("run/manifest.json").read_text())["blocks"]
+    assert sorted(blocks) == sorted(first)
+    for bid, rec in blocks.items():
+        assert first[bid]["feature"].startswith("data/b.geojson: feature ")
+        assert rec["feature"] == first[bid]["feature"].replace("data/b.geojson", again)
 
 
 @pytest.mark.parametrize("text, fragment", [

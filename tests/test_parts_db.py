@@ -211,7 +211,7 @@ GLB = GOOD.export(file_type="glb")
     ([("é" * 120, "a.stl", GOOD, 'class = "middle"')], "", "counted in UTF-8 bytes"),
     ([("A", "a.stl", GOOD, 'class = "middle"\nattributes = {doors = 1e300}')], "",
      "attribute doors must be a number from 0 to 10,000"),
-    ([("A", "a.stl", GOOD, 'class = "window"')], "", "unknown class 'window'"),
+    ([("A", "a.stl", GOOD, 'class = "window"')], "", 'unknown class "window"'),
     ([("A", "/etc/passwd", None, 'class = "middle"')], "",
      'file "/etc/passwd" must be a path relative to the library folder'),
     ([("A", "../other/a.stl", None, 'class = "middle"')], "",

@@ -32,7 +32,7 @@ import shapely
 from citysynth.export.infill import Roof
 from citysynth.export.layout import SCHEMA, VERSION
 from citysynth.export.place import max_stretch
-from citysynth.export.usd import CUTS_SUFFIX
+from citysynth.export.usd import CUTS_SUFFIX, library_file_ok, library_files
 from citysynth.parts_db import LibraryError, PartDB, load_library
 from citysynth.parts_db.files import write_text
 from citysynth.pipeline.city.config import Pick, ZoneKind
@@ -71,6 +71,8 @@ class BlockRecord(TypedDict):
     input_hash: str
     style: str
     files: list[str]                       # relative to the run folder
+    library_files: NotRequired[list[str]]  # the shared part and material files its USD
+                                           # references, relative to blocks/
     status: NotRequired[BlockStatus]
     reason: NotRequired[str]               # why it failed or was skipped
     error: NotRequired[str]                # status "error": the exception, one line
@@ -127,9 +129,12 @@ class BlockJob:
         del d["library"]          # where the library lives does not change the output
         if self.zone_kind is None:   # perimeter blocks keep their hashes (and caches)
             del d["zone_kind"]
-        for key in ("trimmed", "remarks", "party"):   # likewise footprints without these
-            if d["footprint"] is not None and not d["footprint"][key]:
-                del d["footprint"][key]
+        if d["footprint"] is not None:
+            # the file as the user spelled it (relative, through a link) changes no output
+            del d["footprint"]["source"]
+            for key in ("trimmed", "remarks", "party"):   # footprints without these keep
+                if not d["footprint"][key]:               # the hashes they had before
+                    del d["footprint"][key]
         text = json.dumps(d, sort_keys=True, separators=(",", ":"))
         return replace(self, input_hash=hashlib.sha256(text.encode()).hexdigest())
 
@@ -167,7 +172,9 @@ def _marker_shape_ok(rec: object, job: BlockJob) -> bool:
     return (rec["id"] == job.id and rec["input_hash"] == job.input_hash
             and rec["status"] in ("built", "failed", "skipped")
             and all(isinstance(f, str) for f in files) and sorted(hashes) == sorted(files)
-            and all(isinstance(h, str) for h in hashes.values()))
+            and all(isinstance(h, str) for h in hashes.values())
+            and isinstance(shared := rec.get("library_files", []), list)
+            and all(isinstance(f, str) for f in shared))
 
 
 def _inside(out: Path, name: str) -> Path | None:
@@ -195,7 +202,16 @@ def cached(out: Path, job: BlockJob) -> BlockRecord | None:
                 return None
         except OSError:
             return None
+    blocks = out / BLOCKS_DIR
+    for name in rec.get("library_files", []):   # shared by blocks: checked, not hashed
+        f = _inside(blocks, name)
+        if f is None or not library_file_ok(f, job.library_hash):
+            return None
     del rec["hashes"]           # the record, as run_block answered it
+    if job.footprint is not None:   # the file, as this run names it (not in the hash)
+        said, rec["feature"] = rec.get("feature", ""), job.footprint.where
+        if said and isinstance(said, str) and isinstance(rec.get("reason"), str):
+            rec["reason"] = rec["reason"].replace(said, rec["feature"], 1)
     return cast(BlockRecord, rec)
 
 
@@ -298,6 +314,7 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
     paths = write_block(built, rank, db, out / BLOCKS_DIR)
     rec["timings"]["write_s"] = time.perf_counter() - t1
     rec["files"] = [str(p.relative_to(out)) for p in paths]
+    rec["library_files"] = library_files(built.layouts, db)
     rec["rank"], rec["of"], rec["cost"] = rank, len(built.layouts), lay.cost
     rec["instances"], rec["stretch"] = len(lay.instances), max_stretch(lay)
     return _finish(out, rec, "built", t0)
