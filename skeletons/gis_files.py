@@ -511,8 +511,12 @@ def _layer(path: Path, layer: str | None, fmt: str, accept: str, layers: np.ndar
         raise SkeletonError(f"{path}: no {what} layer; its layers are {listed}; name "
                             f"the one to read as {path}{LAYER_SEP}{found[0][0]}, or give "
                             f"the {fmt} that holds the {what} layer")
-    raise SkeletonError(f"{path}: {len(usable)} {what} layers ({', '.join(usable)}); "
-                        f"name the one to read as {path}{LAYER_SEP}{usable[0]}")
+    # the one suggested holds features: an empty layer beside the real one (a
+    # template's, a sorted-first "aaa_empty") was suggested, then said to hold none
+    held = [n for n in usable if _listed(path, n) > 0] or usable
+    named = ", ".join(n if n in held else f"{n}: empty" for n in usable)
+    raise SkeletonError(f"{path}: {len(usable)} {what} layers ({named}); "
+                        f"name the one to read as {path}{LAYER_SEP}{held[0]}")
 
 
 SNIFF = 100   # features a layer of no declared geometry type is judged by

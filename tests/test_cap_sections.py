@@ -456,3 +456,23 @@ def test_cut_parts_have_no_triangle_of_no_area(tmp_path):
     assert len(cut) > 20
     bad = {k: int((~g.nondegenerate_faces()).sum()) for k, g in cut.items()}
     assert not any(bad.values()), {k: n for k, n in bad.items() if n}
+
+
+def test_a_piece_cut_down_to_needles_is_dropped(sample_db):
+    """A demo-district corner (block f9403fa34e0) cut every face of a door bay's trim
+    down to needles: the piece was kept with 15 points and no face, an empty mesh that
+    glTF forbids (city.glb failed the Khronos validator: accessor count 0). It goes."""
+    from citysynth.export.cuts import cut_pieces
+    from citysynth.export.layout import Cut
+
+    cut = Cut.from_dict({
+        "extend": [0.0, 0.0],
+        "planes": [[-0.999711, 0.024021, -2.030556], [-0.663721, 0.74798, 3.569888],
+                   [0.000114, -1.0, 0.000232], [0.714448, 0.699689, 8.297694]],
+        "blank": [[0.000114, -1.0, 0.000232, 2.0311, 2.9014]]})
+    part = sample_db.part("classic_mid_2.4_d2")
+    pieces = cut_pieces(sample_db, part, cut)
+    assert pieces and all(len(p.faces) for p in pieces), \
+        [(p.name, len(p.vertices)) for p in pieces if not len(p.faces)]
+    assert "trim" not in {p.name for p in pieces}
+    assert "walls" in {p.name for p in pieces}

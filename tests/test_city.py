@@ -447,6 +447,23 @@ def test_footprints_are_reskinned(tmp_path):
         assert "feature" in f["reason"] and "side" in f["reason"]
 
 
+def test_an_input_the_run_would_write_over_is_refused(tmp_path, capsys):
+    """``--footprints run/blocks.geojson -o run`` replaced the user's file with the
+    run's own and exited 0; an input inside the run's blocks folder likewise."""
+    run = tmp_path / "run"
+    (run / "blocks").mkdir(parents=True)
+    data = (CITY / "district_buildings.geojson").read_bytes()
+    for where, said in ((run / "blocks.geojson", "writes its blocks.geojson over this"),
+                        (run / "blocks" / "mine.geojson", "in the run's blocks folder")):
+        where.write_bytes(data)
+        assert main(["city", "--footprints", str(where), "--library", str(LIB), "-o",
+                     str(run), "--no-overview"]) == 2
+        err = capsys.readouterr().err
+        assert f"{where}: " in err and said in err and len(err.strip().splitlines()) == 1
+        assert where.read_bytes() == data
+        assert not (run / "manifest.json").exists()
+
+
 def test_footprints_named_another_way_stay_cached(tmp_path, monkeypatch):
     """The footprints file as typed (relative, through a link) used to be in each
     footprint block's input hash: the same data reached another way rebuilt them all.
@@ -470,6 +487,29 @@ def test_footprints_named_another_way_stay_cached(tmp_path, monkeypatch):
     for bid, rec in blocks.items():
         assert first[bid]["feature"].startswith("data/b.geojson: feature ")
         assert rec["feature"] == first[bid]["feature"].replace("data/b.geojson", again)
+
+
+def test_a_footprints_note_naming_the_file_does_not_change_its_hash(tmp_path):
+    """A footprint trimmed where it overlapped another says so with the file as typed
+    ("examples/city/b.geojson: feature 86: trimmed by 0.44 m² ..."), and that note is
+    in its input hash: the file named another way still rebuilt those blocks."""
+    data = json.loads((CITY / "district_buildings.geojson").read_text())
+    data["features"] = data["features"][:3]
+    f = tmp_path / "b.geojson"
+    f.write_text(json.dumps(data))
+    job = next(j for j in prepare(None, str(f), load_config(None), str(LIB), None).jobs
+               if j.footprint is not None)
+
+    def spelled(source: str) -> jobs.BlockJob:
+        fp = replace(job.footprint, source=source,
+                     trimmed=f"{source}: feature 0: trimmed by 0.44 m² where it "
+                             "overlapped feature 2, larger and built whole")
+        return replace(job, footprint=fp).with_hash()
+
+    assert spelled("b.geojson").input_hash == spelled(str(f)).input_hash
+    other = replace(job, footprint=replace(job.footprint, trimmed="feature 0: trimmed by "
+                                           "0.45 m²")).with_hash()
+    assert other.input_hash != spelled("b.geojson").input_hash
 
 
 @pytest.mark.parametrize("text, fragment", [

@@ -209,6 +209,22 @@ def test_an_openstreetmap_pbf_extract(tmp_path):
     assert "with highway=footway left out: not streets" in reasons
 
 
+def test_an_empty_layer_is_never_the_one_suggested(files, tmp_path, capsys):
+    """An empty layer sorted first (a template's) was suggested, and reading it then
+    said it holds no features."""
+    import pyogrio
+
+    two = tmp_path / "two.gpkg"
+    b = gpd.read_file(files / "city.gpkg", layer="buildings")
+    pyogrio.write_dataframe(b.iloc[:0], two, layer="aaa_empty", driver="GPKG",
+                            geometry_type="Polygon")
+    b.iloc[:5].to_file(two, layer="zzz_houses", driver="GPKG")
+    assert city(tmp_path / "o", "--footprints", str(two)) == 2
+    err = capsys.readouterr().err
+    assert f"{two}: 2 polygon layers (aaa_empty: empty, zzz_houses); name the one to " \
+           f"read as {two}::zzz_houses" in err, err
+
+
 def test_layers_are_chosen_or_named(files, tmp_path, capsys):
     two = tmp_path / "two.gpkg"
     b = gpd.read_file(files / "city.gpkg", layer="buildings")

@@ -167,6 +167,24 @@ def test_too_large_structure_is_refused_before_anything_is_allocated(monkeypatch
     assert '"length"' in msg and "coarser quantum" in msg and "--max-memory" in msg
 
 
+def test_the_graphs_of_a_structure_share_its_budget():
+    """Every stage graph is kept until the structures are read. Each was held to the
+    budget alone, so a city block with a per-block window count grew 27 graphs of up to
+    the budget each (5 GB under a 2 GB budget; a traceback under a 3 GB ulimit). Here
+    three graphs of 2.1 MB: 7 MB holds them, 6 MB is refused with what all would take,
+    though each alone fits."""
+    d = block_cycle(4, doors=(0, 1e9))
+    d["constraints"] = {"doors": [4, 1e9]}
+    ok = solve_structure(Structure.from_dict(d), k=2, max_memory_mb=7)
+    assert ok.status == "ok" and ok.stats["stage_graphs"] == 3
+    with pytest.raises(TooLargeError) as exc:
+        solve_structure(Structure.from_dict(d), k=2, max_memory_mb=6)
+    msg = str(exc.value)
+    assert "its 3 stage graphs would take about 6.4 MB (2 fit" in msg, msg
+    assert "over the memory budget of 6 MB" in msg
+    assert 6 < exc.value.need_mb < 7
+
+
 def test_too_large_structure_file_exits_2_with_the_message(tmp_path, capsys):
     from citysynth.pipeline.cli import main
     f = tmp_path / "huge.json"

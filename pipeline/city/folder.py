@@ -30,3 +30,29 @@ def misplaced(out: str) -> str | None:
             return (f"{root / name}: a folder where the run writes its {name} file; move "
                     "it away, or give another -o folder")
     return None
+
+
+def input_in_outputs(out: str, inputs: "list[str | None]") -> str | None:
+    """What input file (``FILE`` or ``FILE::LAYER``) is one the run writes in ``out``:
+    ``--footprints run/blocks.geojson -o run`` replaced the user's file with the run's
+    own and exited 0 (the next run built from its own output). None when none is."""
+    import os
+    from pathlib import Path
+
+    root = Path(out)
+    ours = [root / n for n in (MANIFEST, BLOCKS_GEOJSON, REPORT, *CITY_FILES)]
+    for text in filter(None, inputs):
+        file = text.rpartition("::")[0] if "::" in text and not Path(text).exists() else text
+        given = Path(file)
+        if not given.is_file():
+            continue
+        for mine in ours:
+            if mine.is_file() and os.path.samefile(mine, given):
+                return (f"{text}: the run writes its {mine.name} over this input file; "
+                        "copy the input out of the run folder, or give another -o folder")
+        blocks = root / BLOCKS_DIR
+        if blocks.is_dir() and given.resolve().is_relative_to(blocks.resolve()):
+            return (f"{text}: this input file is in the run's {BLOCKS_DIR} folder, which "
+                    "the run rewrites; copy it out of the run folder, or give another "
+                    "-o folder")
+    return None

@@ -50,7 +50,7 @@ from citysynth.pipeline.errors import USER_ERRORS, environment_message
 from citysynth.pipeline.layouts import Built, ranked_files, solve_layouts, write_outputs
 from citysynth.skeletons import Frame
 
-JOB_VERSION = 4          # bump when a block's output changes for the same inputs
+JOB_VERSION = 5          # bump when a block's output changes for the same inputs
 VARIANTS_VERSION = 1     # the same, for what only k > 1 writes (the layout variantSet)
 CITY_SLACK = 0.3         # m: any block side may be met this closely (city.toml slack)
 
@@ -130,8 +130,13 @@ class BlockJob:
         if self.zone_kind is None:   # perimeter blocks keep their hashes (and caches)
             del d["zone_kind"]
         if d["footprint"] is not None:
-            # the file as the user spelled it (relative, through a link) changes no output
-            del d["footprint"]["source"]
+            # the file as the user spelled it (relative, through a link) changes no
+            # output; what the notes say of the feature names it too
+            fp = d["footprint"]
+            source = fp.pop("source")
+            for key in ("trimmed", "remarks"):
+                if source:
+                    fp[key] = fp[key].replace(source, "")
             for key in ("trimmed", "remarks", "party"):   # footprints without these keep
                 if not d["footprint"][key]:               # the hashes they had before
                     del d["footprint"][key]
@@ -210,8 +215,9 @@ def cached(out: Path, job: BlockJob) -> BlockRecord | None:
     del rec["hashes"]           # the record, as run_block answered it
     if job.footprint is not None:   # the file, as this run names it (not in the hash)
         said, rec["feature"] = rec.get("feature", ""), job.footprint.where
-        if said and isinstance(said, str) and isinstance(rec.get("reason"), str):
-            rec["reason"] = rec["reason"].replace(said, rec["feature"], 1)
+        for key in ("reason", "note"):
+            if said and isinstance(said, str) and isinstance(rec.get(key), str):
+                rec[key] = rec[key].replace(said, rec["feature"])
     return cast(BlockRecord, rec)
 
 

@@ -78,8 +78,9 @@ def run(args) -> int:
             + ", and more than "
             f"{MAX_WORKERS_PER_CORE} per core only wait for each other; use at most "
             f"{MAX_WORKERS_PER_CORE * cpu_count()} (or --scheduler for a cluster)")
-    from citysynth.pipeline.city.folder import misplaced
-    wrong = misplaced(args.out)
+    from citysynth.pipeline.city.folder import input_in_outputs, misplaced
+    wrong = misplaced(args.out) or input_in_outputs(
+        args.out, [args.streets, args.footprints, args.config])
     if wrong:
         raise UsageError(wrong)
     from citysynth.pipeline.city.config import load_config  # when run (see pipeline.cli)

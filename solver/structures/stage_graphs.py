@@ -26,7 +26,7 @@ import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -145,7 +145,9 @@ class _QuerySet:
     share: np.ndarray
     code: np.ndarray
     span: dict[tuple[int, str], tuple[int, int]]
-    ends: list[tuple[tuple[int, int], np.ndarray, np.ndarray]]
+    ends: list[tuple[int, int]]   # each set of end elements (key point, leg), in order
+    qw: np.ndarray                # each query's row in the weights of its graph: the
+                                  # rows of ends[0]'s end elements, then ends[1]'s...
 
 
 @dataclass
@@ -210,10 +212,15 @@ class StageGraphs:
         groups = self._groups()
         for grp in groups:  # every box is checked before any graph is grown
             self._plan(grp)
-        for grp in groups:
-            for a, leg in dict.fromkeys((a, start_leg(st, i)) for i in grp.stages
-                                        for a in st.keypoints[st.stages[i].start]):
-                self._solve(grp, a, leg)
+        starts = [(grp, a, leg) for grp in groups
+                  for a, leg in dict.fromkeys((a, start_leg(st, i)) for i in grp.stages
+                                              for a in st.keypoints[st.stages[i].start])]
+        # the graphs are all kept until the structures are read: their tables share the
+        # budget (each was held to it alone, and a block with a per-block window count
+        # grew 27 graphs to 5 GB)
+        self._held, self._grown, self._graphs = 0, 0, len(starts)
+        for grp, a, leg in starts:
+            self._solve(grp, a, leg)
 
     # ---- layout -----------------------------------------------------------------
     def _ints(self, values: dict[str, float], dims: Sequence[str]) -> np.ndarray:
@@ -334,9 +341,14 @@ class StageGraphs:
         share, qlo, qhi, bi, pos = (_cat(col, (0, R) if c in (1, 2) else (0,))
                                     for c, col in enumerate(cols))
         code = self._share_arr[share, 0] if len(self.ghi) == 1 else np.zeros_like(share)
-        got = self._sets[key] = _QuerySet(
-            list(stages), qlo, qhi, pos, bi, share, code, span,
-            [(e, np.concatenate(rows), np.concatenate(bis)) for e, (rows, bis) in ends.items()])
+        qw = np.empty(at, dtype=np.int64)
+        first = 0
+        for (v, _leg), (rows, bis) in ends.items():
+            for at_rows, elements in zip(rows, bis, strict=True):
+                qw[at_rows] = first + elements
+            first += len(st.keypoints[v])
+        got = self._sets[key] = _QuerySet(list(stages), qlo, qhi, pos, bi, share, code,
+                                          span, list(ends), qw)
         return got
 
     def _end_key(self, v: int) -> int:
@@ -448,31 +460,58 @@ class StageGraphs:
         S = int(stride[-1] * (cap[-1] + 1))
         dense = self._dense(S, n)
         off = r @ stride
-        wq = self._take(len(qs.bi), n)   # the weights of the edges into the end keys
-        for (v, end_leg), rows, bi in qs.ends:
-            wq[rows] = self._weights(grp, a, leg, v, end_leg)[bi]
+        # the weights of the edges into the end elements, a row per end element (not
+        # per query: a per-block window count asked 184,788 queries of 47 elements, and
+        # a row each held 66 MB a graph, 1.8 GB for the 27 graphs of a 100 m block)
+        wq = np.concatenate([self._weights(grp, a, leg, v, end_leg)
+                             for v, end_leg in qs.ends]) if qs.ends else np.zeros((0, n))
+        left = self.budget - self._held - 8 * n * n
         if dense and DENSE_FORWARD:   # a row per state: the states in order suffice
+            if S * row_bytes(n, True) > left:
+                self._over_budget(grp, S * row_bytes(n, True))
+            self._account(S * row_bytes(n, True))
             g = self._take(S, n)
             forward_dense(n, r, cap, stride, S, off, W, g)
             return StageGraph(S * n, n, W, g, np.arange(S, dtype=np.int64), off, cap, stride,
                               True, np.full(1, -1, dtype=np.int64),
-                              np.full(1, -1, dtype=np.int32), 0, qs.qlo, qs.qhi, wq), S
+                              np.full(1, -1, dtype=np.int32), 0, qs.qlo, qs.qhi, wq,
+                              qs.qw), S
         front = np.zeros(n, dtype=np.bool_)
         front[0] = True
-        max_rows = max((self.budget - 8 * n * n) // row_bytes(n, dense), 1)
+        max_rows = max(left // row_bytes(n, dense), 1)
         (status, nrows, g, _h, row_state, *_), (keys, vals, shift) = _grow_graph(
             n, r, np.zeros(R, dtype=np.int64), cap, stride, S, off,
             r.sum(axis=1), int(cap.sum()), W, np.ones(n, dtype=np.int64), front,
             np.zeros(n, dtype=np.bool_), np.zeros(n), dense, min(S, 1 << 12), max_rows,
             True, False)
         if status != STATUS_OK:
-            raise TooLargeError(
-                f"structure too large: the graph of stage {grp.stages[0]} grew past "
-                f"{max_rows:,} state rows, the memory budget of "
-                f"{self.budget / 2**20:,.0f} MB; use a coarser quantum, tighter bounds "
-                "or raise the budget (--max-memory MB)", budget_mb=self.budget / 2**20)
+            self._over_budget(grp, max_rows * row_bytes(n, dense))
+        # what the graph keeps: its rows of g and states and its hash table (the rest
+        # of g's capacity is never written, so never mapped; h is dropped)
+        self._account(int(nrows) * (8 * n + 8) + keys.nbytes + vals.nbytes)
         return StageGraph(int(nrows) * n, n, W, g, row_state, off, cap, stride, dense, keys,
-                          vals, int(shift), qs.qlo, qs.qhi, wq), int(nrows)
+                          vals, int(shift), qs.qlo, qs.qhi, wq, qs.qw), int(nrows)
+
+    def _account(self, nbytes: int) -> None:
+        """One more graph kept, of ``nbytes``."""
+        self._held += nbytes
+        self._grown += 1
+
+    def _over_budget(self, grp: _Group, at_least: int) -> NoReturn:
+        """Refuse the structure: the next graph (``at_least`` bytes or more) does not fit
+        beside the graphs kept. What all of them would take is estimated from those
+        grown so far (the graphs of one structure are much alike)."""
+        left = self._graphs - self._grown
+        each = max(at_least, self._held // max(self._grown, 1))
+        need = self._held + left * each
+        mb = need / 2**20
+        shown = f"{mb:,.0f}" if mb >= 10 else f"{mb:.1f}"
+        raise TooLargeError(
+            f"structure too large: its {self._graphs:,} stage graphs would take about "
+            f"{shown} MB ({self._grown:,} fit, stage {grp.stages[0]}'s next one does "
+            f"not), over the memory budget of {self.budget / 2**20:,.0f} MB; use a "
+            "coarser quantum, tighter bounds or raise the budget (--max-memory MB)",
+            need_mb=mb, budget_mb=self.budget / 2**20)
 
     def _solve(self, grp: _Group, a: str, leg: int) -> None:
         """Solve the queries of the graph of (a, leg): their best costs (one-path lists,

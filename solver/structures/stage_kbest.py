@@ -54,7 +54,8 @@ class StageGraph(NamedTuple):
     shift: int
     qlo: np.ndarray        # int64 [Q, R] admissible end states of each query (before
     qhi: np.ndarray        # int64 [Q, R]   the end key's leg), inside the box
-    wq: np.ndarray         # float64 [Q, n] weight of the edge e -> end key, inf if none
+    wq: np.ndarray         # float64 [B, n] weight of the edge e -> end element b, inf
+    qw: np.ndarray         # int64 [Q]      if none; query q ends on element qw[q]
 
 
 @njit(cache=True)
@@ -81,7 +82,7 @@ def _stage_choices(v, G, c, out_f, out_i):
             row = _row(G, s)
             if row >= 0:
                 for e in range(n):
-                    w = G.wq[q, e]
+                    w = G.wq[G.qw[q], e]
                     if w < np.inf and G.g[row, e] < np.inf:
                         out_f[m, 0] = G.g[row, e] + w
                         out_f[m, 1] = w
@@ -161,7 +162,7 @@ def _query_best(G, q, c):
         row = _row(G, s)
         if row >= 0:
             for e in range(n):
-                w = G.wq[q, e]
+                w = G.wq[G.qw[q], e]
                 if w < np.inf and G.g[row, e] < np.inf:
                     cost = G.g[row, e] + w
                     key = s * n + e
@@ -205,7 +206,7 @@ def _best_fill(G, q):
     for f in fill:
         cost += G.W[f, prev]
         prev = f
-    return fill, cost + G.wq[q, prev] == bc
+    return fill, cost + G.wq[G.qw[q], prev] == bc
 
 
 @njit(cache=True)
@@ -259,7 +260,7 @@ def _second_cost(G, q):
     g2 = np.inf   # the start: one (empty) path
     for t in range(m - 1, -1, -1):
         g2 = min(alt[t], g2 + into[t])
-    return min(other, g2 + G.wq[q, last])
+    return min(other, g2 + G.wq[G.qw[q], last])
 
 
 @njit(cache=True)
@@ -269,18 +270,19 @@ def _stage_best_costs(G):
     each the exact g of a node plus the edge into the end key. Without its heaps,
     path lists or paths: a block with a per-block door count asks 6,480 queries and
     its structures read a few dozen paths back (:func:`first_lists`)."""
-    return _best_costs(G.g, G.wq, G.qlo, G.qhi, G.stride, G.dense, G.keys, G.vals, G.shift)
+    return _best_costs(G.g, G.wq, G.qw, G.qlo, G.qhi, G.stride, G.dense, G.keys, G.vals,
+                       G.shift)
 
 
 @njit(cache=True)
-def _best_costs(g, wq, qlo, qhi, stride, dense, keys, vals, shift):
+def _best_costs(g, wq, qw, qlo, qhi, stride, dense, keys, vals, shift):
     """:func:`_stage_best_costs` on G's arrays, read from the named tuple once, and by
     cost alone: 7x faster than :func:`_query_best` per query (6,480 queries of a block
     with a per-block door count, 0.75 to 0.11 ms). The same minimum: the states of a
     box come in increasing order (the counter's first digit has the smallest stride),
     so keys (state * n + element) do too and the first strict minimum is the least
     (cost, key); a cost with an inf term is inf and never below ``bc``."""
-    Q, n = wq.shape
+    Q, n = len(qw), wq.shape[1]
     R = qlo.shape[1]
     c = np.zeros(R, dtype=np.int64)
     out = np.empty(Q)
@@ -295,7 +297,7 @@ def _best_costs(g, wq, qlo, qhi, stride, dense, keys, vals, shift):
             row = s if dense else hash_find(keys, vals, shift, s)
             if row >= 0:
                 for e in range(n):
-                    cost = g[row, e] + wq[q, e]
+                    cost = g[row, e] + wq[qw[q], e]
                     if cost < bc:
                         bc = cost
             if not box_next(c, qlo[q], qhi[q]):
@@ -333,7 +335,7 @@ def _stage_kbest_of(G, qs, K, depth):
                 fill[a - p + t] = f
                 cost += G.W[f, prev]
                 prev = f
-            costs[p] = cost + G.wq[q, prev]
+            costs[p] = cost + G.wq[G.qw[q], prev]
     # drop the start element from every path: path p loses p elements before it
     for p in range(npath + 1):
         offs[p] -= p
