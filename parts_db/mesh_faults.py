@@ -193,11 +193,26 @@ def _json(raw: bytes, what: str) -> dict:
     return doc
 
 
+_PACKED_GEOMETRY = {"KHR_draco_mesh_compression", "EXT_meshopt_compression",
+                    "KHR_meshopt_compression"}   # extensions whose vertex data trimesh
+                                                 # cannot decode without more packages
+
+
 def _check_gltf_doc(doc: dict, binary: int | None, folder: Path) -> None:
     """Buffers exist and are as long as declared, and every reference between buffers,
     views, accessors, meshes, nodes and scenes lands on something that exists and fits
     (else trimesh fails with "cannot reshape array" or a bare IndexError)."""
     g = _Gltf(doc)
+    # compressed meshes the file cannot be read without (merely "used", the file keeps
+    # plain data to fall back on): trimesh warned on stderr and read zeros, which
+    # ingest then called a mesh that is not closed
+    required = doc.get("extensionsRequired", [])
+    packed = sorted({e for e in required if e in _PACKED_GEOMETRY}) \
+        if isinstance(required, list) else []
+    if packed:
+        raise MeshFault(f"its meshes are compressed ({', '.join(packed)}), which citysynth "
+                        "does not read (Blender: glTF export with Data > Compression off; "
+                        "gltfpack without -c)")
     have = [g.buffer(i, buf, binary, folder) for i, buf in enumerate(g.items("buffers"))]
     for img in g.items("images"):
         uri = img.get("uri")

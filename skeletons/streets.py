@@ -212,6 +212,7 @@ def _distinct(lines: list) -> list:
 
 
 _CUT = {"cap_style": "square", "join_style": "mitre", "mitre_limit": 3.0}
+NO_AREA = 0.05   # m²: what the setbacks leave of a block below this is nothing
 
 
 def _joined_cuts(lines: list, widths: list[float]) -> list[Polygon]:
@@ -233,6 +234,19 @@ def _joined_cuts(lines: list, widths: list[float]) -> list[Polygon]:
     return out
 
 
+def _lines_of(g: shapely.Geometry) -> LineString | MultiLineString | None:
+    """A feature's street lines: its LineString or MultiLineString, or a
+    GeometryCollection that holds only lines (as a MultiLineString: some GIS exports
+    write a street's pieces so); None for anything else."""
+    if isinstance(g, LineString | MultiLineString):
+        return g
+    if isinstance(g, shapely.GeometryCollection) and not g.is_empty:
+        parts = shapely.get_parts(g)
+        if all(isinstance(q, LineString | MultiLineString) for q in parts):
+            return MultiLineString([ls for q in parts for ls in shapely.get_parts(q)])
+    return None
+
+
 def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict], float] = 6.0,
                   *, min_area: float = 50.0,
                   skipped_shapes: list[Polygon | None] | None = None,
@@ -250,10 +264,13 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
     feats = list(features)
     lines, owners, at, skipped = [], [], [], []
     for k, f in enumerate(feats):
-        g = f.geometry
-        if not isinstance(g, LineString | MultiLineString):
-            skipped.append(f"{f.where}: a {g.geom_type} is no street centre line "
-                           "(LineString or MultiLineString)")
+        g = _lines_of(f.geometry)
+        if g is None:
+            skipped.append(f"{f.where}: a {f.geometry.geom_type} is no street centre line "
+                           "(LineString or MultiLineString)"
+                           + (" (it holds other geometry than lines; split it into "
+                              "LineString features)" if isinstance(
+                                  f.geometry, shapely.GeometryCollection) else ""))
             shapes.append(None)
             continue
         lines.append(g)
@@ -261,7 +278,8 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
         at.append(k)
     if not lines:
         raise SkeletonError(f"{feats[0].source + ': ' if feats and feats[0].source else ''}"
-                            "no street centre lines (LineStrings) in the input")
+                            "no street centre lines (LineStrings) in the input"
+                            + (f"; e.g. {skipped[0]}" if skipped else ""))
     width = setback if callable(setback) else (lambda _p, d=float(setback): d)
     widths = [width(f.properties) for f in owners]
     cuts = [g.buffer(w, **_CUT) for g, w in zip(lines, widths, strict=True)]
@@ -280,18 +298,24 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
         left = face.difference(shapely.union_all([joined[j] for j in cut])) if len(cut) \
             else face
         left = shapely.simplify(left, 0.01)   # drop the collinear vertices cuts leave
-        parts = [p for p in shapely.get_parts(left) if isinstance(p, Polygon) and not p.is_empty]
-        def where(i=i, face=face) -> str:   # said only of a piece skipped: placing a
-            xy = (face.centroid.x, face.centroid.y)   # point in lon/lat costs time
-            return f"block {i} at {(locate or local_xy)(xy)}"
+        # (a sliver of no area the setbacks leave is nothing, not a piece "of 0.0 m²")
+        parts = [p for p in shapely.get_parts(left) if isinstance(p, Polygon)
+                 and not p.is_empty and p.area >= NO_AREA]
+        def where(i=i, face=face, piece=None, no=1, pieces=1) -> str:
+            # said only of a piece skipped (placing a point in lon/lat costs time); of
+            # one of several pieces the setbacks leave, that piece (they shared a name)
+            at = face if piece is None else piece
+            of = f" (piece {no} of {pieces})" if pieces > 1 else ""
+            return f"block {i}{of} at {(locate or local_xy)((at.centroid.x, at.centroid.y))}"
         if not parts:
             skipped.append(f"{where()}: nothing left after the street setbacks")
             shapes.append(face)
             continue
-        for p in sorted(parts, key=lambda q: -q.area):
-            if p.area < min_area:
-                skipped.append(f"{where()}: {p.area:.1f} m² after the setbacks, below "
-                               f"{min_area:g} m²")
+        for piece_no, p in enumerate(sorted(parts, key=lambda q: -q.area), 1):
+            if p.area < min_area:   # rounded down: 49.97 m² was "50.0 m², below 50 m²"
+                skipped.append(f"{where(piece=p, no=piece_no, pieces=len(parts))}: "
+                               f"{math.floor(p.area * 10) / 10:.1f} m² after the "
+                               f"setbacks, below {min_area:g} m²")
                 shapes.append(p)
                 continue
             touching = tuple(sorted(at[int(j)] for j in near

@@ -512,6 +512,23 @@ def test_a_footprints_note_naming_the_file_does_not_change_its_hash(tmp_path):
     assert other.input_hash != spelled("b.geojson").input_hash
 
 
+def test_a_street_block_skipped_when_built_says_where_it_is(monkeypatch):
+    """A street block left with nothing once its short sides were absorbed was
+    reported as that alone, with no place (every piece skipped before it became a
+    block says where it is) and, in report.json, no kind."""
+    from citysynth.parts_db import load_library
+    from citysynth.pipeline.city import footprints
+
+    inputs = prepare(str(DISTRICT), None, load_config(None), str(LIB), None)
+    job = next(j for j in inputs.jobs if j.kind == "block")
+    monkeypatch.setattr(footprints, "absorb_short_edges", lambda *a, **k: None)
+    reason = jobs.solve_block(job, load_library(str(LIB)))
+    assert isinstance(reason, str)
+    assert re.fullmatch(rf"block {job.id} at \(\d+\.\d+, \d+\.\d+\): nothing buildable "
+                        "is left once its sides too short for corners are absorbed", reason), \
+        reason
+
+
 @pytest.mark.parametrize("text, fragment", [
     ("colour = 3\n", "colour: unknown key"),
     ("[per_side]\ndoors = [3, 1]\n", "per_side.doors: must be [min, max]"),

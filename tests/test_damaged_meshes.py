@@ -151,6 +151,12 @@ _add("glb_accessor_huge", "x.glb", _glb_with(lambda d: d["accessors"][0].update(
      "its glTF data is inconsistent: accessor 0 needs")
 _add("glb_view_missing", "x.glb", _glb_with(lambda d: d["accessors"][0].update(bufferView=99)),
      "accessor 0 refers to buffer view 99")
+# Draco (gltfpack -cc, Blender's compression): trimesh warned five times on stderr for
+# want of DracoPy, read zeros, and ingest said "no cross-section at its in-end"
+_add("glb_draco", "x.glb", _glb_with(lambda d: d.update(
+    extensionsUsed=["KHR_draco_mesh_compression"],
+    extensionsRequired=["KHR_draco_mesh_compression"])),
+     "its meshes are compressed (KHR_draco_mesh_compression), which citysynth does not read")
 _add("glb_no_scenes", "x.glb", _glb_with(lambda d: d.update(scenes=[])),
      "the file's default scene refers to scene 0")
 _add("glb_view_past_buffer", "x.glb",

@@ -163,3 +163,19 @@ def test_helsinki_footprints_share_no_ground():
     assert inside == ["feature 157", "feature 265", "feature 266"]
     trimmed = sorted(j.footprint.feature for j in inputs.jobs if j.footprint.trimmed)
     assert trimmed == [14, 86]
+
+
+def test_a_multipolygon_whose_parts_overlap_is_one_building(tmp_path):
+    """Two overlapping parts of one MultiPolygon feature (invalid, but hand-drawn data
+    has them) were two footprints: the smaller "50 % of it lies inside feature 0",
+    itself, and half the building was dropped. They are built as their union."""
+    parts = [SCENE["hall"], [(15, 10), (45, 10), (45, 30), (15, 30)]]
+    fp = tmp_path / "multi.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [{
+        "type": "Feature", "properties": {"id": "hall"},
+        "geometry": {"type": "MultiPolygon", "coordinates": [
+            [lonlat_from_local(p + p[:1], ORIGIN)] for p in parts]}}]}))
+    inputs, built = outlines(fp)
+    assert not inputs.skipped
+    assert sorted(built) == ["hall"]
+    assert built["hall"].area == pytest.approx(600 + 600 - 15 * 10, abs=0.1)

@@ -468,3 +468,52 @@ def test_points_and_sides_in_messages():
     assert side_words(0.05, p, p) == "the 0.05 m side at (7.100000, 50.730000)"
     assert side_words(6.0, "(0.00, 0.00)", "(6.00, 0.00)") == \
         "the 6.00 m side from (0.00, 0.00) to (6.00, 0.00)"
+
+
+def test_pieces_of_one_block_skipped_are_told_apart():
+    """The setbacks may cut a block in pieces (a dumbbell's neck): each skipped piece
+    was "block 0 at (x, y)" with the same point, the block's; and an area rounded up
+    read "50.0 m² after the setbacks, below 50 m²". Each piece is named and placed on
+    its own, and its area rounded down."""
+    import math
+
+    from citysynth.skeletons.streets import street_blocks
+    ring = [(0, 0), (40, 0), (40, 15), (70, 15), (70, 0), (110, 0), (110, 40), (70, 40),
+            (70, 25), (40, 25), (40, 40), (0, 40), (0, 0)]
+    feats, frame = parse_geojson(fc(feat("LineString", metres(ring))))
+    blocks, _ = street_blocks(feats, 6.0, min_area=0.0)
+    areas = sorted((b.polygon.area for b in blocks), reverse=True)
+    assert len(areas) == 2                           # the 10 m neck is gone
+    blocks, skipped = street_blocks(feats, 6.0, min_area=2000.0, locate=frame.at)
+    assert not blocks and len(skipped) == 2
+    assert skipped[0].startswith("block 0 (piece 1 of 2) at (")
+    assert skipped[1].startswith("block 0 (piece 2 of 2) at (")
+    assert skipped[0].split(" at ")[1] != skipped[1].split(" at ")[1]
+    for reason, area in zip(skipped, areas, strict=True):
+        assert f": {math.floor(area * 10) / 10:.1f} m² after the setbacks, below 2000 m²" \
+            in reason, (reason, area)
+
+
+def test_a_collection_of_street_lines_is_streets():
+    """A GeometryCollection of LineStrings (some GIS exports write a street's pieces
+    so) was "no street centre lines (LineStrings) in the input" though it held seven.
+    It is read as the MultiLineString it is; one holding other geometry is told."""
+    from citysynth.skeletons.streets import street_blocks
+    lines = [metres([(x, -10), (x, 110)]) for x in (0, 100)] + \
+        [metres([(-10, y), (110, y)]) for y in (0, 100)]
+    multi, _ = parse_geojson(fc(feat("MultiLineString", lines)))
+    coll, _ = parse_geojson(fc({"type": "Feature", "properties": {}, "geometry": {
+        "type": "GeometryCollection",
+        "geometries": [{"type": "LineString", "coordinates": c} for c in lines]}}))
+    want, _ = street_blocks(multi, 6.0)
+    got, skipped = street_blocks(coll, 6.0)
+    assert len(got) == 1 and not skipped
+    assert got[0].polygon.equals(want[0].polygon)
+    mixed, _ = parse_geojson(fc({"type": "Feature", "properties": {}, "geometry": {
+        "type": "GeometryCollection", "geometries": [
+            {"type": "Point", "coordinates": lines[0][0]},
+            *({"type": "LineString", "coordinates": c} for c in lines)]}}))
+    with pytest.raises(SkeletonError, match=r"no street centre lines \(LineStrings\) in the "
+                       r"input; e\.g\. input: feature 0: a GeometryCollection is no street centre "
+                       r"line .*split it into LineString features"):
+        street_blocks(mixed, 6.0)

@@ -232,7 +232,8 @@ def choose_family(spec: FootprintSpec, db: PartDB, style: str
     note = None
     if want is not None and storeys is not None and abs(storeys - want) > spec.storeys.tolerance:
         have = ", ".join(str(n) for n in sorted(set(fams.values())))
-        note = (f"{spec.where}: {want} storeys asked; the {style} kit has {have}: built "
+        note = (f"{spec.where}: {want} storey{'' if want == 1 else 's'} asked; the {style} "
+                f"kit has {have}: built "
                 f"with {storeys}")
     return allowed, storeys, note
 
@@ -423,8 +424,8 @@ def _street_block(job: BlockJob, db: PartDB, poly: shapely.Polygon,
                                    min_stage=shortest_stage(db, job.style),
                                    straight_tol=STRAIGHT_TOL)
         gone = "nothing buildable is left once its sides too short for corners are absorbed"
-    if clean is None:
-        return gone
+    if clean is None:   # said where it is, as a piece skipped before it was a block is
+        return f"{block_where(job, poly)}: {gone}"
     clean = without_tips(clean, acute_deg=ACUTE_DEG, nose=NOSE, straight_tol=STRAIGHT_TOL)
     rings = skeletons_from_polygons([Feature(0, clean, {"id": job.id})], frame)
     return Prepared(rings, block_where(job, poly), job.stretch, job.slack, None)

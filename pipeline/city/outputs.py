@@ -13,6 +13,7 @@ built blocks from a perspective and from above.
 from __future__ import annotations
 
 import json
+import re
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -38,6 +39,7 @@ if TYPE_CHECKING:   # the run imports this module to write its summary
     from citysynth.export.layout import Layout
     from citysynth.pipeline.city.run import CityInputs
 
+STOREYS_ASKED = re.compile(r": \d+ storeys? asked; ")   # a note of footprints.py
 _MANIFEST_KEYS = ("kind", "zone", "input_hash", "status", "reason", "error", "files", "cost",
                   "rank", "of", "style", "feature", "storeys", "note")
 
@@ -65,15 +67,19 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
     def with_status(status: str, key: str) -> list[dict[str, Any]]:
         return [{"id": i, key: recs[i].get(key)} for i in ids if recs[i]["status"] == status]
 
+    def skipped_blocks() -> list[dict[str, Any]]:   # with their kind, as pieces have one
+        return [{"id": i, "kind": recs[i]["kind"], "reason": recs[i].get("reason")}
+                for i in ids if recs[i]["status"] == "skipped"]
+
     report: Report = {
         "counts": counts, "blocks": len(inputs.jobs),
         "built_share": counts["built"] / attempted if attempted else 1.0,
         "failed": with_status("failed", "reason"),
         "machine_failed": [i for i in ids if recs[i].get("machine")],
         "storeys_not_matched": [{"id": i, "note": n} for i in ids
-                                for n in _notes(recs[i]) if "storeys asked" in n],
+                                for n in _notes(recs[i]) if STOREYS_ASKED.search(n)],
         "notes": [{"id": i, "note": n} for i in ids for n in _notes(recs[i])],
-        "skipped": _reasons(inputs.skipped) + with_status("skipped", "reason"),
+        "skipped": _reasons(inputs.skipped) + skipped_blocks(),
         "errors": [{"id": i, "error": recs[i]["error"], "traceback": recs[i]["traceback"]}
                    for i in ids if recs[i]["status"] == "error"],
         "kinds": count_kinds(inputs, recs),

@@ -63,6 +63,7 @@ from citysynth.pipeline.city.jobs import (
     worker_library,
 )
 from citysynth.pipeline.city.outputs import Report, write_summary
+from citysynth.pipeline.city.overlaps import TOUCH as OVERLAP_NOISE
 from citysynth.pipeline.city.overlaps import Footprint, separate
 from citysynth.pipeline.city.party import with_party_walls
 from citysynth.pipeline.city.process import (
@@ -206,7 +207,7 @@ def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None
             skipped.append(_skip("footprint", f"{footprints}: {f.name}: {why}; left out",
                                  f.geometry))
             continue
-        for p in shapely.get_parts(f.geometry):
+        for p in _one_building(f.geometry):
             if p.geom_type != "Polygon":
                 raise ConfigError(f"{footprints}: {f.name}: footprints must be Polygons, "
                                   f"got {p.geom_type}")
@@ -248,6 +249,19 @@ def _once_per_outline(built: list[Footprint],
     done = dict(zip(distinct, step([built[i] for i in distinct]), strict=True))
     return [done[i] if i in done else replace(built[i], polygon=done[of[i]].polygon)
             for i in range(len(built))]
+
+
+def _one_building(geom: shapely.Geometry) -> list[shapely.Geometry]:
+    """A footprint feature's polygons; a MultiPolygon whose parts overlap (invalid, but
+    written so by hand-drawn data) as their union: each part was a footprint of its own,
+    the smaller "50 % of it lies inside feature 0", itself."""
+    parts = list(shapely.get_parts(geom))
+    if len(parts) < 2 or not all(p.geom_type == "Polygon" and p.is_valid for p in parts):
+        return parts
+    whole = shapely.union_all(parts)
+    if sum(p.area for p in parts) - whole.area <= OVERLAP_NOISE:
+        return parts
+    return list(shapely.get_parts(whole))
 
 
 def _repaired(p: shapely.Polygon, frame: Frame) -> tuple[shapely.Polygon | None, str]:
