@@ -171,18 +171,18 @@ def test_the_graphs_of_a_structure_share_its_budget():
     """Every stage graph is kept until the structures are read. Each was held to the
     budget alone, so a city block with a per-block window count grew 27 graphs of up to
     the budget each (5 GB under a 2 GB budget; a traceback under a 3 GB ulimit). Here
-    three graphs of 2.1 MB: 7 MB holds them, 6 MB is refused with what all would take,
-    though each alone fits."""
+    three graphs of about 1.05 MB: 3.5 MB holds them, 3 MB is refused with what all
+    would take, though each alone fits."""
     d = block_cycle(4, doors=(0, 1e9))
     d["constraints"] = {"doors": [4, 1e9]}
-    ok = solve_structure(Structure.from_dict(d), k=2, max_memory_mb=7)
+    ok = solve_structure(Structure.from_dict(d), k=2, max_memory_mb=3.5)
     assert ok.status == "ok" and ok.stats["stage_graphs"] == 3
     with pytest.raises(TooLargeError) as exc:
-        solve_structure(Structure.from_dict(d), k=2, max_memory_mb=6)
+        solve_structure(Structure.from_dict(d), k=2, max_memory_mb=3)
     msg = str(exc.value)
-    assert "its 3 stage graphs would take about 6.4 MB (2 fit" in msg, msg
-    assert "over the memory budget of 6 MB" in msg
-    assert 6 < exc.value.need_mb < 7
+    assert "its 3 stage graphs would take about 3.2 MB (2 fit" in msg, msg
+    assert "over the memory budget of 3 MB" in msg
+    assert 3 < exc.value.need_mb < 3.5
 
 
 def test_too_large_structure_file_exits_2_with_the_message(tmp_path, capsys):

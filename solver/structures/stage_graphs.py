@@ -163,6 +163,12 @@ class _Solved:
     costs: np.ndarray | None
 
 
+def _mb(x: float) -> str:
+    """Megabytes as a message gives them: whole from 10 up, else one decimal (3.2 MB
+    over a 3 MB budget read "3 MB, over the memory budget of 3 MB")."""
+    return f"{x:,.0f}" if x >= 10 else f"{x:.1f}".removesuffix(".0")
+
+
 def _cat(xs: list[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
     return np.concatenate(xs) if xs else np.zeros(shape, dtype=np.int64)
 
@@ -467,9 +473,10 @@ class StageGraphs:
                              for v, end_leg in qs.ends]) if qs.ends else np.zeros((0, n))
         left = self.budget - self._held - 8 * n * n
         if dense and DENSE_FORWARD:   # a row per state: the states in order suffice
-            if S * row_bytes(n, True) > left:
-                self._over_budget(grp, S * row_bytes(n, True))
-            self._account(S * row_bytes(n, True))
+            keeps = S * (8 * n + 8)   # g and the states, as a grown graph's rows below
+            if keeps > left:
+                self._over_budget(grp, keeps)
+            self._account(keeps)
             g = self._take(S, n)
             forward_dense(n, r, cap, stride, S, off, W, g)
             return StageGraph(S * n, n, W, g, np.arange(S, dtype=np.int64), off, cap, stride,
@@ -504,14 +511,13 @@ class StageGraphs:
         left = self._graphs - self._grown
         each = max(at_least, self._held // max(self._grown, 1))
         need = self._held + left * each
-        mb = need / 2**20
-        shown = f"{mb:,.0f}" if mb >= 10 else f"{mb:.1f}"
+        mb, budget = need / 2**20, self.budget / 2**20
         raise TooLargeError(
             f"structure too large: its {self._graphs:,} stage graphs would take about "
-            f"{shown} MB ({self._grown:,} fit, stage {grp.stages[0]}'s next one does "
-            f"not), over the memory budget of {self.budget / 2**20:,.0f} MB; use a "
-            "coarser quantum, tighter bounds or raise the budget (--max-memory MB)",
-            need_mb=mb, budget_mb=self.budget / 2**20)
+            f"{_mb(mb)} MB ({self._grown:,} fit, stage {grp.stages[0]}'s next one does "
+            f"not), over the memory budget of {_mb(budget)} MB; use a coarser quantum, "
+            "tighter bounds or raise the budget (--max-memory MB)",
+            need_mb=mb, budget_mb=budget)
 
     def _solve(self, grp: _Group, a: str, leg: int) -> None:
         """Solve the queries of the graph of (a, leg): their best costs (one-path lists,
