@@ -442,8 +442,13 @@ def _input_crs(crs: str | None, source: str) -> pyproj.CRS | None:
     if not (given.is_projected or given.is_geographic):
         kind = "geocentric (earth-centred X, Y, Z)" if given.is_geocentric else \
             given.type_name.lower().removesuffix(" crs")   # pyproj: "Vertical CRS"
-        raise SkeletonError(f"{source}: {crs} ({given.name}) is a {kind} CRS, not a map "
-                            "of the ground; give the projected or lon/lat CRS the "
+        # (a file's CRS comes as its whole WKT: named, not quoted; "an engineering")
+        named = f"{crs} ({given.name})" if len(crs) <= 40 else given.name
+        article = "an" if kind[0] in "aeiou" else "a"
+        local = (" (a local site grid: give it an EPSG code's projected CRS or reproject "
+                 "the data)" if given.type_name.lower().startswith("engineering") else "")
+        raise SkeletonError(f"{source}: {named} is {article} {kind} CRS, not a map of the "
+                            f"ground{local}; give the projected or lon/lat CRS the "
                             "coordinates are in, e.g. --crs EPSG:25832")
     try:                  # a CRS of Mars or the Moon: no way to the Earth's lon/lat
         pyproj.Transformer.from_crs(given, "EPSG:4326", always_xy=True)

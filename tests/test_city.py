@@ -391,6 +391,23 @@ def test_diff_draws_a_plan_of_what_changed(district, tmp_path, capsys):
     assert not (tmp_path / "x.png").exists()
 
 
+def test_diff_of_a_run_missing_a_layout_says_to_rerun(district, tmp_path, capsys):
+    """A layout the manifest lists, deleted since: "cannot read the layout file: no
+    such file; check the path" sent the user to a path they never typed."""
+    import shutil
+
+    other = tmp_path / "other"
+    shutil.copytree(district, other)
+    gone = sorted((other / "blocks").glob("*.layout.json"))[0]
+    gone.unlink()
+    capsys.readouterr()
+    assert main(["diff", str(district), str(other)]) == 2
+    err = capsys.readouterr().err
+    assert f"{gone}: cannot read the layout file: no such file; the run's manifest lists " \
+           f"it: rerun citysynth city into {other}" in err, err
+    assert "check the path" not in err and len(err.strip().splitlines()) == 1
+
+
 def test_zones_and_constraints_from_the_config(tmp_path, capsys):
     cfg = tmp_path / "city.toml"
     cfg.write_text("""

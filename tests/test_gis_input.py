@@ -490,6 +490,15 @@ def test_a_crs_that_is_not_a_map_is_refused():
     with pytest.raises(SkeletonError, match=r"EPSG:5703 \(NAVD88 height\) is a vertical "
                                             r"CRS, not a map"):      # once "vertical crs CRS"
         parse_geojson(LINE, "s.geojson", crs="EPSG:5703")
+    # a site grid (an engineering CRS, as a GIS file's WKT gives it): named, not quoted
+    # whole, and "an engineering CRS" (it was the whole WKT, and "a engineering")
+    wkt = ('ENGCRS["site grid",EDATUM["site"],CS[Cartesian,2],'
+           'AXIS["easting",east,LENGTHUNIT["metre",1]],'
+           'AXIS["northing",north,LENGTHUNIT["metre",1]]]')
+    with pytest.raises(SkeletonError) as exc:
+        parse_geojson(LINE, "s.geojson", crs=wkt)
+    assert str(exc.value).startswith("s.geojson: site grid is an engineering CRS, not a "
+                                     "map of the ground (a local site grid"), str(exc.value)
 
 
 def _projected(crs: str, scale: float = 1.0) -> dict:

@@ -109,7 +109,11 @@ def _layout(run: Path, bid: str, rec: dict) -> tuple[str, Path, bytes] | None:
     if f is None:
         return None
     path = _inside(run, bid, f)
-    return f, path, read_bytes(path, "layout", UsageError)
+    try:
+        return f, path, read_bytes(path, "layout", UsageError)
+    except UsageError as exc:   # deleted or unreadable since the run: "check the path"
+        raise UsageError(f"{str(exc).removesuffix('; check the path')}; the run's manifest "
+                         f"lists it: rerun citysynth city into {run}") from None
 
 
 def _parsed(run: Path, path: Path, data: bytes) -> dict:
