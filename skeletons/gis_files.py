@@ -68,13 +68,21 @@ GEOMETRIES = {                      # what the caller reads -> the layer types i
 }
 
 
+def split_layer(text: str) -> tuple[str, str]:
+    """``FILE::LAYER`` as (file, layer); (text, "") when it names no layer (a file may
+    have :: in its own name)."""
+    if LAYER_SEP in text and not Path(text).exists():
+        file, _, layer = text.rpartition(LAYER_SEP)
+        return file, layer
+    return text, ""
+
+
 def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     """``(file, layer, format)`` when ``path`` (optionally ``FILE::LAYER``) names a GIS
     file of a format this module reads; None for anything else (GeoJSON, or a file the
     GeoJSON reader refuses with its own message)."""
     text = str(path)
-    named = LAYER_SEP in text and not Path(text).exists()   # a file may have :: in its name
-    file, _, layer = text.rpartition(LAYER_SEP) if named else (text, "", "")
+    file, layer = split_layer(text)
     p = Path(file)
     head = b""
     try:

@@ -39,11 +39,12 @@ def input_in_outputs(out: str, inputs: "list[str | None]") -> str | None:
     import os
     from pathlib import Path
 
+    from citysynth.skeletons.gis_files import split_layer
+
     root = Path(out)
     ours = [root / n for n in (MANIFEST, BLOCKS_GEOJSON, REPORT, *CITY_FILES)]
     for text in filter(None, inputs):
-        file = text.rpartition("::")[0] if "::" in text and not Path(text).exists() else text
-        given = Path(file)
+        given = Path(split_layer(text)[0])
         if not given.is_file():
             continue
         for mine in ours:
