@@ -282,12 +282,12 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
                             + (f"; e.g. {skipped[0]}" if skipped else ""))
     width = setback if callable(setback) else (lambda _p, d=float(setback): d)
     widths = [width(f.properties) for f in owners]
+    distinct = _distinct(lines)
+    _check_crossings(distinct, feats)   # first: noding the setbacks' lines took minutes
     cuts = [g.buffer(w, **_CUT) for g, w in zip(lines, widths, strict=True)]
     tree = shapely.STRtree(cuts)
     joined = _joined_cuts(lines, widths)
     joined_tree = shapely.STRtree(joined)
-    distinct = _distinct(lines)
-    _check_crossings(distinct, feats)
     noded = shapely.union_all(distinct)
     faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
     blocks = []
