@@ -778,6 +778,32 @@ def input_xy(frame: tuple[str, float, float], source_crs: str, xy: Any) -> tuple
     return lon, lat
 
 
+def box_around(frame: Frame, bounds: tuple[float, float, float, float], crs: str | None
+               ) -> tuple[float, float, float, float]:
+    """The box, in lon/lat (``crs`` None) or in ``crs``, that holds the local box
+    ``bounds`` (metres in ``frame``): its outline, 16 points a side, placed and boxed.
+    A shape much larger than the data (a zone of a whole country) is clipped to it
+    before it is projected: the run's frame holds the data's reach, not a country's."""
+    x0, y0, x1, y1 = bounds
+    t = np.linspace(0.0, 1.0, 17)[:-1]
+    ring = np.concatenate([np.column_stack([x0 + (x1 - x0) * t, np.full_like(t, y0)]),
+                           np.column_stack([np.full_like(t, x1), y0 + (y1 - y0) * t]),
+                           np.column_stack([x1 - (x1 - x0) * t, np.full_like(t, y1)]),
+                           np.column_stack([np.full_like(t, x0), y1 - (y1 - y0) * t])])
+    if frame.crs == LONLAT_FRAME:
+        pts = np.array(lonlat_from_local(ring, frame.origin))
+    else:   # kept projected: the input's coordinates, then lon/lat
+        unit = _unit(pyproj.CRS.from_user_input(frame.source_crs)) if frame.source_crs else 1.0
+        pts = ring / unit + np.array(frame.origin)
+        if frame.source_crs:
+            pts = np.column_stack(transformer(frame.source_crs, "EPSG:4326").transform(
+                pts[:, 0], pts[:, 1]))
+    if crs is not None:
+        pts = np.column_stack(transformer("EPSG:4326", crs).transform(pts[:, 0], pts[:, 1]))
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
+
 def local_xy(p: tuple[float, float]) -> str:
     """A point in a run's local metres, as messages give it where no frame is known to
     put it in the input's coordinates (:meth:`Frame.at` does)."""

@@ -741,6 +741,33 @@ def test_a_zone_no_block_falls_in_is_warned_of(tmp_path):
     assert {j.zone for j in got.jobs} == {"", "over"}
 
 
+def test_a_zone_of_a_country_or_of_the_world_holds_the_blocks_in_it(tmp_path):
+    """A zone polygon much larger than the data: the whole world, or everything east of
+    a meridian through the district up to 40 degrees E (edges of 2,000 km). Each picks
+    the blocks it covers, as a small polygon over the same ground does, without a
+    word. Both were projected whole: the world's was garbled ("no block falls in its
+    polygon (the nearest is 234,906 m outside it)"), the eastern one picked none of the
+    18 blocks the small one picks, and a country's was told to stretch buildings that
+    were not there."""
+    world = [[-180, -85], [180, -85], [180, 85], [-180, 85]]
+    east = [[24.9465, 50.0], [40.0, 50.0], [40.0, 70.0], [24.9465, 70.0]]
+    small = [[24.9465, 60.16], [24.97, 60.16], [24.97, 60.18], [24.9465, 60.18]]
+    picked = {}
+    for name, poly in (("world", world), ("east", east), ("small", small)):
+        cfg = tmp_path / f"{name}.toml"
+        cfg.write_text(f'library = "{LIB}"\n[[zone]]\nname = "z"\nstyle = "modern"\n'
+                       f"polygon = {poly}\n")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            got = prepare(DISTRICT, None, load_config(cfg), None)
+        said = [str(w.message) for w in caught if "zone" in str(w.message)]
+        assert not said, (name, said)
+        picked[name] = sorted(j.id for j in got.jobs if j.zone == "z")
+        if name == "world":
+            assert len(picked[name]) == len(got.jobs)
+    assert picked["small"] and picked["east"] == picked["small"]
+
+
 def test_a_bare_geometry_is_one_feature():
     """RFC 7946 allows a GeoJSON text that is just a geometry: it reads as one feature."""
     ring = [[24.94, 60.17], [24.941, 60.17], [24.941, 60.1705], [24.94, 60.17]]

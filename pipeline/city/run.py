@@ -17,6 +17,7 @@ The run folder::
 
 from __future__ import annotations
 
+import json
 import os
 import sys
 import time
@@ -78,6 +79,7 @@ from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
 from citysynth.skeletons.errors import FarFromFrame, FarFromFrameWarning, InputWarning
 from citysynth.skeletons.from_geometry import why_invalid
+from citysynth.skeletons.geojson import box_around
 from citysynth.skeletons.streets import (
     Block,
     highway_classes,
@@ -457,13 +459,28 @@ def _zone_polygons(cfg: CityConfig, frame: Frame, crs: str | None,
     return [next(geoms) if z.polygon else None for z in cfg.zones]
 
 
+ZONE_MARGIN = 1000.0   # m around the blocks a zone polygon is clipped to (see below)
+
+
 def _zone_polygon(name: str, poly: tuple[tuple[float, float], ...], zone_crs: str | None,
                   frame: Frame, blocks: shapely.MultiPoint) -> shapely.Geometry:
     """One zone's polygon in the city frame (see :func:`_zone_polygons`); ``blocks``:
-    the point of each block :func:`_zone_for` places by."""
+    the point of each block :func:`_zone_for` places by. A polygon reaching past the
+    blocks is clipped to a box :data:`ZONE_MARGIN` around them first (a zone of the
+    whole country, or of the world, was projected whole: told far from the frame, or
+    garbled so that no block fell in it, "the nearest is 234,906 m outside it")."""
+    shape: dict = {"type": "Polygon", "coordinates": [[*map(list, poly), list(poly[0])]]}
+    if not blocks.is_empty:
+        x0, y0, x1, y1 = blocks.bounds
+        box = box_around(frame, (x0 - ZONE_MARGIN, y0 - ZONE_MARGIN, x1 + ZONE_MARGIN,
+                                 y1 + ZONE_MARGIN), zone_crs)
+        near = shapely.clip_by_rect(shapely.Polygon(poly), *box)
+        near = shapely.union_all([p for p in shapely.get_parts(near)
+                                  if isinstance(p, shapely.Polygon) and not p.is_empty])
+        if not near.is_empty:   # else the whole polygon, to say how far it lies
+            shape = json.loads(shapely.to_geojson(near))
     fc = {"type": "FeatureCollection", "features": [
-        {"type": "Feature", "properties": {"name": name},
-         "geometry": {"type": "Polygon", "coordinates": [[*map(list, poly), list(poly[0])]]}}]}
+        {"type": "Feature", "properties": {"name": name}, "geometry": shape}]}
     source = f"city.toml zone {name!r}"
     far = None
     with warnings.catch_warnings(record=True) as caught:
