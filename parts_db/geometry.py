@@ -25,7 +25,7 @@ import trimesh
 from numba import njit
 
 from citysynth.parts_db.library import Part, PartDB
-from citysynth.parts_db.meshes import read_mesh
+from citysynth.parts_db.meshes import mirrors, read_mesh
 
 DEFAULT_RGBA = (200, 200, 200, 255)   # meshes without colours
 _KIND = re.compile(r"^[A-Za-z]+")
@@ -119,8 +119,10 @@ def _pieces(path: str, part_id: str, meters_per_unit: float,
             m = _KIND.match(str(node))
             kind = m.group(0).lower() if m else "surface"
             verts = trimesh.transform_points(g.vertices, transform)
+            flip = mirrors(transform)   # wound back, as :func:`placed` says why
             for rgba, faces in _by_colour(g):
-                groups.setdefault((kind, rgba), []).append((verts, faces))
+                groups.setdefault((kind, rgba), []).append(
+                    (verts, faces[:, ::-1] if flip else faces))
     elif isinstance(loaded, trimesh.Trimesh):
         verts = np.asarray(loaded.vertices, dtype=np.float64)
         for rgba, faces in _by_colour(loaded):

@@ -82,6 +82,22 @@ def mesh_bytes(path: Path, where: str, fix: str = EXPORT_AGAIN) -> bytes:
         raise LibraryError(f"{where}: {fault.why}; {fault.fix or fix}") from None
 
 
+def placed(vertices: np.ndarray, faces: np.ndarray, transform: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray]:
+    """A scene node's geometry in world coordinates: its vertices moved by the node's
+    ``transform``, its faces wound the other way when the transform mirrors (a negative
+    determinant, as a modelling tool's mirrored copy exports), as glTF says a renderer
+    must. Moved without that, a mirrored window was inside out: its faces looked away
+    from the street, and an engine culling back faces showed a hole."""
+    return (trimesh.transform_points(vertices, transform),
+            np.ascontiguousarray(faces[:, ::-1]) if mirrors(transform) else faces)
+
+
+def mirrors(transform: np.ndarray) -> bool:
+    """Whether a node's transform mirrors (its 3x3 part has a negative determinant)."""
+    return bool(np.linalg.det(np.asarray(transform, dtype=np.float64)[:3, :3]) < 0)
+
+
 def _flatten(scene: trimesh.Scene):
     """All triangle geometry of a scene in world coordinates, as one mesh (colours are
     not needed for measuring; this is several times faster than Scene.to_geometry)."""
@@ -91,9 +107,10 @@ def _flatten(scene: trimesh.Scene):
         g = scene.geometry.get(geom_name)
         if not isinstance(g, trimesh.Trimesh) or len(g.faces) == 0:
             continue
-        verts.append(trimesh.transform_points(g.vertices, transform))
-        faces.append(g.faces + offset)
-        offset += len(g.vertices)
+        v, f = placed(g.vertices, g.faces, transform)
+        verts.append(v)
+        faces.append(f + offset)
+        offset += len(v)
     if not verts:
         return None
     return trimesh.Trimesh(np.vstack(verts), np.vstack(faces), process=False)

@@ -61,6 +61,30 @@ def test_two_boxes_of_known_profiles_give_a_known_cost(tmp_path):
     assert db.cost[i["A"], i["A"]] == pytest.approx(0)
 
 
+def test_a_mirrored_node_is_wound_back(tmp_path):
+    """A glTF part holding a mirrored copy (a node scaled -1 in x, as a modelling tool's
+    mirror exports) is read as glTF says a renderer must: its faces wound back, so they
+    face out as the plain box's do. They were inside out: each exported piece had a
+    negative volume, its faces looking into the wall (an engine culling back faces
+    showed a hole where the part stood)."""
+    from citysynth.parts_db.geometry import part_pieces
+    plain, mirrored = trimesh.Scene(), trimesh.Scene()
+    plain.add_geometry(_box(0, 4, 0, 10, 0, 6), node_name="wall")
+    flip = np.diag([-1.0, 1.0, 1.0, 1.0])
+    flip[0, 3] = 4.0   # x -> 4 - x: the same box
+    mirrored.add_geometry(_box(0, 4, 0, 10, 0, 6), node_name="wall", transform=flip)
+    lib = _library(tmp_path, [("A", "a.glb", plain, 'class = "building"'),
+                              ("M", "m.glb", mirrored, 'class = "building"')])
+    db = ingest(lib, tmp_path / "db")
+    i = db.index()
+    a, m = db.parts[i["A"]], db.parts[i["M"]]
+    assert m.legs == a.legs and m.sec_in.equals(a.sec_in)
+    for part in (a, m):
+        (piece,) = part_pieces(db, part)
+        mesh = trimesh.Trimesh(piece.vertices, piece.faces, process=False)
+        assert mesh.volume == pytest.approx(240.0)
+
+
 def test_tower_floors_stack_along_z(tmp_path):
     lower = _box(-5, 5, -5, 5, 0, 3.2)
     upper = _box(-4, 4, -4, 4, 0, 3.6)
