@@ -241,7 +241,7 @@ def _parse_quantum(q_in: Any, resources: list[str], source: str) -> dict[str, fl
         if name not in resources:
             raise ProblemError(f"{source}: quantum.{name}: unknown resource; resources are "
                                f"{', '.join(resources)}")
-        qv = _number(q, f"{source}: quantum.{name}")
+        qv = _number(q, f"{source}: quantum.{name}", minimum=None)   # one rule: > 0
         if qv <= 0:
             raise ProblemError(f"{source}: quantum.{name}: must be > 0, got {shown(q)}")
         quantum[name] = qv

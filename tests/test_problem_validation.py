@@ -41,6 +41,7 @@ def with_(**kw):
     (with_(back=["Q"]), "back: unknown element 'Q'"),
     (with_(k=0), '"k" must be a positive integer'),
     (with_(quantum={"length": 0}), "quantum.length: must be > 0"),
+    (with_(quantum={"length": -0.1}), "quantum.length: must be > 0"),   # not ">= 0"
     # a cost of 1e308 summed to infinity; a 1e-18 quantum overflowed the tables
     (with_(elements=[{"id": "A", "resources": {"length": 1}, "cost": 1e308}]),
      "elements[0].cost: must be <= 1e+15"),
