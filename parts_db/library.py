@@ -10,6 +10,7 @@ and is only read back. Any bad part stops the ingest before anything is written.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
 import shlex
@@ -27,7 +28,7 @@ import shapely.errors
 from citysynth.parts_db import stored
 from citysynth.parts_db.costs import allowed_matrix, cost_matrix
 from citysynth.parts_db.errors import LibraryError
-from citysynth.parts_db.files import atomic_path, no_such_folder, write_text
+from citysynth.parts_db.files import atomic_path, no_such_folder
 from citysynth.parts_db.manifest import Manifest, PartClass, read_manifest
 from citysynth.parts_db.measure import (
     STACKED,
@@ -287,19 +288,26 @@ def _wkt(g) -> str:
 
 
 def save(db: PartDB, out_dir: Path) -> None:
-    """Write npz then JSON (the JSON carries the library hash and the npz's own hash,
-    so it is written last and vouches for both); each through a temporary file and an
-    atomic rename."""
+    """Write the npz and the JSON (which carries the library hash and the npz's own
+    hash, and so vouches for both), each through a temporary file and an atomic
+    rename; both temporaries are written in full before either is renamed, npz first.
+    A disk that filled while the JSON was written left the new npz beside the old
+    JSON: ``--force`` over a good database broke it, and into an empty folder left a
+    lone npz."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    with atomic_path(out_dir / DB_NPZ) as tmp, open(tmp, "wb") as f:
-        np.savez_compressed(f, allowed=db.allowed, cost=db.cost, cost_branch=db.cost_branch)
+    buf = io.BytesIO()
+    np.savez_compressed(buf, allowed=db.allowed, cost=db.cost, cost_branch=db.cost_branch)
+    npz = buf.getvalue()
     meta = {"format": FORMAT_VERSION, "name": db.name, "library_hash": db.library_hash,
             "quantum": db.quantum, "warnings": db.warnings,
             "library_root": str(db.library_root) if db.library_root else None,
             "meters_per_unit": db.meters_per_unit,
-            "npz_sha256": hashlib.sha256((out_dir / DB_NPZ).read_bytes()).hexdigest(),
+            "npz_sha256": hashlib.sha256(npz).hexdigest(),
             "parts": [_part_json(p) for p in db.parts]}
-    write_text(out_dir / DB_JSON, json.dumps(meta, indent=1, sort_keys=True))
+    with atomic_path(out_dir / DB_JSON) as tmp_json:
+        tmp_json.write_text(json.dumps(meta, indent=1, sort_keys=True), encoding="utf-8")
+        with atomic_path(out_dir / DB_NPZ) as tmp_npz:
+            tmp_npz.write_bytes(npz)
 
 
 # A damaged database (truncated, edited, another format) raises any of these on reading;

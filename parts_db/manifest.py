@@ -136,11 +136,13 @@ MAX_ID = 200   # characters: a part's id names its files (parts/<id>.usdc), and 
 
 def id_key(pid: str) -> str:
     """What a part id becomes as a USD prim and file name (every character but ASCII
-    letters, digits and ``_`` made ``_``, as usd-core's ``Tf.MakeValidIdentifier``
-    does), case-folded as Windows and macOS compare file names: two ids with one key
-    would share one prototype file, and one of them would show the other's mesh."""
-    key = re.sub(r"[^A-Za-z0-9_]", "_", pid)
-    return ("_" + key if key[:1].isdigit() else key).casefold()
+    letters, digits and ``_`` made one ``_`` per byte of its UTF-8, as usd-core's
+    ``Tf.MakeValidIdentifier`` does: "ü" is "__"), case-folded as Windows and macOS
+    compare file names: two ids with one key would share one prototype file, and one
+    of them would show the other's mesh ("ü" and "__" did, one character counted as
+    one "_")."""
+    key = re.sub(r"[^A-Za-z0-9_]", lambda m: "_" * len(m.group().encode("utf-8")), pid)
+    return ("_" + key if pid[:1].isdigit() else key).casefold()   # as prim_name does
 
 
 def check_id(pid: object, where: str, seen: dict[str, str]) -> str:

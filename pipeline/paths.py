@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+import unicodedata
 from argparse import Namespace
 from pathlib import Path
 
@@ -18,6 +19,11 @@ def check_out_dir(out: str | Path, option: str = "-o") -> None:
     folder, where the outputs would land unasked."""
     check_not_empty(out, option)
     p = Path(out)
+    bad = next((c for c in str(p.absolute()) if unicodedata.category(c) == "Cc"), None)
+    if bad is not None:   # usd-core refuses such asset paths: "Invalid asset path string"
+        raise UsageError(f"{str(p.absolute())!r}: the output folder's path holds a control "
+                         f"character ({bad!r}), which USD cannot open files under; give "
+                         f"another {option} folder")
     if p.exists() and not p.is_dir():
         raise UsageError(f"{p}: a file, not a folder; {option} names the output folder "
                          "(give a folder path)")

@@ -280,6 +280,8 @@ def json_value(v: Any) -> Any:
         return {str(k): json_value(x) for k, x in v.items()}
     if isinstance(v, list | tuple):
         return [json_value(x) for x in v]
+    if isinstance(v, np.ndarray):   # GDAL's list fields (GML's StringList)
+        return [json_value(x) for x in v.tolist()]
     if isinstance(v, np.generic):
         return json_value(v.item())
     return v

@@ -282,6 +282,27 @@ def read_gis_file(path: Path, layer: str | None, fmt: str, accept: str,
     ``crs_given``: the user said which CRS its coordinates are in (``--crs``)."""
     if fmt == PARQUET:
         return read_geoparquet(path, layer)
+    with _no_gfs_left(path, fmt):
+        return _read_gdal(path, layer, fmt, accept, crs_given)
+
+
+@contextmanager
+def _no_gfs_left(path: Path, fmt: str) -> Iterator[None]:
+    """A GML file read without its schema has GDAL write what it guessed of the schema
+    to ``<name>.gfs`` beside it: the user's input folder gained a file each run. One
+    that was not there before is removed after reading."""
+    gfs = Path(path).with_suffix(".gfs")
+    made = fmt == "GML" and not gfs.exists()
+    try:
+        yield
+    finally:
+        if made:
+            gfs.unlink(missing_ok=True)
+
+
+def _read_gdal(path: Path, layer: str | None, fmt: str, accept: str, crs_given: bool
+               ) -> dict[str, Any]:
+    """:func:`read_gis_file` of a file GDAL reads (every format but GeoParquet)."""
     import pyogrio  # GDAL: loaded only when such a file is given
     from pyogrio.errors import DataLayerError, DataSourceError
 
@@ -351,6 +372,8 @@ def _gdal_quiet() -> Iterator[None]:
     EPSG:102100 is deprecated") before a run that read it right."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
+        # a measured (M) geometry is read as plain x, y: nothing of it is lost to us
+        warnings.filterwarnings("ignore", "Measured \\(M\\) geometry", UserWarning)
         yield
 
 
@@ -560,5 +583,24 @@ def _plain(kind: str) -> str:
 
 
 def _values(column: np.ndarray) -> list[Any]:
-    """A field's values as JSON would hold them (:func:`.geoparquet.json_value`)."""
-    return [json_value(v) for v in column.tolist()]
+    """A field's values as JSON would hold them (:func:`.geoparquet.json_value`): a
+    list field (GML's StringList: an osmnx edge's ``highway`` of a merged street) as a
+    list, as the GeoJSON it came from holds it (GDAL gives an array, which a street's
+    tags crashed on), and OGR's text of a list, ``(2:residential,unclassified)`` as a
+    GeoPackage stores one, as that list (it was read as one odd class)."""
+    return [_listed_text(json_value(v)) for v in column.tolist()]
+
+
+_OGR_LIST = re.compile(r"^\((\d+):(.*)\)$", re.DOTALL)
+
+
+def _listed_text(v: Any) -> Any:
+    """OGR's text of a StringList, IntegerList or RealList field, ``(n:a,b,...)`` with
+    n items, as the list; any other value as it is."""
+    if not isinstance(v, str):
+        return v
+    m = _OGR_LIST.match(v)
+    if m is None:
+        return v
+    items = m.group(2).split(",") if m.group(2) else []
+    return items if len(items) == int(m.group(1)) else v

@@ -164,6 +164,52 @@ def test_damaged_blocks_and_markers_are_rebuilt(clean, tmp_path, capsys):
     assert snapshot(out) == snap
 
 
+def test_a_half_written_block_no_longer_asked_for_is_removed(clean, tmp_path):
+    """A block a killed run left half-written (its layout JSON and USD, no marker)
+    stayed in the folder for good once the streets no longer made it: the folder
+    held a block no manifest lists. It goes, as a stale block with a marker does."""
+    streets, ref, snap = clean
+    out = tmp_path / "run"
+    shutil.copytree(ref, out)
+    blocks = out / "blocks"
+    first = sorted(blocks.glob("*.done.json"))[0].name[: -len(".done.json")]
+    orphan = "b0000000000"
+    for p in sorted(blocks.glob(f"{first}*")):
+        if not p.name.endswith(".done.json"):
+            shutil.copy(p, blocks / p.name.replace(first, orphan, 1))
+    assert len(list(blocks.glob(f"{orphan}*"))) >= 3
+    assert main(city_args(streets, out, "--workers", "1")) == 0
+    assert not list(blocks.glob(f"{orphan}*"))
+    assert snapshot(out) == snap
+
+
+@pytest.mark.parametrize("where, how", [("blocks/parts", "file"),
+                                        ("blocks/parts/materials", "file"),
+                                        ("blocks", "loop"), ("blocks/parts", "loop")])
+def test_a_run_folders_subfolder_that_is_no_folder_is_refused_first(clean, tmp_path, capsys,
+                                                                    where, how):
+    """``blocks/parts`` replaced by a file (or a link loop at ``blocks``): every block
+    was solved, then every one failed ("could not write ...: File exists"), and the
+    manifest was written again with no blocks. Refused before any block, as a file
+    named ``blocks`` was; the run folder is left as it was."""
+    streets, ref, _snap = clean
+    out = tmp_path / "run"
+    shutil.copytree(ref, out)
+    target = out / where
+    shutil.rmtree(target)
+    if how == "file":
+        target.write_text("not a folder\n")
+    else:
+        target.symlink_to(target)
+    before = (out / "manifest.json").read_bytes()
+    capsys.readouterr()
+    assert main(city_args(streets, out, "--workers", "1")) == 2
+    err = said(capsys.readouterr().err)
+    assert str(target) in err and ("a file where the run keeps" in err if how == "file"
+                                   else "a link that leads to no folder" in err), err
+    assert (out / "manifest.json").read_bytes() == before
+
+
 def test_progress_and_summary_agree(clean, tmp_path, capsys):
     streets, ref, _ = clean
     out = tmp_path / "run"
@@ -193,6 +239,30 @@ def test_a_second_run_on_the_folder_is_refused(clean, tmp_path, capsys):
     (out / LOCK).write_text("999999999 2026-01-01T00:00:00\n")   # a crashed run's lock
     assert main(city_args(streets, out, "--workers", "1")) == 0
     assert not (out / LOCK).exists() and snapshot(out) == snap
+
+
+@pytest.mark.parametrize("what", ["link", "folder"])
+def test_a_link_or_folder_at_the_lock_is_refused_and_nothing_outside_is_written(
+        clean, tmp_path, capsys, what):
+    """A link at the run's lock file had the run open its target, truncate it and
+    write its pid there (a file outside the run folder lost its content, exit 0); a
+    folder there gave "Is a directory; ... choose another name". Both are refused,
+    naming what to remove, and the target is untouched."""
+    from citysynth.pipeline.city.process import LOCK
+
+    streets, ref, snap = clean
+    out = tmp_path / "run"
+    shutil.copytree(ref, out)
+    victim = tmp_path / "victim.txt"
+    victim.write_text("important user data\n")
+    if what == "link":
+        (out / LOCK).symlink_to(victim)
+    else:
+        (out / LOCK).mkdir()
+    assert main(city_args(streets, out, "--workers", "1")) == 2
+    err = said(capsys.readouterr().err)
+    assert f"a {what} where the run keeps its lock file; remove the {what}" in err, err
+    assert victim.read_text() == "important user data\n"
 
 
 def test_a_second_process_is_refused_while_a_run_holds_the_folder(clean, tmp_path):

@@ -886,3 +886,107 @@ def test_an_esri_json_numbered_102100_reads_without_gdal_warnings(files, tmp_pat
     assert len(got["features"]) == len(web)
     assert not [w for w in seen if issubclass(w.category, RuntimeWarning)], \
         [str(w.message) for w in seen]
+
+
+def _gml_streets(lines: list, path: Path) -> Path:
+    """A GML file of street lines in EPSG:3067 without its schema, as a WFS or a
+    cadastre gives one; a tag given a list repeats its element, which GDAL reads as a
+    list field (StringList, IntegerList)."""
+    feats = []
+    for i, (coords, tags) in enumerate(lines):
+        pos = " ".join(f"{x} {y}" for x, y in coords)
+        props = "".join(f"<ogr:{k}>{v}</ogr:{k}>" for k, vs in tags.items()
+                        for v in (vs if isinstance(vs, list) else [vs]))
+        feats.append(f'<ogr:featureMember><ogr:streets gml:id="s.{i}"><ogr:geometryProperty>'
+                     '<gml:LineString srsName="urn:ogc:def:crs:EPSG::3067"><gml:posList>'
+                     f"{pos}</gml:posList></gml:LineString></ogr:geometryProperty>{props}"
+                     "</ogr:streets></ogr:featureMember>")
+    path.write_text('<?xml version="1.0" encoding="utf-8" ?>\n<ogr:FeatureCollection '
+                    'xmlns:ogr="http://ogr.maptools.org/" '
+                    'xmlns:gml="http://www.opengis.net/gml/3.2">' + "".join(feats)
+                    + "</ogr:FeatureCollection>\n")
+    return path
+
+
+def _listed_grid() -> list:
+    """A 2 x 2 grid of blocks 100 m apart whose tags are lists (an osmnx merged edge),
+    and a footway across one block, which bounds none."""
+    x0, y0 = 385000.0, 6672000.0
+    lines: list = []
+    for i in range(3):
+        lines.append(([(x0 + 100 * i, y0), (x0 + 100 * i, y0 + 200)],
+                      {"highway": ["residential", "unclassified"],
+                       "junction": ["no", "yes"][:1 + i % 2]}))
+        lines.append(([(x0, y0 + 100 * i), (x0 + 200, y0 + 100 * i)],
+                      {"highway": "residential", "lanes": ["2", "3"]}))
+    lines.append(([(x0 + 10, y0 + 50), (x0 + 90, y0 + 50)], {"highway": ["footway", "path"]}))
+    return lines
+
+
+def _geojson_of(lines: list, path: Path) -> Path:
+    path.write_text(json.dumps({"type": "FeatureCollection", "crs": {
+        "type": "name", "properties": {"name": "EPSG:3067"}}, "features": [
+        {"type": "Feature", "properties": tags, "geometry": {
+            "type": "LineString", "coordinates": coords}} for coords, tags in lines]}))
+    return path
+
+
+def test_list_fields_of_gml_and_geopackage_read_as_the_geojson_lists(tmp_path, capsys):
+    """GDAL reads a GML element given twice as a list field, and a GeoPackage stores a
+    list as OGR's text ``(2:residential,unclassified)``. A street whose ``junction``
+    was such a list crashed the run (an internal error, exit 3); a footway given
+    ``highway`` as a list bounded a block, and ``lanes`` of a list fell back to the
+    default setback, without a word. Both read as the GeoJSON of the same lists does;
+    and reading the GML leaves no ``.gfs`` beside it (GDAL writes its guess of the
+    schema there)."""
+    lines = _listed_grid()
+    ref = _geojson_of(lines, tmp_path / "ref.geojson")
+    gml = _gml_streets(lines, tmp_path / "streets.gml")
+    import pyogrio
+    gpkg = tmp_path / "streets.gpkg"
+    frame = gpd.GeoDataFrame(
+        {k: [_ogr_text(tags.get(k)) for _, tags in lines]
+         for k in ("highway", "junction", "lanes")},
+        geometry=[shapely.LineString(c) for c, _ in lines], crs="EPSG:3067")
+    pyogrio.write_dataframe(frame, gpkg, driver="GPKG")
+    assert city(tmp_path / "ref", "--streets", str(ref)) == 0
+    want = json.loads((tmp_path / "ref" / "manifest.json").read_text())["blocks"]
+    assert len([b for b in want.values() if b["status"] == "built"]) == 4
+    for src in (gml, gpkg):
+        capsys.readouterr()
+        assert city(tmp_path / src.suffix[1:], "--streets", str(src)) == 0, \
+            capsys.readouterr().err
+        got = json.loads((tmp_path / src.suffix[1:] / "manifest.json").read_text())["blocks"]
+        assert sorted(got) == sorted(want), src
+    assert sorted(p.name for p in tmp_path.glob("streets.*")) == ["streets.gml",
+                                                                  "streets.gpkg"]
+
+
+def _ogr_text(v) -> str | None:
+    """A value as a GeoPackage written by GDAL stores a list: ``(2:a,b)``."""
+    if isinstance(v, list):
+        return f"({len(v)}:{','.join(map(str, v))})"
+    return v
+
+
+def test_measured_geometry_reads_without_pyogrio_warnings(tmp_path):
+    """Lines with M values (``-dim XYM`` exports, linear referencing) printed pyogrio's
+    "Measured (M) geometry types are not supported" with its source lines, three a
+    layer, before a run that read them right."""
+    import sqlite3
+
+    import pyogrio
+
+    from citysynth.skeletons.gis_files import read_gis_file
+    frame = gpd.GeoDataFrame(
+        {"highway": ["residential"]},
+        geometry=[shapely.LineString([(385000, 6672000), (385100, 6672000)])], crs="EPSG:3067")
+    path = tmp_path / "m.gpkg"
+    pyogrio.write_dataframe(frame, path, driver="GPKG")   # pyogrio writes no M layer:
+    with sqlite3.connect(path) as db:                     # the layer is made one
+        db.execute("UPDATE gpkg_geometry_columns SET m = 1")
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        got = read_gis_file(path, None, "GeoPackage", "lines")
+    assert len(got["features"]) == 1
+    assert not [str(w.message) for w in seen], [str(w.message) for w in seen]

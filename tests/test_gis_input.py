@@ -934,3 +934,33 @@ def test_more_geos_complaints_are_said_in_geojson_words(geometry, says):
     with pytest.raises(SkeletonError) as exc:
         parse_geojson(geometry, "s.geojson")
     assert str(exc.value) == f"s.geojson: feature 0: {says}"
+
+
+@pytest.mark.parametrize("case", ["far east", "web mercator read as tm35fin"])
+def test_footprints_where_the_kept_crs_is_not_true_to_scale_are_refused(district_gdf,
+                                                                      tmp_path, case):
+    """Streets in EPSG:3067 are kept in its axes; footprints read into it were never
+    checked for scale: 2,000 km east (still EPSG:3067), or Web Mercator numbers taken
+    as EPSG:3067 (``--crs EPSG:3067`` over a file that says 3857), were built 2,000 to
+    2,900 km off and 4 % to 2x too large, exit 0. Refused, as lon/lat data that far
+    from the frame is, naming how far and how wrong."""
+    streets = tmp_path / "streets.geojson"
+    district_gdf.to_crs("EPSG:3067").to_file(streets, driver="GeoJSON")
+    x, y = district_gdf.to_crs("EPSG:3067").union_all().centroid.coords[0]
+    ring = np.array([[0, 0], [30, 0], [30, 14], [0, 14], [0, 0]], dtype=float)
+    if case == "far east":
+        at, crs_member = ring + [x + 2_000_000, y], "EPSG:3067"
+    else:
+        tf = pyproj.Transformer.from_crs("EPSG:3067", "EPSG:3857", always_xy=True)
+        at, crs_member = np.column_stack(tf.transform(*(ring + [x, y]).T)), "EPSG:3857"
+    foot = tmp_path / "foot.geojson"
+    foot.write_text(json.dumps({"type": "FeatureCollection", "crs": {
+        "type": "name", "properties": {"name": crs_member}}, "features": [
+        {"type": "Feature", "properties": {"building": "yes"}, "geometry": {
+            "type": "Polygon", "coordinates": [at.tolist()]}}]}))
+    with pytest.raises(SkeletonError, match="are the two inputs of one place") as got, \
+            warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        prepare(streets, foot, load_config(None), LIB,
+                "EPSG:3067" if crs_member == "EPSG:3857" else None)
+    assert re.search(r"data reach [\d,]+ km from the run's frame centre", str(got.value))

@@ -571,3 +571,18 @@ def test_one_street_drawn_twenty_thousand_times_is_one_street(tmp_path, capsys):
     code, err = _run(["city", "--streets", str(src), "--library", str(LIB), "-o",
                       str(tmp_path / "o")], capsys)
     assert code == 1 and "the streets enclose no block" in err, err
+
+
+@pytest.mark.parametrize("name", ["new\nline", "tab\there"])
+def test_an_output_folder_whose_path_holds_a_control_character_is_refused(tmp_path, capsys,
+                                                                          name):
+    """A run into a folder whose path holds a newline or a tab exited 0 and wrote USD
+    that usd-core cannot open ("Invalid asset path string -- character 11 is control
+    character 0xa"), even from inside the folder. Refused before anything is written."""
+    parent = tmp_path / name
+    parent.mkdir()
+    line = _lines_file(tmp_path / "line.geojson", [[(0, 0), (60, 0)]])
+    code, err = _run(["street", "--line", str(line), "-o",
+                      str(parent / "out"), "--no-preview"], capsys)
+    assert code == 2 and "holds a control character" in err, err
+    assert not (parent / "out").exists()

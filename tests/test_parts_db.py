@@ -12,10 +12,14 @@ import numpy as np
 import pytest
 import shapely
 import trimesh
+from hypothesis import given
+from hypothesis import strategies as st
 
+from citysynth.export.usd import prim_name
 from citysynth.parts_db import LibraryError, ingest, load_library
 from citysynth.parts_db.costs import allowed_matrix
 from citysynth.parts_db.library import DB_JSON, DB_NPZ
+from citysynth.parts_db.manifest import id_key
 from citysynth.pipeline.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -61,6 +65,15 @@ def test_two_boxes_of_known_profiles_give_a_known_cost(tmp_path):
     assert db.cost[i["A"], i["A"]] == pytest.approx(0)
 
 
+@given(st.text(st.characters(codec="utf-8", categories=("L", "N", "P", "S", "Zs")),
+               min_size=1, max_size=12))
+def test_an_ids_key_is_its_usd_name(pid):
+    """The key ingest tells ids apart by is the name usd-core gives the part's prim and
+    file (case-folded): ids of one key are refused, ids of two keys never share a
+    file."""
+    assert id_key(pid) == prim_name(pid).casefold()
+
+
 def test_a_mirrored_node_is_wound_back(tmp_path):
     """A glTF part holding a mirrored copy (a node scaled -1 in x, as a modelling tool's
     mirror exports) is read as glTF says a renderer must: its faces wound back, so they
@@ -83,6 +96,58 @@ def test_a_mirrored_node_is_wound_back(tmp_path):
         (piece,) = part_pieces(db, part)
         mesh = trimesh.Trimesh(piece.vertices, piece.faces, process=False)
         assert mesh.volume == pytest.approx(240.0)
+
+
+@pytest.mark.parametrize("before", ["a good database", "nothing"])
+def test_a_disk_filling_while_the_database_is_written_leaves_the_old_one(
+        tmp_path, monkeypatch, before):
+    """``ingest --force`` over a good database met a full disk while writing the JSON,
+    after the new npz had replaced the old one: the old database no longer loaded
+    ("does not match the hash partdb.json records"), and into an empty folder a lone
+    npz was left. Both temporaries are written before either replaces anything."""
+    import errno
+
+    from citysynth.parts_db.library import load_db
+    (tmp_path / "one").mkdir()
+    (tmp_path / "two").mkdir()
+    one = _library(tmp_path / "one", [("A", "a.stl", _box(0, 4, 0, 10, 0, 6),
+                                       'class = "building"')])
+    two = _library(tmp_path / "two", [("A", "a.stl", _box(0, 4, 0, 10, 0, 6),
+                                       'class = "building"'),
+                                      ("B", "b.stl", _box(0, 3, 0, 10, 0, 9),
+                                       'class = "building"')])
+    db = tmp_path / "db"
+    if before == "a good database":
+        ingest(one, db)
+    written = {p.name: p.read_bytes() for p in db.glob("*")} if db.exists() else {}
+    def full(real):
+        def write(self, *a, **k):   # the JSON's temporary meets the full disk
+            if self.name.startswith(".partdb") and self.suffix == ".json":
+                raise OSError(errno.ENOSPC, "No space left on device", str(self))
+            return real(self, *a, **k)
+        return write
+    monkeypatch.setattr(Path, "write_text", full(Path.write_text))
+    monkeypatch.setattr(Path, "write_bytes", full(Path.write_bytes))
+    with pytest.raises(OSError, match="No space left"):
+        ingest(two, db, force=True)
+    monkeypatch.undo()
+    assert {p.name: p.read_bytes() for p in db.glob("*")} == written
+    if written:
+        assert [p.id for p in load_db(db).parts] == ["A"]
+
+
+def test_a_part_of_too_many_triangles_is_refused_with_the_memory_it_takes(
+        tmp_path, monkeypatch, capsys):
+    """A scanned part of 6.2 million triangles was measured for 24 s in 2 GB, and
+    under a memory limit ended in a traceback inside trimesh. Past the limit (here
+    lowered to 10, for a 12-triangle box) a part is refused before it is measured."""
+    import citysynth.parts_db.meshes as meshes
+    monkeypatch.setattr(meshes, "MAX_TRIANGLES", 10)
+    lib = _library(tmp_path, [("A", "a.glb", _box(0, 4, 0, 10, 0, 6), 'class = "building"')])
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 2
+    err = capsys.readouterr().err
+    assert '"A"' in err and "12 triangles, past the 10 a part may have" in err, err
+    assert "decimate it" in err and not (tmp_path / "db").exists()
 
 
 def test_tower_floors_stack_along_z(tmp_path):
@@ -229,6 +294,9 @@ GLB = GOOD.export(file_type="glb")
     ([("wall.2", "a.stl", GOOD, 'class = "middle"'), ("Wall_2", "b.stl", GOOD,
                                                          'class = "middle"')],
      "", 'its id and "wall.2" differ only in case or in characters other than letters'),
+    # "ü" is "__" in USD (a "_" per UTF-8 byte): one prototype file for both parts
+    ([("ü", "a.stl", GOOD, 'class = "middle"'), ("__", "b.stl", GOOD, 'class = "middle"')],
+     "", 'its id and "ü" differ only in case or in characters other than letters'),
     ([("A\\nB", "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
     ([("x" * 201, "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
     # 120 characters, 240 bytes: its files' names went past the file system's 255

@@ -18,13 +18,22 @@ def misplaced(out: str) -> str | None:
     another kind (a file named ``blocks``, a folder named ``manifest.json``): said
     before any block is solved, where the run found it only when writing, after every
     block's work. None when nothing does."""
+    import os
     from pathlib import Path  # (this module imports nothing at its top: see above)
+
+    from citysynth.export.usd import MATERIALS_DIR, PARTS_DIR
 
     root = Path(out)
     blocks = root / BLOCKS_DIR
-    if blocks.exists() and not blocks.is_dir():
-        return (f"{blocks}: a file where the run keeps its blocks folder; move it away, "
-                "or give another -o folder")
+    for folder, what in ((blocks, "its blocks folder"),
+                         (blocks / PARTS_DIR, "the part files its blocks share"),
+                         (blocks / PARTS_DIR / MATERIALS_DIR, "their materials")):
+        if os.path.islink(folder) and not folder.exists():   # a loop, or leads nowhere
+            return (f"{folder}: a link that leads to no folder where the run keeps "
+                    f"{what}; remove the link, or give another -o folder")
+        if folder.exists() and not folder.is_dir():
+            return (f"{folder}: a file where the run keeps {what}; move it away, or "
+                    "give another -o folder")
     for name in (MANIFEST, BLOCKS_GEOJSON, REPORT, *CITY_FILES):
         if (root / name).is_dir():
             return (f"{root / name}: a folder where the run writes its {name} file; move "

@@ -55,7 +55,14 @@ def _holder(path: Path) -> str:
 def _take(path: Path) -> int:
     """An open descriptor holding the lock on ``path``'s current file."""
     while True:
-        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+        try:   # never through a link: a link there had the run write over its target
+            fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o666)
+        except OSError as exc:
+            if exc.errno not in (errno.ELOOP, errno.EISDIR):
+                raise
+            what = "folder" if exc.errno == errno.EISDIR else "link"
+            raise ConfigError(f"{path}: a {what} where the run keeps its lock file; "
+                              f"remove the {what}, or give another -o folder") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError as exc:

@@ -657,9 +657,13 @@ def run_city(inputs: CityInputs, out_dir: str | Path, *, workers: int = 1,
 
 def _remove_stale(out: Path, keep: set[str]) -> None:
     """Blocks of an earlier run whose inputs no longer exist leave the folder, so the
-    folder always describes this run."""
-    for marker in (out / BLOCKS_DIR).glob("*.done.json"):
-        bid = marker.name[: -len(".done.json")]
+    folder always describes this run: those with a marker, and those a killed run left
+    half-written without one (their layout JSON is written first; they stayed for
+    good once the streets changed)."""
+    blocks = out / BLOCKS_DIR
+    ids = {m.name[: -len(suffix)] for suffix in (".done.json", ".layout.json")
+           for m in blocks.glob(f"*{suffix}")}
+    for bid in sorted(ids):
         if bid not in keep:
             for suffix in (".layout.json", ".done.json"):
                 (out / BLOCKS_DIR / f"{bid}{suffix}").unlink(missing_ok=True)
