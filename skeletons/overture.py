@@ -6,7 +6,10 @@ driveway or parking aisle as ``subclass``, and a road in a tunnel by its ``road_
 a rail segment's class is OSM's ``railway`` (tram, subway, standard_gauge, ...), a
 water segment is a ferry route. Its ``building`` features give ``num_floors``,
 ``roof_shape`` and ``is_underground`` where OSM has ``building:levels``, ``roof:shape``
-and ``location=underground``.
+and ``location=underground``. So are the names GDAL's writers make of OSM's keys,
+which hold a ``:`` few formats allow in a field name: ``building_levels`` (GML,
+MapInfo, a File Geodatabase), ``building_l`` (a Shapefile's ten characters) and
+``roof_shape``; a Shapefile export of OSM buildings lost its storeys without a word.
 Read once, where a feature's properties are read (:func:`.geojson.parse_geojson`), so
 the setbacks, the not-a-street rules, zones by highway class and storeys by levels all
 work on an Overture download (GeoParquet, GeoJSON or GeoJSON sequence) as on an OSM
@@ -18,7 +21,8 @@ from __future__ import annotations
 from typing import Any
 
 SERVICE = ("driveway", "parking_aisle", "alley", "drive_through")   # subclass -> service=
-_BUILDING = (("num_floors", "building:levels"), ("roof_shape", "roof:shape"))
+_BUILDING = (("num_floors", "building:levels"), ("roof_shape", "roof:shape"),
+             ("building_levels", "building:levels"), ("building_l", "building:levels"))
 
 
 def osm_tags(props: dict[str, Any]) -> dict[str, Any]:

@@ -444,6 +444,10 @@ def test_geojson_text_sequences_are_read_record_by_record(tmp_path, capsys):
     ({"num_floors": 5, "roof_shape": "gabled", "is_underground": False},
      {"building:levels": 5, "roof:shape": "gabled"}),
     ({"is_underground": True}, {"location": "underground"}),
+    # GDAL's writers' names for OSM's keys: a Shapefile's ten characters, GML's "_"
+    ({"building_l": 6}, {"building:levels": 6}),
+    ({"building_levels": "4", "roof_shape": "flat"},
+     {"building:levels": "4", "roof:shape": "flat"}),
     ({"subtype": "road", "class": "primary", "highway": "secondary"}, {}),   # its own wins
     ({"class": "residential"}, {}),               # a class without Overture's subtype
 ])
@@ -990,3 +994,23 @@ def test_measured_geometry_reads_without_pyogrio_warnings(tmp_path):
         got = read_gis_file(path, None, "GeoPackage", "lines")
     assert len(got["features"]) == 1
     assert not [str(w.message) for w in seen], [str(w.message) for w in seen]
+
+
+def test_osm_buildings_exported_as_a_shapefile_keep_their_storeys(tmp_path):
+    """GDAL writes ``building:levels`` to a Shapefile as ``building_l`` (and to GML as
+    ``building_levels``): the footprints of a Shapefile export lost their storeys
+    (families of 4, 5 and 6 storeys mixed where every building asked for 6), exit 0
+    without a word. They read as the GeoJSON they came from."""
+    from citysynth.skeletons import read_geojson
+    ring = [(385000, 6672000), (385030, 6672000), (385030, 6672014), (385000, 6672014)]
+    frame = gpd.GeoDataFrame({"building": ["yes"], "building:levels": ["6"],
+                              "roof:shape": ["gabled"]},
+                             geometry=[shapely.Polygon(ring)], crs="EPSG:3067")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")   # GDAL says it shortens the field names
+        frame.to_file(tmp_path / "foot.shp")
+        frame.to_file(tmp_path / "foot.gml", driver="GML")
+    for name in ("foot.shp", "foot.gml"):
+        (feat,), _ = read_geojson(tmp_path / name, accept="polygons")
+        assert feat.properties["building:levels"] == "6", (name, feat.properties)
+        assert feat.properties["roof:shape"] == "gabled", (name, feat.properties)
