@@ -262,7 +262,7 @@ def _usable(raw: list[Any], source: str, accept: Accept
         if "id" not in props and isinstance(fid, str | int) and not isinstance(fid, bool) \
                 and str(fid):
             props["id"] = fid
-        g = _geometry(f.get("geometry"), f"{source}: feature {i}")
+        g = _polygons_of(_geometry(f.get("geometry"), f"{source}: feature {i}"), accept)
         reason = _unusable(g, accept)
         if reason is not None:
             skipped.append(f"{source}: {feature_label(i, props)}: {reason}; left out")
@@ -364,6 +364,21 @@ def _check_coordinates(g: dict, where: str) -> None:
                             "gigabytes); simplify it first, e.g. ogr2ogr -simplify 0.1")
 
 
+def _polygons_of(g: BaseGeometry | None, accept: Accept) -> BaseGeometry | None:
+    """Where polygons are asked for, a GeometryCollection's polygons (a Google Earth
+    placemark is a MultiGeometry of its label's Point and its Polygon; some exports
+    wrap each footprint in a collection): they were refused, "a GeometryCollection
+    cannot be a polygon". Anything else as it is."""
+    if accept != "polygons" or not isinstance(g, shapely.GeometryCollection) or \
+            isinstance(g, shapely.MultiPolygon):
+        return g
+    polys = [p for q in shapely.get_parts(g) for p in shapely.get_parts(q)
+             if isinstance(p, shapely.Polygon) and not p.is_empty]
+    if not polys:
+        return g
+    return polys[0] if len(polys) == 1 else shapely.MultiPolygon(polys)
+
+
 def _unusable(g: BaseGeometry | None, accept: Accept) -> str | None:
     """Why a geometry cannot be used, or None."""
     if g is None:
@@ -371,7 +386,10 @@ def _unusable(g: BaseGeometry | None, accept: Accept) -> str | None:
     if g.is_empty:
         return f"an empty {g.geom_type}"
     if accept != "any" and g.geom_type not in ACCEPTED[accept]:
-        return f"a {g.geom_type} cannot be {_WHAT[accept]} ({' or '.join(ACCEPTED[accept])})"
+        why = f"a {g.geom_type} cannot be {_WHAT[accept]} ({' or '.join(ACCEPTED[accept])})"
+        if accept == "polygons" and isinstance(g, shapely.LineString) and g.is_ring:
+            why += "; it is a closed line: draw or export it as a Polygon"
+        return why
     return None
 
 

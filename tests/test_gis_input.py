@@ -964,3 +964,27 @@ def test_footprints_where_the_kept_crs_is_not_true_to_scale_are_refused(district
         prepare(streets, foot, load_config(None), LIB,
                 "EPSG:3067" if crs_member == "EPSG:3857" else None)
     assert re.search(r"data reach [\d,]+ km from the run's frame centre", str(got.value))
+
+
+def test_a_collection_holding_a_footprint_is_read_as_its_polygons():
+    """A Google Earth placemark is a MultiGeometry of its label's Point and its
+    Polygon (GDAL reads it as a GeometryCollection); some exports wrap each footprint
+    in a collection. Such footprints were all refused ("a GeometryCollection cannot be
+    a polygon"); their polygons are read. A closed line is still no footprint, said
+    with what to do."""
+    ring = [[24.94, 60.17], [24.9405, 60.17], [24.9405, 60.1702], [24.94, 60.1702],
+            [24.94, 60.17]]
+    fc = {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"name": "A"}, "geometry": {
+            "type": "GeometryCollection", "geometries": [
+                {"type": "Point", "coordinates": ring[0]},
+                {"type": "Polygon", "coordinates": [ring]}]}},
+        {"type": "Feature", "properties": {"name": "B"}, "geometry": {
+            "type": "LineString", "coordinates": ring}}]}
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        feats, _ = parse_geojson(fc, "foot.geojson", accept="polygons")
+    assert len(feats) == 1 and feats[0].geometry.geom_type == "Polygon"
+    assert feats[0].geometry.area == pytest.approx(27.7 * 22.2, rel=0.02)
+    (line,) = [str(w.message) for w in seen if "(B)" in str(w.message)]
+    assert "a LineString cannot be a polygon" in line and "export it as a Polygon" in line
