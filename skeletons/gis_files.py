@@ -237,6 +237,26 @@ def _check_unpacked(path: Path, fmt: str) -> None:
                     SkeletonError)
 
 
+def _in_zip_folder(path: Path, fmt: str) -> Path | str:
+    """What GDAL opens for ``path``: a zipped Shapefile whose .shp files all sit in one
+    folder inside the archive (zipping a folder makes one) as that folder,
+    ``/vsizip/<zip>/<folder>``; GDAL reads only an archive's top level, and such a zip
+    was refused with GDAL's "not recognized as being in a supported file format".
+    Anything else as it is."""
+    if fmt != "zipped Shapefile":
+        return path
+    try:
+        with zipfile.ZipFile(path) as archive:
+            shps = [m.filename for m in archive.infolist()
+                    if m.filename.lower().endswith(".shp")]
+    except (zipfile.BadZipFile, OSError):
+        return path
+    folders = {m.rsplit("/", 1)[0] if "/" in m else "" for m in shps}
+    if len(folders) != 1 or "" in folders:
+        return path
+    return f"/vsizip/{Path(path).resolve()}/{folders.pop()}"
+
+
 def _check_zip_holds(path: Path, fmt: str, members: list[str]) -> None:
     """Refuse a zip archive that is not the format it was taken for: one without a
     .shp (a zipped GeoJSON or GeoPackage, or a zip renamed .geojson) or a KMZ without
@@ -308,6 +328,7 @@ def _read_gdal(path: Path, layer: str | None, fmt: str, accept: str, crs_given: 
 
     check_file(path, fmt, SkeletonError)
     _check_unpacked(path, fmt)
+    gdal = _in_zip_folder(path, fmt)
     if fmt == "Shapefile":
         _check_shp_length(path)
     if fmt == OSM:   # node ids out of order (JOSM's new objects, merged extracts) too
@@ -319,7 +340,7 @@ def _read_gdal(path: Path, layer: str | None, fmt: str, accept: str, crs_given: 
     unreadable = (DataSourceError, DataLayerError, OSError, RuntimeError)
     try:
         with _gdal_quiet():
-            layers = pyogrio.list_layers(path)
+            layers = pyogrio.list_layers(gdal)
     except unreadable as exc:
         raise _cannot_read(path, fmt, exc) from None
     where = None
@@ -335,12 +356,12 @@ def _read_gdal(path: Path, layer: str | None, fmt: str, accept: str, crs_given: 
         name = _layer(path, layer, fmt, accept, layers)
     try:
         with _gdal_quiet():
-            meta, _, wkb, fields = pyogrio.raw.read(path, layer=name, force_2d=True,
+            meta, _, wkb, fields = pyogrio.raw.read(gdal, layer=name, force_2d=True,
                                                     datetime_as_string=True, where=where)
     except unreadable as exc:
         raise _cannot_read(path, fmt, exc) from None
     if wkb is None or len(wkb) == 0:
-        raise _no_features(path, fmt, name, accept, _listed(path, name) if where is None
+        raise _no_features(path, fmt, name, accept, _listed(gdal, name) if where is None
                            else 0)
     _warn_unread_prj(path, fmt, meta.get("crs") or crs_given)
     geoms = shapely.from_wkb(np.asarray(wkb, dtype=object), on_invalid="ignore")
@@ -417,7 +438,7 @@ def _cad_entities(path: Path, geoms: np.ndarray, accept: str, layer: str | None,
     return rows
 
 
-def _listed(path: Path, layer: str) -> int:
+def _listed(path: Path | str, layer: str) -> int:
     """How many features the header of the file's ``layer`` lists (0 when it cannot
     tell)."""
     import pyogrio

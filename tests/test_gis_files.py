@@ -1014,3 +1014,19 @@ def test_osm_buildings_exported_as_a_shapefile_keep_their_storeys(tmp_path):
         (feat,), _ = read_geojson(tmp_path / name, accept="polygons")
         assert feat.properties["building:levels"] == "6", (name, feat.properties)
         assert feat.properties["roof:shape"] == "gabled", (name, feat.properties)
+
+
+def test_a_zipped_folder_of_a_shapefile_reads_as_the_flat_zip(files, tmp_path):
+    """Zipping a folder puts the Shapefile in it inside the archive (``sub/streets.shp``):
+    GDAL reads only an archive's top level, and such a zip was refused with GDAL's
+    "not recognized as being in a supported file format". It reads as the flat zip."""
+    from citysynth.skeletons import read_geojson
+    nested = tmp_path / "nested.zip"
+    with zipfile.ZipFile(nested, "w") as z:
+        for ext in ("shp", "shx", "dbf", "prj", "cpg"):
+            if (files / f"streets.{ext}").exists():
+                z.write(files / f"streets.{ext}", f"export/streets.{ext}")
+    flat, _ = read_geojson(files / "streets.zip", accept="lines")
+    got, _ = read_geojson(nested, accept="lines")
+    assert len(got) == len(flat) > 400
+    assert all(a.geometry.equals(b.geometry) for a, b in zip(got, flat, strict=True))
