@@ -296,6 +296,31 @@ def _mount_tmpfs(where: Path, size: str) -> None:
         pytest.skip(reason)
 
 
+def test_a_full_disk_at_the_manifest_still_shows_what_the_blocks_came_to(
+        clean, tmp_path, capsys, monkeypatch):
+    """A disk that filled at ``manifest.json`` (after the blocks) printed only the one
+    line, "manifest.json: No space left on device": no table of what was built or
+    failed, as a full disk at ``city.usda`` prints. The table comes first now."""
+    import errno
+
+    from citysynth.pipeline.city import outputs
+
+    streets, _, _snap = clean
+    real = outputs.write_text
+
+    def full(path, text):
+        if Path(path).name == "manifest.json":
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        return real(path, text)
+    monkeypatch.setattr(outputs, "write_text", full)
+    capsys.readouterr()
+    assert main(city_args(streets, tmp_path / "run", "--workers", "1")) == 2
+    cap = capsys.readouterr()
+    table = [ln.split() for ln in cap.out.splitlines()]
+    assert ["built", "3"] in table and ["failed", "0"] in table, cap.out
+    assert "manifest.json: No space left on device" in said(cap.err)
+
+
 def test_a_failed_street_block_is_not_called_feature_0(clean, tmp_path, monkeypatch):
     """A street block's skeleton is named "feature 0 (<id>)": its failure was reported
     as "failed b95829418cb: feature 0 (b95829418cb): the convex corner of ...". The

@@ -57,7 +57,6 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
                 "blocks": {i: {k: recs[i][k] for k in _MANIFEST_KEYS
                                if recs[i].get(k) is not None} for i in ids},
                 "skipped": _reasons(inputs.skipped)}
-    write_text(out / MANIFEST, json.dumps(manifest, sort_keys=True, indent=1) + "\n")
     counts: dict[str, int] = {s: sum(1 for r in recs.values() if r["status"] == s)
                               for s in STATUSES}
     counts["skipped"] += len(inputs.skipped)
@@ -85,9 +84,23 @@ def write_summary(inputs: CityInputs, results: dict[str, BlockRecord], out: Path
         "kinds": count_kinds(inputs, recs),
         "timings": _stage_times(inputs, recs, t_blocks), "workers": workers,
         "scheduler": scheduler, "built": [i for i in ids if recs[i]["status"] == "built"]}
-    write_report(out, report)
-    write_blocks_geojson(out / BLOCKS_GEOJSON, inputs, recs)
+    try:
+        write_text(out / MANIFEST, json.dumps(manifest, sort_keys=True, indent=1) + "\n")
+        write_report(out, report)
+        write_blocks_geojson(out / BLOCKS_GEOJSON, inputs, recs)
+    except OSError as exc:
+        raise SummaryNotWritten(report, exc) from None
     return report
+
+
+class SummaryNotWritten(OSError):
+    """The machine refused the run's own files (a full disk at ``manifest.json``): the
+    machine's error, carrying the ``report`` of the blocks, so the user still sees what
+    the blocks came to before the one line saying why (there was only the line)."""
+
+    def __init__(self, report: Report, exc: OSError) -> None:
+        super().__init__(exc.errno, exc.strerror or str(exc), exc.filename)
+        self.report = report
 
 
 def _notes(rec: dict[str, Any]) -> list[str]:

@@ -84,7 +84,7 @@ def run(args) -> int:
     if wrong:
         raise UsageError(wrong)
     from citysynth.pipeline.city.config import load_config  # when run (see pipeline.cli)
-    from citysynth.pipeline.city.outputs import finish_city
+    from citysynth.pipeline.city.outputs import SummaryNotWritten, finish_city
     from citysynth.pipeline.city.run import prepare, progress_printer, run_city
 
     t0 = time.perf_counter()
@@ -94,8 +94,12 @@ def run(args) -> int:
     where = f"Dask at {args.scheduler}" if args.scheduler else f"{workers} worker(s)"
     print(f"citysynth city: {len(inputs.jobs)} blocks to build ({len(inputs.skipped)} "
           f"pieces skipped) on {where}, into {args.out}/")
-    report = run_city(inputs, args.out, workers=workers, scheduler=args.scheduler,
-                      progress=progress_printer(pieces=len(inputs.skipped)))
+    try:
+        report = run_city(inputs, args.out, workers=workers, scheduler=args.scheduler,
+                          progress=progress_printer(pieces=len(inputs.skipped)))
+    except SummaryNotWritten as exc:   # what the blocks came to, then why
+        print(summary_table(exc.report))
+        raise
     if report["counts"]["cached"]:
         print(f"{report['counts']['cached']} blocks were unchanged since the last run in "
               f"{args.out}/ and were not built again")
