@@ -210,6 +210,24 @@ def test_a_run_folders_subfolder_that_is_no_folder_is_refused_first(clean, tmp_p
     assert (out / "manifest.json").read_bytes() == before
 
 
+@pytest.mark.parametrize("edit", [{"status": "failed", "reason": "hand edit"},
+                                  {"cost": 0.5}, {"rank": 2}])
+def test_a_marker_edited_by_hand_means_rebuild(clean, tmp_path, edit):
+    """A marker whose files' hashes were right was trusted whatever else it said: a
+    status edited to "failed" dropped the block from the city (exit 1), a cost or rank
+    edited went into the manifest, and ``diff`` called the runs the same. A marker is
+    sealed with the hash of its own content: edited, the block is built again."""
+    streets, ref, snap = clean
+    out = tmp_path / "run"
+    shutil.copytree(ref, out)
+    marker = sorted((out / "blocks").glob("*.done.json"))[0]
+    marker.write_text(json.dumps({**json.loads(marker.read_text()), **edit}))
+    assert main(city_args(streets, out, "--workers", "1")) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["built"] == 3 and report["counts"]["cached"] == 2
+    assert snapshot(out) == snap
+
+
 def test_progress_and_summary_agree(clean, tmp_path, capsys):
     streets, ref, _ = clean
     out = tmp_path / "run"

@@ -163,7 +163,16 @@ def file_hash(path: Path) -> str:
 
 
 _MARKER_TYPES = {"id": str, "kind": str, "zone": str, "input_hash": str, "style": str,
-                 "files": list, "status": str, "hashes": dict}
+                 "files": list, "status": str, "hashes": dict, "seal": str}
+
+
+def _seal(marker: dict) -> str:
+    """The hash of a marker's own content but its seal: a marker edited by hand (its
+    status, cost or rank) was trusted as written, its files' hashes being right: a
+    block "failed" by an edit dropped out of the city, a cost edited went into the
+    manifest and ``diff`` called the runs the same."""
+    body = {k: v for k, v in marker.items() if k != "seal"}
+    return hashlib.sha256(json.dumps(body, sort_keys=True).encode()).hexdigest()
 
 
 def _marker_shape_ok(rec: object, job: BlockJob) -> bool:
@@ -198,7 +207,7 @@ def cached(out: Path, job: BlockJob) -> BlockRecord | None:
         rec = json.loads(marker_path(out, job.id).read_text(encoding="utf-8"))
     except (OSError, ValueError, RecursionError):
         return None
-    if not _marker_shape_ok(rec, job):
+    if not _marker_shape_ok(rec, job) or rec["seal"] != _seal(rec):
         return None
     for name, digest in rec["hashes"].items():
         f = _inside(out, name)
@@ -212,7 +221,7 @@ def cached(out: Path, job: BlockJob) -> BlockRecord | None:
         f = _inside(blocks, name)
         if f is None or not library_file_ok(f, job.library_hash):
             return None
-    del rec["hashes"]           # the record, as run_block answered it
+    del rec["hashes"], rec["seal"]   # the record, as run_block answered it
     if job.footprint is not None:   # the file, as this run names it (not in the hash)
         said, rec["feature"] = rec.get("feature", ""), job.footprint.where
         for key in ("reason", "note"):
@@ -423,6 +432,7 @@ def _finish(out: Path, rec: BlockRecord, status: BlockStatus, t0: float,
         rec["reason"] = reason
     rec.setdefault("timings", {})["total_s"] = time.perf_counter() - t0
     marker = {**rec, "hashes": {f: file_hash(out / f) for f in rec["files"]}}
+    marker["seal"] = _seal(marker)
     write_text(marker_path(out, rec["id"]), json.dumps(marker, sort_keys=True, indent=1)
                + "\n")
     return rec
