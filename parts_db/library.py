@@ -167,10 +167,12 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
     root = m.path.parent
     out_dir = Path(out) if out is not None else cache_dir(root)
     digest = library_hash(m)
-    if not force:
-        cached = _read_cached(out_dir, digest)
-        if cached is not None:
-            return cached
+    if not force:   # where the cache falls back to, too (see _save_cache)
+        for folder in (out_dir,) if out is not None else \
+                dict.fromkeys((out_dir, user_cache_dir(root))):
+            cached = _read_cached(folder, digest)
+            if cached is not None:
+                return cached
     parts, warnings = [], []
     for i, (part, part_warnings) in enumerate(_measure_all(root, m)):
         if progress:
@@ -374,15 +376,20 @@ def _read_cached(out_dir: Path, digest: str) -> PartDB | None:
 
 
 def _save_cache(db: PartDB, out_dir: Path, root: Path) -> None:
-    """Cache ``db``; a cache folder that cannot be written (read-only, full) falls back
-    to the user's cache folder, and failing that the run goes on uncached."""
+    """Cache ``db``; a cache folder that cannot be written (read-only, full, or a
+    ``$CITYSYNTH_CACHE`` that is a file) falls back to the user's cache folder, said,
+    and read from there next time (:func:`ingest` looks there too: the fallback was
+    written on every run and never read); failing that the run goes on uncached."""
     for folder in dict.fromkeys((out_dir, user_cache_dir(root))):
         try:
             save(db, folder)
-            db.path = folder
-            return
         except OSError:
             continue
+        if folder != out_dir:
+            db.warnings.append(f"could not cache the part database in {out_dir} (not "
+                               f"writable); cached it in {folder} instead")
+        db.path = folder
+        return
     db.warnings.append(f"could not cache the part database in {out_dir} (not writable); "
                        "it is measured again next time")
 

@@ -248,6 +248,22 @@ def test_cache_hit_and_invalidation(tmp_path, monkeypatch):
     assert not ingest(lib).cache_hit
 
 
+def test_a_cache_that_cannot_be_written_falls_back_and_is_read_back(tmp_path, monkeypatch):
+    """``$CITYSYNTH_CACHE`` naming a file: the database was cached in the user's cache
+    folder instead, on every run, and never read from there (measured again each time,
+    "warnings: none"). The fallback is said and read back."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder\n")
+    monkeypatch.setenv("CITYSYNTH_CACHE", str(blocker))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    lib = _library(tmp_path, [("A", "a.stl", _box(0, 4, 0, 10, 0, 6), 'class = "building"')])
+    first = ingest(lib)
+    assert not first.cache_hit and str(tmp_path / "xdg") in str(first.path)
+    assert any("cached it in" in w for w in first.warnings), first.warnings
+    again = ingest(lib)
+    assert again.cache_hit and again.path == first.path
+
+
 def test_cache_folder_policy(tmp_path, monkeypatch):
     """Beside a library the user may write; under $CITYSYNTH_CACHE when set; in the
     user cache folder for an installed (site-packages) or read-only library."""
