@@ -65,8 +65,9 @@ def read_file(path: Path) -> bytes:
             raise MeshFault(f"it is a symbolic link to {os.readlink(path)!r}, which does "
                             "not exist", _RELINK) from None
         if exc.errno in (errno.ENOENT, errno.ENOTDIR):
-            raise MeshFault("mesh file not found", "check its file in the manifest (a path "
-                            "relative to the library folder)") from None
+            raise MeshFault("mesh file not found", _near_miss(path) or (
+                "check its file in the manifest (a path relative to the library "
+                "folder)")) from None
         raise MeshFault(f"the file cannot be opened ({exc.strerror})") from None
     if stat.S_ISDIR(st.st_mode):
         raise MeshFault("this is a folder, not a mesh file",
@@ -83,6 +84,24 @@ def read_file(path: Path) -> bytes:
                         "make it readable (chmod a+r)") from None
     except OSError as exc:
         raise MeshFault(f"the file cannot be read ({exc.strerror})") from None
+
+
+def _near_miss(path: Path) -> str | None:
+    """The fix for a mesh path that is almost right: written with Windows' backslashes
+    (a backslash is part of a file name on Linux and macOS), or in another case than
+    the file's (file names differ in case here): said, where "not found" sent the user
+    looking for a file that is there."""
+    if "\\" in str(path):
+        return ("write its path in the manifest with / between folders, not \\ (a "
+                "backslash is part of a file name here)")
+    try:
+        same = [p.name for p in path.parent.iterdir() if p.name.lower() == path.name.lower()]
+    except OSError:
+        return None
+    if same:
+        return (f"the folder has {same[0]!r}: file names differ in case here; write it so "
+                "in the manifest")
+    return None
 
 
 def sniff(data: bytes) -> str | None:

@@ -264,6 +264,24 @@ def test_a_cache_that_cannot_be_written_falls_back_and_is_read_back(tmp_path, mo
     assert again.cache_hit and again.path == first.path
 
 
+@pytest.mark.parametrize("written, said", [
+    ("meshes\\\\a.stl", "with / between folders, not \\"),   # TOML: meshes\\a.stl
+    ("meshes/A.STL", "the folder has 'a.stl': file names differ in case here"),
+])
+def test_a_mesh_path_almost_right_says_what_is_wrong(tmp_path, capsys, written, said):
+    """A mesh path written with Windows' backslashes, or in another case than the
+    file's, was "mesh file not found", sending the user to look for a file that is
+    there."""
+    lib = tmp_path / "lib"
+    (lib / "meshes").mkdir(parents=True)
+    _box(0, 4, 0, 10, 0, 6).export(lib / "meshes" / "a.stl")
+    (lib / "manifest.toml").write_text('[library]\nname = "t"\n\n[[part]]\nid = "A"\n'
+                                       f'file = "{written}"\nclass = "building"\n')
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 2
+    err = capsys.readouterr().err
+    assert "mesh file not found" in err and said in err, err
+
+
 def test_cache_folder_policy(tmp_path, monkeypatch):
     """Beside a library the user may write; under $CITYSYNTH_CACHE when set; in the
     user cache folder for an installed (site-packages) or read-only library."""
