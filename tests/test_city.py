@@ -195,26 +195,34 @@ def test_diff_reports_changed_added_and_removed_blocks(district, tmp_path, capsy
 
 
 def test_diff_says_when_the_runs_used_different_libraries(district, tmp_path, capsys):
-    """Blocks of two libraries can cost the same and share nothing: the diff says the
-    libraries differ, in a line of its own and on each changed block."""
+    """The diff says the libraries differ, in a line of its own and on each changed
+    block. A block whose layout differs only in the library it names (a comment added
+    to manifest.toml changes the library's hash) is counted as such, not listed as
+    changed with nothing changed ("cost 12.07 -> 12.07 (+0)") and said to "differ in
+    their parts"."""
     import shutil
 
     other = tmp_path / "other"
     shutil.copytree(district, other)
-    for f in (other / "blocks").glob("*.layout.json"):
+    files = sorted((other / "blocks").glob("*.layout.json"))
+    for i, f in enumerate(files):
         lay = json.loads(f.read_text())
         lay["library"] = {**lay["library"], "name": "other kit", "hash": "ab" * 32}
+        if i == 0:
+            lay["cost"] += 1.0
         f.write_text(json.dumps(lay))
     capsys.readouterr()
     assert main(["diff", str(district), str(other)]) == 1
     out = capsys.readouterr().out
     assert "the runs used different part libraries: citysynth sample (" in out
-    assert "-> other kit (abababab); blocks differ in their parts" in out
-    assert out.count(", library citysynth sample (") == len(layouts(district))
+    assert "-> other kit (abababab); a block the same but for the library" in out
+    assert f"1 changed, {len(files) - 1} the same but for the library they name" in out
+    assert out.count(", library citysynth sample (") == 1
     assert main(["diff", str(district), str(other), "--json"]) == 1
     d = json.loads(capsys.readouterr().out)
     assert d["libraries"]["b"] == ["other kit (abababab)"]
-    assert all(c["library"][1] == "other kit (abababab)" for c in d["changed"])
+    assert len(d["library_only"]) == len(files) - 1 and not d["identical"]
+    assert [c["library"][1] for c in d["changed"]] == ["other kit (abababab)"]
 
 
 def test_diff_sees_changes_outside_the_kept_layout(district, tmp_path, capsys):

@@ -156,6 +156,7 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
     changed: list[dict[str, Any]] = []
     geometry: list[dict[str, Any]] = []   # the kept layout the same, other files not
     same = 0
+    relabelled: list[str] = []   # the same layout, from a library of another hash
     libraries: dict[str, set[str]] = {"a": set(), "b": set()}
     for bid in sorted(set(ba) & set(bb)):
         ra, rb = ba[bid], bb[bid]
@@ -179,11 +180,24 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
             else:
                 same += 1
             continue
+        if _but_library(pa) == _but_library(pb):   # a comment in manifest.toml, say
+            relabelled.append(bid)
+            continue
         changed.append({**_block_change(bid, pa, pb), "files": files})
     return {"added": added, "removed": removed, "status": status, "changed": changed,
             "files_changed": geometry, "same": same, "renamed": renamed,
-            "identical": not (added or removed or status or changed or geometry or renamed),
+            "library_only": relabelled,
+            "identical": not (added or removed or status or changed or geometry or renamed
+                              or relabelled),
             "libraries": {k: sorted(v) for k, v in libraries.items()}}
+
+
+def _but_library(lay: dict) -> dict:
+    """A layout but the library it names: two runs of libraries that differ only where
+    no block looks (a comment in the manifest, a part no block uses) build the same
+    layouts under another library hash, which were each listed as changed with nothing
+    changed ("cost 12.07 -> 12.07 (+0)") and said to "differ in their parts"."""
+    return {k: v for k, v in lay.items() if k != "library"}
 
 
 def _renamed(a: Path, b: Path, ra: dict, rb: dict, old: str, new: str,
@@ -349,14 +363,18 @@ def run(args) -> int:
     print(f"{args.run_a} -> {args.run_b}: {d['same']} blocks the same, "
           f"{len(d['changed'])} changed, " + (
               f"{len(d['files_changed'])} with the same layout but other files, "
-              if d["files_changed"] else "") +
+              if d["files_changed"] else "") + (
+              f"{len(d['library_only'])} the same but for the library they name, "
+              if d["library_only"] else "") +
           f"{len(d['added'])} added, {len(d['removed'])} removed, " +
           (f"{len(d['renamed'])} in the same place under a new id, " if d["renamed"]
            else "") + f"{len(d['status'])} changed status")
     if d["libraries"]["a"] != d["libraries"]["b"]:
         print(f"  the runs used different part libraries: {', '.join(d['libraries']['a'])} "
-              f"-> {', '.join(d['libraries']['b'])}; blocks differ in their parts even where "
-              "their costs agree")
+              f"-> {', '.join(d['libraries']['b'])}" + (
+                  "; a block the same but for the library it names has the same parts, "
+                  "costs and lengths (the libraries differ where no block looks)"
+                  if d["library_only"] else ""))
     for c in d["changed"]:
         _print_change(c)
     for g in d["files_changed"]:

@@ -157,7 +157,7 @@ def _across_antimeridian(shapes: list, marks: list) -> tuple[list, list]:
 def _legend(draw: ImageDraw.ImageDraw, d: dict[str, Any], size: tuple[int, int],
             run_a: Path, run_b: Path) -> None:
     font = ImageFont.load_default(size=15)
-    counts = {"same": d["same"], "files": len(d["files_changed"]),
+    counts = {"same": d["same"] + len(d.get("library_only", [])), "files": len(d["files_changed"]),
               "changed": len(d["changed"]), "status": len(d["status"]),
               "added": len(d["added"]), "removed": len(d["removed"])}
     for r in d.get("renamed", []):   # drawn in their state, so counted in it
