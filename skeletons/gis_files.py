@@ -56,6 +56,7 @@ SUFFIXES = {".gpkg": "GeoPackage", ".shp": "Shapefile", ".fgb": "FlatGeobuf",
             ".tab": "MapInfo table", ".mif": "MapInfo table"}
 OSM = "OpenStreetMap file"
 DXF = "DXF"
+GDB = "File Geodatabase"            # ArcGIS's: a folder name.gdb, or a zip of one
 _DXF = re.compile(rb"\s*0\s*\n\s*SECTION\s*\n")   # a DXF drawing's first group
 # an OpenStreetMap file holds everything in a few layers: what each option reads of it
 OSM_LAYERS = {"lines": ("lines", "highway IS NOT NULL"),
@@ -84,6 +85,8 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     text = str(path)
     file, layer = split_layer(text)
     p = Path(file)
+    if p.suffix.lower() == ".gdb" and p.is_dir():
+        return p, layer or None, GDB   # an Esri File Geodatabase is a folder
     head = b""
     try:
         if p.is_file():   # not a FIFO (opening one waits for a writer) nor a folder
@@ -94,6 +97,8 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     fmt = next((name for magic, name in FORMATS.items() if head.startswith(magic)), None)
     if fmt == "zipped Shapefile" and p.suffix.lower() == ".kmz":
         fmt = "KMZ"       # Google Earth's zipped KML
+    elif fmt == "zipped Shapefile" and _zipped_gdb(p):
+        fmt = GDB         # ArcGIS's zipped geodatabase, which GDAL reads as it is
     elif fmt is None and _xml(head) and b"<kml" in head:
         fmt = "KML"
     elif fmt is None and (_xml(head) and b"<osm" in head or b"OSMHeader" in head[:64]):
@@ -116,7 +121,8 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
         if layer:
             raise SkeletonError(f"{text}: {LAYER_SEP}{layer} names a layer, but {file} is "
                                 "not a GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON, "
-                                "OpenStreetMap, GML, MapInfo, DXF or GeoParquet file; a "
+                                "OpenStreetMap, GML, MapInfo, DXF, File Geodatabase or "
+                                "GeoParquet file; a "
                                 "GeoJSON file has one layer: give its path alone")
         return None
     return p, layer or None, fmt
@@ -126,6 +132,18 @@ _WAY = re.compile(rb'<way\s[^>]*?\bid="(-?\d+)"[^>]*>(.*?)</way>', re.S)
 _NODE_ID = re.compile(rb'<node\s[^>]*?\bid="(-?\d+)"')
 _ND = re.compile(rb'<nd\s+ref="(-?\d+)"')
 _OSM_KEY = {"lines": "highway", "polygons": "building"}
+
+
+def _zipped_gdb(path: Path) -> bool:
+    """Whether the zip archive at ``path`` holds a File Geodatabase (a ``name.gdb/``
+    folder): it was refused as a zip "with no .shp file in it; unzip it and give the
+    file inside", where there is no one file to give."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            return any(Path(m).parts[:1] and Path(m).parts[0].lower().endswith(".gdb")
+                       for m in archive.namelist())
+    except (zipfile.BadZipFile, OSError):
+        return False
 
 
 def _warn_gapped_ways(path: Path, accept: str) -> None:
@@ -218,7 +236,10 @@ def _check_unpacked(path: Path, fmt: str) -> None:
     520 MB Shapefile took 5 GB and crashed), a Shapefile with its .dbf and the other
     files beside it (the limit saw the .shp alone), a MapInfo table with its .dat,
     .map and .mid files likewise."""
-    if fmt in ("zipped Shapefile", "KMZ"):
+    if fmt == GDB and path.is_dir():
+        size = sum(f.stat().st_size for f in path.iterdir() if f.is_file())
+        how = "its files together"
+    elif fmt in ("zipped Shapefile", "KMZ", GDB):
         try:
             with zipfile.ZipFile(path) as archive:
                 size = sum(member.file_size for member in archive.infolist())
@@ -262,6 +283,8 @@ def _check_zip_holds(path: Path, fmt: str, members: list[str]) -> None:
     .shp (a zipped GeoJSON or GeoPackage, or a zip renamed .geojson) or a KMZ without
     a .kml, naming what it holds, so the user unzips it rather than reading GDAL's
     "not recognized as being in a supported file format"."""
+    if fmt == GDB:
+        return
     wanted = ".kml" if fmt == "KMZ" else ".shp"
     if any(m.lower().endswith(wanted) for m in members):
         return
@@ -326,7 +349,8 @@ def _read_gdal(path: Path, layer: str | None, fmt: str, accept: str, crs_given: 
     import pyogrio  # GDAL: loaded only when such a file is given
     from pyogrio.errors import DataLayerError, DataSourceError
 
-    check_file(path, fmt, SkeletonError)
+    if not (fmt == GDB and path.is_dir()):   # a geodatabase folder: its files counted
+        check_file(path, fmt, SkeletonError)
     _check_unpacked(path, fmt)
     gdal = _in_zip_folder(path, fmt)
     if fmt == "Shapefile":

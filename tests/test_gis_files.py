@@ -1030,3 +1030,24 @@ def test_a_zipped_folder_of_a_shapefile_reads_as_the_flat_zip(files, tmp_path):
     got, _ = read_geojson(nested, accept="lines")
     assert len(got) == len(flat) > 400
     assert all(a.geometry.equals(b.geometry) for a, b in zip(got, flat, strict=True))
+
+
+def test_an_esri_file_geodatabase_reads_as_its_geojson(files, tmp_path):
+    """ArcGIS's File Geodatabase is a folder ``name.gdb`` (often shipped zipped): it
+    was refused as "a folder, not a GeoJSON file; give the file's path", and its zip
+    as one "with no .shp file in it; unzip it and give the file inside", where there
+    is no one file to give. Both are read, each layer as its GeoJSON."""
+    from citysynth.skeletons import read_geojson
+    streets = gpd.read_file(files / "streets.geojson")
+    gdb = tmp_path / "city.gdb"
+    streets.to_file(gdb, layer="streets", driver="OpenFileGDB")
+    with zipfile.ZipFile(tmp_path / "city.gdb.zip", "w") as z:
+        for f in sorted(gdb.iterdir()):
+            z.write(f, f"city.gdb/{f.name}")
+    ref, _ = read_geojson(files / "streets.geojson", accept="lines")
+    for src in (gdb, tmp_path / "city.gdb.zip"):
+        got, frame = read_geojson(src, accept="lines")
+        assert frame.source_crs == "EPSG:3067" and len(got) == len(ref), src
+        # a geodatabase stores lines as MultiLineStrings, on a 0.1 mm grid
+        assert max(a.geometry.hausdorff_distance(b.geometry)
+                   for a, b in zip(got, ref, strict=True)) < 1e-3, src

@@ -57,8 +57,8 @@ def register(sub) -> None:
                                    "shared ends) with a part library and write layout JSON, "
                                    "USD, GLB and a PNG preview for each of the k best layouts.")
     p.add_argument("file", help="LineStrings: GeoJSON, or a GeoPackage, Shapefile, "
-                   "FlatGeobuf, KML, Esri JSON, GML, MapInfo, GeoParquet or DXF layer "
-                   "(FILE::LAYER)")
+                   "FlatGeobuf, KML, Esri JSON, GML, MapInfo, GeoParquet, DXF or File "
+                   "Geodatabase layer (FILE::LAYER)")
     _common(p)
     p.set_defaults(run=run_building, geometry="lines")   # the layer of a GIS file it reads
     p = sub.add_parser("block", help="lay out blocks from polygons",
@@ -66,8 +66,8 @@ def register(sub) -> None:
                                    "a GeoJSON file, courtyards included, and write layout "
                                    "JSON, USD, GLB and a PNG preview for each of the k best.")
     p.add_argument("file", help="Polygons: GeoJSON, or a GeoPackage, Shapefile, "
-                   "FlatGeobuf, KML, Esri JSON, GML, MapInfo, GeoParquet or DXF layer "
-                   "(FILE::LAYER)")
+                   "FlatGeobuf, KML, Esri JSON, GML, MapInfo, GeoParquet, DXF or File "
+                   "Geodatabase layer (FILE::LAYER)")
     _common(p)
     p.add_argument("--infill", action="store_true",
                    help="the polygons are building footprints: roof over the ground "

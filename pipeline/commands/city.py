@@ -36,7 +36,8 @@ def register(sub) -> None:
                                    "city USD stage, an overview PNG, manifest.json and "
                                    "report.json. Reruns skip unchanged blocks.")
     p.add_argument("--streets", metavar="FILE", help="street centre lines: GeoJSON, "
-                   "GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON, GML, MapInfo, GeoParquet "
+                   "GeoPackage, Shapefile, FlatGeobuf, KML, Esri JSON, GML, MapInfo, File "
+                   "Geodatabase, GeoParquet "
                    "(Overture Maps too), OpenStreetMap (.osm, .osm.pbf: its highway ways) or "
                    "DXF (with --crs); FILE::LAYER picks one layer of several (a DXF's CAD "
                    "layer)")

@@ -17,7 +17,8 @@ def register(sub) -> None:
                                    "block polygons (one cycle per ring), or street centre "
                                    "lines polygonised into blocks. Exit 2 on bad input.")
     p.add_argument("file", help="GeoJSON, or a GeoPackage, Shapefile, FlatGeobuf, KML"
-                   ", Esri JSON, GML, MapInfo, GeoParquet or DXF layer (FILE::LAYER)")
+                   ", Esri JSON, GML, MapInfo, GeoParquet, DXF or File Geodatabase layer "
+                   "(FILE::LAYER)")
     p.add_argument("--kind", choices=KINDS, default="auto",
                    help="lines: one building skeleton; polygons: footprints/blocks; "
                         "streets: centre lines -> blocks (auto: polygons by geometry, streets when "
