@@ -24,6 +24,7 @@ a GeoParquet file, ``FILE::COLUMN`` names one of several geometry columns).
 
 from __future__ import annotations
 
+import contextlib
 import re
 import warnings
 import zipfile
@@ -556,6 +557,9 @@ def _cannot_read(path: Path, fmt: str, exc: Exception) -> SkeletonError:
                              "missing (a Shapefile is several files: .shp, .shx, .dbf and "
                              ".prj, side by side); copy it beside the .shp, or export the "
                              "layer as GeoJSON")
+    if fmt == "GeoPackage" and _empty_geopackage(path):   # GDAL: "not recognized"
+        return SkeletonError(f"{path}: this GeoPackage holds no layer (saved empty); "
+                             "export the layer again")
     detail = text.split("; It might help")[0]
     detail = detail.rsplit("failed: ", 1)[-1].split("; ")[0]   # SQLite: its own words
     detail = re.sub(r"^\S+\.cpp, \d+: ", "", detail)   # GDAL's source file and line
@@ -563,6 +567,20 @@ def _cannot_read(path: Path, fmt: str, exc: Exception) -> SkeletonError:
              "MapInfo table": " (a .tab needs its .dat, .map and .id beside it)"}.get(
         fmt.removeprefix("zipped "), "")
     return cannot_read(path, fmt, detail, whole)
+
+
+def _empty_geopackage(path: Path) -> bool:
+    """Whether ``path`` is a whole GeoPackage that lists no table (QGIS's "new
+    GeoPackage" saved before a layer was added): GDAL calls it "not recognized as
+    being in a supported file format", which read as a damaged file."""
+    import sqlite3
+
+    try:
+        uri = Path(path).resolve().as_uri() + "?mode=ro"   # read only, never made
+        with contextlib.closing(sqlite3.connect(uri, uri=True)) as db:
+            return db.execute("SELECT count(*) FROM gpkg_contents").fetchone()[0] == 0
+    except sqlite3.Error:
+        return False
 
 
 def _layer(path: Path, layer: str | None, fmt: str, accept: str, layers: np.ndarray) -> str:

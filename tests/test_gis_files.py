@@ -1051,3 +1051,20 @@ def test_an_esri_file_geodatabase_reads_as_its_geojson(files, tmp_path):
         # a geodatabase stores lines as MultiLineStrings, on a 0.1 mm grid
         assert max(a.geometry.hausdorff_distance(b.geometry)
                    for a, b in zip(got, ref, strict=True)) < 1e-3, src
+
+
+def test_a_geopackage_saved_without_a_layer_says_so(tmp_path, capsys):
+    """A whole GeoPackage that lists no layer (saved before a layer was added) was
+    "cannot read this GeoPackage ('...' not recognized as being in a supported file
+    format.); check that it is whole", of a file that is whole."""
+    import sqlite3
+    path = tmp_path / "empty.gpkg"
+    gpd.GeoDataFrame({"a": [1]}, geometry=[shapely.Point(0, 0)], crs="EPSG:3067").to_file(
+        path, layer="x", driver="GPKG")
+    with sqlite3.connect(path) as db:
+        db.execute("DELETE FROM gpkg_geometry_columns")
+        db.execute("DELETE FROM gpkg_contents")
+        db.execute("DROP TABLE x")
+    assert main(["skeleton", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "this GeoPackage holds no layer (saved empty)" in err and "whole" not in err, err
