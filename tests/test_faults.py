@@ -283,6 +283,23 @@ def test_a_link_or_folder_at_the_lock_is_refused_and_nothing_outside_is_written(
     assert victim.read_text() == "important user data\n"
 
 
+def test_diff_of_a_folder_a_run_is_writing_warns(clean, tmp_path, capsys):
+    """``citysynth diff`` of a folder a city run was writing into counted a mix of old
+    and new blocks without a word; it warns, naming the run, and still compares."""
+    from citysynth.pipeline.city.process import run_lock
+
+    streets, ref, _snap = clean
+    out = tmp_path / "run"
+    shutil.copytree(ref, out)
+    capsys.readouterr()
+    with run_lock(out):
+        assert main(["diff", str(ref), str(out)]) == 0
+    err = capsys.readouterr().err
+    assert f"a citysynth city run (pid {os.getpid()}) is writing into {out}" in err, err
+    assert main(["diff", str(ref), str(out)]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
 def test_a_second_process_is_refused_while_a_run_holds_the_folder(clean, tmp_path):
     streets, ref, _ = clean
     out = tmp_path / "run"

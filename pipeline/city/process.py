@@ -52,6 +52,24 @@ def _holder(path: Path) -> str:
     return f"pid {text[0]}" if text and text[0].isdigit() else "another process"
 
 
+def run_in_progress(out: Path) -> str | None:
+    """Who holds the run folder ``out`` (a city run writing into it: "pid 4242"), or
+    None: a lock test that takes nothing (``citysynth diff`` of a folder being written
+    counted a mix of old and new blocks without a word)."""
+    try:
+        fd = os.open(out / LOCK, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    except OSError:
+        return _holder(out / LOCK)
+    finally:
+        os.close(fd)
+
+
 def _take(path: Path) -> int:
     """An open descriptor holding the lock on ``path``'s current file."""
     while True:

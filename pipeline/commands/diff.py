@@ -352,6 +352,13 @@ def run(args) -> int:
     if args.png and Path(args.png).is_dir():
         raise UsageError(f"--png {args.png}: a folder; give the map's file name, e.g. "
                          f"{Path(args.png) / 'diff.png'}")
+    from citysynth.pipeline.city.process import run_in_progress
+
+    for run in (args.run_a, args.run_b):
+        if (holder := run_in_progress(Path(run))) is not None:
+            print(f"citysynth diff: warning: a citysynth city run ({holder}) is writing "
+                  f"into {run}: its blocks are a mix of that run's and the one before; "
+                  "diff it again when the run is done", file=sys.stderr)
     d = diff_runs(args.run_a, args.run_b)
     if args.png:
         from citysynth.pipeline.commands.diff_map import write_map
