@@ -674,8 +674,11 @@ _KEPT = re.compile(r"^(?P<name>.*?) \(projected, (?P<id>.+)\)$", re.S)
 
 def crs_id(crs: pyproj.CRS) -> str:
     """What names ``crs`` so that pyproj (and GDAL, QGIS) resolve it: its authority
-    code ("EPSG:3067") when one matches it exactly, else its WKT on one line."""
-    auth = crs.to_authority(min_confidence=100)
+    code ("EPSG:3067") when one is the same CRS (names aside: PROJ's confidence 90,
+    so the ``.prj`` ArcGIS and ogr2ogr write, "EUREF_FIN_TM35FIN", is EPSG:3067; it
+    was named by its whole WKT, 1.5 kB in every message and layout), else its WKT on
+    one line."""
+    auth = crs.to_authority(min_confidence=90)
     return ":".join(auth) if auth else crs.to_wkt()
 
 

@@ -258,8 +258,8 @@ def _crs_name(path: Path, column: str, meta: dict[str, Any]) -> str | None:
     except (pyproj.exceptions.CRSError, TypeError, ValueError):
         raise SkeletonError(f"{path}: cannot read the CRS of geometry column {column!r}; "
                             "give the CRS with --crs, e.g. --crs EPSG:25832") from None
-    authority = parsed.to_authority(min_confidence=100)
-    return ":".join(authority) if authority else parsed.to_wkt()
+    from citysynth.skeletons.geojson import crs_id  # (geojson reads this module)
+    return crs_id(parsed)
 
 
 def json_value(v: Any) -> Any:
