@@ -1068,3 +1068,18 @@ def test_a_geopackage_saved_without_a_layer_says_so(tmp_path, capsys):
     assert main(["skeleton", str(path)]) == 2
     err = capsys.readouterr().err
     assert "this GeoPackage holds no layer (saved empty)" in err and "whole" not in err, err
+
+
+def test_an_esri_prj_of_an_epsg_crs_is_named_by_its_code(files, tmp_path):
+    """The .prj ArcGIS and ogr2ogr write names EPSG:3067 "EUREF_FIN_TM35FIN": the run's
+    frame (in every message, layout and blocks.geojson) was its whole WKT, 1.5 kB; it is
+    named by the code."""
+    import pyproj
+
+    from citysynth.skeletons import read_geojson
+    for ext in ("shp", "shx", "dbf"):
+        shutil.copy(files / f"streets.{ext}", tmp_path / f"streets.{ext}")
+    (tmp_path / "streets.prj").write_text(
+        pyproj.CRS("EPSG:3067").to_wkt(pyproj.enums.WktVersion.WKT1_ESRI))
+    _, frame = read_geojson(tmp_path / "streets.shp", accept="lines")
+    assert frame.crs.endswith("(projected, EPSG:3067)") and len(frame.crs) < 80, frame.crs
