@@ -31,7 +31,9 @@ DISTRICT = EXAMPLES / "city" / "district_streets.geojson"
 # exceptions used as signals inside citysynth, caught where they are raised' callers and
 # never reaching a user (each a deliberate exception to USER_ERRORS)
 SIGNALS = {("citysynth.solver.structures.stage_graphs", "NotExact"),
-           ("citysynth.parts_db.mesh_faults", "MeshFault")}   # told as a LibraryError
+           ("citysynth.parts_db.mesh_faults", "MeshFault"),   # told as a LibraryError
+           # the machine's own OSError, carrying the blocks' summary to print before it
+           ("citysynth.pipeline.city.outputs", "SummaryNotWritten")}
 
 
 def _error_classes() -> set[tuple[str, str]]:
