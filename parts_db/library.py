@@ -168,8 +168,7 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
     out_dir = Path(out) if out is not None else cache_dir(root)
     digest = library_hash(m)
     if not force:   # where the cache falls back to, too (see _save_cache)
-        for folder in (out_dir,) if out is not None else \
-                dict.fromkeys((out_dir, user_cache_dir(root))):
+        for folder in [out_dir] if out is not None else _cache_folders(out_dir, root):
             cached = _read_cached(folder, digest)
             if cached is not None:
                 return cached
@@ -375,12 +374,19 @@ def _read_cached(out_dir: Path, digest: str) -> PartDB | None:
         return None
 
 
+def _cache_folders(out_dir: Path, root: Path) -> list[Path]:
+    """Where the library at ``root`` is cached, in the order tried: its cache folder
+    ``out_dir``, then the user's cache folder it falls back to (once, when the two are
+    one). Written and read in this one order, so a fallback is found again."""
+    return list(dict.fromkeys((out_dir, user_cache_dir(root))))
+
+
 def _save_cache(db: PartDB, out_dir: Path, root: Path) -> None:
     """Cache ``db``; a cache folder that cannot be written (read-only, full, or a
     ``$CITYSYNTH_CACHE`` that is a file) falls back to the user's cache folder, said,
     and read from there next time (:func:`ingest` looks there too: the fallback was
     written on every run and never read); failing that the run goes on uncached."""
-    for folder in dict.fromkeys((out_dir, user_cache_dir(root))):
+    for folder in _cache_folders(out_dir, root):
         try:
             save(db, folder)
         except OSError:
