@@ -251,9 +251,11 @@ def test_a_second_run_on_the_folder_is_refused(clean, tmp_path, capsys):
     shutil.copytree(ref, out)
     with run_lock(out):
         assert main(city_args(streets, out, "--workers", "1")) == 2
-        err = capsys.readouterr().err
+        cap = capsys.readouterr()
+        err = cap.err
         assert "another citysynth city run" in err and f"pid {os.getpid()}" in err
         assert len(err.strip().splitlines()) == 1
+        assert cap.out == "", cap.out   # refused before "N blocks to build" (until 11-30)
     (out / LOCK).write_text("999999999 2026-01-01T00:00:00\n")   # a crashed run's lock
     assert main(city_args(streets, out, "--workers", "1")) == 0
     assert not (out / LOCK).exists() and snapshot(out) == snap

@@ -70,6 +70,21 @@ def run_in_progress(out: Path) -> str | None:
         os.close(fd)
 
 
+def busy(out: Path, holder: str) -> str:
+    """The refusal of a second city run into ``out`` while ``holder`` writes into it."""
+    return (f"{out}: another citysynth city run ({holder}) is using this run folder; "
+            "wait for it to finish, or give another -o folder")
+
+
+def check_not_running(out: Path) -> None:
+    """Refuse at once a run into a folder another run holds, before its inputs are read
+    and its blocks counted (the refusal came after "N blocks to build" on stdout, and
+    after minutes of reading a large city's inputs). The lock itself is still taken
+    by :func:`run_lock`, which refuses likewise if a run started meanwhile."""
+    if (holder := run_in_progress(out)) is not None:
+        raise ConfigError(busy(out, holder))
+
+
 def _take(path: Path) -> int:
     """An open descriptor holding the lock on ``path``'s current file."""
     while True:
@@ -87,9 +102,7 @@ def _take(path: Path) -> int:
             os.close(fd)
             if exc.errno not in (errno.EAGAIN, errno.EACCES):
                 raise
-            raise ConfigError(f"{path.parent}: another citysynth city run ({_holder(path)}) "
-                              "is using this run folder; wait for it to finish, or give "
-                              "another -o folder") from None
+            raise ConfigError(busy(path.parent, _holder(path))) from None
         try:   # the file we locked may have been unlinked by a run that just ended
             same = os.fstat(fd).st_ino == os.stat(path).st_ino
         except FileNotFoundError:

@@ -84,6 +84,8 @@ def run(args) -> int:
         args.out, [args.streets, args.footprints, args.config])
     if wrong:
         raise UsageError(wrong)
+    from citysynth.pipeline.city.process import check_not_running
+    check_not_running(Path(args.out))
     from citysynth.pipeline.city.config import load_config  # when run (see pipeline.cli)
     from citysynth.pipeline.city.outputs import SummaryNotWritten, finish_city
     from citysynth.pipeline.city.run import prepare, progress_printer, run_city
