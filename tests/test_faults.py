@@ -302,6 +302,45 @@ def test_diff_of_a_folder_a_run_is_writing_warns(clean, tmp_path, capsys):
     assert "warning" not in capsys.readouterr().err
 
 
+def test_diff_of_a_folder_a_first_run_left_unfinished_says_to_finish_it(clean, tmp_path,
+                                                                      capsys):
+    """A first run killed before its manifest left blocks but no manifest.json: diff
+    called it "not a citysynth run folder", with no word of the run to finish."""
+    streets, ref, _snap = clean
+    out = tmp_path / "run"
+    shutil.copytree(ref, out)
+    (out / "manifest.json").unlink()
+    assert main(["diff", str(ref), str(out)]) == 2
+    err = said(capsys.readouterr().err)
+    assert f"{out}: a citysynth city run stopped here before it finished (3 blocks " \
+        "built, no manifest.json yet); run the same citysynth city into" in err, err
+    shutil.rmtree(out / "blocks")   # nothing of a run at all: as before
+    assert main(["diff", str(ref), str(out)]) == 2
+    assert "not a citysynth run folder (no manifest.json)" in capsys.readouterr().err
+
+
+def test_diff_warns_of_blocks_a_later_unfinished_run_built(clean, tmp_path, capsys):
+    """A second run stopped before its end leaves the first run's manifest beside blocks
+    of its own: diff compared the manifest's run without a word. It warns, counting the
+    blocks built since (a block of new inputs, a block the manifest lacks)."""
+    streets, ref, _snap = clean
+    out = tmp_path / "run"
+    shutil.copytree(ref, out)
+    markers = sorted((out / "blocks").glob("*.done.json"))
+    marker = json.loads(markers[0].read_text())
+    markers[0].write_text(json.dumps({**marker, "input_hash": "0" * 64}))
+    shutil.copy(markers[1], out / "blocks" / "bnewblock00.done.json")
+    capsys.readouterr()
+    assert main(["diff", str(ref), str(out)]) == 0
+    err = said(capsys.readouterr().err)
+    assert f"warning: 2 blocks in {out} were built by a later run that stopped before " \
+        "it finished" in err, err
+    assert main(["diff", "--json", str(ref), str(out)]) == 0
+    assert json.loads(capsys.readouterr().out)["built_after"] == {str(out): 2}
+    assert main(["diff", str(ref), str(ref)]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
 def test_a_second_process_is_refused_while_a_run_holds_the_folder(clean, tmp_path):
     streets, ref, _ = clean
     out = tmp_path / "run"

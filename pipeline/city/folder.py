@@ -11,6 +11,7 @@ REPORT = "report.json"             # counts, timings, failures and errors of the
 RUN_SCHEMA = "citysynth.run"       # the manifest's "schema"
 RUN_VERSION = 1                    # ... and its "version", which diff reads
 CITY_FILES = ("city.usda", "city.png", "city.glb")   # the city stage, overview, one GLB
+MARKER = ".done.json"              # blocks/<id>.done.json: a block finished, its hashes
 
 
 def misplaced(out: str) -> str | None:

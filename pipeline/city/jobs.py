@@ -36,7 +36,7 @@ from citysynth.export.usd import CUTS_SUFFIX, library_file_ok, library_files
 from citysynth.parts_db import LibraryError, PartDB, load_library
 from citysynth.parts_db.files import write_text
 from citysynth.pipeline.city.config import Pick, ZoneKind
-from citysynth.pipeline.city.folder import BLOCKS_DIR
+from citysynth.pipeline.city.folder import BLOCKS_DIR, MARKER
 from citysynth.pipeline.city.footprints import (
     FootprintSpec,
     Prepared,
@@ -155,7 +155,7 @@ def outline_wkt(poly: shapely.Polygon) -> str:
 
 
 def marker_path(out: Path, job_id: str) -> Path:
-    return out / BLOCKS_DIR / f"{job_id}.done.json"
+    return out / BLOCKS_DIR / f"{job_id}{MARKER}"
 
 
 def file_hash(path: Path) -> str:

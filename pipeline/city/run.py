@@ -37,7 +37,7 @@ from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.files import sweep_temporaries
 from citysynth.pipeline.city.config import BuildSettings, CityConfig, ZoneKind
-from citysynth.pipeline.city.folder import BLOCKS_DIR
+from citysynth.pipeline.city.folder import BLOCKS_DIR, MARKER
 from citysynth.pipeline.city.footprints import (
     CUT,
     FootprintSpec,
@@ -661,11 +661,11 @@ def _remove_stale(out: Path, keep: set[str]) -> None:
     half-written without one (their layout JSON is written first; they stayed for
     good once the streets changed)."""
     blocks = out / BLOCKS_DIR
-    ids = {m.name[: -len(suffix)] for suffix in (".done.json", ".layout.json")
+    ids = {m.name[: -len(suffix)] for suffix in (MARKER, ".layout.json")
            for m in blocks.glob(f"*{suffix}")}
     for bid in sorted(ids):
         if bid not in keep:
-            for suffix in (".layout.json", ".done.json"):
+            for suffix in (".layout.json", MARKER):
                 (out / BLOCKS_DIR / f"{bid}{suffix}").unlink(missing_ok=True)
             for layer in usd_files(out / BLOCKS_DIR, bid):
                 layer.unlink(missing_ok=True)

@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from citysynth.pipeline.city.folder import MANIFEST, RUN_SCHEMA, RUN_VERSION
+from citysynth.pipeline.city.folder import BLOCKS_DIR, MANIFEST, MARKER, RUN_SCHEMA, RUN_VERSION
 from citysynth.pipeline.commands.diff_places import same_places
 from citysynth.pipeline.errors import UsageError
 from citysynth.solver.safe_read import decode, parse_json, read_bytes, read_json, shown
@@ -51,6 +51,11 @@ def _manifest(run: Path) -> dict:
     if not run.is_dir():
         raise UsageError(f"{run}: not a folder; give the -o folder of citysynth city")
     if not (run / MANIFEST).exists():
+        if markers := _markers(run):
+            raise UsageError(f"{run}: a citysynth city run stopped here before it finished "
+                             f"({len(markers)} blocks built, no {MANIFEST} yet); run the "
+                             f"same citysynth city into {run} again to finish it, then "
+                             "compare")
         raise UsageError(f"{run}: not a citysynth run folder (no {MANIFEST}); give the "
                          "-o folder of citysynth city")
     where = run / MANIFEST
@@ -87,6 +92,33 @@ def _manifest(run: Path) -> dict:
                              f"one of {', '.join(STATUSES)}, a cost a number); rerun "
                              f"citysynth city into {run}")
     return m
+
+
+def _markers(run: Path) -> dict[str, Path]:
+    """The blocks a run finished in ``run`` (their markers), by id."""
+    folder = run / BLOCKS_DIR
+    if not folder.is_dir():
+        return {}
+    return {p.name[: -len(MARKER)]: p for p in folder.glob(f"*{MARKER}")}
+
+
+def built_after(run: Path, blocks: dict) -> int:
+    """How many blocks of ``run`` a later run finished after the manifest was written
+    (a run stopped before its end: the manifest still tells the run before): markers
+    of blocks the manifest lacks, or of other inputs than it records."""
+    later = 0
+    for bid, path in _markers(run).items():
+        rec = blocks.get(bid)
+        if rec is None:
+            later += 1
+            continue
+        try:
+            marker = json.loads(path.read_bytes())
+        except (OSError, ValueError):
+            continue   # a damaged marker: the next run builds the block again
+        if isinstance(marker, dict) and marker.get("input_hash") != rec.get("input_hash"):
+            later += 1
+    return later
 
 
 def _inside(run: Path, bid: str, f: str) -> Path:
@@ -189,7 +221,9 @@ def diff_runs(run_a: str | Path, run_b: str | Path) -> dict[str, Any]:
             "library_only": relabelled,
             "identical": not (added or removed or status or changed or geometry or renamed
                               or relabelled),
-            "libraries": {k: sorted(v) for k, v in libraries.items()}}
+            "libraries": {k: sorted(v) for k, v in libraries.items()},
+            "built_after": {str(run): n for run, m in ((a, ma), (b, mb))
+                            if (n := built_after(run, m["blocks"]))}}
 
 
 def _but_library(lay: dict) -> dict:
@@ -348,18 +382,29 @@ def _part_counts(lay: dict) -> dict[str, int]:
     return counts
 
 
-def run(args) -> int:
-    if args.png and Path(args.png).is_dir():
-        raise UsageError(f"--png {args.png}: a folder; give the map's file name, e.g. "
-                         f"{Path(args.png) / 'diff.png'}")
+def _warn_unfinished(run_a: str, run_b: str, d: dict[str, Any]) -> None:
+    """Warn, on stderr, of a run folder whose blocks are not all of the run its manifest
+    tells: a run is writing into it, or a later run stopped before it finished."""
     from citysynth.pipeline.city.process import run_in_progress
 
-    for run in (args.run_a, args.run_b):
+    for run in (run_a, run_b):
         if (holder := run_in_progress(Path(run))) is not None:
             print(f"citysynth diff: warning: a citysynth city run ({holder}) is writing "
                   f"into {run}: its blocks are a mix of that run's and the one before; "
                   "diff it again when the run is done", file=sys.stderr)
+        elif later := d["built_after"].get(str(Path(run))):
+            print(f"citysynth diff: warning: {later} blocks in {run} were built by a later "
+                  f"run that stopped before it finished: {MANIFEST} and this comparison "
+                  f"are of the run before; run citysynth city into {run} again to finish "
+                  "it, then compare", file=sys.stderr)
+
+
+def run(args) -> int:
+    if args.png and Path(args.png).is_dir():
+        raise UsageError(f"--png {args.png}: a folder; give the map's file name, e.g. "
+                         f"{Path(args.png) / 'diff.png'}")
     d = diff_runs(args.run_a, args.run_b)
+    _warn_unfinished(args.run_a, args.run_b, d)
     if args.png:
         from citysynth.pipeline.commands.diff_map import write_map
 
