@@ -13,6 +13,7 @@ from __future__ import annotations
 import ast
 import math
 import re
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -21,8 +22,9 @@ import numpy as np
 import shapely
 from shapely.geometry import LineString, MultiLineString, Polygon
 
-from citysynth.skeletons.errors import SkeletonError
+from citysynth.skeletons.errors import InputWarning, SkeletonError
 from citysynth.skeletons.geojson import Feature, local_xy
+from citysynth.solver.safe_read import shown
 
 _NUMBER = re.compile(r"\s*((?:\d+(?:[.,]\d+)?|[.,]\d+)(?:[eE][+-]?\d+)?)")
 # OSM's feet: 40' or 40'6" (feet and inches), or 40 ft
@@ -160,6 +162,32 @@ def street_setback(props: dict[str, Any], s: Setbacks) -> float:
     return max((table.get(c, s.default) for c in highway_classes(props)), default=s.default)
 
 
+def unread_width(props: dict[str, Any]) -> str | None:
+    """What of a street's ``width`` and ``lanes`` was given but read as no value
+    (``lanes="two"``, ``width="wide"``, a width of 1e308), when none of it was read:
+    the street then stands at its class's setback, and the user should hear why."""
+    if widest(props.get("width"), MAX_WIDTH) is not None or \
+            widest(props.get("lanes"), MAX_LANES) is not None:
+        return None
+    given = [f"{k} {shown(props[k], 40)}" for k in ("width", "lanes")
+             if props.get(k) not in (None, "", [])]
+    return " and ".join(given) or None
+
+
+def _warn_unread_widths(owners: Sequence[Feature]) -> None:
+    """One warning for the streets whose width and lanes could not be read, naming the
+    first and counting the rest (a city export can have thousands)."""
+    unread = [(f, text) for f in owners if (text := unread_width(f.properties))]
+    if not unread:
+        return
+    f, text = unread[0]
+    more = f" (and {len(unread) - 1} more streets)" if len(unread) > 1 else ""
+    warnings.warn(f"{f.where}: {text} is no width in metres (up to {MAX_WIDTH:g}) or "
+                  f"number of lanes (up to {MAX_LANES}){more}: its highway class's "
+                  "setback is used instead; write the width in metres (width=7.5) or the "
+                  "lanes as a number (lanes=2)", InputWarning, stacklevel=3)
+
+
 MAX_CROSSINGS = 100_000   # street crossings: each makes up to a block, a job of its own
 CROSSING_SAMPLE = 50_000  # pairs of lines tested to estimate how many cross
 SAMPLE_LINES = 256        # lines whose neighbours are counted to estimate all pairs
@@ -282,6 +310,8 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
                             + (f"; e.g. {skipped[0]}" if skipped else ""))
     width = setback if callable(setback) else (lambda _p, d=float(setback): d)
     widths = [width(f.properties) for f in owners]
+    if isinstance(setback, Setbacks):   # read from the tags: say which could not be
+        _warn_unread_widths(owners)
     distinct = _distinct(lines)
     _check_crossings(distinct, feats)   # first: noding the setbacks' lines took minutes
     cuts = [g.buffer(w, **_CUT) for g, w in zip(lines, widths, strict=True)]

@@ -149,6 +149,35 @@ def test_street_setbacks_follow_width_lanes_and_class():
     assert len(block.streets) == 4 and not skipped
 
 
+def test_a_street_width_or_lanes_not_read_is_warned_of_once():
+    """``lanes="two"`` or ``width="wide"`` fell back to the class's setback without a
+    word (a footprint's unreadable storeys got a note); now one warning names the first
+    such street and counts the others. Streets with a readable width or lanes, or none
+    given, are not warned of."""
+    import warnings
+
+    from citysynth.skeletons.errors import InputWarning
+    from citysynth.skeletons.streets import Setbacks, street_blocks, unread_width
+    assert unread_width({"lanes": "two"}) == 'lanes "two"'
+    assert unread_width({"width": "n/a", "lanes": 4}) is None
+    assert unread_width({"highway": "primary"}) is None
+    lines = [feat("LineString", metres([(x, -10), (x, 110)]), lanes="two") for x in (0, 100)]
+    lines += [feat("LineString", metres([(-10, 0), (110, 0)]), width="wide"),
+              feat("LineString", metres([(-10, 100), (110, 100)]), width="7")]
+    feats, _frame = parse_geojson(fc(*lines))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        (block,), _skipped = street_blocks(feats, Setbacks())
+    said = [str(w.message) for w in caught if issubclass(w.category, InputWarning)]
+    assert len(said) == 1, said
+    assert "feature 0" in said[0] and 'lanes "two" is no width in metres' in said[0]
+    assert "(and 2 more streets): its highway class's setback is used" in said[0], said
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        street_blocks(feats, 6.0)   # a setback given outright reads no tags
+    assert not [w for w in caught if issubclass(w.category, InputWarning)]
+
+
 def test_streets_split_anywhere_give_the_same_blocks():
     """A network exported as two-point segments (or cut every few metres) gives the
     blocks the whole lines give: a square cap at every piece's end put a corner of it
