@@ -116,17 +116,22 @@ NOT_STREETS = ("footway", "path", "cycleway", "steps", "bridleway", "corridor",
 """Ways of an OSM export that bound no block (paths across courtyards, sidewalks drawn
 beside their street, driveways, ways not built; roads in tunnels, which run under the
 blocks; subways; tram lines, which run down their street's middle; ferry routes): a
-``highway`` class, or a ``tag=value`` any of whose values marks the way."""
+``highway`` class, or a ``tag=value``. A merged edge (osmnx's lists of values) is no
+street only when every one of its values is such: a footway merged with a street, or
+a road partly in a tunnel (``tunnel=["no", "yes"]``), still bounds blocks."""
 
 
 def not_a_street(props: dict[str, Any], rules: Sequence[str]) -> str | None:
     """The rule of ``rules`` (see :data:`NOT_STREETS`) that says a line is no street:
-    a ``tag=value`` rule it has, or a class rule naming each of its highway classes (a
-    merged edge of a footway and a street is a street); else None."""
+    a ``tag=value`` rule each of its values of that tag meets, or a class rule naming
+    each of its highway classes (a merged edge of a footway and a street is a street,
+    and so is one partly in a tunnel; until 2026-11-30 any ``tunnel`` value of
+    ``"yes"`` dropped the whole edge); else None."""
     classes = highway_classes(props)
     for rule in rules:
         key, eq, value = rule.partition("=")
-        if eq and value in tag_values(props.get(key)):
+        values = [str(v) for v in tag_values(props.get(key))]
+        if eq and values and all(v == value for v in values):
             return rule
     if classes and all(c in rules for c in classes):
         return "highway=" + classes[0]

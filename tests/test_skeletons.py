@@ -178,6 +178,23 @@ def test_a_street_width_or_lanes_not_read_is_warned_of_once():
     assert not [w for w in caught if issubclass(w.category, InputWarning)]
 
 
+def test_a_merged_edge_partly_in_a_tunnel_is_a_street():
+    """osmnx merges the ways of an edge and lists their values: a road that dips into a
+    tunnel for a stretch has ``tunnel=["no", "yes"]`` (or that list's text in its own
+    files). A ``tag=value`` rule matched any value and dropped the whole street, so the
+    blocks on either side merged into one; it now needs every value, as the highway
+    class rule does."""
+    from citysynth.skeletons.streets import NOT_STREETS, not_a_street
+    assert not_a_street({"highway": "primary", "tunnel": "yes"}, NOT_STREETS) == "tunnel=yes"
+    assert not_a_street({"highway": "primary", "tunnel": ["yes", "yes"]},
+                        NOT_STREETS) == "tunnel=yes"
+    for partly in (["no", "yes"], "['no', 'yes']", "no;yes"):
+        assert not_a_street({"highway": "primary", "tunnel": partly}, NOT_STREETS) is None
+    assert not_a_street({"highway": ["footway", "primary"]}, NOT_STREETS) is None
+    assert not_a_street({"highway": ["footway", "path"]}, NOT_STREETS) == "highway=footway"
+    assert not_a_street({"highway": "primary", "tunnel": None}, NOT_STREETS) is None
+
+
 def test_streets_split_anywhere_give_the_same_blocks():
     """A network exported as two-point segments (or cut every few metres) gives the
     blocks the whole lines give: a square cap at every piece's end put a corner of it
