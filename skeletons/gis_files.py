@@ -96,6 +96,7 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
     except OSError:
         pass              # the reader names what is wrong with it
     fmt = next((name for magic, name in FORMATS.items() if head.startswith(magic)), None)
+    _refuse_no_layer(p, head, fmt)
     if fmt == "zipped Shapefile" and p.suffix.lower() == ".kmz":
         fmt = "KMZ"       # Google Earth's zipped KML
     elif fmt == "zipped Shapefile" and _zipped_gdb(p):
@@ -127,6 +128,35 @@ def gis_format(path: str | Path) -> tuple[Path, str | None, str] | None:
                                 "GeoJSON file has one layer: give its path alone")
         return None
     return p, layer or None, fmt
+
+
+OFFICE = {   # what a document that is no GIS layer starts with -> what it is
+    b"mimetypeapplication/vnd.oasis.opendocument.spreadsheet": "an OpenDocument "
+                                                                "spreadsheet (.ods)",
+    b"mimetypeapplication/vnd.oasis.opendocument": "an OpenDocument file",
+    b"[Content_Types].xml": "an Office Open XML file (Excel .xlsx or Word .docx)",
+}
+OLE2 = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"   # a Microsoft Office 97 file (.xls, .doc)
+
+
+def _refuse_no_layer(path: Path, head: bytes, fmt: str | None) -> None:
+    """Refuse a file that holds no layer of geometries but could be taken for one: an
+    office document (a zip, told from a zipped Shapefile by its first member; it was "a
+    zipped Shapefile ... not recognized", with the advice to unzip it), or osmnx's
+    GraphML (XML: "convert it with ogr2ogr", which cannot read it)."""
+    kind = next((k for magic, k in OFFICE.items() if fmt == "zipped Shapefile"
+                 and magic in head[:200]), None) or (
+        "a Microsoft Office 97 file (Excel .xls or Word .doc)" if head.startswith(OLE2)
+        else None)
+    if kind:
+        raise SkeletonError(f"{path}: {kind}, not a layer of geometries; export the "
+                            "streets or buildings from your GIS as GeoJSON or GeoPackage "
+                            "and give that file")
+    if _xml(head) and b"<graphml" in head:
+        raise SkeletonError(f"{path}: a GraphML graph (osmnx's save_graphml), which GDAL "
+                            "does not read; save the graph as a GeoPackage instead "
+                            "(osmnx.io.save_graph_geopackage(G, \"streets.gpkg\")) and "
+                            "give that file")
 
 
 _WAY = re.compile(rb'<way\s[^>]*?\bid="(-?\d+)"[^>]*>(.*?)</way>', re.S)

@@ -1083,3 +1083,38 @@ def test_an_esri_prj_of_an_epsg_crs_is_named_by_its_code(files, tmp_path):
         pyproj.CRS("EPSG:3067").to_wkt(pyproj.enums.WktVersion.WKT1_ESRI))
     _, frame = read_geojson(tmp_path / "streets.shp", accept="lines")
     assert frame.crs.endswith("(projected, EPSG:3067)") and len(frame.crs) < 80, frame.crs
+
+
+def _office(path: Path, first: str, mimetype: str | None) -> Path:
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr(zipfile.ZipInfo(first), mimetype or "<Types/>")
+        z.writestr("content.xml", "<x/>")
+    return path
+
+
+@pytest.mark.parametrize("name, make, said", [
+    ("sheet.ods", lambda p: _office(p, "mimetype",
+                                    "application/vnd.oasis.opendocument.spreadsheet"),
+     "an OpenDocument spreadsheet (.ods), not a layer of geometries; export the streets"),
+    ("sheet.xlsx", lambda p: _office(p, "[Content_Types].xml", None),
+     "an Office Open XML file (Excel .xlsx or Word .docx), not a layer of geometries"),
+    ("sheet.xls", lambda p: p.write_bytes(b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1" + b"\0" * 500),
+     "a Microsoft Office 97 file (Excel .xls or Word .doc), not a layer of geometries"),
+    ("graph.graphml", lambda p: p.write_text(
+        '<?xml version="1.0" encoding="utf-8"?>\n<graphml xmlns="http://graphml.graphdrawing'
+        '.org/xmlns"><graph edgedefault="directed"><node id="1"/></graph></graphml>\n'),
+     "a GraphML graph (osmnx's save_graphml), which GDAL does not read; save the graph as "
+     "a GeoPackage instead (osmnx.io.save_graph_geopackage"),
+])
+def test_documents_that_hold_no_layer_are_named_for_what_they_are(tmp_path, capsys, name,
+                                                                   make, said):
+    """A spreadsheet was "cannot read this zipped Shapefile (... not recognized ...);
+    check that it is whole", and osmnx's GraphML "XML ...: convert it, e.g. ogr2ogr",
+    which cannot read it: each is named, with what to give instead."""
+    path = tmp_path / name
+    make(path)
+    out = tmp_path / "out"
+    assert city(out, "--streets", str(path)) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: {said}" in err, err
+    assert len(err.strip().splitlines()) == 1 and not out.exists()
