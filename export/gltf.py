@@ -73,7 +73,10 @@ def trs_matrix(inst: Instance) -> list[float]:
     x, y = m[:3, 0].copy(), m[:3, 1].copy()
     y -= x * float(x @ y) / float(x @ x)
     m[:3, 1] = y * (np.linalg.norm(m[:3, 1]) / np.linalg.norm(y))
-    return [float(v) for v in m.flatten(order="F")]
+    return [float(v) + 0.0 for v in m.flatten(order="F")]   # + 0.0: no "-0.0" written
+
+
+IDENTITY = [float(v) for v in np.eye(4).flatten()]   # a node's default: not written
 
 
 class GlbBuilder:
@@ -185,7 +188,9 @@ class GlbBuilder:
             return self.node(label, mesh=mesh, extras=extras)
         mesh = self.mesh((db.library_hash, inst.proto),
                          [(p.vertices, p.faces, p) for p in pieces])
-        return self.node(label, mesh=mesh, matrix=trs_matrix(inst), extras=extras)
+        matrix = trs_matrix(inst)   # the identity is the default (the validator's
+        placed = {} if matrix == IDENTITY else {"matrix": matrix}   # NODE_MATRIX_DEFAULT)
+        return self.node(label, mesh=mesh, extras=extras, **placed)
 
     def scene(self, name: str, root: int) -> None:
         self.doc["scenes"].append({"name": name, "nodes": [root]})

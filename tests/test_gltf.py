@@ -18,7 +18,7 @@ import pytest
 import trimesh
 
 from citysynth.export.assemble import bounds
-from citysynth.export.gltf import write_city_glb, write_glb
+from citysynth.export.gltf import IDENTITY, write_city_glb, write_glb
 from citysynth.export.layout import Layout
 from citysynth.export.materials import material_name
 from citysynth.export.prototypes import prototype_pieces
@@ -174,3 +174,19 @@ def test_city_glb_holds_every_layout_and_validates(run_dir, db, tmp_path):
     protos = {i.proto for _g, lay in lays for i in lay.instances}
     shared = [m for m in doc["meshes"] if "@" not in m["name"]]   # not a baked shear
     assert len(shared) == len({m["name"] for m in shared}) <= len(protos)
+
+
+def test_a_tower_glb_has_no_validator_infos(tmp_path):
+    """A tower's parts stand at the identity (a tower is its own frame): the node wrote
+    the default matrix, and the validator reported NODE_MATRIX_DEFAULT (an info; the
+    matrices also held -0.0). Nodes at the identity now carry no matrix."""
+    assert main(["tower", "--height", "40", "--far", "4", "--lot-area", "400", "--k", "1",
+                 "-o", str(tmp_path), "--no-preview"]) == 0
+    (path,) = sorted(tmp_path.glob("*.glb"))
+    (report,) = validate_glbs([path])
+    assert report["errors"] == report["warnings"] == report["infos"] == 0, report
+    doc = glb_json(path)
+    matrices = [n["matrix"] for n in doc["nodes"] if "matrix" in n]
+    assert all(m != IDENTITY for m in matrices)
+    assert "-0.0" not in json.dumps(matrices)
+    assert sum("mesh" in n for n in doc["nodes"]) > 3
