@@ -3,7 +3,7 @@
 Block outlines cut from real street networks carry what no facade can follow: survey
 noise, short edges where a kerb bends, and sides between two corners too short for
 any pair of corner parts. :func:`absorb_short_edges` removes them the way a designer
-would: spikes sharper than ``MIN_ANGLE`` lose their tip, and each too-short run
+would: spikes sharper than ``MIN_ANGLE`` on a too-short edge lose their tip, and each too-short run
 between two corners is absorbed into its neighbours' corners, its ends merged where
 the neighbouring sides' lines meet (or at its middle, when they are nearly parallel or
 meet far away). Near-straight vertices stay: they are
@@ -66,9 +66,16 @@ def _ring(coords: Any, min_edge: float, min_stage: float, straight_tol: float) -
             for a, b in zip(cs, np.roll(cs, -1), strict=True):
                 length = sum(seg[k % n] for k in range(a, a + (b - a) % n or n))
                 runs.append((int(a), int(b), float(length)))
-        spike = int(np.argmax(np.abs(turns)))
-        if abs(turns[spike]) > 180.0 - MIN_ANGLE:   # a spike: cut its tip off
-            pts = np.delete(pts, spike, axis=0)
+        # a spike: a corner sharper than MIN_ANGLE on an edge too short for a corner
+        # part (survey noise, a kerb's jag); its tip is cut off. A sharp corner between
+        # long sides is the ground's own (a wedge between streets at 25°): cutting
+        # along the chord between its neighbours cut such a block to a fifth of
+        # itself, or away whole, so it stays, for :func:`without_tips` to give a nose
+        sharp = np.abs(turns) > 180.0 - MIN_ANGLE
+        small = np.minimum(seg, np.roll(seg, 1)) < max(min_edge, NOISE)
+        tips = np.flatnonzero(sharp & small)
+        if len(tips):
+            pts = np.delete(pts, int(tips[np.argmax(np.abs(turns[tips]))]), axis=0)
             continue
         short_edge = int(np.argmin(seg))
         if seg[short_edge] < min_edge:
