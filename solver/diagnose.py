@@ -40,10 +40,17 @@ def _interval_text(name: str, lo: float, hi: float) -> str:
 
 
 def _reachable_totals(cp: Compiled, max_rows: int) -> np.ndarray | None:
-    """Quantised totals (rows) of complete sequences meeting cp's upper bounds."""
-    (status, nrows, G, _H, row_state, *_), _table = grow(
-        cp, dense=dense_rows(cp), rows_hint=min(cp.S, 1 << 12), max_rows=max_rows,
-        forward_only=True, complete=False)
+    """Quantised totals (rows) of complete sequences meeting cp's upper bounds; None
+    when growing them is cut short by the row budget, or by the machine's memory: the
+    budget is the solver's, and a process limited below it (``ulimit -v 3 GB``) met a
+    MemoryError here, a traceback while explaining an infeasible tower (a 200.1 m tower
+    at a FAR of 1 to 100); the diagnosis then says less, as when the budget cuts it."""
+    try:
+        (status, nrows, G, _H, row_state, *_), _table = grow(
+            cp, dense=dense_rows(cp), rows_hint=min(cp.S, 1 << 12), max_rows=max_rows,
+            forward_only=True, complete=False)
+    except MemoryError:
+        return None
     if status != 0:
         return None
     reached = (G[:nrows][:, cp.back] < np.inf).any(axis=1)

@@ -586,3 +586,57 @@ def test_an_output_folder_whose_path_holds_a_control_character_is_refused(tmp_pa
                       str(parent / "out"), "--no-preview"], capsys)
     assert code == 2 and "holds a control character" in err, err
     assert not (parent / "out").exists()
+
+
+def test_the_depth_walk_holds_one_iterator_a_level_not_every_child():
+    """A 99 MB file of 33 million empty lists parsed in 2.4 GB, then the depth check
+    stacked every child (a tuple each) and the reader died of MemoryError (exit 3)
+    under a 3 GB limit. The walk now holds an iterator a level: walking a million
+    empty lists allocates next to nothing."""
+    import tracemalloc
+
+    from citysynth.solver.safe_read import depth_error
+    data = {"zz": [[] for _ in range(1_000_000)]}
+    tracemalloc.start()
+    try:
+        assert depth_error(data) is False
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 1_000_000, peak          # the stack of tuples took about 80 MB
+    deep: list = []
+    for _ in range(150):
+        deep = [deep]
+    assert depth_error(deep) and depth_error({"a": [{"b": [[]]}]}, 3)
+    assert not depth_error({"a": [{"b": 1}]}, 3) and not depth_error(7)
+
+
+def test_json_too_large_for_memory_is_refused_not_a_crash(tmp_path, capsys, monkeypatch):
+    """JSON that fits the input size limit but not memory once parsed is one message
+    and exit 2 (it was a MemoryError traceback, exit 3)."""
+    import citysynth.solver.safe_read as safe_read
+
+    path = _write(tmp_path / "p.json", {"elements": []})
+
+    def no_memory(*_a, **_k):
+        raise MemoryError
+    monkeypatch.setattr(safe_read.json, "loads", no_memory)
+    code, err = _run(["solve", str(path)], capsys)
+    assert code == 2 and "Traceback" not in err, err
+    assert "of JSON that does not fit in the memory this machine gives citysynth" in err, err
+
+
+def test_an_infeasible_tower_explained_without_memory_is_still_an_answer(tmp_path, capsys,
+                                                                          monkeypatch):
+    """Explaining why a tower cannot be built grows the reachable totals within the
+    solver's memory budget; under a process limit below it (``ulimit -v``, 3 GB) that
+    growth met a MemoryError, a traceback (exit 3) for ``tower --height 200.1 --far 1
+    100``. The diagnosis now says less and the tower is reported infeasible (exit 1)."""
+    import citysynth.solver.diagnose as diagnose
+
+    def no_memory(*_a, **_k):
+        raise MemoryError
+    monkeypatch.setattr(diagnose, "grow", no_memory)
+    code, err = _run(["tower", "--height", "200.1", "--far", "1", "100", "--lot-area", "900",
+                      "-o", str(tmp_path / "t"), "--no-preview"], capsys)
+    assert code == 1 and "Traceback" not in err and err.strip(), err
