@@ -128,6 +128,8 @@ def choose_method(cp: Compiled, k: int, max_memory_mb: float) -> Method:
 SOLUTION_BYTES = 2048    # what a kept solution takes (its sequence, cost, totals, and
                          # its result object): 1,000,000 solutions of the sample street
                          # took 1.3 GB (3.3 GB printed as JSON); 256 let 5 M reach 15 GB
+ELEMENT_BYTES = 16       # an element of a kept solution: in the enumeration's array,
+                         # then in the sequence's list
 MAX_BUDGET_MB = float(1 << 30)   # a memory budget past 1 PB is a typo
 
 
@@ -160,11 +162,13 @@ def check_k(k: int, max_memory_mb: float) -> None:
                             budget_mb=max_memory_mb, k=k)
 
 
-def check_length(cp: Compiled, max_memory_mb: float) -> None:
+def check_length(cp: Compiled, max_memory_mb: float, k: int = 1) -> None:
     """Refuse at once a minimum past what can be counted (1e300 m at 0.2 m), and one that
     only a solution too long for any search within the budget can reach: every element
     of a solution is a node or label of the search, 16 bytes at the very least. Both
-    searched (until the budget or for ever) before."""
+    searched (until the budget or for ever) before. So are ``k`` solutions that long:
+    each element of each is kept in the enumeration's array and then in a list (two
+    words); k = 1,000,000 solutions of 300 one-metre elements died of MemoryError."""
     shortest = 0
     for i, q in enumerate(cp.quant):
         if q.lo > HI_CAP:
@@ -182,6 +186,13 @@ def check_length(cp: Compiled, max_memory_mb: float) -> None:
             f"its minimums, more than a search within the memory budget of "
             f"{max_memory_mb:,.0f} MB can hold; ask for less, or raise the budget "
             "(--max-memory MB)", need_mb=shortest * 16 / 2**20, budget_mb=max_memory_mb)
+    need = k * max(SOLUTION_BYTES, ELEMENT_BYTES * shortest)
+    if need > max_memory_mb * 2**20:   # k long solutions: check_k counts short ones
+        raise TooLargeError(
+            f"k = {k:,}: keeping that many solutions of at least {shortest:,} elements "
+            f"each takes at least {need / 2**30:,.1f} GB, over the memory budget of "
+            f"{max_memory_mb:,.0f} MB; ask for fewer (k), or raise the budget "
+            "(--max-memory MB)", need_mb=need / 2**20, budget_mb=max_memory_mb, k=k)
 
 
 def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
@@ -227,7 +238,7 @@ def solve(problem: Problem, k: int | None = None, method: Method = "auto", *,
     check_k(k, max_memory_mb)
     t0 = time.perf_counter()
     cp = compile_problem(problem)
-    check_length(cp, max_memory_mb)
+    check_length(cp, max_memory_mb, k)
     if method == "auto":
         method = choose_method(cp, k, max_memory_mb)
     stats: dict[str, Any] = {

@@ -640,3 +640,28 @@ def test_an_infeasible_tower_explained_without_memory_is_still_an_answer(tmp_pat
     code, err = _run(["tower", "--height", "200.1", "--far", "1", "100", "--lot-area", "900",
                       "-o", str(tmp_path / "t"), "--no-preview"], capsys)
     assert code == 1 and "Traceback" not in err and err.strip(), err
+
+
+def _two_element_problem(length: int, k: int) -> dict:
+    return {"resources": ["length"],
+            "elements": [{"id": "A", "resources": {"length": 1}},
+                         {"id": "B", "resources": {"length": 1}, "cost": 0.001}],
+            "transitions": [[a, b, 0] for a in "AB" for b in "AB"],
+            "constraints": {"length": [length, length]}, "k": k}
+
+
+def test_k_long_solutions_past_the_budget_are_refused_with_an_estimate(tmp_path, capsys):
+    """k = 1,000,000 solutions of 300 one-metre elements passed the check on k (which
+    counts a solution as 2 KB) and died of MemoryError in the enumeration (exit 3);
+    they are refused at once with what they would take. As many 60-element ones
+    still fit the budget, as they did (1.8 GB)."""
+    from citysynth.solver import Problem
+    from citysynth.solver.compiled import compile_problem
+    from citysynth.solver.entry import check_length
+    path = _write(tmp_path / "p.json", _two_element_problem(300, 1_000_000))
+    code, err = _run(["solve", str(path)], capsys)
+    assert code == 2, err
+    assert "k = 1,000,000: keeping that many solutions of at least 300 elements each " \
+        "takes at least 4.5 GB, over the memory budget of 2,048 MB" in err, err
+    check_length(compile_problem(Problem.from_dict(_two_element_problem(60, 1_000_000))),
+                 2048.0, 1_000_000)
