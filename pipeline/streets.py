@@ -37,7 +37,7 @@ from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import street_front_problem
 from citysynth.skeletons import InputWarning
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.solver import Problem, Result, solve
+from citysynth.solver import Problem, Result, TooLargeError, solve
 from citysynth.solver.diagnose import nearest
 
 BEND = 5.0           # degrees: a facade line turning more than this starts a new run
@@ -462,6 +462,25 @@ def _why(run: Run, details: list[dict], ask: StreetAsk, locate: Locate | None = 
                            "intervals each alone but not together; relax one")
 
 
+def _street_too_large(name: str, run: Run, ask: StreetAsk,
+                      exc: TooLargeError) -> TooLargeError:
+    """A street run too large to fill, in a street user's words: the solver's own text
+    speaks of partial sequences, quanta and --max-memory, which ``street`` does not
+    have (a 100 km line with doors and windows intervals was told to give a quantum)."""
+    budget = f"{exc.budget_mb:,.0f} MB" if exc.budget_mb is not None else "the memory"
+    if exc.k is not None:
+        text = (f"{name}: k = {exc.k:,} rows of buildings would take at least "
+                f"{(exc.need_mb or 0) / 1024:,.1f} GB to keep, over the {budget} budget; "
+                "ask for fewer (--k)")
+    else:
+        asked = ", ".join(a for a, _lo, _hi in ask.constraints)
+        fix = (f"narrow or drop the intervals on {asked}, or split the street into "
+               "shorter lines" if asked else "split the street into shorter lines")
+        text = (f"{name}: filling its {run.line.length:,.0f} m run with buildings would "
+                f"take more than the {budget} budget; {fix}")
+    return TooLargeError(text, need_mb=exc.need_mb, budget_mb=exc.budget_mb, k=exc.k)
+
+
 def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
                frame: str = "local", locate: Locate | None = None) -> Built:
     """The k best rows of buildings on ``all_runs`` (each run solved on its own; see
@@ -478,7 +497,10 @@ def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
         if far:
             return Built(name, "infeasible", reason=_why(run, [], ask, locate, far),
                          timings={"solve_s": time.perf_counter() - t0})
-        r = solve(Problem.from_dict(problem))
+        try:
+            r = solve(Problem.from_dict(problem))
+        except TooLargeError as exc:
+            raise _street_too_large(name, run, ask, exc) from None
         if r.status != "ok":
             blamed = (_blamed(problem, ask) if not r.details or any(
                 d["constraint"] == "length" for d in r.details) else None)

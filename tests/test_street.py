@@ -426,3 +426,30 @@ def test_an_output_never_overwrites_the_input(tmp_path, capsys):
                  "--no-preview", "-o", str(lot.parent)]) == 2
     assert "t.glb would overwrite this input file" in capsys.readouterr().err
     assert lot.read_bytes() == before and sorted(lot.parent.iterdir()) == [lot]
+
+
+@pytest.mark.parametrize("k, said", [
+    (None, "main: filling its 200 m run with buildings would take more than the 2,048 MB "
+           "budget; narrow or drop the intervals on doors, or split the street into "
+           "shorter lines"),
+    (7, "main: k = 7 rows of buildings would take at least 4.9 GB to keep, over the "
+        "2,048 MB budget; ask for fewer (--k)")])
+def test_a_street_too_large_to_fill_is_told_in_street_words(tmp_path, capsys, monkeypatch,
+                                                            k, said):
+    """A 100 km street with doors and windows intervals was refused in the solver's
+    words: "... partial sequences ... use a quantum (e.g. "quantum": {"length": 2}) ...
+    or raise the budget (--max-memory MB)", options ``street`` does not have."""
+    import citysynth.pipeline.streets as streets
+    from citysynth.solver import TooLargeError
+
+    def too_large(*_a, **_kw):
+        raise TooLargeError('stopped at the memory budget of 2,048 MB after 2,804,571 '
+                            'partial sequences; use a quantum (e.g. "quantum": '
+                            '{"length": 2}) or raise the budget (--max-memory MB)',
+                            need_mb=5000.0, budget_mb=2048.0, k=k)
+    monkeypatch.setattr(streets, "solve", too_large)
+    capsys.readouterr()
+    assert main(["street", "--line", str(_line_file(tmp_path / "main.geojson")),
+                 "--doors", "1", "50", "-o", str(tmp_path / "o"), "--no-preview"]) == 2
+    err = capsys.readouterr().err
+    assert said in err and "--max-memory" not in err and "quantum" not in err, err
