@@ -3,11 +3,11 @@
 Block outlines cut from real street networks carry what no facade can follow: survey
 noise, short edges where a kerb bends, and sides between two corners too short for
 any pair of corner parts. :func:`absorb_short_edges` removes them the way a designer
-would: spikes sharper than ``MIN_ANGLE`` on a too-short edge lose their tip, and each too-short run
-between two corners is absorbed into its neighbours' corners, its ends merged where
-the neighbouring sides' lines meet (or at its middle, when they are nearly parallel or
-meet far away). Near-straight vertices stay: they are
-bends inside a substructure, not key points.
+would: spikes sharper than ``MIN_ANGLE`` lose their tip (not a sharp corner with room
+for its nose), and each too-short run between two corners is absorbed into its
+neighbours' corners, its ends merged where the neighbouring sides' lines meet (or at
+its middle, when they are nearly parallel or meet far away). Near-straight vertices
+stay: they are bends inside a substructure, not key points.
 """
 
 from __future__ import annotations
@@ -50,7 +50,8 @@ def _merge_point(pts: np.ndarray, i: int, j: int) -> np.ndarray:
     return p if np.linalg.norm(p - mid) <= max(2.0 * span, 2.0) else mid
 
 
-def _ring(coords: Any, min_edge: float, min_stage: float, straight_tol: float) -> np.ndarray:
+def _ring(coords: Any, min_edge: float, min_stage: float, straight_tol: float,
+          nose: float | None = None) -> np.ndarray:
     pts = np.asarray(coords, dtype=float)[:-1, :2]
     for _ in range(4 * len(pts)):
         n = len(pts)
@@ -66,14 +67,7 @@ def _ring(coords: Any, min_edge: float, min_stage: float, straight_tol: float) -
             for a, b in zip(cs, np.roll(cs, -1), strict=True):
                 length = sum(seg[k % n] for k in range(a, a + (b - a) % n or n))
                 runs.append((int(a), int(b), float(length)))
-        # a spike: a corner sharper than MIN_ANGLE on an edge too short for a corner
-        # part (survey noise, a kerb's jag); its tip is cut off. A sharp corner between
-        # long sides is the ground's own (a wedge between streets at 25°): cutting
-        # along the chord between its neighbours cut such a block to a fifth of
-        # itself, or away whole, so it stays, for :func:`without_tips` to give a nose
-        sharp = np.abs(turns) > 180.0 - MIN_ANGLE
-        small = np.minimum(seg, np.roll(seg, 1)) < max(min_edge, NOISE)
-        tips = np.flatnonzero(sharp & small)
+        tips = np.flatnonzero(_spikes(turns, seg, min_edge, nose))
         if len(tips):
             pts = np.delete(pts, int(tips[np.argmax(np.abs(turns[tips]))]), axis=0)
             continue
@@ -91,15 +85,35 @@ def _ring(coords: Any, min_edge: float, min_stage: float, straight_tol: float) -
     return pts
 
 
+def _spikes(turns: np.ndarray, seg: np.ndarray, min_edge: float,
+            nose: float | None) -> np.ndarray:
+    """Which vertices are spikes, whose tip is cut off along the chord between their
+    neighbours: corners sharper than :data:`MIN_ANGLE`; with ``nose`` (an outline's
+    convex corners), only those on an edge too short for ``min_edge`` or for the nose
+    such a corner gets (``nose / (2 sin(angle / 2))`` back along each side). A sharp
+    convex corner between long sides is the ground's own (a wedge between streets at
+    25°): cut as a spike it took a trapezoid's block down to a fifth of itself, and
+    a star junction's wedges away whole; it stays, for :func:`without_tips`' nose."""
+    sharp = np.abs(turns) > 180.0 - MIN_ANGLE
+    if nose is None:
+        return sharp
+    angle = np.radians(np.maximum(180.0 - np.abs(turns), 1e-6))
+    back = nose / (2 * np.sin(angle / 2))
+    short = np.minimum(seg, np.roll(seg, 1)) < np.maximum(max(min_edge, NOISE), back)
+    return sharp & ((turns < 0) | short)
+
+
 def absorb_short_edges(poly: Polygon, *, min_edge: float, min_stage: float,
-                       straight_tol: float) -> Polygon | None:
-    """``poly`` with noise removed, edges under ``min_edge`` and corner-to-corner runs
-    under ``min_stage`` absorbed into their neighbours' corners. None when nothing
-    valid is left (the caller reports the block as skipped)."""
+                       straight_tol: float, nose: float | None = None) -> Polygon | None:
+    """``poly`` with noise removed, spikes cut (:func:`_spikes`; ``nose``: the end wall
+    an acute convex corner of the outline gets, which keeps such a corner where it
+    fits), edges under ``min_edge`` and corner-to-corner runs under ``min_stage``
+    absorbed into their neighbours' corners. None when nothing valid is left (the
+    caller reports the block as skipped)."""
     poly = shapely.geometry.polygon.orient(
         shapely.simplify(poly, NOISE, preserve_topology=True), 1.0)
-    return _rebuilt(poly, lambda coords, _outer: _ring(coords, min_edge, min_stage,
-                                                       straight_tol))
+    return _rebuilt(poly, lambda coords, outer: _ring(coords, min_edge, min_stage,
+                                                      straight_tol, nose if outer else None))
 
 
 def _rebuilt(poly: Polygon, clean) -> Polygon | None:

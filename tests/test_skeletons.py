@@ -638,9 +638,10 @@ def test_a_sharp_corner_between_long_sides_is_the_ground_s_own(tip):
     quad = shapely.Polygon([(0, 0), (200, 0), (200, 40), (40 / math.tan(t), 40)])
     wedge = shapely.Polygon([(0, 0), (100, 0), (100, 100 * math.tan(t))])
     for poly in (quad, wedge):
-        got = absorb_short_edges(poly, min_edge=4.0, min_stage=2.4, straight_tol=8.0)
+        got = absorb_short_edges(poly, min_edge=4.0, min_stage=2.4, straight_tol=8.0,
+                                 nose=2.0)
         assert got is not None and got.area == pytest.approx(poly.area, rel=1e-6), got
     noisy = shapely.Polygon([(0, 0), (60, 0), (60, 40), (30, 40), (29, 43.5), (28.3, 40),
                              (0, 40)])   # a 3.5 m jag of 11°, on 1 m edges: noise
-    got = absorb_short_edges(noisy, min_edge=4.0, min_stage=2.4, straight_tol=8.0)
+    got = absorb_short_edges(noisy, min_edge=4.0, min_stage=2.4, straight_tol=8.0, nose=2.0)
     assert got is not None and got.area == pytest.approx(60 * 40, abs=1.0), got.wkt

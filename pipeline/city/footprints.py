@@ -422,7 +422,7 @@ def _street_block(job: BlockJob, db: PartDB, poly: shapely.Polygon,
     else:
         clean = absorb_short_edges(poly, min_edge=job.min_edge,
                                    min_stage=shortest_stage(db, job.style),
-                                   straight_tol=STRAIGHT_TOL)
+                                   straight_tol=STRAIGHT_TOL, nose=NOSE)
         gone = "nothing buildable is left once its sides too short for corners are absorbed"
     if clean is None:   # said where it is, as a piece skipped before it was a block is
         return f"{block_where(job, poly)}: {gone}"
