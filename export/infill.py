@@ -10,7 +10,8 @@ from above:
 
 - **what**: the outline less every instance's plan (its walls' and roof's faces
   projected on the ground, the part extended and cut as the instance is), opened by
-  :data:`SLIVER` so the hairline seams between modules stay as they are; areas under
+  :data:`SEAM` (:data:`SLIVER` on a street block) so the hairline seams between
+  modules stay as they are; areas under
   :data:`MIN_AREA` are left out, and those under :data:`NOTCH` that touch the outline
   (a notch in a facade, where a plain infill wall would face the street; a speck
   inside, where hip roofs meet round it, shows the ground through them);
@@ -51,7 +52,11 @@ from citysynth.parts_db.geometry import Piece, part_pieces
 MIN_AREA = 0.3         # m²: open ground smaller than this is left open
 NOTCH = 2.0            # m²: smaller open ground on the outline is a notch in a facade
 TOUCH = 0.05           # m: open ground this near the outline is on it
-SLIVER = 0.15          # m: open ground thinner than twice this is a seam, not a hole
+SLIVER = 0.15          # m: a street block's open ground thinner than twice this is a
+                       # seam, not a hole (and a slit that keeps a pocket from its yard)
+SEAM = 0.02            # m: the same on a footprint, which has no yard: wider seams are
+                       # cracks through its roofs (0.25 m wide and 10 m long, where a
+                       # chamfer's corner part met the courtyard ring's modules)
 DROP = 0.3             # m: the infill's top below the lowest back eave round it
 NEIGHBOUR = 0.5        # m: a part this near an open area is round it
 MIN_HEIGHT = 2.5       # m: lower than this, the parts round it are no building
@@ -118,8 +123,9 @@ def is_pocket(area: Polygon) -> bool:
 
 def _open_ground(ground: BaseGeometry, grounds: list[BaseGeometry], grid: float | None,
                  roof: Roof) -> BaseGeometry:
-    """The building's ground no instance covers, less seams thinner than 2 SLIVER
-    (an opening: shrunk by SLIVER, the cores, grown back within the open ground).
+    """The building's ground no instance covers, less seams thinner than 2 SEAM (2
+    SLIVER for ``pockets``): an opening, shrunk by it, the cores, grown back within the
+    open ground.
 
     The instances' union is GEOS's disjoint-subset union when not snapped: the same
     union, in 40 % of the time on a street block's ring of wings. For ``pockets`` only
@@ -132,7 +138,8 @@ def _open_ground(ground: BaseGeometry, grounds: list[BaseGeometry], grid: float 
     covered = (shapely.disjoint_subset_union_all(grounds) if grid is None
                else shapely.union_all(grounds, grid_size=grid))
     open_ = shapely.difference(ground, covered, grid_size=grid)
-    cores = shapely.buffer(open_, -SLIVER, join_style="mitre")
+    seam = SLIVER if roof == "pockets" else SEAM
+    cores = shapely.buffer(open_, -seam, join_style="mitre")
     if roof == "pockets":
         cores = shapely.union_all([c for c in shapely.get_parts(cores)
                                    if shapely.buffer(c, SLIVER - YARD).is_empty])
@@ -140,7 +147,7 @@ def _open_ground(ground: BaseGeometry, grounds: list[BaseGeometry], grid: float 
             return cores
         open_ = shapely.union_all([p for p in shapely.get_parts(open_)
                                    if p.intersects(cores)])
-    opened = shapely.buffer(cores, SLIVER, join_style="mitre")
+    opened = shapely.buffer(cores, seam, join_style="mitre")
     return shapely.intersection(opened, open_, grid_size=grid)
 
 

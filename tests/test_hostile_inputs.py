@@ -665,3 +665,21 @@ def test_k_long_solutions_past_the_budget_are_refused_with_an_estimate(tmp_path,
         "takes at least 4.5 GB, over the memory budget of 2,048 MB" in err, err
     check_length(compile_problem(Problem.from_dict(_two_element_problem(60, 1_000_000))),
                  2048.0, 1_000_000)
+
+
+def test_structure_wide_shares_kept_for_every_stage_past_the_budget_are_refused(tmp_path,
+                                                                               capsys):
+    """A 10,000-stage cycle with a structure-wide doors interval of [20,000, 30,000]
+    passed the check on shares (30,001, under a million) and then grew, a share for
+    every stage, until the kernel killed it at 21 GB. Shares times stages are checked
+    against the budget first: refused at once, with the figure."""
+    n = 2000
+    st = copy.deepcopy(CYCLE)
+    st["keypoints"] = [st["keypoints"][0]] * n
+    st["stages"] = [{"constraints": {"length": [37.4, 37.4], "doors": [2, 4]}}] * n
+    st["constraints"] = {"doors": [4000, 6000]}
+    path = _write(tmp_path / "s.json", st)
+    code, err = _run(["solve", str(path), "--max-memory", "256"], capsys)
+    assert code == 2, err
+    assert "structure-wide constraints on doors: 6,001 ways to share the totals, kept for " \
+        "each of its 2,000 stages, about 0.7 GB, over the memory budget of 256 MB" in err, err

@@ -42,7 +42,7 @@ from citysynth.solver.structures.combine import Share, StageList
 from citysynth.solver.structures.decompose import (
     Grid,
     StageBuilder,
-    share_allowed,
+    shares_allowed,
     stage_fillers,
     start_leg,
 )
@@ -440,9 +440,8 @@ class StageGraphs:
         if got is None:
             stage = self.st.stages[i]
             if any(r in stage.constraints for r in self.gnames):
-                got = np.array([x for x, g in enumerate(self.shares)
-                                if share_allowed(stage, g, self.gnames, self.gq)],
-                               dtype=np.int64)
+                ok = shares_allowed(stage, self._share_arr, self.gnames, self.gq)
+                got = np.flatnonzero(ok).astype(np.int64)
             else:
                 got = self._all_shares
             self._shares_of[i] = got
