@@ -189,7 +189,8 @@ class GlbBuilder:
         mesh = self.mesh((db.library_hash, inst.proto),
                          [(p.vertices, p.faces, p) for p in pieces])
         matrix = trs_matrix(inst)   # the identity is the default (the validator's
-        placed = {} if matrix == IDENTITY else {"matrix": matrix}   # NODE_MATRIX_DEFAULT)
+        # NODE_MATRIX_DEFAULT): not written
+        placed: dict[str, Any] = {} if matrix == IDENTITY else {"matrix": matrix}
         return self.node(label, mesh=mesh, extras=extras, **placed)
 
     def scene(self, name: str, root: int) -> None:
