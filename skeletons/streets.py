@@ -254,98 +254,17 @@ def _joined_cuts(lines: list, widths: list[float]) -> list[Polygon]:
     only two of them meet at), each joined line buffered once. A street's square cap stands
     where it ends, not where a GIS split it: a network exported as two-point segments
     (or cut every 2 m) buffered piece by piece put a cap's corner into the block at
-    every bend, a saw-tooth of 3 m notches, and a block failed on a side they left.
-    Where a line ends on a street running through (a T), its cap stops at that
-    street's far setback (:func:`_capped`)."""
+    every bend, a saw-tooth of 3 m notches, and a block failed on a side they left."""
     by_width: dict[float, list] = {}
     for g, w in zip(lines, widths, strict=True):
         by_width.setdefault(w, []).extend(shapely.get_parts(g))
-    parts: list[tuple[LineString, float]] = []
+    out: list[Polygon] = []
     for w in sorted(by_width):
         # noded first, so that a street passing through a junction and one split
         # there are the same lines: how a GIS split the network changes nothing
         merged = shapely.line_merge(shapely.union_all(_distinct(by_width[w])))
-        parts += [(p, w) for p in shapely.get_parts(merged)]
-    squares = [p.buffer(w, **_CUT) for p, w in parts]
-    return _capped(parts, squares)
-
-
-THROUGH = math.radians(150)   # two arms this far apart at a node are one street through it
-ON_NODE = 1e-6                # m: a line this near a node passes through or ends at it
-TANGENT = 0.05                # m along a line at which its direction at a node is taken
-ON_GRID = 1e-6                # m: the grid a trimmed cut is snapped to
-
-
-def _capped(parts: list[tuple[LineString, float]], squares: list[Polygon]) -> list[Polygon]:
-    """Each joined line's cut; where it ends on a street that runs on through the node
-    (a T, or a crossing), its square cap is trimmed at that street's far setback. A
-    square cap reaches the line's setback past its end: a side street ending at a T
-    cut that far across the street it meets, a notch in the block across (2.2 m deep at
-    a T of 60° between streets of one setback; a 2 m step where an 8 m street ends at
-    a 6 m one, at any angle). Dead ends (a street's own notch), bends, forks and nodes
-    where two setbacks meet keep their whole cap, which fills the junction's corners;
-    the trim never uncuts what another street at the node cuts (their own cuts stay)."""
-    tree = shapely.STRtree([p for p, _w in parts])
-    out = []
-    for i, ((line, w), square) in enumerate(zip(parts, squares, strict=True)):
-        coords = np.asarray(line.coords)
-        if line.is_closed or len(coords) < 2:
-            out.append(square)
-            continue
-        trims = [_cap_box(end, inner, w).intersection(t)
-                 for end, inner in ((coords[0], coords[1]), (coords[-1], coords[-2]))
-                 if (t := _far_side(parts, tree, i, end, end - inner)) is not None]
-        # on a micrometre grid: the trim's corners, computed apart from the buffer's
-        # own, left hair-thin slivers that split the block across in two
-        out.append(shapely.set_precision(square.difference(shapely.union_all(trims)),
-                                         ON_GRID) if trims else square)
+        out += [p.buffer(w, **_CUT) for p in shapely.get_parts(merged)]
     return out
-
-
-def _cap_box(end: np.ndarray, inner: np.ndarray, w: float) -> Polygon:
-    """The square cap shapely's buffer puts at a line's ``end`` (whose last segment
-    comes from ``inner``): ``w`` past the end, ``w`` either side of the line."""
-    d = end - inner
-    d = d / math.hypot(*d)
-    n = np.array([-d[1], d[0]])
-    return Polygon([end + w * n, end + w * n + w * d, end - w * n + w * d, end - w * n])
-
-
-def _far_side(parts: list[tuple[LineString, float]], tree: shapely.STRtree, i: int,
-              end: np.ndarray, out_dir: np.ndarray) -> Polygon | None:
-    """The ground past the far setback of a street running through the node at ``end``
-    of line ``i`` (whose cap points along ``out_dir``), as a polygon over that cap, or
-    None when no street runs through there (a dead end, a bend, a fork)."""
-    node = shapely.Point(end)
-    arms: list[tuple[np.ndarray, float]] = []
-    for j in tree.query(node, predicate="dwithin", distance=ON_NODE):
-        other, width = parts[j]
-        if j == i:
-            continue
-        at = other.project(node)
-        for step in (TANGENT, -TANGENT):
-            if 0 <= at + step <= other.length:
-                d = np.asarray(other.interpolate(at + step).coords[0]) - end
-                if (n := math.hypot(*d)) > 0:
-                    arms.append((d / n, width))
-    pairs = [(a, b) for k, a in enumerate(arms) for b in arms[k + 1:]]
-    if not pairs:
-        return None
-    (da, wa), (db, wb) = min(pairs, key=lambda p: float(np.dot(p[0][0], p[1][0])))
-    if float(np.dot(da, db)) > math.cos(THROUGH):
-        return None
-    along = da - db
-    along = along / math.hypot(*along)
-    across = np.array([-along[1], along[0]])
-    length = math.hypot(*out_dir)
-    if length == 0:
-        return None
-    if float(np.dot(across, out_dir)) < 0:
-        across = -across                     # towards the block the cap would notch
-    far, reach = max(wa, wb), 10 * (parts[i][1] + max(wa, wb))
-    base = end + far * across
-    return Polygon([base + reach * along, base + reach * along + reach * across,
-                    base - reach * along + reach * across, base - reach * along])
 
 
 def _lines_of(g: shapely.Geometry) -> LineString | MultiLineString | None:
@@ -402,9 +321,9 @@ def street_blocks(features: Iterable[Feature], setback: float | Callable[[dict],
     _check_crossings(distinct, feats)   # first: noding the setbacks' lines took minutes
     cuts = [g.buffer(w, **_CUT) for g, w in zip(lines, widths, strict=True)]
     tree = shapely.STRtree(cuts)
-    noded = shapely.union_all(distinct)
     joined = _joined_cuts(lines, widths)
     joined_tree = shapely.STRtree(joined)
+    noded = shapely.union_all(distinct)
     faces = shapely.get_parts(shapely.polygonize(shapely.get_parts(noded)))
     blocks = []
     for i, face in enumerate(sorted(faces, key=lambda p: (round(p.centroid.x, 3),

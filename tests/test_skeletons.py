@@ -178,63 +178,6 @@ def test_a_street_width_or_lanes_not_read_is_warned_of_once():
     assert not [w for w in caught if issubclass(w.category, InputWarning)]
 
 
-def _t_junction(angle: float, side_width: float | None):
-    """A 200 x 120 m ring of streets with a through street along its middle and a side
-    street leaving that at ``angle`` degrees (its ``width`` tag, if given)."""
-    import math
-
-    from citysynth.skeletons.geojson import Feature
-    t = math.radians(angle)
-    ring = shapely.LineString([(-100, -60), (100, -60), (100, 60), (-100, 60), (-100, -60)])
-    side = shapely.LineString([(0, 0), (60 / math.tan(t), 60)])
-    return [Feature(0, ring, {}), Feature(1, shapely.LineString([(-100, 0), (100, 0)]), {}),
-            Feature(2, side, {"width": side_width} if side_width else {})]
-
-
-@pytest.mark.parametrize("angle, side_width", [(60, None), (45, None), (30, None),
-                                               (90, 16.0), (60, 14.0), (120, None)])
-def test_a_side_street_at_a_t_cuts_no_notch_across_the_street_it_meets(angle, side_width):
-    """A side street's square cap reached its setback past its end, across the street
-    it meets: a slanted T (60°, one setback) cut a notch 2.2 m deep and 5.6 m² into
-    the block across, and a side street wider than the through street a step of the
-    difference at any angle (2 m for 8 m against 6 m). The block across is now the
-    plain rectangle its streets leave, and the blocks beside the side street are as
-    before."""
-    from citysynth.skeletons.streets import Setbacks, street_blocks
-    s = Setbacks(default=6.0, sidewalk=0.0)
-    blocks, _ = street_blocks(_t_junction(angle, side_width), s)
-    across = [b.polygon for b in blocks if b.polygon.centroid.y < 0]
-    assert len(across) == 1 and len(blocks) == 3
-    plain = shapely.box(-94, -54, 94, -6)
-    assert across[0].symmetric_difference(plain).area < 1e-6, across[0].wkt
-    beside = sorted(b.polygon.area for b in blocks if b.polygon.centroid.y > 0)
-    assert sum(beside) < 188 * 48 - 100      # the side street still cuts between them
-
-
-def test_a_dead_end_and_a_fork_keep_their_caps():
-    """Only a cap that reaches across a street running on through is trimmed: a dead
-    end still cuts its notch, and at a fork (no street through) the caps fill the
-    corner between the arms."""
-    import math
-
-    from citysynth.skeletons.geojson import Feature
-    from citysynth.skeletons.streets import _CUT, Setbacks, _joined_cuts, street_blocks
-    s = Setbacks(default=6.0, sidewalk=0.0)
-    ring = shapely.LineString([(-100, -60), (100, -60), (100, 60), (-100, 60), (-100, -60)])
-    dead = [Feature(0, ring, {}), Feature(1, shapely.LineString([(0, -60), (0, 0)]), {})]
-    (block,), _ = street_blocks(dead, s)
-    assert block.polygon.area == pytest.approx(188 * 108 - 12 * 60, abs=1e-6)   # notch 6 m
-    for spread in (35, 60):   # arms 145° and 120° from the stem: no street through
-        t = math.radians(spread)
-        fork = [shapely.LineString([(0, -60), (0, 0)]),
-                shapely.LineString([(0, 0), (-60 * math.tan(t), 60)]),
-                shapely.LineString([(0, 0), (60 * math.tan(t), 60)])]
-        cuts = _joined_cuts(fork, [6.0, 6.0, 6.0])
-        squares = [g.buffer(6.0, **_CUT) for g in fork]
-        assert len(cuts) == 3 and all(any(c.equals_exact(q, 0) for q in squares)
-                                      for c in cuts)
-
-
 def test_a_merged_edge_partly_in_a_tunnel_is_a_street():
     """osmnx merges the ways of an edge and lists their values: a road that dips into a
     tunnel for a stretch has ``tunnel=["no", "yes"]`` (or that list's text in its own
