@@ -242,29 +242,55 @@ def clear_runs(all_runs: list[Run], ground: shapely.Geometry, depth: float,
     cover a kept band by more than ``tol`` m² is shortened to its longest piece that
     does not (:func:`_fit`; a notch near a corner, a block narrower than two rows), or
     stays empty. The kept runs, in their given order."""
-    free = ground
+    kept = _Bands(max(4 * depth, 20.0))
     keep: dict[int, Run] = {}
     for i in sorted(range(len(all_runs)), key=lambda i: (-all_runs[i].line.length, i)):
-        line = _fit(all_runs[i].line, free, depth, tol)
+        line = _fit(all_runs[i].line, ground, kept, depth, tol)
         if line is None:
             continue
         keep[i] = Run(all_runs[i].side, all_runs[i].index, line)
-        free = free.difference(_band(line, depth))
+        kept.add(_band(line, depth))
     return [keep[i] for i in sorted(keep)]
+
+
+class _Bands:
+    """The kept rows' bands, filed by the grid cells their boxes cover: a run is
+    tested against the bands near it (the ground left free, cut by every band kept so
+    far, grew a hole a run: a zigzag street of 10,000 runs took minutes)."""
+
+    def __init__(self, cell: float) -> None:
+        self.cell = cell
+        self.bands: list[shapely.Geometry] = []
+        self.cells: dict[tuple[int, int], list[int]] = {}
+
+    def _cells(self, g: shapely.Geometry) -> list[tuple[int, int]]:
+        x0, y0, x1, y1 = (math.floor(v / self.cell) for v in g.bounds)
+        return [(x, y) for x in range(x0, x1 + 1) for y in range(y0, y1 + 1)]
+
+    def add(self, band: shapely.Geometry) -> None:
+        for c in self._cells(band):
+            self.cells.setdefault(c, []).append(len(self.bands))
+        self.bands.append(band)
+
+    def near(self, g: shapely.Geometry) -> shapely.Geometry:
+        """The union of the kept bands that meet ``g`` (empty: none)."""
+        ids = sorted({i for c in self._cells(g) for i in self.cells.get(c, ())})
+        return shapely.union_all([self.bands[i] for i in ids if self.bands[i].intersects(g)])
 
 
 def _band(line: LineString, depth: float) -> shapely.Geometry:
     return line.buffer(depth, single_sided=True, cap_style="flat", join_style="mitre")
 
 
-def _fit(line: LineString, free: shapely.Geometry, depth: float, tol: float
-         ) -> LineString | None:
-    """The longest piece of ``line`` whose band stays on ``free`` ground: the span
-    where it leaves (a notch near a corner, a row across the block) is cut out, the
-    longer end kept; None when less than :data:`MIN_RUN` is left."""
+def _fit(line: LineString, ground: shapely.Geometry, kept: _Bands, depth: float,
+         tol: float) -> LineString | None:
+    """The longest piece of ``line`` whose band stays on ``ground`` off the ``kept``
+    bands: the span where it leaves (a notch near a corner, a row across the block) is
+    cut out, the longer end kept; None when less than :data:`MIN_RUN` is left."""
     for _ in range(4):
-        bad = [g for g in shapely.get_parts(_band(line, depth).difference(free))
-               if g.area > tol / 10]
+        band = _band(line, depth)
+        off = shapely.union(band.difference(ground), band.intersection(kept.near(band)))
+        bad = [g for g in shapely.get_parts(off) if g.area > tol / 10]
         if sum(g.area for g in bad) <= tol:
             return line
         at = [line.project(shapely.Point(c)) for g in bad for c in g.exterior.coords]
@@ -487,18 +513,23 @@ def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
     :func:`solve_street`)."""
     t0 = time.perf_counter()
     solved = []
+    # one problem for every run, parsed once: the runs differ in their length only (a
+    # problem built and parsed a run, 0.1 s each, took a street of 10,000 runs minutes)
+    base = street_front_problem(db, 0.0, style=ask.style, k=ask.k)
+    parsed: Problem | None = None
     for run in all_runs:
         tol = tolerance(run.line.length, db.quantum, ask.stretch, ask.slack)
         cons = {"length": [run.line.length - tol, run.line.length + tol],
                 **{a: [lo, hi] for a, lo, hi in ask.constraints}}
-        problem = street_front_problem(db, run.line.length, style=ask.style, k=ask.k)
-        problem["constraints"] = cons
+        problem = {**base, "constraints": cons}
         far = _past_reach(problem, cons, ask)
         if far:
             return Built(name, "infeasible", reason=_why(run, [], ask, locate, far),
                          timings={"solve_s": time.perf_counter() - t0})
+        parsed = Problem.from_dict(problem) if parsed is None else replace(
+            parsed, constraints={r: (float(lo), float(hi)) for r, (lo, hi) in cons.items()})
         try:
-            r = solve(Problem.from_dict(problem))
+            r = solve(parsed)
         except TooLargeError as exc:
             raise _street_too_large(name, run, ask, exc) from None
         if r.status != "ok":
