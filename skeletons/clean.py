@@ -85,6 +85,12 @@ def _ring(coords: Any, min_edge: float, min_stage: float, straight_tol: float,
     return pts
 
 
+def nose_back(angle: np.ndarray, nose: float) -> np.ndarray:
+    """How far back along each facade a ``nose`` wide end wall stands at convex
+    corners of ``angle`` degrees: ``nose / (2 sin(angle / 2))``."""
+    return nose / (2 * np.sin(np.radians(np.maximum(angle, 1e-6)) / 2))
+
+
 def _spikes(turns: np.ndarray, seg: np.ndarray, min_edge: float,
             nose: float | None) -> np.ndarray:
     """Which vertices are spikes, whose tip is cut off along the chord between their
@@ -97,8 +103,7 @@ def _spikes(turns: np.ndarray, seg: np.ndarray, min_edge: float,
     sharp = np.abs(turns) > 180.0 - MIN_ANGLE
     if nose is None:
         return sharp
-    angle = np.radians(np.maximum(180.0 - np.abs(turns), 1e-6))
-    back = nose / (2 * np.sin(angle / 2))
+    back = nose_back(180.0 - np.abs(turns), nose)
     short = np.minimum(seg, np.roll(seg, 1)) < np.maximum(max(min_edge, NOISE), back)
     return sharp & ((turns < 0) | short)
 
@@ -155,7 +160,7 @@ def without_tips(poly: Polygon, *, acute_deg: float, nose: float,
             break
         turns = _turns(ring)
         angle = 180.0 - np.abs(turns)
-        back = nose / (2 * np.sin(np.radians(np.maximum(angle, 1e-6)) / 2))
+        back = nose_back(angle, nose)
         sides = _corner_sides(ring, np.abs(turns) >= straight_tol)
         tips = np.flatnonzero((turns > 0) & (angle < acute_deg) & (back >= sides))
         if not len(tips):
