@@ -157,10 +157,16 @@ def _out_of_reach(st: Structure) -> str | None:
 MAX_SHARES = 1_000_000   # ways to split the structure-wide totals, per stage
 
 
+def share_count(his: list[int]) -> int:
+    """The ways a stage may take a share of structure-wide totals whose upper bounds are
+    ``his`` quanta: 0 .. hi of each."""
+    return math.prod(h + 1 for h in his)
+
+
 def _check_shares(names: list[str], his: list[int]) -> None:
     """Refuse, before anything is allocated, a structure-wide interval whose every
     share a stage may take would be enumerated past :data:`MAX_SHARES`."""
-    shares = math.prod(h + 1 for h in his)
+    shares = share_count(his)
     if shares > MAX_SHARES:
         raise TooLargeError(
             f"structure-wide constraints on {', '.join(names)}: {shares:,} ways to share "
@@ -181,7 +187,7 @@ def _check_stage_shares(st: Structure, names: list[str], his: list[int],
     interval of [20,000, 30,000] grew until the kernel killed it)."""
     if not names:
         return
-    shares = math.prod(h + 1 for h in his)
+    shares = share_count(his)
     need = shares * len(st.stages) * SHARE_BYTES
     if need > max_memory_mb * 2**20:
         raise TooLargeError(
