@@ -16,6 +16,11 @@ Layout of the files (all paths relative, so a run folder can be moved):
   stretch) is ``customData``. Text, because it is small and people diff it.
 - ``city.usda``: an ``assembly`` that references layout layers, each under an Xform.
 
+Every layout layer's root, variant stage's root and city block prim carries an
+``extentsHint`` (``GeomModelAPI``): the box around what it shows (all its ranks, for a
+variant prim), so a DCC frames, culls and draws as boxes the blocks of a city it opened
+unloaded without loading them.
+
 Why scenegraph instancing rather than a PointInstancer: every instance stays a
 selectable, nameable prim in a DCC (an artist can pick "stage 3, part 7", read its
 customData, or de-instance it to edit), placements may be any affine matrix (a
@@ -36,6 +41,7 @@ from pathlib import Path
 import numpy as np
 from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, UsdShade, UsdValidation, Vt
 
+from citysynth.export.assemble import extent
 from citysynth.export.infill import infill_pieces
 from citysynth.export.layout import Infill, Instance, Layout
 from citysynth.export.materials import (
@@ -483,7 +489,7 @@ def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | P
     cpath = cuts_file(folder, name)
     if cuts:
         write_cuts(db, cuts, cpath)
-    written = [_write_layer(lay, path, cpath.name, fills)
+    written = [_write_layer(lay, path, cpath.name, fills, extent([lay], db))
                for lay, path, fills in zip(layouts, files, infill, strict=True)]
     return written + ([cpath] if cuts else [])
 
@@ -504,16 +510,19 @@ def write_layout(lay: Layout, db: PartDB, path: str | Path) -> Path:
 
 
 def _write_layer(lay: Layout, path: Path, cuts: str,
-                 infill: Sequence[tuple[Piece, ...]] = ()) -> Path:
+                 infill: Sequence[tuple[Piece, ...]] = (),
+                 box: list[list[float]] | None = None) -> Path:
     """The layout's layer: prims ``<layout>/structure_00/stage_03/<part>_07`` (see
     :mod:`~citysynth.export.naming`), each instanceable and referencing its part's
     file, or its cut prototype in ``cuts`` (a file name in the same folder); and a
     footprint's roof infill, its pieces (``infill``, in the layout frame) as meshes of
-    ``<layout>/infill_00`` (:func:`_infill_spec`)."""
+    ``<layout>/infill_00`` (:func:`_infill_spec`); ``box``, its extent, the root's
+    ``extentsHint``."""
     layer = Sdf.Layer.CreateAnonymous(".usda")
     root_name = prim_name(lay.name)
     with Sdf.ChangeBlock():
         root = _layout_root(layer, lay)
+        extents_hint(root, box)
         groups = _structure_groups(root, lay)
         for inst, label in zip(lay.instances, instance_labels(lay), strict=True):
             spec = Sdf.PrimSpec(groups[(inst.structure, stage_group(inst))],
@@ -552,7 +561,7 @@ def _usd_matrix(inst: Instance) -> Gf.Matrix4d:
 
 
 def write_variants(path: str | Path, name: str, ranks: list[tuple[int, str]],
-                   selected: int = 1) -> Path:
+                   selected: int = 1, box: list[list[float]] | None = None) -> Path:
     """The k best layouts of one building or block as one prim with a ``layout``
     variantSet: variant ``rank_<r>`` references the layer of rank r (``ranks`` holds
     (rank, path relative to ``path``'s folder)), ``rank_<selected>`` is selected. An
@@ -564,6 +573,7 @@ def write_variants(path: str | Path, name: str, ranks: list[tuple[int, str]],
     with Sdf.ChangeBlock():
         root = Sdf.PrimSpec(layer, root_name, Sdf.SpecifierDef, "Xform")
         root.kind = Kind.Tokens.assembly
+        extents_hint(root, box)
         vset = Sdf.VariantSetSpec(root, "layout")
         for rank, rel in ranks:
             variant = Sdf.VariantSpec(vset, f"rank_{rank}")
@@ -579,13 +589,16 @@ def write_variants(path: str | Path, name: str, ranks: list[tuple[int, str]],
 
 
 def write_city(path: str | Path, layers: list[tuple], name: str = "City",
-               frame: str = "", payload: bool = True) -> Path:
+               frame: str = "", payload: bool = True,
+               boxes: dict[str, list[list[float]]] | None = None) -> Path:
     """A stage at ``path`` over layout layers: ``layers`` holds (prim name, path
     relative to ``path``'s folder[, (dx, dy) offset]), one Xform each under an
     ``assembly``, each bringing its layer in as a payload (the stage opens with every
     block unloaded when asked to, and loads blocks on demand) or, without ``payload``,
     as a reference. Layouts of one city share its frame (``frame``: its description,
-    whose CRS and origin go on the root) and need no offset."""
+    whose CRS and origin go on the root) and need no offset. ``boxes`` (by prim name)
+    are their extents, each the prim's ``extentsHint``: the one thing a DCC knows of
+    a block it has not loaded."""
     path = Path(path)
     layer = Sdf.Layer.CreateAnonymous(".usda")
     with Sdf.ChangeBlock():
@@ -597,6 +610,7 @@ def write_city(path: str | Path, layers: list[tuple], name: str = "City",
         for child, rel, *offset in layers:
             spec = Sdf.PrimSpec(root, prim_name(child), Sdf.SpecifierDef, "Xform")
             spec.kind = Kind.Tokens.assembly
+            extents_hint(spec, (boxes or {}).get(child))
             if payload:
                 spec.payloadList.Prepend(Sdf.Payload(f"./{rel}"))
             else:
@@ -608,6 +622,19 @@ def write_city(path: str | Path, layers: list[tuple], name: str = "City",
         layer.customLayerData = {"generator": "citysynth"}
     _export(layer, path)
     return path
+
+
+def extents_hint(spec: Sdf.PrimSpec, box: list[list[float]] | None) -> None:
+    """``box`` ([[xmin, ymin, zmin], [xmax, ymax, zmax]], or None: nothing) as the
+    model's ``extentsHint`` (``GeomModelAPI``; the default purpose's, all a layout has)."""
+    if box is None:
+        return
+    spec.SetInfo("apiSchemas", _MODEL_API)
+    _spec(spec, "extentsHint", Sdf.ValueTypeNames.Float3Array,
+          Vt.Vec3fArray([Gf.Vec3f(*box[0]), Gf.Vec3f(*box[1])]))
+
+
+_MODEL_API = Sdf.TokenListOp.Create(prependedItems=["GeomModelAPI"])
 
 
 def validate(path: str | Path) -> list[str]:

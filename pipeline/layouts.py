@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from citysynth.export.assemble import extent
 from citysynth.export.infill import Roof
 from citysynth.export.layout import Layout
 from citysynth.export.party import Segment
@@ -177,7 +178,7 @@ def write_outputs(built: Built, db: PartDB, out_dir: str | Path, *,
         key = "preview_s" if fmt == "png" else "export_s"
         built.timings[key] = built.timings.get(key, 0.0) + time.perf_counter() - t
     if "usd" in formats and k > 1 and built.layouts:
-        paths.append(write_variant_stage(built.layouts, out, k, selected))
+        paths.append(write_variant_stage(built.layouts, db, out, k, selected))
     if built.layouts:
         _sweep_stale(out, built.layouts[0].name, formats, paths)
     return paths
@@ -245,13 +246,15 @@ def _rank_of(layout_json: Path, name: str) -> int | None:
     return d.get("rank") if isinstance(d, dict) and d.get("name") == name else None
 
 
-def write_variant_stage(layouts: Sequence[Layout], out: Path, k: int, selected: int = 1
-                        ) -> Path:
+def write_variant_stage(layouts: Sequence[Layout], db: PartDB, out: Path, k: int,
+                        selected: int = 1) -> Path:
     """``<name>.usda``: the layouts' layers (``<name>_<rank>.usda``, written before,
-    ``k`` asked) as one prim with a ``layout`` variantSet, ``rank_<selected>`` selected."""
+    ``k`` asked) as one prim with a ``layout`` variantSet, ``rank_<selected>`` selected,
+    its ``extentsHint`` the box around them all (whichever rank is picked)."""
     name = layouts[0].name
     ranks = [(lay.rank, f"{output_stem(lay, k)}{SUFFIX['usd']}") for lay in layouts]
-    return write_variants(out / f"{name}{SUFFIX['usd']}", name, ranks, selected)
+    return write_variants(out / f"{name}{SUFFIX['usd']}", name, ranks, selected,
+                          extent(layouts, db))
 
 
 def summary_line(lay: Layout) -> str:

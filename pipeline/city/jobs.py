@@ -29,6 +29,7 @@ from typing import Literal, NotRequired, TypedDict, cast, get_args
 
 import shapely
 
+from citysynth.export.assemble import extent
 from citysynth.export.infill import Roof
 from citysynth.export.layout import SCHEMA, VERSION
 from citysynth.export.place import max_stretch
@@ -50,7 +51,7 @@ from citysynth.pipeline.errors import USER_ERRORS, environment_message
 from citysynth.pipeline.layouts import Built, ranked_files, solve_layouts, write_outputs
 from citysynth.skeletons import Frame
 
-JOB_VERSION = 5          # bump when a block's output changes for the same inputs
+JOB_VERSION = 6          # bump when a block's output changes for the same inputs
 VARIANTS_VERSION = 1     # the same, for what only k > 1 writes (the layout variantSet)
 CITY_SLACK = 0.3         # m: any block side may be met this closely (city.toml slack)
 
@@ -83,6 +84,7 @@ class BlockRecord(TypedDict):
     cost: NotRequired[float]
     instances: NotRequired[int]
     stretch: NotRequired[float]
+    extent: NotRequired[list[list[float]]]  # built: the box around its k best, city frame
     feature: NotRequired[str]              # footprints: the input feature, as named
     storeys: NotRequired[int]              # footprints: the storeys its family has
     note: NotRequired[str]                 # footprints: storeys asked but not matched
@@ -332,6 +334,9 @@ def _build(job: BlockJob, out: Path, rec: BlockRecord, t0: float) -> BlockRecord
     rec["library_files"] = library_files(built.layouts, db)
     rec["rank"], rec["of"], rec["cost"] = rank, len(built.layouts), lay.cost
     rec["instances"], rec["stretch"] = len(lay.instances), max_stretch(lay)
+    box = extent(built.layouts, db)
+    if box is not None:
+        rec["extent"] = box
     return _finish(out, rec, "built", t0)
 
 

@@ -41,7 +41,7 @@ if TYPE_CHECKING:   # the run imports this module to write its summary
 
 STOREYS_ASKED = re.compile(r": \d+ storeys? asked; ")   # a note of footprints.py
 _MANIFEST_KEYS = ("kind", "zone", "input_hash", "status", "reason", "error", "files", "cost",
-                  "rank", "of", "style", "feature", "storeys", "note")
+                  "rank", "of", "style", "feature", "storeys", "note", "extent")
 
 Report = dict[str, Any]   # report.json, as written
 
@@ -263,11 +263,23 @@ def finish_city(inputs: CityInputs, report: Report, out: Path, *, overview: bool
 def write_city_stage(out: Path, report: Report, frame: str = "") -> Path:
     """``city.usda``: every built block's layer as a payload (the city opens unloaded
     when asked and loads blocks on demand), in the city's one frame, whose CRS and
-    origin go on the root."""
+    origin go on the root. Each block's box (its ``extent`` in ``manifest.json``) is its
+    prim's ``extentsHint``, so a DCC that opens the city unloaded frames and culls it."""
     from citysynth.export.usd import write_city
 
+    boxes = {f"block_{b}": box for b, box in _extents(out).items() if b in report["built"]}
     return write_city(out / "city.usda", [(f"block_{b}", f"{BLOCKS_DIR}/{b}.usda")
-                                          for b in report["built"]], frame=frame)
+                                          for b in report["built"]], frame=frame, boxes=boxes)
+
+
+def _extents(out: Path) -> dict[str, list[list[float]]]:
+    """Each built block's box as the run's manifest records it (none without one: a
+    stage written over layers of another origin)."""
+    try:
+        blocks = json.loads((out / MANIFEST).read_text(encoding="utf-8"))["blocks"]
+    except FileNotFoundError:
+        return {}
+    return {b: r["extent"] for b, r in blocks.items() if "extent" in r}
 
 
 def _built_layouts(out: Path, inputs: CityInputs, report: Report
