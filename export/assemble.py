@@ -13,6 +13,7 @@ import trimesh
 from citysynth.export.infill import infill_pieces
 from citysynth.export.layout import Instance, Layout
 from citysynth.export.prototypes import prototype_pieces
+from citysynth.export.shear import baked_prototype, perpendicular_y, shear_of, sheared_pieces
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.geometry import Piece
 
@@ -102,14 +103,15 @@ def _layout_box(lay: Layout, db: PartDB) -> np.ndarray:
         return hit[2]
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     shown: dict[str, list[Instance]] = {}
-    for inst in lay.instances:
-        shown.setdefault(inst.proto, []).append(inst)
+    for inst in lay.instances:   # as USD shows them: a shear baked into the prototype
+        shown.setdefault(baked_prototype(inst), []).append(inst)
     for insts in shown.values():
-        box = _prototype_box(db, insts[0])
+        h = shear_of(insts[0])
+        box = _prototype_box(db, insts[0], h)
         if box is None:   # a module cut wholly away
             continue
         centre, half = (box[0] + box[1]) / 2, (box[1] - box[0]) / 2
-        axes = np.array([(i.x_axis, i.y_axis) for i in insts])      # [n, 2, 2]
+        axes = np.array([(i.x_axis, perpendicular_y(i, h)) for i in insts])   # [n, 2, 2]
         mid = centre[:2] @ axes + np.array([i.origin for i in insts])
         reach = half[:2] @ np.abs(axes)
         z = np.array([i.z for i in insts])
@@ -130,14 +132,14 @@ CACHED_LAYOUTS = 16   # a block's k best (k is 3 by default in a city)
 _LAYOUTS: dict[int, tuple[Layout, str, np.ndarray]] = {}
 
 
-def _prototype_box(db: PartDB, inst: Instance) -> np.ndarray | None:
-    """[[min], [max]] of the vertices of the prototype ``inst`` shows, in its part's
-    placement frame; None when it has none."""
-    key = (db.library_hash, inst.part, inst.cut)
+def _prototype_box(db: PartDB, inst: Instance, h: float) -> np.ndarray | None:
+    """[[min], [max]] of the vertices of the prototype ``inst`` shows, sheared by ``h``,
+    in its part's placement frame; None when it has none."""
+    key = (db.library_hash, inst.part, inst.cut, h)
     if key in _BOXES:
         _BOXES.move_to_end(key)
         return _BOXES[key]
-    v = [p.vertices for p in prototype_pieces(db, inst) if len(p.vertices)]
+    v = [p.vertices for p in sheared_pieces(prototype_pieces(db, inst), h) if len(p.vertices)]
     box = None
     if v:
         box = np.array([np.min([x.min(axis=0) for x in v], axis=0),

@@ -50,19 +50,14 @@ from citysynth.export.naming import (
     structure_group,
 )
 from citysynth.export.prototypes import prototype_pieces
+from citysynth.export.shear import sheared
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.files import atomic_path
 from citysynth.parts_db.geometry import Piece
 
-SHEAR_TOL = 1e-4   # relative; below it (~0.006°, under 2 mm over a part) an engine may drop it
 Z_UP_TO_Y_UP = [-0.7071067811865476, 0.0, 0.0, 0.7071067811865476]   # -90° about X (x,y,z,w)
 ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER = 34962, 34963
 FLOAT, UNSIGNED_INT = 5126, 5125
-
-
-def sheared(inst: Instance) -> bool:
-    x, y = np.asarray(inst.x_axis), np.asarray(inst.y_axis)
-    return abs(float(x @ y)) > SHEAR_TOL * float(np.linalg.norm(x) * np.linalg.norm(y))
 
 
 def trs_matrix(inst: Instance) -> list[float]:

@@ -60,6 +60,7 @@ from citysynth.export.naming import (
     structure_group,
 )
 from citysynth.export.prototypes import prototype_pieces
+from citysynth.export.shear import baked_prototype, perpendicular_y, shear_of, sheared_pieces
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.files import atomic_path
 from citysynth.parts_db.geometry import Piece
@@ -152,14 +153,23 @@ def _prototype_spec(parent: Sdf.Layer | Sdf.PrimSpec, db: PartDB, inst: Instance
     references are added where nothing tries to resolve them) took 40 % more time for
     the same composed result."""
     part = db.part(inst.part)
-    root = Sdf.PrimSpec(parent, prim_name(inst.proto), Sdf.SpecifierDef, "Xform")
+    h = shear_of(inst)
+    root = Sdf.PrimSpec(parent, prim_name(baked_prototype(inst)), Sdf.SpecifierDef, "Xform")
     root.kind = Kind.Tokens.component
-    data = {"part": part.id, "class": part.cls, "library": db.library_hash}
+    data: dict = {"part": part.id, "class": part.cls, "library": db.library_hash}
     if inst.cut is not None:
         data["cut"] = _vt(inst.cut.to_dict())
+    if h:
+        data["shear"] = h
     root.customData = {"citysynth": data}
-    _meshes_spec(root, prototype_pieces(db, inst), parts_dir)
+    _meshes_spec(root, sheared_pieces(prototype_pieces(db, inst), h), parts_dir)
     return root
+
+
+def _own_prototype(inst: Instance) -> bool:
+    """Whether the instance's prototype is the layer's own (in its cuts file): cut at a
+    joint, or sheared; else it is a library part's file."""
+    return inst.cut is not None or bool(shear_of(inst))
 
 
 def _meshes_spec(root: Sdf.PrimSpec, pieces: Sequence[Piece], parts_dir: str) -> None:
@@ -288,7 +298,7 @@ def _library_refs(db: PartDB, prototypes: dict[str, Instance], more: Sequence[Pi
     for proto, inst in sorted(prototypes.items()):
         for piece in prototype_pieces(db, inst):
             materials.setdefault(material_name(piece), piece)
-        if inst.cut is None:
+        if not _own_prototype(inst):
             parts[part_file(proto)] = inst
     return parts, dict(sorted(materials.items()))
 
@@ -460,12 +470,13 @@ def _structure_groups(root: Sdf.PrimSpec, lay: Layout) -> dict[tuple, Sdf.PrimSp
 
 
 def _prototype_reference(inst: Instance, cuts: str) -> Sdf.Reference:
-    """A library part's file, or the cut prototype's prim in the file ``cuts``."""
-    if inst.cut is None:
+    """A library part's file, or the layer's own prototype's prim (cut or sheared) in
+    the file ``cuts``."""
+    if not _own_prototype(inst):
         return Sdf.Reference(f"./{part_file(inst.proto)}")
     return Sdf.Reference(f"./{cuts}",
                          Sdf.Path.absoluteRootPath.AppendChild(CUTS_PRIM)
-                         .AppendChild(prim_name(inst.proto)))
+                         .AppendChild(prim_name(baked_prototype(inst))))
 
 
 def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | Path]
@@ -485,7 +496,7 @@ def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | P
     infill = [[infill_pieces(f, db) for f in lay.infill] for lay in layouts]
     ensure_parts(db, prototypes, folder,
                  [p for fills in infill for pieces in fills for p in pieces])
-    cuts = {p: i for p, i in prototypes.items() if i.cut is not None}
+    cuts = {p: i for p, i in prototypes.items() if _own_prototype(i)}
     cpath = cuts_file(folder, name)
     if cuts:
         write_cuts(db, cuts, cpath)
@@ -495,12 +506,13 @@ def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | P
 
 
 def _prototypes(layouts: Sequence[Layout]) -> dict[str, Instance]:
-    """Every prototype the layouts show (ranks share most), with one instance of it."""
+    """Every USD prototype the layouts show (ranks share most; see
+    :func:`usd_prototype`), with one instance of it."""
     prototypes: dict[str, Instance] = {}
     for lay in layouts:
-        for proto, inst in lay.prototypes().items():
-            prototypes.setdefault(proto, inst)
-    return prototypes
+        for inst in lay.instances:
+            prototypes.setdefault(baked_prototype(inst), inst)
+    return dict(sorted(prototypes.items()))
 
 
 def write_layout(lay: Layout, db: PartDB, path: str | Path) -> Path:
@@ -554,8 +566,10 @@ def _infill_spec(root: Sdf.PrimSpec, name: str, fill: Infill, pieces: tuple[Piec
 def _usd_matrix(inst: Instance) -> Gf.Matrix4d:
     """The instance's placement as USD's matrix: USD multiplies row vectors, so its rows
     are the columns of :meth:`~citysynth.export.layout.Instance.matrix` (the images of
-    X, Y and Z, then the translation). Plain floats: a block writes hundreds."""
-    (xx, xy), (yx, yy), (ox, oy) = inst.x_axis, inst.y_axis, inst.origin
+    X, Y and Z, then the translation), less any shear, which its prototype holds
+    (:func:`usd_prototype`). Plain floats: a block writes hundreds."""
+    (xx, xy), (ox, oy) = inst.x_axis, inst.origin
+    yx, yy = perpendicular_y(inst, shear_of(inst))
     return Gf.Matrix4d(xx, xy, 0.0, 0.0, yx, yy, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
                        ox, oy, inst.z, 1.0)
 

@@ -107,3 +107,29 @@ def _no_compile_notice(monkeypatch):
     from citysynth.pipeline import compile_notice
 
     monkeypatch.setattr(compile_notice, "kernels_cold", lambda: False)
+
+
+@pytest.fixture(scope="session")
+def sheared_layer(tmp_path_factory, sample_db):
+    """A layer of the example block (parts placed whole and cut at its corners) with
+    three in four instances sheared; the layer's path and its layout (for
+    tests/test_usd_shear.py, and test_blender.py's import of it into Blender)."""
+    import json
+
+    from citysynth.export.layout import Layout
+    from citysynth.export.shear import sheared
+    from citysynth.export.usd import write_layout
+    from citysynth.pipeline.cli import main
+    from tests.test_usd_shear import BLOCK, LIB, sheared_layout
+    out = tmp_path_factory.mktemp("shear")
+    assert main(["block", str(BLOCK), "--library", str(LIB), "-o", str(out),
+                 "--no-preview"]) == 0
+    lay = sheared_layout(Layout.from_dict(json.loads((out / "block.layout.json")
+                                                      .read_text())))
+    assert sum(sheared(i) for i in lay.instances) >= 15
+    assert any(i.cut is not None and sheared(i) for i in lay.instances)
+    assert any(i.cut is None and sheared(i) for i in lay.instances)
+    path = out / "sheared" / "block.usda"
+    path.parent.mkdir()
+    write_layout(lay, sample_db, path)
+    return path, lay

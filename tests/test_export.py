@@ -16,10 +16,10 @@ from pxr import Usd, UsdGeom
 
 from citysynth.export.assemble import bounds, triangle_count
 from citysynth.export.errors import ExportError
-from citysynth.export.gltf import sheared
 from citysynth.export.layout import VERSION, Layout
 from citysynth.export.place import layout, max_stretch
 from citysynth.export.prototypes import prototype_pieces
+from citysynth.export.shear import sheared
 from citysynth.export.usd import prim_name, validate, write_city
 from citysynth.pipeline.cli import main
 from citysynth.pipeline.layouts import solve_layouts

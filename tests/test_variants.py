@@ -122,10 +122,12 @@ def test_a_rank_deleted_by_hand_hides_no_stale_rank_after_it(tmp_path):
 
 
 def test_a_rerun_that_cuts_nothing_leaves_no_cuts_file(tmp_path):
-    """The cuts file of an earlier run goes when the new layouts cut no part: in a
-    building's folder (the layouts' sweep) and in a city's blocks folder (the block's)."""
+    """The cuts file of an earlier run goes when the new layouts cut (or shear) no
+    part: in a building's folder (the layouts' sweep) and in a city's blocks folder
+    (the block's)."""
     from dataclasses import replace
 
+    from citysynth.export.shear import perpendicular_y, shear_of
     from citysynth.pipeline.city.config import load_config
     from citysynth.pipeline.city.jobs import solve_block, worker_library, write_block
     from citysynth.pipeline.city.run import prepare
@@ -136,8 +138,9 @@ def test_a_rerun_that_cuts_nothing_leaves_no_cuts_file(tmp_path):
                if j.zone_kind is None)
     db = worker_library(job.library)
     built = solve_block(job, db)[1]
-    uncut = Built(built.name, "ok", [replace(lay, instances=[
-        replace(i, cut=None) for i in lay.instances]) for lay in built.layouts])
+    uncut = Built(built.name, "ok", [replace(lay, instances=[   # nor sheared (also its own)
+        replace(i, cut=None, y_axis=perpendicular_y(i, shear_of(i))) for i in lay.instances])
+        for lay in built.layouts])
     cuts = f"{built.name}.cuts.usdc"
     for write in (lambda b: write_outputs(b, db, tmp_path, formats=("json", "usd")),
                   lambda b: write_block(b, 1, db, tmp_path / "blocks")):
