@@ -133,3 +133,18 @@ def sheared_layer(tmp_path_factory, sample_db):
     path.parent.mkdir()
     write_layout(lay, sample_db, path)
     return path, lay
+
+
+@pytest.fixture(scope="session")
+def k3_city(tmp_path_factory):
+    """A k = 3 city of three blocks between generated streets, one of them picking rank
+    2 (tests/test_city_variants.py, test_extents_hint.py): its streets, its config
+    and its run folder. Shared: tests read it, never change it."""
+    from tests.test_city_variants import K3, run_city
+    from tests.test_faults import grid_streets
+    base = tmp_path_factory.mktemp("city_variants")
+    streets = grid_streets(base / "streets.geojson")
+    cfg = base / "k3.toml"
+    cfg.write_text(K3)
+    run_city(streets, cfg, base / "run")
+    return streets, cfg, base / "run"

@@ -23,7 +23,7 @@ from citysynth.pipeline.city.config import load_config
 from citysynth.pipeline.city.jobs import solve_block
 from citysynth.pipeline.city.run import prepare
 from citysynth.pipeline.cli import main
-from tests.test_faults import LIB, grid_streets
+from tests.test_faults import LIB
 
 K3 = 'k = 3\npick = "vary"\nseed = 7\n'   # seed 7 picks rank 2 for one of the blocks
 
@@ -37,15 +37,6 @@ def usd_files(out: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in [out / "city.usda", out / "manifest.json",
                                              *sorted((out / "blocks").glob("*.usda"))]}
 
-
-@pytest.fixture(scope="module")
-def k3(tmp_path_factory):
-    base = tmp_path_factory.mktemp("city_variants")
-    streets = grid_streets(base / "streets.geojson")
-    cfg = base / "k3.toml"
-    cfg.write_text(K3)
-    run_city(streets, cfg, base / "run")
-    return streets, cfg, base / "run"
 
 
 def _manifest(out: Path) -> dict:
@@ -67,8 +58,8 @@ def _same(got: list, want: list) -> bool:
                                                                             strict=True))
 
 
-def test_city_blocks_switch_between_their_k_layouts(k3, sample_db):
-    streets, cfg, out = k3
+def test_city_blocks_switch_between_their_k_layouts(k3_city, sample_db):
+    streets, cfg, out = k3_city
     jobs = {j.id: j for j in prepare(streets, None, load_config(cfg), LIB).jobs}
     blocks = _manifest(out)
     assert len(blocks) == 3 and all(r["status"] == "built" and r["of"] == 3
@@ -109,8 +100,8 @@ def test_city_blocks_switch_between_their_k_layouts(k3, sample_db):
     assert not (out / "city.usda").read_text().count("rank_"), "selections stay in the blocks"
 
 
-def test_every_file_validates_and_the_city_opens_unloaded(k3):
-    _streets, _cfg, out = k3
+def test_every_file_validates_and_the_city_opens_unloaded(k3_city):
+    _streets, _cfg, out = k3_city
     for path in [out / "city.usda", *sorted((out / "blocks").glob("*.usda"))]:
         assert validate(path) == [], path.name
     stage = Usd.Stage.Open(str(out / "city.usda"), load=Usd.Stage.LoadNone)
@@ -127,8 +118,8 @@ def test_every_file_validates_and_the_city_opens_unloaded(k3):
     assert not prims[1].IsLoaded()
 
 
-def test_a_rerun_writes_the_same_bytes_and_resumes(k3, tmp_path, capsys):
-    streets, cfg, out = k3
+def test_a_rerun_writes_the_same_bytes_and_resumes(k3_city, tmp_path, capsys):
+    streets, cfg, out = k3_city
     run_city(streets, cfg, tmp_path / "again")
     assert usd_files(tmp_path / "again") == usd_files(out)
     mtimes = {p: p.stat().st_mtime_ns for p in (tmp_path / "again" / "blocks").iterdir()
@@ -139,8 +130,8 @@ def test_a_rerun_writes_the_same_bytes_and_resumes(k3, tmp_path, capsys):
     assert {p: p.stat().st_mtime_ns for p in mtimes} == mtimes
 
 
-def test_a_k1_city_has_no_variant_set(k3, tmp_path, sample_db):
-    streets, _cfg, out = k3
+def test_a_k1_city_has_no_variant_set(k3_city, tmp_path, sample_db):
+    streets, _cfg, out = k3_city
     run = tmp_path / "run"
     shutil.copytree(out, run)            # k = 3 before: k = 1 rebuilds every block
     cfg = tmp_path / "k1.toml"

@@ -16,8 +16,7 @@ from pxr import Usd, UsdGeom
 
 from citysynth.export.usd import validate
 from citysynth.pipeline.cli import main
-from tests.test_city_variants import K3, run_city
-from tests.test_faults import LIB, grid_streets
+from tests.test_faults import LIB
 
 MM = 1e-3 + 1e-4   # the hint's outward rounding, and float32 at a few hundred metres
 
@@ -40,14 +39,9 @@ def _covers(hint: np.ndarray, box: np.ndarray, tol: float = MM) -> bool:
                 and (box[0] - hint[0] <= tol).all() and (hint[1] - box[1] <= tol).all())
 
 
-@pytest.fixture(scope="module")
-def k3(tmp_path_factory):
-    base = tmp_path_factory.mktemp("extents")
-    streets = grid_streets(base / "streets.geojson")
-    cfg = base / "k3.toml"
-    cfg.write_text(K3)
-    run_city(streets, cfg, base / "run")
-    return base / "run"
+@pytest.fixture
+def k3(k3_city):
+    return k3_city[2]
 
 
 def test_each_rank_layer_hints_what_usd_computes(k3):
