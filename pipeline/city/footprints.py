@@ -13,6 +13,7 @@ what the kit makes near that length.
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -278,7 +279,16 @@ def side_advice(length: float, lo: float, hi: float, fillers: list[Part], quantu
                 f"stretch allowed: the side's length in the data must change"
                 f"{add.replace(' or add', ', or add')}")
     return (f"the {style} kit makes {' or '.join(near)} m here; allow "
-            f"{100 * gap / length:.1f} % stretch{add}")
+            f"{at_least(100 * gap / length)} % stretch or {at_least(gap)} m of slack{add}")
+
+
+def at_least(x: float) -> str:
+    """``x`` (> 0) rounded up to two significant digits, as advice a user types: a
+    stretch rounded to one decimal said "allow 0.0 % stretch" of a long side a few
+    centimetres off, and "3.7 %" of a side that needs 3.704 % (3.7 % of it falls
+    short)."""
+    digits = max(0, 1 - math.floor(math.log10(x)))
+    return f"{math.ceil(x * 10**digits - 1e-9) / 10**digits:g}"
 
 
 def stage_sides(sk: Skeleton) -> list[tuple[tuple[float, float], tuple[float, float], float]]:
