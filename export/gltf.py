@@ -154,11 +154,14 @@ class GlbBuilder:
         for inst, label in zip(lay.instances, labels, strict=True):
             idx = self._instance(inst, label, db)
             members.setdefault((inst.structure, stage_group(inst)), []).append(idx)
+        by_structure: dict[int, list[tuple[str, list[int]]]] = {}
+        for (s, group), nodes in sorted(members.items(), key=_group_order):
+            by_structure.setdefault(s, []).append((group, nodes))
         structures = []
-        for si, st in enumerate(lay.structures):
+        for si, st in enumerate(lay.structures):   # (each sorting every group was
+            # quadratic: a street of 8,000 runs spent 7.5 s in it)
             groups = [self.node(group, children=nodes, extras=_stage_facts(st, group))
-                      for (s, group), nodes in sorted(members.items(), key=_group_order)
-                      if s == si]
+                      for group, nodes in by_structure.get(si, [])]
             structures.append(self.node(structure_group(si), children=groups, extras={
                 "name": st.get("name"), "cost": st["cost"], "met": st.get("resources"),
                 "asked": st.get("asked")}))

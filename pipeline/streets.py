@@ -526,8 +526,8 @@ def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
         if far:
             return Built(name, "infeasible", reason=_why(run, [], ask, locate, far),
                          timings={"solve_s": time.perf_counter() - t0})
-        parsed = Problem.from_dict(problem) if parsed is None else replace(
-            parsed, constraints={r: (float(lo), float(hi)) for r, (lo, hi) in cons.items()})
+        parsed = Problem.from_dict(problem) if parsed is None else parsed.with_constraints(
+            {r: (float(lo), float(hi)) for r, (lo, hi) in cons.items()})
         try:
             r = solve(parsed)
         except TooLargeError as exc:
