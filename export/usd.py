@@ -23,11 +23,12 @@ unloaded without loading them.
 
 Why scenegraph instancing rather than a PointInstancer: every instance stays a
 selectable, nameable prim in a DCC (an artist can pick "stage 3, part 7", read its
-customData, or de-instance it to edit), placements may be any affine matrix (a
-PointInstancer has no shear, which adapted corners need), and USD still shares one
-prototype per part, so the file holds each mesh once and a block layer only holds
-matrices. All layers say ``upAxis = "Z"`` and ``metersPerUnit = 1`` and set a
-``defaultPrim``; :func:`validate` runs every UsdValidation validator usd-core has.
+customData, or de-instance it to edit), a placement may mirror and stretch (a
+sheared one, an adapted corner, keeps its shear in a prototype of its own, as no DCC
+reads a matrix's shear alike: :mod:`.shear`), and USD still shares one prototype per
+part, so the file holds each mesh once and a block layer only holds matrices. All
+layers say ``upAxis = "Z"`` and ``metersPerUnit = 1`` and set a ``defaultPrim``;
+:func:`validate` runs every UsdValidation validator usd-core has.
 """
 
 from __future__ import annotations
@@ -507,7 +508,7 @@ def write_layouts(layouts: Sequence[Layout], db: PartDB, paths: Sequence[str | P
 
 def _prototypes(layouts: Sequence[Layout]) -> dict[str, Instance]:
     """Every USD prototype the layouts show (ranks share most; see
-    :func:`usd_prototype`), with one instance of it."""
+    :func:`~citysynth.export.shear.baked_prototype`), with one instance of it."""
     prototypes: dict[str, Instance] = {}
     for lay in layouts:
         for inst in lay.instances:
@@ -567,7 +568,7 @@ def _usd_matrix(inst: Instance) -> Gf.Matrix4d:
     """The instance's placement as USD's matrix: USD multiplies row vectors, so its rows
     are the columns of :meth:`~citysynth.export.layout.Instance.matrix` (the images of
     X, Y and Z, then the translation), less any shear, which its prototype holds
-    (:func:`usd_prototype`). Plain floats: a block writes hundreds."""
+    (:func:`~citysynth.export.shear.baked_prototype`). Plain floats: a block writes hundreds."""
     (xx, xy), (ox, oy) = inst.x_axis, inst.origin
     yx, yy = perpendicular_y(inst, shear_of(inst))
     return Gf.Matrix4d(xx, xy, 0.0, 0.0, yx, yy, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
