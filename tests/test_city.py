@@ -247,8 +247,8 @@ def test_diff_sees_changes_outside_the_kept_layout(district, tmp_path, capsys):
     assert main(["diff", str(district), str(other)]) == 1
     out = capsys.readouterr().out
     assert "0 changed, 3 with the same layout but other files" in out
-    assert f"files {cut[0]}: the kept layout is the same; differ: the parts cut at its " \
-        "joints" in out
+    assert f"files {cut[0]}: the kept layout is the same; differ: the parts cut or sheared at " \
+        "its joints" in out
     assert f"files {layer[0]}: the kept layout is the same; differ: layout #{unkept}'s " \
         "USD layer" in out
     assert main(["diff", str(district), str(other), "--json"]) == 1

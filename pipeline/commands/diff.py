@@ -6,7 +6,7 @@ cost delta, the resources met that moved (per structure and stage) and the parts
 differ; blocks added, removed or whose status changed are listed too, and blocks one
 run drew in the same place as the other under a new id (:mod:`.diff_places`). A block whose
 kept layout is the same can still look different: another of its k layouts changed,
-or the geometry of the parts cut at its joints (an export change). Those blocks are
+or the geometry of the parts cut or sheared at its joints (an export change). Those blocks are
 listed with the files that differ, so a regression shows even when no layout moved.
 Exit 0 when the runs are identical, 1 when not, 2 when a folder is not a run.
 """
@@ -313,7 +313,7 @@ def describe_file(name: str, bid: str) -> str:
     if base == f"{bid}.usda":
         return "its USD (the layouts' variant set)"
     if base.endswith(".cuts.usdc"):
-        return "the parts cut at its joints"
+        return "the parts cut or sheared at its joints"
     if m := re.fullmatch(re.escape(bid) + r"_(\d+)\.usda", base):
         return f"layout #{m.group(1)}'s USD layer"
     return base
