@@ -46,6 +46,7 @@ SIDES = ("left", "right")
 
 
 Locate = Callable[[Any], str]   # a local point in the input's coordinates, as text
+RunProgress = Callable[[int, int], None]   # (runs solved, runs in all)
 
 
 @dataclass(frozen=True)
@@ -342,12 +343,13 @@ class StreetAsk:
 
 
 def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
-                 frame: str = "local", locate: Locate | None = None, source: str = ""
-                 ) -> Built:
+                 frame: str = "local", locate: Locate | None = None, source: str = "",
+                 progress: RunProgress | None = None) -> Built:
     """The k best rows of buildings along ``street`` (each run's i-th best, or its last
     when it has fewer), or infeasible with the first run that has none (``locate``: a
     local point in the input's coordinates, as text, to say where that run lies;
-    ``source``: the line's file, which a refusal names)."""
+    ``source``: the line's file, which a refusal names; ``progress``: told as runs
+    are solved, see :func:`solve_runs`)."""
     parts = db.select("building", ask.style)
     if not parts:
         raise UsageError(f"the library {db.name!r} has no complete buildings"
@@ -366,7 +368,7 @@ def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
                          + (f" (it bends by more than {BEND:g}° at {bends} of its points "
                             f"over its {street.length:.0f} m: straighten it, e.g. simplify "
                             "it in the GIS tool)" if bends > 1 else ""))
-    return solve_runs(name, all_runs, db, ask, frame, locate)
+    return solve_runs(name, all_runs, db, ask, frame, locate, progress)
 
 
 def _apart(all_runs: list[Run], depth: float, locate: Locate | None) -> list[Run]:
@@ -508,9 +510,11 @@ def _street_too_large(name: str, run: Run, ask: StreetAsk,
 
 
 def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
-               frame: str = "local", locate: Locate | None = None) -> Built:
+               frame: str = "local", locate: Locate | None = None,
+               progress: RunProgress | None = None) -> Built:
     """The k best rows of buildings on ``all_runs`` (each run solved on its own; see
-    :func:`solve_street`)."""
+    :func:`solve_street`); ``progress`` is told after each run (a street of 20,000
+    runs takes half a minute)."""
     t0 = time.perf_counter()
     solved = []
     # one problem for every run, parsed once: the runs differ in their length only (a
@@ -538,6 +542,8 @@ def solve_runs(name: str, all_runs: list[Run], db: PartDB, ask: StreetAsk,
             return Built(name, "infeasible", reason=_why(run, r.details, ask, locate, blamed),
                          timings={"solve_s": time.perf_counter() - t0})
         solved.append(r.solutions)
+        if progress is not None:
+            progress(len(solved), len(all_runs))
     t1 = time.perf_counter()
     index = db.by_id
     count = max(len(s) for s in solved)

@@ -456,13 +456,14 @@ def test_a_street_too_large_to_fill_is_told_in_street_words(tmp_path, capsys, mo
     assert said in err and "--max-memory" not in err and "quantum" not in err, err
 
 
-def test_a_street_of_many_runs_does_linear_work_per_run(tmp_path, monkeypatch):
+def test_a_street_of_many_runs_does_linear_work_per_run(tmp_path, monkeypatch, capsys):
     """A zigzag street of 400 runs: its GLB grouped every run's stage by sorting all
     the groups once per run (quadratic: 16 million sort keys and 7.5 s for 8,000 runs),
     and each run's problem listed its transitions as arrays again (2.5 ms a run, most
     of compiling it). A street of 20,000 runs took over 10 minutes, now 30 s. Counted,
     not timed: the sort keys the GLB's grouping makes, the transition listings made
-    after parsing, and each run's solution against a problem parsed for it alone."""
+    after parsing, and each run's solution against a problem parsed for it alone. It
+    also said nothing while it worked, then printed a line per run."""
     from citysynth.export import gltf
     from citysynth.solver.problem import Problem
 
@@ -495,6 +496,14 @@ def test_a_street_of_many_runs_does_linear_work_per_run(tmp_path, monkeypatch):
     assert len(stages) >= 2 * n - 2                    # every run of both sides built
     assert calls["sort"] <= len(stages) + 2 * len(lay.structures)   # once each group
     assert calls["index"] <= 1   # the transitions listed once (parsing lists them)
+    # it says how far it is (a line per tenth off a terminal), and lists the first
+    # runs, not 400 lines of them (20,000 for the street of 10,000 segments)
+    captured = capsys.readouterr()
+    progress = [line for line in captured.err.splitlines() if "runs filled" in line]
+    assert len(progress) == 10 and progress[-1].startswith(f"[{2 * n}/{2 * n}] runs filled")
+    listed = [line for line in captured.out.splitlines() if " side, run " in line]
+    assert len(listed) == 100
+    assert f"    ... and {2 * n - 100} more runs (each in zigzag.layout.json)" in captured.out
     # a run solved from the shared problem is the run solved from its own
     from citysynth.pipeline.streets import street_front_problem
     from citysynth.solver.entry import solve

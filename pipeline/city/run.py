@@ -75,6 +75,7 @@ from citysynth.pipeline.city.process import (
 )
 from citysynth.pipeline.errors import ConfigError, UsageError, shown
 from citysynth.pipeline.layouts import check_style, default_style
+from citysynth.pipeline.progress import progress_line
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
 from citysynth.skeletons.errors import FarFromFrame, FarFromFrameWarning, InputWarning
@@ -676,10 +677,9 @@ def progress_printer(stream: TextIO | None = None, pieces: int = 0) -> Progress:
     counts are the summary's: ``skipped`` starts at the ``pieces`` skipped before any
     block ran, and blocks served from an earlier run count as built (or failed, or
     skipped) as they were, and as cached. ``stream``: stderr (as it is when called)."""
-    stream = stream or sys.stderr
-    tty = stream.isatty()
+    shown = progress_line(stream or sys.stderr)
     t0 = time.perf_counter()
-    state = dict.fromkeys((*STATUSES, "step", "cached", "ran"), 0)
+    state = dict.fromkeys((*STATUSES, "cached", "ran"), 0)
     state["skipped"] = pieces
 
     def show(done: int, total: int, rec: BlockRecord) -> None:
@@ -691,13 +691,9 @@ def progress_printer(stream: TextIO | None = None, pieces: int = 0) -> Progress:
         # counts them; "built 26 (28 cached)" read as more cached than built)
         cache = f", cached {state['cached']}" if state["cached"] else ""
         speed = f" ({rate:.1f} blocks/s)" if state["ran"] else ""
-        line = (f"[{done:>{len(str(total))}}/{total}] built {state['built']}, "
-                f"failed {state['failed']}, skipped {state['skipped']}{cache}{bugs}{speed}")
-        if tty:
-            print("\r" + line, end="\n" if done == total else "", file=stream, flush=True)
-        elif total and (done * 10 // total > state["step"] or done == total):
-            state["step"] = done * 10 // total
-            print(line, file=stream, flush=True)
+        shown(done, total, f"[{done:>{len(str(total))}}/{total}] built {state['built']}, "
+                           f"failed {state['failed']}, skipped {state['skipped']}{cache}"
+                           f"{bugs}{speed}")
     return show
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -189,15 +190,40 @@ def run(args) -> int:
     line, frame = read_line(args.line, args.crs)
     db = load_library(args.library)
     built = solve_street(safe_name(Path(args.line).stem), line, db, ask, frame.describe(),
-                         frame.at, source=str(args.line))
+                         frame.at, source=str(args.line), progress=_run_progress())
     if built.status != "ok":
         print(f"citysynth street: {built.name}: infeasible: {built.reason}", file=sys.stderr)
         return 1
     return _write(args, db, built)
 
 
+PROGRESS_RUNS = 200   # runs from which solving them shows progress (about a third of a
+                      # second's work: a street of 20,000 runs takes half a minute)
+LISTED_RUNS = 100     # runs a row lists one by one; the rest are counted in one line
+
+
+def _run_progress():
+    """Progress of filling the runs on stderr, for a street of many runs."""
+    from citysynth.pipeline.progress import progress_line
+
+    shown = progress_line(sys.stderr)
+    t0 = time.perf_counter()
+
+    def tell(done: int, total: int) -> None:
+        if total >= PROGRESS_RUNS:
+            rate = done / max(time.perf_counter() - t0, 1e-9)
+            shown(done, total, f"[{done:>{len(str(total))}}/{total}] runs filled "
+                               f"({rate:,.0f} runs/s)")
+    return tell
+
+
 def _write(args, db, built: Built) -> int:
-    from citysynth.pipeline.layouts import chosen_formats, summary_line, write_outputs
+    from citysynth.pipeline.layouts import (
+        chosen_formats,
+        output_stem,
+        summary_line,
+        write_outputs,
+    )
 
     formats = chosen_formats(preview=not args.no_preview)
     with all_or_nothing(args.out):
@@ -206,13 +232,16 @@ def _write(args, db, built: Built) -> int:
     print(f"{built.name}: {len(built.layouts)} row(s)")
     for lay in built.layouts:
         print("  " + summary_line(lay))
-        for st in lay.structures:
+        for st in lay.structures[:LISTED_RUNS]:
             met = st["resources"]
             side, run = st["name"].rsplit("_", 1)   # a run's name: <side>_<index>
             print(f"    {side} side, run {int(run) + 1}: {len(st['stages'][0]['parts'])} buildings "
                   f"({len(set(st['stages'][0]['parts']))} distinct), "
                   f"{met['length']:.1f} m for {st['stages'][0]['length']:.1f} m, "
                   + ", ".join(f"{met.get(a, 0):g} {a}" for a in ATTRIBUTES if a in met))
+        if len(lay.structures) > LISTED_RUNS:
+            print(f"    ... and {len(lay.structures) - LISTED_RUNS:,} more runs (each in "
+                  f"{output_stem(lay, args.k)}.layout.json)")
     print(f"  wrote {len(paths)} files to {Path(args.out)}/ "
           f"(solve {1e3 * built.timings['solve_s']:.0f} ms)")
     return 0
