@@ -1,7 +1,7 @@
 """Shear in placements. A corner adapted to an angle off its own places its part with
 axes that are not perpendicular (a shear). glTF forbids shear in a node matrix, and
 Blender's USD importer drops it (it decomposes a transform into location, rotation
-and scale: 193 instances of the demo district moved by up to 4.9 cm, so adapted
+and scale: 193 instances of the demo district moved by up to 4.8 cm, so adapted
 corners gaped or overlapped their walls in Blender alone). Both writers therefore
 bake a sheared instance's shear into its geometry: the glTF writer the whole placement
 (:mod:`.gltf`), the USD writer only the shear (:mod:`.usd`), so the instance keeps a

@@ -267,7 +267,8 @@ def write_city_stage(out: Path, report: Report, frame: str = "") -> Path:
     prim's ``extentsHint``, so a DCC that opens the city unloaded frames and culls it."""
     from citysynth.export.usd import write_city
 
-    boxes = {f"block_{b}": box for b, box in _extents(out).items() if b in report["built"]}
+    built = set(report["built"])
+    boxes = {f"block_{b}": box for b, box in _extents(out).items() if b in built}
     return write_city(out / "city.usda", [(f"block_{b}", f"{BLOCKS_DIR}/{b}.usda")
                                           for b in report["built"]], frame=frame, boxes=boxes)
 
