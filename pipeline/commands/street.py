@@ -207,13 +207,16 @@ def _run_progress():
     from citysynth.pipeline.progress import progress_line
 
     shown = progress_line(sys.stderr)
-    t0 = time.perf_counter()
+    first: list[float] = []   # when the first run was filled: the rate counts from there
+    # (from the command's start it rose all along, the splitting into runs in it)
 
     def tell(done: int, total: int) -> None:
-        if total >= PROGRESS_RUNS:
-            rate = done / max(time.perf_counter() - t0, 1e-9)
-            shown(done, total, f"[{done:>{len(str(total))}}/{total}] runs filled "
-                               f"({rate:,.0f} runs/s)")
+        if total < PROGRESS_RUNS:
+            return
+        now = time.perf_counter()
+        first[:] = first or [now]
+        rate = f" ({(done - 1) / (now - first[0]):,.0f} runs/s)" if now > first[0] else ""
+        shown(done, total, f"[{done:>{len(str(total))}}/{total}] runs filled{rate}")
     return tell
 
 
