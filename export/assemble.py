@@ -13,7 +13,7 @@ import trimesh
 from citysynth.export.infill import infill_pieces
 from citysynth.export.layout import Instance, Layout
 from citysynth.export.prototypes import prototype_pieces
-from citysynth.export.shear import baked_prototype, perpendicular_y, shear_of, sheared_pieces
+from citysynth.export.shear import baked_prototype, perpendicular_y, sheared_pieces
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.geometry import Piece
 
@@ -106,7 +106,7 @@ def _layout_box(lay: Layout, db: PartDB) -> np.ndarray:
     for inst in lay.instances:   # as USD shows them: a shear baked into the prototype
         shown.setdefault(baked_prototype(inst), []).append(inst)
     for insts in shown.values():
-        h = shear_of(insts[0])
+        h = insts[0].shear
         box = _prototype_box(db, insts[0], h)
         if box is None:   # a module cut wholly away
             continue

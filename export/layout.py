@@ -30,6 +30,8 @@ AXIS_DIGITS = 6
 VALUE_DIGITS = 6
 WHOLE = 1e6            # m: a blank plane's span (u0, u1) = (-WHOLE, WHOLE) is all along
 
+SHEAR_TOL = 1e-4   # relative; below it (~0.006°, under 2 mm over a part) an engine may drop it
+
 
 @dataclass(frozen=True)
 class Cut:
@@ -91,6 +93,17 @@ class Instance:
     origin: tuple[float, float]
     cut: Cut | None = None     # a mitre joint or a fold: the part cut (and extended)
     z: float = 0.0             # lifted by this much (a tower's stacked floors); else 0
+
+    @cached_property
+    def shear(self) -> float:
+        """``h`` with ``y_axis = h * x_axis + y_perp`` (``y_perp`` perpendicular to
+        ``x_axis``), 0.0 under :data:`SHEAR_TOL`: the placement is the part frame's shear
+        ``x += h * y``, then perpendicular axes (see :mod:`.shear`, whose writers ask
+        for it several times an instance: computed once)."""
+        x, y = np.asarray(self.x_axis), np.asarray(self.y_axis)
+        if abs(float(x @ y)) <= SHEAR_TOL * float(np.linalg.norm(x) * np.linalg.norm(y)):
+            return 0.0
+        return float(x @ y) / float(x @ x)
 
     @cached_property
     def proto(self) -> str:

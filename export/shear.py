@@ -9,32 +9,18 @@ matrix of rotation, scale and translation that every DCC reads alike."""
 
 from __future__ import annotations
 
-import numpy as np
-
 from citysynth.export.layout import Instance
 from citysynth.parts_db.geometry import Piece
 
-SHEAR_TOL = 1e-4   # relative; below it (~0.006°, under 2 mm over a part) an engine may drop it
-
 
 def sheared(inst: Instance) -> bool:
-    x, y = np.asarray(inst.x_axis), np.asarray(inst.y_axis)
-    return abs(float(x @ y)) > SHEAR_TOL * float(np.linalg.norm(x) * np.linalg.norm(y))
-
-
-def shear_of(inst: Instance) -> float:
-    """``h`` with ``y_axis = h * x_axis + y_perp`` (``y_perp`` perpendicular to
-    ``x_axis``), 0.0 for an instance not :func:`sheared`: the placement is the part
-    frame's shear ``x += h * y`` (:func:`sheared_pieces`), then the perpendicular axes
-    ``x_axis`` and :func:`perpendicular_y`."""
-    if not sheared(inst):
-        return 0.0
-    x, y = np.asarray(inst.x_axis), np.asarray(inst.y_axis)
-    return float(x @ y) / float(x @ x)
+    """Whether the placement shears by more than
+    :data:`~citysynth.export.layout.SHEAR_TOL` (``inst.shear``)."""
+    return inst.shear != 0.0
 
 
 def perpendicular_y(inst: Instance, h: float) -> tuple[float, float]:
-    """The instance's Y axis less its shear ``h`` (:func:`shear_of`)."""
+    """The instance's Y axis less its shear ``h`` (``inst.shear``)."""
     (xx, xy), (yx, yy) = inst.x_axis, inst.y_axis
     return (yx - h * xx, yy - h * xy)
 
@@ -44,7 +30,7 @@ def baked_prototype(inst: Instance) -> str:
     prototype (``inst.proto``), or for a sheared placement that prototype sheared
     (``part~key~shear_p0.123456789``, one per shear to 1e-9; a USD layer's own cuts
     file holds it)."""
-    h = shear_of(inst)
+    h = inst.shear
     if not h:
         return inst.proto
     return f"{inst.proto}~shear_{'m' if h < 0 else 'p'}{abs(h):.9f}"

@@ -61,7 +61,7 @@ from citysynth.export.naming import (
     structure_group,
 )
 from citysynth.export.prototypes import prototype_pieces
-from citysynth.export.shear import baked_prototype, perpendicular_y, shear_of, sheared_pieces
+from citysynth.export.shear import baked_prototype, perpendicular_y, sheared_pieces
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.files import atomic_path
 from citysynth.parts_db.geometry import Piece
@@ -154,7 +154,7 @@ def _prototype_spec(parent: Sdf.Layer | Sdf.PrimSpec, db: PartDB, inst: Instance
     references are added where nothing tries to resolve them) took 40 % more time for
     the same composed result."""
     part = db.part(inst.part)
-    h = shear_of(inst)
+    h = inst.shear
     root = Sdf.PrimSpec(parent, prim_name(baked_prototype(inst)), Sdf.SpecifierDef, "Xform")
     root.kind = Kind.Tokens.component
     data: dict = {"part": part.id, "class": part.cls, "library": db.library_hash}
@@ -170,7 +170,7 @@ def _prototype_spec(parent: Sdf.Layer | Sdf.PrimSpec, db: PartDB, inst: Instance
 def _own_prototype(inst: Instance) -> bool:
     """Whether the instance's prototype is the layer's own (in its cuts file): cut at a
     joint, or sheared; else it is a library part's file."""
-    return inst.cut is not None or bool(shear_of(inst))
+    return inst.cut is not None or bool(inst.shear)
 
 
 def _meshes_spec(root: Sdf.PrimSpec, pieces: Sequence[Piece], parts_dir: str) -> None:
@@ -570,7 +570,7 @@ def _usd_matrix(inst: Instance) -> Gf.Matrix4d:
     X, Y and Z, then the translation), less any shear, which its prototype holds
     (:func:`~citysynth.export.shear.baked_prototype`). Plain floats: a block writes hundreds."""
     (xx, xy), (ox, oy) = inst.x_axis, inst.origin
-    yx, yy = perpendicular_y(inst, shear_of(inst))
+    yx, yy = perpendicular_y(inst, inst.shear)
     return Gf.Matrix4d(xx, xy, 0.0, 0.0, yx, yy, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0,
                        ox, oy, inst.z, 1.0)
 

@@ -18,7 +18,7 @@ from pxr import Usd, UsdGeom
 from citysynth.export.assemble import place
 from citysynth.export.layout import Layout
 from citysynth.export.prototypes import prototype_pieces
-from citysynth.export.shear import baked_prototype, shear_of, sheared
+from citysynth.export.shear import baked_prototype, sheared
 from citysynth.export.usd import CUTS_PRIM, USER, part_file, validate
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -80,7 +80,7 @@ def test_a_sheared_prototype_is_made_once_per_shear_in_the_layers_own_file(
     cuts = Usd.Stage.Open(str(path.with_name("block.cuts.usdc")))
     baked = {p.GetName(): p.GetCustomDataByKey("citysynth:shear")
              for p in cuts.GetPrimAtPath(f"/{CUTS_PRIM}").GetChildren()}
-    shears = {round(shear_of(i), 9) for i in lay.instances if sheared(i)}
+    shears = {round(i.shear, 9) for i in lay.instances if sheared(i)}
     assert {round(h, 4) for h in shears} == {0.05, -0.03}   # and the layout's own rounding
     assert {round(h, 9) for h in baked.values() if h is not None} == shears
     assert sum(h is not None for h in baked.values()) == \

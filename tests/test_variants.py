@@ -127,7 +127,7 @@ def test_a_rerun_that_cuts_nothing_leaves_no_cuts_file(tmp_path):
     (the block's)."""
     from dataclasses import replace
 
-    from citysynth.export.shear import perpendicular_y, shear_of
+    from citysynth.export.shear import perpendicular_y
     from citysynth.pipeline.city.config import load_config
     from citysynth.pipeline.city.jobs import solve_block, worker_library, write_block
     from citysynth.pipeline.city.run import prepare
@@ -139,7 +139,7 @@ def test_a_rerun_that_cuts_nothing_leaves_no_cuts_file(tmp_path):
     db = worker_library(job.library)
     built = solve_block(job, db)[1]
     uncut = Built(built.name, "ok", [replace(lay, instances=[   # nor sheared (also its own)
-        replace(i, cut=None, y_axis=perpendicular_y(i, shear_of(i))) for i in lay.instances])
+        replace(i, cut=None, y_axis=perpendicular_y(i, i.shear)) for i in lay.instances])
         for lay in built.layouts])
     cuts = f"{built.name}.cuts.usdc"
     for write in (lambda b: write_outputs(b, db, tmp_path, formats=("json", "usd")),
