@@ -96,6 +96,28 @@ def osm_number(v: Any, most: float = math.inf) -> float | None:
     return x if math.isfinite(x) and 0 < x <= most else None
 
 
+_METRES = re.compile(r"\s*(?:m|metres?|meters?)?\s*$", re.I)
+
+
+def read_wholly(v: Any) -> bool:
+    """Whether ``osm_number`` reads all of ``v``: one number, in metres or feet as OSM
+    writes them. ``"4-5"``, ``"3;4"``, ``"about 12"`` or ``"12 m approx"`` are read in
+    part (the first number), which the caller tells the user rather than hide."""
+    if isinstance(v, int | float):
+        return True
+    values = tag_values(v)
+    if len(values) != 1 or isinstance(values[0], bool):
+        return False
+    if isinstance(values[0], int | float):
+        return True
+    text = str(values[0])
+    m = _NUMBER.match(text)
+    if m is None:
+        return False
+    feet = _FEET.match(text, m.end())
+    return _METRES.match(text, feet.end() if feet is not None else m.end()) is not None
+
+
 MAX_WIDTH = 250.0   # m: no street is wider (the widest avenues are about 140 m)
 MAX_LANES = 50      # lanes: nor has more (toll plazas have about 40)
 

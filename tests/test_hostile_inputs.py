@@ -269,8 +269,14 @@ def test_ingest_refuses_an_attribute_called_length(tmp_path, capsys):
     ({"height": "tall"}, None, None, 'height "tall" is no height'),
     ({"building:levels": "5", "height": "12.5 m"}, 5.0, 12.5, ""),
     ({"building:levels": "2e1"}, 20.0, None, ""),
-    ({"building:levels": "4;5", "height": "12,5"}, 4.0, 12.5, ""),   # a decimal comma
-    ({"building:levels": ["4", "5"]}, 4.0, None, ""),                # a list, as GDAL writes
+    ({"building:levels": "4", "height": "12,5"}, 4.0, 12.5, ""),     # a decimal comma
+    ({"height": "40'6\""}, None, 12.3444, ""),                       # feet and inches
+    # read in part: the first number, and the notes say which
+    ({"building:levels": "4;5", "height": "12,5"}, 4.0, 12.5,
+     'building:levels "4;5" read as 4 (the first number)'),
+    ({"building:levels": ["4", "5"]}, 4.0, None, "read as 4"),       # a list, as GDAL writes
+    ({"building:levels": "4-5"}, 4.0, None, 'building:levels "4-5" read as 4'),
+    ({"height": "12 m approx."}, None, 12.0, 'height "12 m approx." read as 12 m'),
     ({"building:levels": "", "height": None}, None, None, ""),       # no value: no note
 ])
 def test_storeys_no_building_has_count_as_no_value(props, levels, height, unread):
@@ -278,7 +284,7 @@ def test_storeys_no_building_has_count_as_no_value(props, levels, height, unread
     notes (the report's, its layout's) say so."""
     from citysynth.pipeline.city.footprints import Storeys, footprint_spec
     spec = footprint_spec("f.geojson", 0, props, "", 0.05, 0.3, Storeys())
-    assert (spec.levels, spec.height) == (levels, height)
+    assert spec.levels == levels and spec.height == pytest.approx(height)
     assert (unread in spec.remarks and spec.remarks.startswith("f.geojson: feature 0: ")) \
         if unread else spec.remarks == ""
 

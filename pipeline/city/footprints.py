@@ -33,7 +33,7 @@ from citysynth.skeletons.clean import absorb_short_edges, clean_footprint, witho
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.from_geometry import STRAIGHT_TOL
 from citysynth.skeletons.geojson import format_xy, input_xy, local_xy, side_words
-from citysynth.skeletons.streets import osm_number, tag_values
+from citysynth.skeletons.streets import osm_number, read_wholly, tag_values
 
 if TYPE_CHECKING:   # the job module imports this one
     from citysynth.pipeline.city.jobs import BlockJob
@@ -120,6 +120,14 @@ def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: s
     if height is None and props.get("height") not in (None, ""):
         unread.append(f"height {shown(props['height'], 40)} is no height (metres, up to "
                       f"{MAX_HEIGHT:g})")
+    partly = []
+    if levels is not None and not read_wholly(props.get("building:levels")):
+        partly.append(f"building:levels {shown(props['building:levels'], 40)} read as "
+                      f"{levels:g}")
+    if height is not None and not read_wholly(props.get("height")):
+        partly.append(f"height {shown(props['height'], 40)} read as {height:g} m")
+    if partly:
+        spec = remark(spec, f"{' and '.join(partly)} (the first number)")
     if not unread:
         return spec
     return remark(spec, f"{' and '.join(unread)}: left out, the storeys chosen as "
