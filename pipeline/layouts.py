@@ -29,6 +29,7 @@ from citysynth.export.usd import write_variants
 from citysynth.export.writers import BESIDE, FORMATS, SUFFIX, Format, write_ranks
 from citysynth.parts_db import PartDB
 from citysynth.pipeline.errors import UsageError, shown
+from citysynth.pipeline.paths import written_over
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
 from citysynth.skeletons import Skeleton
 from citysynth.solver.errors import TooLargeError
@@ -188,14 +189,12 @@ def _check_not_inputs(stems: Sequence[Path], formats: Sequence[Format],
                       inputs: Sequence[str | Path]) -> None:
     """Refuse to write over an input file: ``street --line out/ok.layout.usda -o out``
     replaced the street line with the USD it made from it, and exited 0."""
-    given = [Path(i) for i in inputs if Path(i).is_file()]
     suffixes = [x for f in formats for x in (SUFFIX[f], *BESIDE.get(f, ()))]
-    for stem in stems:
-        for p in (Path(f"{stem}{x}") for x in suffixes):
-            hit = next((i for i in given if p.is_file() and os.path.samefile(p, i)), None)
-            if hit is not None:
-                raise UsageError(f"{hit}: the output {p.name} would overwrite this input "
-                                 "file; write to another folder (-o) or rename the input")
+    hit = written_over((Path(f"{stem}{x}") for stem in stems for x in suffixes),
+                       [Path(i) for i in inputs])
+    if hit is not None:
+        raise UsageError(f"{hit[1]}: the output {hit[0].name} would overwrite this input "
+                         "file; write to another folder (-o) or rename the input")
 
 
 def _sweep_stale(out: Path, name: str, formats: Sequence[Format], written: list[Path]

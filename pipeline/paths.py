@@ -8,6 +8,7 @@ import os
 import sys
 import unicodedata
 from argparse import Namespace
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from citysynth.pipeline.errors import UsageError
@@ -37,6 +38,19 @@ def check_out_dir(out: str | Path, option: str = "-o") -> None:
     if not os.access(anc, os.W_OK | os.X_OK) or not _can_make_in(anc):
         raise UsageError(f"{anc}: may not be written (read-only or no permission){made}; "
                          f"give another {option} folder")
+
+
+def written_over(outputs: Iterable[Path], inputs: Sequence[Path]) -> tuple[Path, Path] | None:
+    """The first (output, input) pair that is one file: a command about to write an
+    output over the file it reads (by another name, a link, ``./x``) must refuse. Only
+    files that exist are compared (``samefile`` needs both)."""
+    given = [i for i in inputs if i.is_file()]
+    for out in outputs:
+        if out.is_file():
+            hit = next((i for i in given if os.path.samefile(out, i)), None)
+            if hit is not None:
+                return out, hit
+    return None
 
 
 def _can_make_in(folder: Path) -> bool:

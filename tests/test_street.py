@@ -401,6 +401,26 @@ def test_a_zigzag_street_is_told_why_it_stays_empty(tmp_path, capsys):
                      "-o", str(tmp_path / "m"), "--no-preview"]) == 0
 
 
+def test_an_output_is_the_input_by_any_name(tmp_path):
+    """``written_over``, the one check every command makes before writing: the same
+    file reached through a link, a hard link or ``./`` is the same file; a copy, or an
+    output not written yet, is not."""
+    from citysynth.pipeline.paths import written_over
+    (tmp_path / "d").mkdir()
+    f = tmp_path / "d" / "in.geojson"
+    f.write_text("{}")
+    (tmp_path / "link").symlink_to(tmp_path / "d")
+    (tmp_path / "hard.geojson").hardlink_to(f)
+    (tmp_path / "copy.geojson").write_text("{}")
+    missing = tmp_path / "none.usda"
+    assert written_over([missing, tmp_path / "copy.geojson"], [f]) is None
+    assert written_over([tmp_path / "link" / "in.geojson"], [f]) == \
+        (tmp_path / "link" / "in.geojson", f)
+    dotted = tmp_path / "d" / "." / "in.geojson"
+    assert written_over([tmp_path / "hard.geojson"], [missing, dotted]) == \
+        (tmp_path / "hard.geojson", dotted)
+
+
 def test_an_output_never_overwrites_the_input(tmp_path, capsys):
     """``street --line out/ok.layout.usda -o out`` replaced the street line with the
     USD made from it (exit 0); ``tower --lot`` and ``block`` likewise. Refused, the

@@ -46,9 +46,9 @@ def input_in_outputs(out: str, inputs: "list[str | None]") -> str | None:
     """What input file (``FILE`` or ``FILE::LAYER``) is one the run writes in ``out``:
     ``--footprints run/blocks.geojson -o run`` replaced the user's file with the run's
     own and exited 0 (the next run built from its own output). None when none is."""
-    import os
     from pathlib import Path
 
+    from citysynth.pipeline.paths import written_over
     from citysynth.skeletons.gis_files import split_layer
 
     root = Path(out)
@@ -57,10 +57,10 @@ def input_in_outputs(out: str, inputs: "list[str | None]") -> str | None:
         given = Path(split_layer(text)[0])
         if not given.is_file():
             continue
-        for mine in ours:
-            if mine.is_file() and os.path.samefile(mine, given):
-                return (f"{text}: the run writes its {mine.name} over this input file; "
-                        "copy the input out of the run folder, or give another -o folder")
+        hit = written_over(ours, [given])
+        if hit is not None:
+            return (f"{text}: the run writes its {hit[0].name} over this input file; "
+                    "copy the input out of the run folder, or give another -o folder")
         blocks = root / BLOCKS_DIR
         if blocks.is_dir() and given.resolve().is_relative_to(blocks.resolve()):
             return (f"{text}: this input file is in the run's {BLOCKS_DIR} folder, which "
