@@ -162,18 +162,21 @@ def _cut(pieces: tuple[Piece, ...], length_: float, cut: Cut,
                         for plane in cut.planes) if c is not None]
     # a piece whose every face was a needle goes: kept with its points and no face it
     # was an empty mesh, which glTF forbids (city.glb failed the Khronos validator)
-    kept = (_without_needles(p) for p in (_with_caps(out, pieces, caps) if caps else out))
+    kept = (_cleaned(p) for p in (_with_caps(out, pieces, caps) if caps else out))
     return tuple(p for p in kept if len(p.faces))
 
 
 NEEDLE = 1e-6   # m: a triangle this thin (twice its area over its longest side) is a line
 
 
-def _without_needles(piece: Piece) -> Piece:
+def _cleaned(piece: Piece) -> Piece:
     """``piece`` without the triangles of no area that clipping at a vertex and capping
     along collinear points leave: a face whose corners coincide or lie on one line
     (edges 5.89, 0 and 5.89 m). They cover nothing, but trimesh and a renderer's
-    checks count them as degenerate (1,535 in the demo district's city.glb)."""
+    checks count them as degenerate (1,535 in the demo district's city.glb). Points no
+    face uses go too (those of the needles, and a cap's collinear section points its
+    triangulation left out): kept, a DCC imports them as loose vertices (1 % of the demo
+    district's cut points were)."""
     f = piece.faces
     a, b, c = piece.vertices[f[:, 0]], piece.vertices[f[:, 1]], piece.vertices[f[:, 2]]
     ab, bc, ca = b - a, c - b, a - c
@@ -186,9 +189,7 @@ def _without_needles(piece: Piece) -> Piece:
     longest = np.sqrt(np.maximum(np.maximum((ab * ab).sum(axis=1), (bc * bc).sum(axis=1)),
                                  (ca * ca).sum(axis=1)))
     keep = area2 > NEEDLE * longest
-    if keep.all():
-        return piece
-    return Piece(piece.name, piece.rgba, piece.vertices, piece.faces[keep])
+    return piece.with_faces(f if keep.all() else f[keep])
 
 
 def _offset_faces(faces: list[np.ndarray], counts: list[int]) -> list[np.ndarray]:

@@ -46,6 +46,18 @@ class Piece:
         return _face_normals(np.ascontiguousarray(self.vertices, dtype=np.float64),
                              np.ascontiguousarray(self.faces, dtype=np.int64))
 
+    def with_faces(self, faces: np.ndarray) -> Piece:
+        """This piece with only ``faces`` (indices into its vertices) and the points
+        they use, renumbered. A point no face uses is a loose vertex in a DCC (a cut's
+        dropped needles, a triangulation that skips a collinear point)."""
+        used = np.zeros(len(self.vertices), dtype=bool)
+        used[faces.ravel()] = True
+        if used.all():
+            return self if faces is self.faces else Piece(self.name, self.rgba,
+                                                          self.vertices, faces)
+        new_index = np.cumsum(used) - 1
+        return Piece(self.name, self.rgba, self.vertices[used], new_index[faces])
+
     def float32_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The arrays a writer stores, in one compiled pass: points (float32), the face
         vertex indices flattened (int32), the face normals (computed in float64 as

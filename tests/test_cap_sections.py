@@ -456,6 +456,17 @@ def test_cut_parts_have_no_triangle_of_no_area(tmp_path):
     assert len(cut) > 20
     bad = {k: int((~g.nondegenerate_faces()).sum()) for k, g in cut.items()}
     assert not any(bad.values()), {k: n for k, n in bad.items() if n}
+    # nor a point no face uses (a cap's collinear section points, a needle's): a DCC
+    # imported them as loose vertices (13,371 in the demo district's cuts files)
+    from pxr import Usd, UsdGeom
+    (cuts_file,) = out.glob("*.cuts.usdc")
+    loose, stage = {}, Usd.Stage.Open(str(cuts_file))
+    for prim in stage.Traverse():
+        if prim.IsA(UsdGeom.Mesh):
+            mesh = UsdGeom.Mesh(prim)
+            used = np.unique(np.asarray(mesh.GetFaceVertexIndicesAttr().Get()))
+            loose[str(prim.GetPath())] = len(mesh.GetPointsAttr().Get()) - len(used)
+    assert len(loose) > 50 and not any(loose.values()), {k: n for k, n in loose.items() if n}
 
 
 def test_a_piece_cut_down_to_needles_is_dropped(sample_db):
@@ -476,3 +487,6 @@ def test_a_piece_cut_down_to_needles_is_dropped(sample_db):
         [(p.name, len(p.vertices)) for p in pieces if not len(p.faces)]
     assert "trim" not in {p.name for p in pieces}
     assert "walls" in {p.name for p in pieces}
+    # nor do the needles' points stay behind (a DCC imported them as loose vertices)
+    loose = {p.name: len(p.vertices) - len(np.unique(p.faces)) for p in pieces}
+    assert not any(loose.values()), loose

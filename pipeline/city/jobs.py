@@ -51,7 +51,7 @@ from citysynth.pipeline.errors import USER_ERRORS, environment_message
 from citysynth.pipeline.layouts import Built, ranked_files, solve_layouts, write_outputs
 from citysynth.skeletons import Frame
 
-JOB_VERSION = 7          # bump when a block's output changes for the same inputs
+JOB_VERSION = 8          # bump when a block's output changes for the same inputs
 VARIANTS_VERSION = 1     # the same, for what only k > 1 writes (the layout variantSet)
 CITY_SLACK = 0.3         # m: any block side may be met this closely (city.toml slack)
 
