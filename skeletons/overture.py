@@ -5,8 +5,10 @@ class ``class`` with OSM's highway vocabulary (primary, residential, footway, ..
 driveway or parking aisle as ``subclass``, and a road in a tunnel by its ``road_flags``;
 a rail segment's class is OSM's ``railway`` (tram, subway, standard_gauge, ...), a
 water segment is a ferry route. Its ``building`` features give ``num_floors``,
-``roof_shape`` and ``is_underground`` where OSM has ``building:levels``, ``roof:shape``
-and ``location=underground``. So are the names GDAL's writers make of OSM's keys,
+``min_floor``, ``roof_shape`` and ``is_underground`` where OSM has ``building:levels``,
+``building:min_level``, ``roof:shape`` and ``location=underground`` (``min_height`` is
+the same in both), and its ``class`` is OSM's ``building`` value (a canopy's ``roof``
+read as ``building=roof``). So are the names GDAL's writers make of OSM's keys,
 which hold a ``:`` few formats allow in a field name: ``building_levels`` (GML,
 MapInfo, a File Geodatabase), ``building_l`` (a Shapefile's ten characters) and
 ``roof_shape``; a Shapefile export of OSM buildings lost its storeys without a word.
@@ -22,6 +24,7 @@ from typing import Any
 
 SERVICE = ("driveway", "parking_aisle", "alley", "drive_through")   # subclass -> service=
 _BUILDING = (("num_floors", "building:levels"), ("roof_shape", "roof:shape"),
+             ("min_floor", "building:min_level"),
              ("building_levels", "building:levels"), ("building_l", "building:levels"))
 
 
@@ -41,6 +44,8 @@ def osm_tags(props: dict[str, Any]) -> dict[str, Any]:
         extra["railway"] = cls
     elif kind == "water":
         extra["route"] = "ferry"
+    elif cls == "roof":      # a building's class, OSM's building value: a canopy
+        extra["building"] = "roof"
     if props.get("is_underground") is True:
         extra["location"] = "underground"
     for overture, osm in _BUILDING:

@@ -168,12 +168,28 @@ def street_crossings(spec: FootprintSpec, polygon: shapely.Polygon,
 def not_built(props: dict[str, Any]) -> str | None:
     """Why a footprint has no facade to build, or None: a building under the ground
     (``location=underground``, Overture's ``is_underground``: a car park under a
-    square), or an outline its data says is no building (``building=no``: OSM's tag
-    for a structure mapped but not a building, which exports keep)."""
+    square), an outline its data says is no building (``building=no``: OSM's tag for a
+    structure mapped but not a building, which exports keep), a roof on pillars
+    (``building=roof``: a canopy over a petrol station or a market; the kit would
+    wall it in as a block of flats), or a mass that starts above the ground
+    (``min_height`` or ``building:min_level`` over 0: a building over a passage or a
+    street, a part on top of another building), which built from the ground would
+    close what runs under it."""
     if "underground" in tag_values(props.get("location")):
         return "underground (location=underground): no facade to build"
-    if [str(v).strip().lower() for v in tag_values(props.get("building"))] == ["no"]:
+    kind = [str(v).strip().lower() for v in tag_values(props.get("building"))]
+    if kind == ["no"]:
         return "building=no: not a building"
+    if kind == ["roof"]:
+        return ("a roof on pillars (building=roof): no walls to build (tag it as another "
+                "building to build it)")
+    for key, what in (("min_height", "{:g} m"), ("building:min_level", "storey {:g}")):
+        above = osm_number(props.get(key))
+        if above is not None:
+            return (f"starts above the ground, at {what.format(above)} ({key} = "
+                    f"{shown(props[key], 20)}): a building over a passage or on another "
+                    f"one, which the kit cannot build from the ground (remove {key} to "
+                    "build it from the ground)")
     return None
 
 
