@@ -84,7 +84,10 @@ def osm_number(v: Any, most: float = math.inf) -> float | None:
     if isinstance(v, bool) or v is None:
         return None
     if isinstance(v, int | float):
-        x = float(v)
+        try:
+            x = float(v)
+        except OverflowError:   # an int past every float (osmnx's text of a list)
+            return None
     else:
         m = _NUMBER.match(str(v))
         if m is None:

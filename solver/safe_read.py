@@ -187,6 +187,19 @@ def parse_json(text: str, p: Path | str, what: str, error: type[Exception], *,
                     "check that it is the right file") from None
 
 
+FLOAT_DIGITS = 308   # an integer of more digits is past every float (1.8e308 at most)
+
+
+def _json_int(digits: str) -> int | float:
+    """A JSON integer, as Python's parser reads it, except one past every float
+    (``1`` and 309 zeros or more): read as the float it rounds to, infinity, as
+    ``1e400`` is. As an int it passed every check of a value's type and then crashed
+    the first sum or comparison with a float ("int too large to convert to float")."""
+    if len(digits) - digits.startswith("-") > FLOAT_DIGITS:
+        return float(digits)
+    return int(digits)
+
+
 def _parse_json(text: str, p: Path | str, what: str, error: type[Exception],
                 max_depth: int) -> Any:
     def constant(name: str) -> Any:
@@ -197,7 +210,7 @@ def _parse_json(text: str, p: Path | str, what: str, error: type[Exception],
         raise error(f"{p}: empty; a {what} file holds JSON")
     twice: list[bool] = []
     try:
-        data = json.loads(text, parse_constant=constant,
+        data = json.loads(text, parse_constant=constant, parse_int=_json_int,
                           object_pairs_hook=_object_hook(twice))
     except json.JSONDecodeError as exc:
         raise error(_not_json(text, p, what, exc)) from None
@@ -386,12 +399,36 @@ def read_toml(path: str | Path, what: str, error: type[Exception]) -> dict[str, 
     """The TOML in the ``what`` file at ``path``; every failure is one ``error``."""
     text = read_text(path, what, error)
     try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{path}: not valid TOML: {exc}") from None
     except RecursionError:
         raise error(f"{path}: TOML nested too deeply; check that it is the right "
                     "file") from None
+    big = _int_past_64_bits(data)
+    if big is not None:
+        raise error(f"{path}: {big} is an integer past TOML's 64-bit range (19 digits); "
+                    "write it with an exponent (1e30) or check the value")
+    return data
+
+
+def _int_past_64_bits(data: Any) -> str | None:
+    """The key of the first integer TOML may not hold (past -2^63 .. 2^63 - 1, which
+    its specification says a reader must refuse; Python's reader keeps them, and one
+    past every float crashed the first check of it), or None. A walk with a stack: the
+    TOML's nesting may be as deep as its reader allowed."""
+    stack: list[tuple[str, Any]] = [("", data)]
+    while stack:
+        where, value = stack.pop()
+        if isinstance(value, int) and not isinstance(value, bool) \
+                and not -2 ** 63 <= value < 2 ** 63:
+            return where
+        if isinstance(value, dict):
+            stack.extend((f"{where}.{k}" if where else k, v)
+                         for k, v in reversed(list(value.items())))
+        elif isinstance(value, list):
+            stack.extend((f"{where}[{n}]", v) for n, v in reversed(list(enumerate(value))))
+    return None
 
 
 def expect(value: Any, kind: type | tuple[type, ...], where: str, what: str,

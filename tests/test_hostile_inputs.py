@@ -71,6 +71,39 @@ def _rect(fid: str, lon: float, w_deg: float = 0.00085, h_deg: float = 0.00041) 
             "geometry": {"type": "Polygon", "coordinates": [ring]}}
 
 
+BIG = "1" + "0" * 309     # an integer past every float, short of Python's 4,300 digits
+
+
+def test_an_integer_past_every_float_is_told_not_a_crash(tmp_path, capsys):
+    """An integer of 310 to 4,300 digits passed every check of a value's type and
+    crashed the first sum or comparison ("int too large to convert to float", exit 3)
+    in a problem file, a footprint's height and a city.toml. JSON reads it as 1e400
+    is, infinity, which every check tells; TOML refuses it, as its specification
+    says a reader must (past 64 bits)."""
+    problem = json.loads((EX / "facade_small.json").read_text())
+    problem["elements"][0]["cost"] = 0
+    text = json.dumps(problem).replace('"cost": 0', f'"cost": {BIG}', 1)
+    code, err = _run(["solve", str(_write(tmp_path / "p.json", text))], capsys)
+    assert code == 2 and "elements[0].cost: expected a finite number" in err, err
+    feat = _rect("a", 24.94)
+    feat["properties"]["height"] = 0
+    text = json.dumps({"type": "FeatureCollection", "features": [feat]})
+    fp = _write(tmp_path / "f.geojson", text.replace('"height": 0', f'"height": {BIG}'))
+    code, err = _run(["city", "--footprints", str(fp), "--library", str(LIB), "-o",
+                      str(tmp_path / "run"), "--workers", "1", "--no-overview"], capsys)
+    assert code == 0 and "Traceback" not in err, err
+    (rec,) = json.loads((tmp_path / "run" / "manifest.json").read_text())["blocks"].values()
+    assert "height inf is no height" in rec["note"], rec
+    for toml in (f"min_area = {BIG}\n", f"[per_side]\ndoors = [0, {BIG}]\n",
+                 f"origin = [-{BIG}, 60.0]\n"):
+        cfg = _write(tmp_path / "c.toml", toml)
+        code, err = _run(["city", "--footprints", str(fp), "--library", str(LIB), "--config",
+                          str(cfg), "-o", str(tmp_path / "run2")], capsys)
+        key = toml.split(" =")[0].split("\n")[-1]
+        assert code == 2 and f"{key}" in err and "past TOML's 64-bit range" in err, err
+        assert not (tmp_path / "run2").exists()
+
+
 def test_nan_in_json_is_named_as_nan(tmp_path, capsys):
     bad = _write(tmp_path / "p.json", '{"k": NaN}')
     code, err = _run(["solve", str(bad)], capsys)
