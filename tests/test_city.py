@@ -397,6 +397,21 @@ def test_diff_draws_a_plan_of_what_changed(district, tmp_path, capsys):
     assert main(["diff", str(district), str(other), "--png", str(tmp_path)]) == 2
     assert f"--png {tmp_path}: a folder; give the map's file name" in capsys.readouterr().err
     assert not (tmp_path / "x.png").exists()
+    # never over a file of the runs compared (it wrote the map over run A's manifest),
+    # nor under another format's name
+    shutil.copy(district / "blocks.geojson", other / "blocks.geojson")
+    (other / "link").symlink_to(other / "blocks")
+    manifest = (district / "manifest.json").read_bytes()
+    for bad, said in ((district / "manifest.json", "manifest.json, which the map would "
+                                                    "replace"),
+                      (other / "city.usda", "city.usda, which the map would replace"),
+                      (other / "link" / f"{built[0]}.layout.json", "blocks folder"),
+                      (tmp_path / "map.svg", "the map is a PNG image")):
+        assert main(["diff", str(district), str(other), "--png", str(bad)]) == 2
+        err = capsys.readouterr().err
+        assert f"--png {bad}: " in err and said in err and len(err.strip().splitlines()) == 1
+    assert (district / "manifest.json").read_bytes() == manifest
+    assert not (tmp_path / "map.svg").exists()
 
 
 def test_diff_of_a_run_missing_a_layout_says_to_rerun(district, tmp_path, capsys):

@@ -1,8 +1,10 @@
 """The names of the files a city run writes into its folder.
 
-A module of its own, with nothing to import, so what reads a run folder
-(``citysynth diff``) need not load what writes one.
+A module of its own, importing nothing of the project at its top, so what reads a
+run folder (``citysynth diff``) need not load what writes one.
 """
+
+from pathlib import Path
 
 BLOCKS_DIR = "blocks"              # a block's layout JSON, USD and cuts: blocks/<id>*
 MANIFEST = "manifest.json"         # every block's inputs hash, status, files and cost
@@ -20,7 +22,6 @@ def misplaced(out: str) -> str | None:
     before any block is solved, where the run found it only when writing, after every
     block's work. None when nothing does."""
     import os
-    from pathlib import Path  # (this module imports nothing at its top: see above)
 
     from citysynth.export.usd import MATERIALS_DIR, PARTS_DIR
 
@@ -46,24 +47,35 @@ def input_in_outputs(out: str, inputs: "list[str | None]") -> str | None:
     """What input file (``FILE`` or ``FILE::LAYER``) is one the run writes in ``out``:
     ``--footprints run/blocks.geojson -o run`` replaced the user's file with the run's
     own and exited 0 (the next run built from its own output). None when none is."""
-    from pathlib import Path
-
-    from citysynth.pipeline.paths import written_over
     from citysynth.skeletons.gis_files import split_layer
 
-    root = Path(out)
-    ours = [root / n for n in (MANIFEST, BLOCKS_GEOJSON, REPORT, *CITY_FILES)]
     for text in filter(None, inputs):
         given = Path(split_layer(text)[0])
-        if not given.is_file():
-            continue
-        hit = written_over(ours, [given])
-        if hit is not None:
-            return (f"{text}: the run writes its {hit[0].name} over this input file; "
-                    "copy the input out of the run folder, or give another -o folder")
-        blocks = root / BLOCKS_DIR
-        if blocks.is_dir() and given.resolve().is_relative_to(blocks.resolve()):
+        mine = run_file(out, given) if given.is_file() else None
+        if mine == BLOCKS_DIR:
             return (f"{text}: this input file is in the run's {BLOCKS_DIR} folder, which "
                     "the run rewrites; copy it out of the run folder, or give another "
                     "-o folder")
+        if mine is not None:
+            return (f"{text}: the run writes its {mine} over this input file; "
+                    "copy the input out of the run folder, or give another -o folder")
+    return None
+
+
+def run_file(run: str | Path, path: str | Path) -> str | None:
+    """Which of the run folder ``run``'s own files ``path`` is (by any name: a link, a
+    hard link, ``./``): the file's name (``manifest.json``), or ``blocks`` for
+    anything in its blocks folder, which the run rewrites; None when it is none. Both
+    an input the run would write over and an output another command (``diff --png``)
+    would write into a run are refused with it."""
+    from citysynth.pipeline.paths import written_over
+
+    root, given = Path(run), Path(path)
+    hit = written_over([root / n for n in (MANIFEST, BLOCKS_GEOJSON, REPORT, *CITY_FILES)],
+                       [given])
+    if hit is not None:
+        return hit[0].name
+    blocks = root / BLOCKS_DIR
+    if blocks.is_dir() and given.resolve().is_relative_to(blocks.resolve()):
+        return BLOCKS_DIR
     return None

@@ -382,6 +382,28 @@ def _part_counts(lay: dict) -> dict[str, int]:
     return counts
 
 
+def _check_map_path(png: Path, *runs: str) -> None:
+    """``--png`` names a new PNG file or an old one of its own, never a file of the
+    runs compared: ``--png runA/manifest.json`` wrote the map over run A's manifest
+    (and the next diff called run A "a PNG image, not a run manifest file")."""
+    from citysynth.pipeline.city.folder import BLOCKS_DIR, run_file
+
+    if png.is_dir():
+        raise UsageError(f"--png {png}: a folder; give the map's file name, e.g. "
+                         f"{png / 'diff.png'}")
+    for r in runs:
+        mine = run_file(r, png)
+        if mine == BLOCKS_DIR:
+            raise UsageError(f"--png {png}: in run {r}'s {BLOCKS_DIR} folder, which its "
+                             "runs rewrite; write the map elsewhere (e.g. diff.png)")
+        if mine is not None:
+            raise UsageError(f"--png {png}: run {r}'s {mine}, which the map would "
+                             "replace; give another file name (e.g. diff.png)")
+    if png.suffix.lower() != ".png":
+        raise UsageError(f"--png {png}: the map is a PNG image; give a file name ending "
+                         f"in .png, e.g. {png.with_suffix('.png')}")
+
+
 def _warn_unfinished(run_a: str, run_b: str, d: dict[str, Any]) -> None:
     """Warn, on stderr, of a run folder whose blocks are not all of the run its manifest
     tells: a run is writing into it, or a later run stopped before it finished."""
@@ -400,9 +422,8 @@ def _warn_unfinished(run_a: str, run_b: str, d: dict[str, Any]) -> None:
 
 
 def run(args) -> int:
-    if args.png and Path(args.png).is_dir():
-        raise UsageError(f"--png {args.png}: a folder; give the map's file name, e.g. "
-                         f"{Path(args.png) / 'diff.png'}")
+    if args.png:
+        _check_map_path(Path(args.png), args.run_a, args.run_b)
     d = diff_runs(args.run_a, args.run_b)
     _warn_unfinished(args.run_a, args.run_b, d)
     if args.png:
