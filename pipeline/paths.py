@@ -53,6 +53,15 @@ def written_over(outputs: Iterable[Path], inputs: Sequence[Path]) -> tuple[Path,
     return None
 
 
+def same_input(a: str | Path, b: str | Path) -> bool:
+    """Whether two inputs (``FILE`` or ``FILE::LAYER``) are one: the same file by any
+    name, and the same layer (or none named)."""
+    from citysynth.skeletons.gis_files import split_layer
+
+    (fa, la), (fb, lb) = split_layer(str(a)), split_layer(str(b))
+    return la == lb and written_over([Path(fa)], [Path(fb)]) is not None
+
+
 def _can_make_in(folder: Path) -> bool:
     """A folder can be made in ``folder`` (and is taken away again): the permission
     bits say yes to root everywhere, also in /proc, /sys or a read-only mount, where

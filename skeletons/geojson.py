@@ -132,7 +132,8 @@ class Frame:
 def read_geojson(path: str | Path, crs: str | None = None,
                  origin: tuple[float, float] | None = None, origin_digits: int | None = None,
                  *, accept: Accept = "any", within: Frame | None = None,
-                 layer_of: Accept | None = None) -> tuple[Features, Frame]:
+                 layer_of: Accept | None = None, others: Accept | None = None
+                 ) -> tuple[Features, Frame]:
     """A GeoJSON file's features in a local metric frame; see :func:`parse_geojson`.
     Another GIS file (GeoPackage, Shapefile, ...; ``FILE::LAYER`` for one of several
     layers) is read as the GeoJSON export of its layer would be (:mod:`.gis_files`):
@@ -144,7 +145,7 @@ def read_geojson(path: str | Path, crs: str | None = None,
     else:
         data = _read_json_or_sequence(Path(path))
     return parse_geojson(data, str(path), crs, origin, origin_digits, accept=accept,
-                         within=within)
+                         within=within, others=others)
 
 
 RS = "\x1e"   # RFC 8142's record separator, before each text of a GeoJSON Text Sequence
@@ -192,8 +193,8 @@ def _is_sequence(text: str) -> bool:
 
 def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
                   origin: tuple[float, float] | None = None, origin_digits: int | None = None,
-                  *, accept: Accept = "any", within: Frame | None = None
-                  ) -> tuple[Features, Frame]:
+                  *, accept: Accept = "any", within: Frame | None = None,
+                  others: Accept | None = None) -> tuple[Features, Frame]:
     """Features in a local metric frame centred on the data's bounding box, or on
     ``origin`` (lon/lat, or input coordinates for projected input kept as it is), or in
     ``within``, the frame another file set: so that several files share one frame, each
@@ -202,12 +203,17 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
     so that edits at the edge of the data do not move the frame. ``crs`` (e.g.
     "EPSG:25832") overrides the file's ``"crs"`` member.
     ``accept`` names the geometries the caller can use ("lines", "polygons"); features
-    with others, or with none, are left out with a warning (:class:`Features`)."""
+    with others, or with none, are left out with a warning (:class:`Features`), but for
+    those of the kind ``others`` names, which the file holds for another reader (one
+    file given as both a city's streets and its footprints), left out without one."""
+    if isinstance(data, list) and data and all(
+            isinstance(f, dict) and f.get("type") == "Feature" for f in data):
+        data = {"type": "FeatureCollection", "features": data}   # a web API's array
     raw = _raw_features(data, source)
     member = _crs_member(data, source)
     chosen, overrides = _chosen_crs(crs, member)
     given = _with_member(lambda: _input_crs(chosen, source), overrides, member)
-    kept, skipped = _usable(raw, source, accept)
+    kept, skipped = _usable(raw, source, accept, others)
     if not kept:
         raise SkeletonError(f"{source}: no usable features: all {len(raw)} left out ("
                             + skipped[0].removeprefix(f"{source}: ").removesuffix("; left out")
@@ -234,21 +240,49 @@ GEOMETRY_TYPES = ("Point", "MultiPoint", "LineString", "MultiLineString", "Polyg
 
 
 def _raw_features(data: Any, source: str) -> list[Any]:
+    """The features of a FeatureCollection, a Feature or a bare geometry; anything else
+    is told what it looks like and how to make it GeoJSON."""
     if isinstance(data, dict) and data.get("type") in GEOMETRY_TYPES:
         data = {"type": "Feature", "properties": {}, "geometry": data}   # a bare geometry
     if not isinstance(data, dict) or data.get("type") not in ("FeatureCollection", "Feature"):
-        raise SkeletonError(f"{source}: not a GeoJSON FeatureCollection, Feature or geometry")
+        raise SkeletonError(f"{source}: not a GeoJSON FeatureCollection, Feature or geometry"
+                            f"{_what_else(data)}")
     raw = data.get("features") if data["type"] == "FeatureCollection" else [data]
-    if not isinstance(raw, list) or not raw:
+    if raw is not None and not isinstance(raw, list):
+        raise SkeletonError(f"{source}: its \"features\" is a JSON {_json_kind(raw)}, not a "
+                            "list of Features; export the layer again as GeoJSON")
+    if not raw:
         raise SkeletonError(f"{source}: no features (an empty FeatureCollection); export "
                             "the layer with its features, or leave the file out")
     return raw
 
 
-def _usable(raw: list[Any], source: str, accept: Accept
+def _json_kind(value: Any) -> str:
+    return {dict: "object", list: "array", str: "string", bool: "true/false"}.get(
+        type(value), "number" if isinstance(value, int | float) else "null")
+
+
+def _what_else(data: Any) -> str:
+    """What JSON that is no GeoJSON looks like, as advice: "" when nothing is known."""
+    kind = data.get("type") if isinstance(data, dict) else None
+    if kind == "Topology":
+        return (" but TopoJSON; convert it to GeoJSON first (mapshaper, or topojson's "
+                "topo2geo)")
+    if isinstance(data, list):
+        return (" but a JSON array; a GeoJSON file holds one object: "
+                '{"type": "FeatureCollection", "features": [...]}')
+    if isinstance(data, dict) and "type" not in data:
+        return ' (it has no "type"); export the layer again as GeoJSON'
+    if isinstance(data, dict):
+        return f" (its type is {shown(kind, 40)}); export the layer again as GeoJSON"
+    return f" but a JSON {_json_kind(data)}"
+
+
+def _usable(raw: list[Any], source: str, accept: Accept, others: Accept | None = None
             ) -> tuple[list[tuple[int, BaseGeometry, dict[str, Any]]], list[str]]:
     """The features the caller can use, as (index, geometry in input coordinates,
-    properties), and a message for each one left out."""
+    properties), and a message for each one left out (none for a geometry of the kind
+    ``others``: another reader's)."""
     kept, skipped = [], []
     for i, f in enumerate(raw):
         if not isinstance(f, dict) or f.get("type") != "Feature":
@@ -264,6 +298,9 @@ def _usable(raw: list[Any], source: str, accept: Accept
             props["id"] = fid
         g = _polygons_of(_geometry(f.get("geometry"), f"{source}: feature {i}"), accept)
         reason = _unusable(g, accept)
+        if reason is not None and others is not None and g is not None \
+                and g.geom_type in ACCEPTED[others]:
+            continue
         if reason is not None:
             skipped.append(f"{source}: {feature_label(i, props)}: {reason}; left out")
             continue
@@ -455,8 +492,8 @@ def _input_crs(crs: str | None, source: str) -> pyproj.CRS | None:
     try:
         given = pyproj.CRS.from_user_input(crs)
     except pyproj.exceptions.CRSError:
-        raise SkeletonError(f"{source}: unknown CRS {crs!r}; give it as EPSG:<code>, e.g. "
-                            "EPSG:25832") from None
+        raise SkeletonError(f"{source}: unknown CRS {shown(crs, 80)}; give it as "
+                            "EPSG:<code>, e.g. EPSG:25832") from None
     if not (given.is_projected or given.is_geographic):
         kind = "geocentric (earth-centred X, Y, Z)" if given.is_geocentric else \
             given.type_name.lower().removesuffix(" crs")   # pyproj: "Vertical CRS"

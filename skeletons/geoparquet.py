@@ -21,6 +21,7 @@ import datetime as dt
 import decimal
 import json
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +44,11 @@ NATIVE = {   # GeoArrow encoding -> (GeoJSON type, nesting depth of its coordina
 def read_geoparquet(path: Path, column: str | None) -> dict[str, Any]:
     """The GeoParquet file at ``path`` as a GeoJSON FeatureCollection (a dict): the
     geometry column ``column`` (by default the primary one), the others as properties."""
+    # Arrow's own allocator (jemalloc or mimalloc) reserves gigabytes of address space
+    # up front: under a memory limit (ulimit -v 3 GB) the USD writer's allocations then
+    # failed and the process died of a segmentation fault, leaving half a run behind.
+    # The C library's allocator reserves what it uses. Read once, before Arrow's pool.
+    os.environ.setdefault("ARROW_DEFAULT_MEMORY_POOL", "system")
     import pyarrow as pa  # loaded only when such a file is given
     import pyarrow.parquet as pq
 

@@ -28,9 +28,18 @@ _BUILDING = (("num_floors", "building:levels"), ("roof_shape", "roof:shape"),
              ("building_levels", "building:levels"), ("building_l", "building:levels"))
 
 
+# the OSM keys a footprint or street is read by, found whatever their case and spaces
+# (ArcGIS writes field names in capitals: HEIGHT, BUILDING_L, ROOF_SHAPE)
+KNOWN_KEYS = ("building", "building:levels", "building:min_level", "height", "min_height",
+              "roof:shape", "location", "highway", "width", "lanes", "service", "tunnel",
+              "railway", "route", "layer", *(k for k, _osm in _BUILDING), "is_underground")
+
+
 def osm_tags(props: dict[str, Any]) -> dict[str, Any]:
     """``props`` with the OSM tags its Overture attributes mean, where it lacks them
-    (the same dict when there are none to add)."""
+    (the same dict when there are none to add); a known key written in other case or
+    with spaces round it (``HEIGHT``, ``"building:levels "``) is read as that key."""
+    props = _known_keys(props)
     extra: dict[str, Any] = {}
     kind, cls = props.get("subtype"), props.get("class")
     if kind == "road" and isinstance(cls, str):
@@ -46,13 +55,42 @@ def osm_tags(props: dict[str, Any]) -> dict[str, Any]:
         extra["route"] = "ferry"
     elif cls == "roof":      # a building's class, OSM's building value: a canopy
         extra["building"] = "roof"
-    if props.get("is_underground") is True:
-        extra["location"] = "underground"
+    under = props.get("is_underground")
+    if under is True or (isinstance(under, str) and under.strip().lower() in ("true", "yes", "1")):
+        extra["location"] = "underground"     # (a GDAL export may write the bool as text)
     for overture, osm in _BUILDING:
         if props.get(overture) is not None:
             extra[osm] = props[overture]
     extra = {k: v for k, v in extra.items() if k not in props}
     return {**props, **extra} if extra else props
+
+
+def _known_keys(props: dict[str, Any]) -> dict[str, Any]:
+    """``props`` with each of :data:`KNOWN_KEYS` it lacks added from a key that differs
+    from it only in case or surrounding spaces (the first such key, in file order)."""
+    missing = {k for k in KNOWN_KEYS if k not in props}
+    if not missing:
+        return props
+    extra: dict[str, Any] = {}
+    for key, value in props.items():
+        if isinstance(key, str):
+            plain = key.strip().lower()
+            if plain in missing and plain not in extra:
+                extra[plain] = value
+    return {**props, **extra} if extra else props
+
+
+def source_key(props: dict[str, Any], key: str) -> str:
+    """The key the file gave ``key``'s value under (``min_floor`` for Overture's
+    ``building:min_level``, ``HEIGHT`` for ``height``), so a message names the field the
+    user can find; ``key`` itself when the file has it."""
+    value = props.get(key)
+    aliases = [o for o, osm in _BUILDING if osm == key and o in props] + \
+        [k for k in props if isinstance(k, str) and k != key and k.strip().lower() == key]
+    alias = next((a for a in aliases if props[a] is value), None)
+    if alias is None:
+        return key
+    return source_key(props, alias) if alias == alias.strip().lower() else alias
 
 
 def _flagged_throughout(flags: Any, flag: str) -> bool:

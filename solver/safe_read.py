@@ -29,6 +29,7 @@ from __future__ import annotations
 import datetime
 import json
 import os
+import re
 import stat
 import tomllib
 from collections.abc import Callable, Iterator
@@ -401,7 +402,7 @@ def read_toml(path: str | Path, what: str, error: type[Exception]) -> dict[str, 
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise error(f"{path}: not valid TOML: {exc}") from None
+        raise error(f"{path}: not valid TOML: {_toml_words(str(exc), text)}") from None
     except RecursionError:
         raise error(f"{path}: TOML nested too deeply; check that it is the right "
                     "file") from None
@@ -410,6 +411,22 @@ def read_toml(path: str | Path, what: str, error: type[Exception]) -> dict[str, 
         raise error(f"{path}: {big} is an integer past TOML's 64-bit range (19 digits); "
                     "write it with an exponent (1e30) or check the value")
     return data
+
+
+def _toml_words(message: str, text: str) -> str:
+    """The TOML reader's message in a user's words where its own are a parser's
+    ("Cannot overwrite a value": a key given twice), with a fix."""
+    where = message[message.find(" (at line"):] if " (at line" in message else ""
+    if "\x00" in text:
+        return f"it holds NUL bytes{where}, so it is no text file: check that it is the right file"
+    if message.startswith("Cannot overwrite a value"):
+        return (f"a key given a value twice{where} (or a key and a table of one name); "
+                "keep one of them")
+    m = re.match(r"Cannot declare \((.*)\) twice", message)
+    if m:
+        table = ".".join(part.strip(" '\"") for part in m.group(1).split(",") if part.strip())
+        return f"the table [{table}] is declared twice{where}; merge them into one"
+    return message
 
 
 def _int_past_64_bits(data: Any) -> str | None:

@@ -192,6 +192,10 @@ def test_diff_reports_changed_added_and_removed_blocks(district, tmp_path, capsy
     assert main(["diff", str(district), str(tmp_path / "c")]) == 1
     assert "removed" in capsys.readouterr().out
     assert main(["diff", str(district), str(tmp_path)]) == 2
+    # a run that is not there says so ("not a folder" read as if it were a file)
+    capsys.readouterr()
+    assert main(["diff", str(district), str(tmp_path / "nowhere")]) == 2
+    assert f"{tmp_path / 'nowhere'}: no such folder" in capsys.readouterr().err
 
 
 def test_diff_says_when_the_runs_used_different_libraries(district, tmp_path, capsys):

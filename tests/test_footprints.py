@@ -601,6 +601,15 @@ def test_a_footprint_drawn_twice_is_built_once_and_told(tmp_path):
     assert report["counts"]["built"] == 2
     assert [s["reason"] for s in report["skipped"]] == [
         f"{fp}: feature 2 (again): the same outline as feature 0 (a), built once"]
+    # drawn twice with other storeys: the ones not used are told
+    data["features"][-1]["properties"] = {"id": "again", "building:levels": 6}
+    data["features"][0]["properties"]["building:levels"] = 3
+    fp.write_text(json.dumps(data))
+    assert run_city(tmp_path / "run2", fp, workers=1) == 0
+    report = json.loads((tmp_path / "run2" / "report.json").read_text())
+    assert [s["reason"] for s in report["skipped"]] == [
+        f"{fp}: feature 2 (again): the same outline as feature 0 (a), built once (3 "
+        "storeys asked there; its own 6 not used: delete one of the two)"]
 
 
 def test_a_zero_width_spike_is_repaired_and_a_bowtie_named_where_it_crosses(tmp_path):

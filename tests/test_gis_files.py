@@ -467,7 +467,7 @@ def test_overture_attributes_as_osm_tags(props, added):
      'starts above the ground, at 12 m (min_height = "12")'),
     ({"building": "yes", "building:min_level": 3},
      "starts above the ground, at storey 3 (building:min_level = 3)"),
-    ({"min_floor": 1}, "at storey 1 (building:min_level = 1)"),        # Overture's name
+    ({"min_floor": 1}, "at storey 1 (min_floor = 1)"),                 # Overture's name
     ({"subtype": "commercial", "class": "roof"}, "a roof on pillars"),  # Overture's
     ({"building": "yes", "min_height": "0"}, None),                     # on the ground
     ({"building": "yes", "min_height": "-3"}, None),                    # no such height
@@ -485,6 +485,126 @@ def test_roofs_on_pillars_and_masses_above_the_ground_are_not_built(props, why):
 
     got = not_built(osm_tags(props))
     assert (why in got and "build it" in got) if why else got is None, got
+
+
+@pytest.mark.parametrize("props, levels, height, roof, said", [
+    # ArcGIS writes field names in capitals; a key may keep a space from a header
+    ({"HEIGHT": 20}, None, 20.0, None, ""),
+    ({"BUILDING_L": 6, "ROOF_SHAPE": "MANSARD"}, 6.0, None, "mansard", ""),
+    ({"building:levels ": "3", "Roof:Shape": "Mansard "}, 3.0, None, "mansard", ""),
+    ({"Height": "tall"}, None, None, None, 'Height "tall" is no height'),
+    ({"BUILDING_L": "4-5"}, 4.0, None, None, 'BUILDING_L "4-5" read as 4'),
+    ({"roof:shape": "mansard;gabled"}, None, None, "mansard",
+     'roof:shape "mansard;gabled" read as mansard (the first value)'),
+    ({"roof:shape": ["gabled"]}, None, None, "gabled", ""),
+    ({"building:levels": 5, "height": 9}, 5.0, 9.0, None, ""),     # its own keys win
+])
+def test_footprint_keys_are_read_whatever_their_case(props, levels, height, roof, said):
+    """``HEIGHT``, ``BUILDING_L``, ``ROOF_SHAPE`` (an ArcGIS export's capitals) and a
+    roof shape in capitals were ignored without a note: the storeys and family fell
+    back to the defaults. They are read, and a note names the field as the file does."""
+    from citysynth.pipeline.city.footprints import Storeys, footprint_spec
+    from citysynth.skeletons.overture import osm_tags
+
+    spec = footprint_spec("f.geojson", 0, osm_tags(props), "", 0.05, 0.3, Storeys())
+    assert (spec.levels, spec.height, spec.roof) == (levels, height, roof)
+    assert (said in spec.remarks) if said else spec.remarks == "", spec.remarks
+
+
+@pytest.mark.parametrize("props, said", [
+    ({"min_floor": 3}, "(min_floor = 3)"),
+    ({"MIN_HEIGHT": "6"}, '(MIN_HEIGHT = "6")'),
+    ({"is_underground": True}, "underground (is_underground)"),
+    ({"is_underground": "true"}, "underground (is_underground)"),     # as text (GDAL)
+    ({"location": "Underground"}, "underground (location=underground)"),
+    ({"LOCATION": "underground"}, "underground (LOCATION=underground)"),
+])
+def test_a_footprint_left_out_names_the_field_the_file_has(props, said):
+    """Overture's ``min_floor`` was told as ``building:min_level`` and the advice said to
+    remove that key, which the file does not have; ``is_underground`` as text and
+    ``location=Underground`` were built as buildings."""
+    from citysynth.pipeline.city.footprints import not_built
+    from citysynth.skeletons.overture import osm_tags
+
+    why = not_built(osm_tags(props))
+    assert why is not None and said in why, why
+    if "=" in said and "underground" not in said:
+        assert f"remove {said[1:].split(' =')[0]} " in why, why
+
+
+def test_a_roof_shape_the_kit_does_not_build_is_told():
+    """``roof:shape = onion`` picked no family and said nothing; now the building's note
+    says which roofs the kit builds, and a known shape in capitals picks its family."""
+    from citysynth.parts_db import load_library
+    from citysynth.pipeline.city.footprints import Storeys, choose_family, footprint_spec
+    from citysynth.skeletons.overture import osm_tags
+
+    db = load_library(LIB)
+    onion = footprint_spec("f.geojson", 0, {"roof:shape": "onion", "building:levels": 4},
+                           "", 0.05, 0.3, Storeys())
+    _parts, storeys, note = choose_family(onion, db, "classic")
+    assert storeys == 4 and note is not None, note
+    assert "roof:shape onion is none the classic kit builds (its roofs are gabled, " \
+           "mansard" in note, note
+    mansard = footprint_spec("f.geojson", 0, osm_tags({"ROOF_SHAPE": "MANSARD"}), "", 0.05,
+                             0.3, Storeys())
+    parts, storeys, note = choose_family(mansard, db, "classic")
+    assert storeys == 5 and note is None and parts, note      # family b: 5 storeys
+
+
+def test_one_file_as_streets_and_footprints_warns_of_nothing(tmp_path, recwarn):
+    """A GeoJSON of a street and a building given as both ``--streets`` and
+    ``--footprints`` (as the README suggests for one download) warned of each feature
+    that the other option reads ("a Polygon cannot be a line ...; left out", and the
+    mirror) and listed both as skipped, though both were used."""
+    w, h = 0.000541773311896, 0.0001809299801
+    mixed = {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"building": "yes"}, "geometry": {
+            "type": "Polygon", "coordinates": [[[24.94, 60.17], [24.94 + w, 60.17],
+                                                [24.94 + w, 60.17 + h], [24.94, 60.17 + h],
+                                                [24.94, 60.17]]]}},
+        {"type": "Feature", "properties": {"highway": "residential"}, "geometry": {
+            "type": "LineString", "coordinates": [[24.9395, 60.1698], [24.9412, 60.1698]]}}]}
+    f = tmp_path / "map.geojson"
+    f.write_text(json.dumps(mixed))
+    (tmp_path / "link.geojson").symlink_to(f)
+    assert main(["city", "--streets", str(f), "--footprints", str(tmp_path / "link.geojson"),
+                 "--library", str(LIB), "-o", str(tmp_path / "run"), "--workers", "1",
+                 "--no-overview"]) == 0
+    told = [str(w.message) for w in recwarn if "cannot be" in str(w.message)]
+    assert not told, told
+    report = json.loads((tmp_path / "run" / "report.json").read_text())
+    assert report["counts"]["built"] == 1 and not [
+        s for s in report["skipped"] if "cannot be" in s["reason"]], report["skipped"]
+    # given as footprints alone, the line is still told
+    assert main(["city", "--footprints", str(f), "--library", str(LIB), "-o",
+                 str(tmp_path / "run2"), "--workers", "1", "--no-overview"]) == 0
+    again = json.loads((tmp_path / "run2" / "report.json").read_text())["skipped"]
+    assert [s for s in again if "feature 1: a LineString cannot be a polygon" in s["reason"]]
+    assert [w for w in recwarn if "feature 1: a LineString cannot be" in str(w.message)]
+
+
+def test_geoparquet_footprints_build_in_a_3_gb_address_space(files, tmp_path):
+    """Arrow's allocator reserved gigabytes of address space once a GeoParquet file was
+    read: under ``ulimit -v 3000000`` the USD writer then died of a segmentation fault
+    (exit 139, half a run folder left). Arrow now uses the C library's allocator."""
+    import subprocess
+    import sys
+
+    few = gpd.read_parquet(files / "few.parquet").iloc[:1]
+    few.to_parquet(tmp_path / "one.parquet")      # WKB, as geopandas writes by default
+    out = tmp_path / "run"
+    code = ("import resource, sys\n"
+            "resource.setrlimit(resource.RLIMIT_AS, (3_000_000_000, 3_000_000_000))\n"
+            "from citysynth.pipeline.cli import main\n"
+            f"sys.exit(main(['city', '--footprints', {str(tmp_path / 'one.parquet')!r}, "
+            f"'--library', {str(LIB)!r}, '-o', {str(out)!r}, '--workers', '1', "
+            "'--no-overview']))")
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                       timeout=600)
+    assert p.returncode == 0, (p.returncode, p.stderr[-2000:])
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["built"] == 1, report["counts"]
 
 
 def test_tunnels_tram_lines_ferries_and_underground_buildings_bound_and_build_nothing(

@@ -104,6 +104,51 @@ def test_an_integer_past_every_float_is_told_not_a_crash(tmp_path, capsys):
         assert not (tmp_path / "run2").exists()
 
 
+@pytest.mark.parametrize("toml, said", [
+    ("k = 1\nk = 2\n", "a key given a value twice (at line 2, column"),
+    ("[footprints]\nstretch = 0.1\n[footprints]\ninfill = true\n",
+     "the table [footprints] is declared twice (at line 3"),
+    ("\x00\x00\x00", "it holds NUL bytes"),
+])
+def test_a_city_toml_the_reader_refuses_is_told_in_words(tmp_path, capsys, toml, said):
+    """The TOML reader's own words ("Cannot overwrite a value", "Cannot declare
+    ('footprints',) twice", "Invalid statement" for a file of NUL bytes) reached the
+    user as they were."""
+    fp = _write(tmp_path / "f.geojson", {"type": "FeatureCollection",
+                                         "features": [_rect("a", LON)]})
+    cfg = _write(tmp_path / "c.toml", toml)
+    code, err = _run(["city", "--footprints", str(fp), "--library", str(LIB), "--config",
+                      str(cfg), "-o", str(tmp_path / "run")], capsys)
+    assert code == 2 and said in err and "Cannot" not in err, err
+
+
+@pytest.mark.parametrize("text, said", [
+    ('{"type": "Topology", "objects": {}}', "but TopoJSON; convert it to GeoJSON first"),
+    ('[1, 2]', 'but a JSON array; a GeoJSON file holds one object'),
+    ('{"features": []}', '(it has no "type"); export the layer again as GeoJSON'),
+    ('{"type": "FeatureCollection", "features": {"a": 1}}',
+     'its "features" is a JSON object, not a list of Features'),
+    ('"hello"', "but a JSON string"),
+])
+def test_json_that_is_no_geojson_says_what_it_is(tmp_path, capsys, text, said):
+    """TopoJSON, a bare array or a collection whose features are an object were all
+    "not a GeoJSON FeatureCollection, Feature or geometry" or "no features (an empty
+    FeatureCollection)", with no word of what the file is or how to fix it."""
+    code, err = _run(["skeleton", str(_write(tmp_path / "x.geojson", text))], capsys)
+    assert code == 2 and said in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_an_array_of_features_is_read_as_their_collection(tmp_path, capsys):
+    """A JSON array of Features (what some web APIs return) is read as the
+    FeatureCollection of them."""
+    line = {"type": "Feature", "properties": {}, "geometry": {
+        "type": "LineString", "coordinates": [[LON, LAT], [LON + 0.0005, LAT]]}}
+    listed = _run(["skeleton", str(_write(tmp_path / "a.geojson", [line]))], capsys)
+    wrapped = _run(["skeleton", str(_write(tmp_path / "c.geojson", {
+        "type": "FeatureCollection", "features": [line]}))], capsys)
+    assert listed[0] == wrapped[0] == 0, (listed, wrapped)
+
+
 def test_nan_in_json_is_named_as_nan(tmp_path, capsys):
     bad = _write(tmp_path / "p.json", '{"k": NaN}')
     code, err = _run(["solve", str(bad)], capsys)
@@ -310,6 +355,10 @@ def test_ingest_refuses_an_attribute_called_length(tmp_path, capsys):
     ({"building:levels": ["4", "5"]}, 4.0, None, "read as 4"),       # a list, as GDAL writes
     ({"building:levels": "4-5"}, 4.0, None, 'building:levels "4-5" read as 4'),
     ({"height": "12 m approx."}, None, 12.0, 'height "12 m approx." read as 12 m'),
+    # a fraction of a storey: rounded half up, and told (0.4 was 1 storey in silence)
+    ({"building:levels": 2.5}, 2.5, None, "building:levels 2.5 is no whole number of "
+                                          "storeys: 3 asked"),
+    ({"building:levels": "0.4"}, 0.4, None, "0.4 is no whole number of storeys: 1 asked"),
     ({"building:levels": "", "height": None}, None, None, ""),       # no value: no note
 ])
 def test_storeys_no_building_has_count_as_no_value(props, levels, height, unread):

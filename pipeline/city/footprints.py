@@ -33,6 +33,7 @@ from citysynth.skeletons.clean import absorb_short_edges, clean_footprint, witho
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.from_geometry import STRAIGHT_TOL
 from citysynth.skeletons.geojson import format_xy, input_xy, local_xy, side_words
+from citysynth.skeletons.overture import source_key
 from citysynth.skeletons.streets import osm_number, read_wholly, tag_values
 
 if TYPE_CHECKING:   # the job module imports this one
@@ -108,26 +109,35 @@ def footprint_spec(source: str, index: int, props: dict[str, Any], source_crs: s
     or height no building has (``-2``, ``1e9``, ``"tall"``) counts as none, and the
     building's notes say so."""
     roof = props.get("roof:shape")
+    # a roof shape as OSM spells them: lower case ("MANSARD", "Mansard " were unknown)
+    roof_shape = next((str(v).strip().lower() for v in tag_values(roof)), None) or None
     levels = osm_number(props.get("building:levels"), MAX_LEVELS)
     height = osm_number(props.get("height"), MAX_HEIGHT)
-    spec = FootprintSpec(source, index, feature_ref(props), levels, height,
-                         str(roof) if roof not in (None, "") else None, source_crs,
-                         stretch, tolerance, storeys, infill)
+    spec = FootprintSpec(source, index, feature_ref(props), levels, height, roof_shape,
+                         source_crs, stretch, tolerance, storeys, infill)
+    lk, hk = source_key(props, "building:levels"), source_key(props, "height")
     unread = []
     if levels is None and props.get("building:levels") not in (None, ""):
-        unread.append(f"building:levels {shown(props['building:levels'], 40)} is no storey "
+        unread.append(f"{lk} {shown(props['building:levels'], 40)} is no storey "
                       f"count (1 to {MAX_LEVELS})")
     if height is None and props.get("height") not in (None, ""):
-        unread.append(f"height {shown(props['height'], 40)} is no height (metres, up to "
+        unread.append(f"{hk} {shown(props['height'], 40)} is no height (metres, up to "
                       f"{MAX_HEIGHT:g})")
     partly = []
     if levels is not None and not read_wholly(props.get("building:levels")):
-        partly.append(f"building:levels {shown(props['building:levels'], 40)} read as "
-                      f"{levels:g}")
+        partly.append(f"{lk} {shown(props['building:levels'], 40)} read as {levels:g} "
+                      "(the first number)")
+    elif levels is not None and levels != int(levels):
+        n = whole_storeys(levels)
+        partly.append(f"{lk} {levels:g} is no whole number of storeys: {n} asked")
     if height is not None and not read_wholly(props.get("height")):
-        partly.append(f"height {shown(props['height'], 40)} read as {height:g} m")
+        partly.append(f"{hk} {shown(props['height'], 40)} read as {height:g} m (the first "
+                      "number)")
+    if len(tag_values(roof)) > 1:
+        partly.append(f"{source_key(props, 'roof:shape')} {shown(roof, 40)} read as "
+                      f"{roof_shape} (the first value)")
     if partly:
-        spec = remark(spec, f"{' and '.join(partly)} (the first number)")
+        spec = remark(spec, " and ".join(partly))
     if not unread:
         return spec
     return remark(spec, f"{' and '.join(unread)}: left out, the storeys chosen as "
@@ -175,8 +185,11 @@ def not_built(props: dict[str, Any]) -> str | None:
     (``min_height`` or ``building:min_level`` over 0: a building over a passage or a
     street, a part on top of another building), which built from the ground would
     close what runs under it."""
-    if "underground" in tag_values(props.get("location")):
-        return "underground (location=underground): no facade to build"
+    if "underground" in [str(v).strip().lower() for v in tag_values(props.get("location"))]:
+        given = source_key(props, "location")
+        said = "is_underground" if given == "location" and "is_underground" in props \
+            else f"{given}=underground"       # the field as the file names it
+        return f"underground ({said}): no facade to build"
     kind = [str(v).strip().lower() for v in tag_values(props.get("building"))]
     if kind == ["no"]:
         return "building=no: not a building"
@@ -186,9 +199,10 @@ def not_built(props: dict[str, Any]) -> str | None:
     for key, what in (("min_height", "{:g} m"), ("building:min_level", "storey {:g}")):
         above = osm_number(props.get(key))
         if above is not None:
-            return (f"starts above the ground, at {what.format(above)} ({key} = "
+            given = source_key(props, key)
+            return (f"starts above the ground, at {what.format(above)} ({given} = "
                     f"{shown(props[key], 20)}): a building over a passage or on another "
-                    f"one, which the kit cannot build from the ground (remove {key} to "
+                    f"one, which the kit cannot build from the ground (remove {given} to "
                     "build it from the ground)")
     return None
 
@@ -229,10 +243,16 @@ def wanted_storeys(spec: FootprintSpec) -> int | None:
     """Storeys from the data: ``building:levels``, else ``height`` over the storey
     height (rounded); None when the feature has neither."""
     if spec.levels is not None:
-        return max(1, round(spec.levels))
+        return whole_storeys(spec.levels)
     if spec.height is not None:
-        return max(1, round(spec.height / spec.storeys.storey_height))
+        return whole_storeys(spec.height / spec.storeys.storey_height)
     return None
+
+
+def whole_storeys(x: float) -> int:
+    """``x`` storeys as a whole number, halves up (Python's ``round`` made 2.5 two
+    storeys and 3.5 four), at least one."""
+    return max(1, math.floor(x + 0.5))
 
 
 def choose_family(spec: FootprintSpec, db: PartDB, style: str
@@ -241,10 +261,17 @@ def choose_family(spec: FootprintSpec, db: PartDB, style: str
     gets, and a note when the data could not be matched."""
     fams = {tag: n for st, tag, n in spec.storeys.families if st == style}
     want = wanted_storeys(spec)
-    roof_fams = next((set(f) for st, shape, f in spec.storeys.roofs
-                      if st == style and shape == spec.roof), set()) & set(fams)
+    shapes = {shape.strip().lower(): set(f) for st, shape, f in spec.storeys.roofs
+              if st == style}
+    roof_fams = shapes.get(spec.roof, set()) & set(fams) if spec.roof else set()
+    roof_note = None
+    if spec.roof and fams and spec.roof not in shapes:
+        known = f"its roofs are {', '.join(sorted(shapes))}" if shapes else "it has no roofs"
+        roof_note = (f"{spec.where}: roof:shape {spec.roof} is none the {style} kit builds "
+                     f"({known} in city.toml's [footprints] roofs): built with the roof of "
+                     "its storeys")
     if not fams or (want is None and not roof_fams):
-        return None, None, None
+        return None, None, roof_note
     if want is None:
         chosen = roof_fams
     else:
@@ -260,7 +287,7 @@ def choose_family(spec: FootprintSpec, db: PartDB, style: str
         note = (f"{spec.where}: {want} storey{'' if want == 1 else 's'} asked; the {style} "
                 f"kit has {have}: built "
                 f"with {storeys}")
-    return allowed, storeys, note
+    return allowed, storeys, "\n".join(n for n in (note, roof_note) if n) or None
 
 
 # --- messages --------------------------------------------------------------------------

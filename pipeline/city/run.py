@@ -47,6 +47,7 @@ from citysynth.pipeline.city.footprints import (
     polygons_in,
     street_crossings,
     style_families,
+    wanted_storeys,
 )
 from citysynth.pipeline.city.gaps import with_gaps_closed
 from citysynth.pipeline.city.jobs import (
@@ -75,12 +76,13 @@ from citysynth.pipeline.city.process import (
 )
 from citysynth.pipeline.errors import ConfigError, UsageError, shown
 from citysynth.pipeline.layouts import check_style, default_style
+from citysynth.pipeline.paths import same_input
 from citysynth.pipeline.progress import progress_line
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
 from citysynth.skeletons.errors import FarFromFrame, FarFromFrameWarning, InputWarning
 from citysynth.skeletons.from_geometry import why_invalid
-from citysynth.skeletons.geojson import box_around
+from citysynth.skeletons.geojson import Accept, box_around
 from citysynth.skeletons.streets import (
     Block,
     highway_classes,
@@ -116,10 +118,15 @@ def prepare(streets: str | Path | None, footprints: str | Path | None, cfg: City
     skipped: list[dict] = []
     frame = None
     lines: Features = Features()
+    # one file given as both (a GeoJSON of streets and buildings): each reader leaves
+    # the other's features out without a warning (each was "left out", twice over)
+    both = streets is not None and footprints is not None and same_input(streets, footprints)
     if streets is not None:
-        frame, lines = _street_outlines(streets, cfg, crs, outlines, skipped)
+        frame, lines = _street_outlines(streets, cfg, crs, outlines, skipped,
+                                        "polygons" if both else None)
     if footprints is not None:
-        fframe = _footprint_outlines(footprints, cfg, crs, frame, lines, outlines, skipped)
+        fframe = _footprint_outlines(footprints, cfg, crs, frame, lines, outlines, skipped,
+                                     "lines" if both else None)
         frame = frame or fframe
     if streets is not None and footprints is not None:   # no two facades share ground
         assert frame is not None       # both readers set it
@@ -142,11 +149,12 @@ def _skip(kind: str, reason: str, outline: shapely.Geometry | None) -> dict:
 
 
 def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
-                     outlines: list[Outline], skipped: list[dict]) -> tuple[Frame, Features]:
+                     outlines: list[Outline], skipped: list[dict],
+                     others: Accept | None = None) -> tuple[Frame, Features]:
     """The blocks between the streets (slivers skipped, with reasons); the frame and the
     streets (the lines that are streets, in it)."""
     feats, frame = read_geojson(streets, crs=crs, origin=cfg.origin,
-                                origin_digits=ORIGIN_DIGITS, accept="lines")
+                                origin_digits=ORIGIN_DIGITS, accept="lines", others=others)
     skipped += [{"kind": "feature", "reason": r} for r in feats.skipped]
     feats = _streets_only(feats, cfg.not_streets, streets, skipped)
     shapes: list = []
@@ -193,13 +201,13 @@ def _streets_only(feats: Features, rules: tuple[str, ...], source: str | Path,
 
 def _footprint_outlines(footprints: str | Path, cfg: CityConfig, crs: str | None,
                         streets: Frame | None, lines: Features, outlines: list[Outline],
-                        skipped: list[dict]) -> Frame:
+                        skipped: list[dict], others: Accept | None = None) -> Frame:
     """Every footprint polygon (invalid or small ones skipped, with reasons; one across
     a street's centre line, ``lines``, remarked on); the frame: the streets' when there
     are streets (each file read in its own CRS)."""
     feats, frame = read_geojson(footprints, crs=crs, origin=cfg.origin,
                                 origin_digits=ORIGIN_DIGITS, accept="polygons",
-                                within=streets)
+                                within=streets, others=others)
     skipped += [{"kind": "feature", "reason": r} for r in feats.skipped]
     found: list[Footprint] = []
     fp = cfg.footprints
@@ -310,8 +318,8 @@ def _jobs(outlines: list[Outline], cfg: CityConfig, zones: list[shapely.Geometry
             here, there = _where(job), _where(first)
             file = here.split(": ", 1)[0] + ": "
             there = there.removeprefix(file) if here.startswith(file) else there
-            skipped.append(_skip(kind, f"{here}: the same outline as {there}, built once",
-                                 poly))
+            skipped.append(_skip(kind, f"{here}: the same outline as {there}, built once"
+                                 f"{_storeys_not_used(job, first)}", poly))
     if any(j.footprint is not None for j in jobs.values()):
         _check_families(cfg, list(libraries.values()))
     return sorted(jobs.values(), key=lambda j: j.id)
@@ -338,6 +346,19 @@ def _check_families(cfg: CityConfig, dbs: list[PartDB]) -> None:
 
 def _where(job: BlockJob) -> str:
     return job.footprint.where if job.footprint is not None else f"block {job.id}"
+
+
+def _storeys_not_used(twin: BlockJob, built: BlockJob) -> str:
+    """What of a footprint drawn twice the built drawing does not take: its storeys,
+    when the two ask for different ones (levels 3 and 6 on one outline: the second's
+    were dropped without a word)."""
+    if twin.footprint is None or built.footprint is None:
+        return ""
+    mine, theirs = wanted_storeys(twin.footprint), wanted_storeys(built.footprint)
+    if mine is None or mine == theirs:
+        return ""
+    asked = f"{theirs} storeys asked" if theirs is not None else "no storeys given"
+    return f" ({asked} there; its own {mine} not used: delete one of the two)"
 
 
 def _check_resources(cfg: CityConfig, s: BuildSettings, zone: str, db: PartDB,

@@ -48,6 +48,8 @@ STATUSES = ("built", "failed", "skipped", "error")
 
 def _manifest(run: Path) -> dict:
     """The run's manifest, checked for the shape :mod:`..city.outputs` writes."""
+    if not run.exists():
+        raise UsageError(f"{run}: no such folder; give the -o folder of citysynth city")
     if not run.is_dir():
         raise UsageError(f"{run}: not a folder; give the -o folder of citysynth city")
     if not (run / MANIFEST).exists():
