@@ -51,12 +51,27 @@ def worst_overlap(polys) -> float:
                default=0.0)
 
 
+def test_a_building_drawn_twice_5_mm_apart_is_told_as_it_is(tmp_path):
+    """Two drawings of one building 5 mm apart: the second was "100 % of it lies inside
+    feature 0, larger and built", neither all of it nor larger."""
+    SCENE["hall_again"] = [(x + 0.005, y) for x, y in SCENE["hall"]]
+    try:
+        fp = write(tmp_path / "twice.geojson", ["hall", "hall_again"])
+        inputs, built = outlines(fp)
+    finally:
+        del SCENE["hall_again"]
+    assert len(built) == 1        # which one: the larger by a float's last digits
+    (skip,) = [s["reason"] for s in inputs.skipped]
+    assert ": 99.9" in skip and " % of it lies inside feature " in skip \
+        and ", as large and built" in skip, skip
+
+
 def test_a_tower_inside_is_left_out_and_a_neighbour_drawn_over_is_trimmed(tmp_path):
     fp = write(tmp_path / "scene.geojson", list(SCENE))
     inputs, built = outlines(fp)
     assert sorted(built) == ["east", "hall", "north"]
     (skip,) = [s["reason"] for s in inputs.skipped]
-    assert skip == (f"{fp}: feature 1 (tower): 100 % of it lies inside feature 0 (hall), "
+    assert skip == (f"{fp}: feature 1 (tower): all of it lies inside feature 0 (hall), "
                     "larger and built; left out (a part of that building, or the same "
                     "building drawn twice)")
     # the larger is whole, the exact neighbour untouched, the other trimmed to the wall
