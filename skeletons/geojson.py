@@ -298,6 +298,9 @@ def _usable(raw: list[Any], source: str, accept: Accept, others: Accept | None =
             props["id"] = fid
         g = _polygons_of(_geometry(f.get("geometry"), f"{source}: feature {i}"), accept)
         reason = _unusable(g, accept)
+        if g is None and f.get("place") is not None:   # JSON-FG keeps projected geometry there
+            reason = ('no geometry (null), its shape is in "place" (JSON-FG); export the '
+                      "layer as plain GeoJSON (ogr2ogr -f GeoJSON) to use it")
         if reason is not None and others is not None and g is not None \
                 and g.geom_type in ACCEPTED[others]:
             continue

@@ -129,11 +129,15 @@ def test_a_city_toml_the_reader_refuses_is_told_in_words(tmp_path, capsys, toml,
     ('{"type": "FeatureCollection", "features": {"a": 1}}',
      'its "features" is a JSON object, not a list of Features'),
     ('"hello"', "but a JSON string"),
+    ('{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {}, '
+     '"geometry": null, "place": {"type": "LineString", "coordinates": [[0, 0], [9, 0]]}}]}',
+     'its shape is in "place" (JSON-FG); export the layer as plain GeoJSON'),
 ])
 def test_json_that_is_no_geojson_says_what_it_is(tmp_path, capsys, text, said):
     """TopoJSON, a bare array or a collection whose features are an object were all
     "not a GeoJSON FeatureCollection, Feature or geometry" or "no features (an empty
-    FeatureCollection)", with no word of what the file is or how to fix it."""
+    FeatureCollection)", and a JSON-FG feature (its shape in "place") "no geometry
+    (null)", with no word of what the file is or how to fix it."""
     code, err = _run(["skeleton", str(_write(tmp_path / "x.geojson", text))], capsys)
     assert code == 2 and said in err and len(err.strip().splitlines()) == 1, err
 
