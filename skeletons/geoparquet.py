@@ -271,8 +271,10 @@ def _crs_name(path: Path, column: str, meta: dict[str, Any]) -> str | None:
 def json_value(v: Any) -> Any:
     """A value as JSON would hold it: Python numbers and text, None for missing (NaN,
     NaT, null), dates as ISO text, durations in seconds, bytes as hex, decimals as
-    floats; lists and objects likewise, element by element."""
-    if isinstance(v, float) and not math.isfinite(v):
+    floats; lists and objects likewise, element by element. An infinity stays one, as
+    JSON's 1e400 reads: no missing value but one no building has, which a note tells
+    (a GeoPackage's building:levels of inf was dropped without a word)."""
+    if isinstance(v, float) and math.isnan(v):
         return None
     if isinstance(v, dt.date | dt.datetime | dt.time):
         return v.isoformat()

@@ -552,6 +552,28 @@ def test_a_roof_shape_the_kit_does_not_build_is_told():
     assert storeys == 5 and note is None and parts, note      # family b: 5 storeys
 
 
+def test_an_infinite_storey_count_in_a_geopackage_is_told(tmp_path):
+    """A GeoPackage's REAL ``building:levels`` of inf was read as missing (as NaN, GDAL's
+    null, is) and dropped without a note; as the GeoJSON ``1e400`` it is a value no
+    building has, and the building's note says so. NaN stays no value, with no note."""
+    from shapely.geometry import box
+
+    from citysynth.skeletons.geojson import lonlat_from_local
+    ring = lonlat_from_local([(0, 0), (30, 0), (30, 20), (0, 20)], (24.94, 60.17))
+    gdf = gpd.GeoDataFrame({"building": ["yes", "yes"],
+                            "building:levels": [float("nan"), float("inf")]},
+                           geometry=[shapely.Polygon(ring), box(24.9410, 60.17, 24.9415,
+                                                                 60.1702)], crs=4326)
+    gdf.to_file(tmp_path / "b.gpkg", driver="GPKG")
+    assert main(["city", "--footprints", str(tmp_path / "b.gpkg"), "--library", str(LIB),
+                 "-o", str(tmp_path / "run"), "--workers", "1", "--no-overview"]) == 0
+    notes = [b.get("note") for b in json.loads((tmp_path / "run" / "manifest.json")
+                                               .read_text())["blocks"].values()]
+    told = [n for n in notes if n]
+    assert len(notes) == 2 and len(told) == 1 and \
+        "feature 1: building:levels inf is no storey count" in told[0], notes
+
+
 def test_one_file_as_streets_and_footprints_warns_of_nothing(tmp_path, recwarn):
     """A GeoJSON of a street and a building given as both ``--streets`` and
     ``--footprints`` (as the README suggests for one download) warned of each feature
