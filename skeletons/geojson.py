@@ -658,6 +658,7 @@ def _check_area(given: pyproj.CRS, lonlat: Coords, source: str) -> None:
         return
     west, south, east, north = area.bounds
     if west > -179 or east < 179:
+        _warn_far_from_area(given, lonlat, source)
         return
     lat = lonlat[:, 1]
     if lat.min() < south - WORLD_MARGIN or lat.max() > north + WORLD_MARGIN:
@@ -667,6 +668,30 @@ def _check_area(given: pyproj.CRS, lonlat: Coords, source: str) -> None:
             f"{at[1]:.2f}, beyond the latitudes that map is made for ({south:g} to "
             f"{north:g}); is the CRS right, and are the coordinates in its unit "
             f"({_unit_name(given)})?")
+
+
+FAR_FROM_AREA = 10.0   # degrees beyond a regional CRS's area of use: another CRS's data
+
+
+def _warn_far_from_area(given: pyproj.CRS, lonlat: Coords, source: str) -> None:
+    """Warn when data lands far (:data:`FAR_FROM_AREA`) from where a regional CRS is
+    made for: UTM 32N coordinates read as Swiss LV95 (EPSG:2056) land in Greenland and
+    a 100 m street was built 80 m long, without a word. Use a little beyond the area
+    is common and fine (the data is reprojected), so only a far miss is told."""
+    area = given.area_of_use
+    assert area is not None
+    west, south, east, north = area.bounds
+    lon, lat = lonlat[-1]          # the centre of the data's box
+    if east < west:                # an area across the antimeridian
+        east += 360.0
+        lon = lon + 360.0 if lon < west else lon
+    off = max(west - lon, lon - east, south - lat, lat - north)
+    if off > FAR_FROM_AREA:
+        warnings.warn(
+            f"{source}: in {given.name} the data lands at longitude {lonlat[-1][0]:.2f}, "
+            f"latitude {lat:.2f}, {off:.0f}° from where that CRS is made for "
+            f"({area.name.rstrip('.')}); lengths read in it may be far off: check that the "
+            "CRS is the data's", InputWarning, stacklevel=4)
 
 
 def _check_not_degrees(allc: Coords, given: pyproj.CRS, source: str, named_by: str

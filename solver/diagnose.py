@@ -254,7 +254,9 @@ def _reason(cp: Compiled, asked: list[tuple[float, ...]], blocking: list[str],
                 "take more than the memory budget (--max-memory); try each constraint "
                 "alone, or a coarser quantum")
     if not any_reach:
-        return ("no sequence leads from a front element to a back element "
-                "within the bounds; check the front/back lists and the transitions")
+        return ('no sequence of elements, each allowed to follow the one before (the '
+                '"transitions"), leads from a first element to a last one (the "front" '
+                'and "back" lists; every element when they are left out) within the '
+                'bounds; check the transitions, which may list too few pairs')
     wanted = ", ".join(_interval_text(n, *asked[i]) for i, n in enumerate(cp.bounded))
     return f"each constraint can be met alone but not all together ({wanted}); relax one of them"

@@ -542,6 +542,24 @@ def test_crs_option_over_the_files_member_is_said():
         parse_geojson(member, "s.geojson", crs="EPSG:3395")
 
 
+def test_a_regional_crs_far_from_the_data_is_warned_of():
+    """UTM 32N coordinates read as Swiss LV95 (``--crs EPSG:2056``) landed in Greenland
+    and a 100 m street became 80.2 m of buildings, without a word. A regional CRS whose
+    area of use lies far from the data is warned of; the right one is not."""
+    line = {"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {},
+            "geometry": {"type": "LineString",
+                         "coordinates": [[500000, 5600000], [500100, 5600000]]}}]}
+    with pytest.warns(InputWarning, match=r"in CH1903\+ / LV95 the data lands at longitude "
+                      r"-65\.00, latitude 74\.26, 71° from where that CRS is made for "
+                      r"\(Liechtenstein; Switzerland\)"):
+        parse_geojson(line, "s.geojson", crs="EPSG:2056")
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        feats, _frame = parse_geojson(line, "s.geojson", crs="EPSG:25832")
+    assert not [w for w in got if issubclass(w.category, InputWarning)]
+    assert abs(feats[0].geometry.length - 100.0) < 0.5
+
+
 @pytest.mark.parametrize("option, says", [
     ("foo", 's.geojson: unknown CRS "foo"; give it as EPSG:<code>'),
     ("EPSG:" + "9" * 5000, 's.geojson: unknown CRS "EPSG:99999'),   # (quoted in full: 5 kB)

@@ -153,6 +153,19 @@ def test_an_array_of_features_is_read_as_their_collection(tmp_path, capsys):
     assert listed[0] == wrapped[0] == 0, (listed, wrapped)
 
 
+def test_a_problem_with_no_transitions_is_told_in_its_own_terms(tmp_path, capsys):
+    """A problem file with no "transitions" and no "front"/"back" keys was told "check the
+    front/back lists and the transitions": lists it never named."""
+    problem = {"resources": ["length", "doors"], "quantum": {"length": 0.2},
+               "elements": [{"id": f"e{i}", "resources": {"length": 2.0 + i, "doors": i % 2}}
+                            for i in range(3)],
+               "transitions": [], "constraints": {"length": [200, 200], "doors": [3, 50]},
+               "k": 5}
+    code, err = _run(["solve", str(_write(tmp_path / "p.json", problem))], capsys)
+    assert code == 1 and "front/back lists" not in err, err
+    assert 'each allowed to follow the one before (the "transitions")' in err, err
+
+
 def test_nan_in_json_is_named_as_nan(tmp_path, capsys):
     bad = _write(tmp_path / "p.json", '{"k": NaN}')
     code, err = _run(["solve", str(bad)], capsys)
@@ -416,6 +429,20 @@ def test_a_building_line_drawn_twenty_thousand_times_is_named_in_little_memory(t
                        timeout=600)
     assert p.returncode == 2, p.stderr[-2000:]
     assert "feature 0 and" in p.stderr and "the same edge is drawn twice" in p.stderr
+
+
+def test_skeleton_of_streets_that_enclose_nothing_says_so(tmp_path, capsys):
+    """``skeleton`` of two crossing streets printed only its frame line (exit 0)."""
+    from citysynth.skeletons import lonlat_from_local
+    feats = [{"type": "Feature", "properties": {"highway": "residential"},
+              "geometry": {"type": "LineString",
+                           "coordinates": lonlat_from_local(pts, (LON, LAT))}}
+             for pts in ([(0, 0), (300, 0)], [(150, -150), (150, 150)])]
+    src = _write(tmp_path / "cross.geojson", {"type": "FeatureCollection", "features": feats})
+    capsys.readouterr()
+    assert main(["skeleton", str(src)]) == 0
+    out = capsys.readouterr().out
+    assert "no blocks: the 2 street line(s) enclose no ground" in out, out
 
 
 def test_streets_that_enclose_nothing_say_so(tmp_path, capsys):

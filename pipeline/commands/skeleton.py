@@ -66,4 +66,8 @@ def run(args) -> int:
         print(describe(s))
     for reason in skipped:
         print(f"skipped {reason}")
+    if kind == "streets" and not skels and not skipped:
+        # two crossing streets, a cul-de-sac: exit 0 with only the frame line said nothing
+        print(f"no blocks: the {len(feats)} street line(s) enclose no ground (blocks are "
+              "the faces the streets close all round)")
     return 0
