@@ -32,7 +32,7 @@ _BUILDING = (("num_floors", "building:levels"), ("roof_shape", "roof:shape"),
 # (ArcGIS writes field names in capitals: HEIGHT, BUILDING_L, ROOF_SHAPE)
 KNOWN_KEYS = ("building", "building:levels", "building:min_level", "height", "min_height",
               "roof:shape", "location", "highway", "width", "lanes", "service", "tunnel",
-              "railway", "route", "layer", *(k for k, _osm in _BUILDING), "is_underground")
+              "railway", "route", *(k for k, _osm in _BUILDING), "is_underground")
 
 
 def osm_tags(props: dict[str, Any]) -> dict[str, Any]:
