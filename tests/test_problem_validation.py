@@ -22,6 +22,16 @@ def with_(**kw):
 @pytest.mark.parametrize("data, fragment", [
     (with_(colour="red"), 'unknown key(s) "colour"; allowed keys are'),
     (with_(resources=[]), '"resources" must be a non-empty list'),
+    # names that print as no letter: solve wrote them raw (a line break split the
+    # sequence's line, an escape recoloured the terminal, U+202E reversed the text)
+    (with_(elements=[{"id": "A\nB", "resources": {"length": 1}}]),
+     'elements[0].id: the id "A\\nB" holds a character that prints as no letter (U+000A'),
+    (with_(elements=[{"id": "A", "resources": {"length": 1}},
+                     {"id": "B\u202eevil", "resources": {"length": 1}}]),
+     'elements[1].id: the id "B\\u202eevil" holds a character that prints as no letter '
+     "(U+202E"),
+    (with_(resources=["length", "do\x1b[31mors"]),
+     'resources[1]: a resource\'s name "do\\u001b[31mors" holds a character'),
     (with_(elements=[{"id": "A", "resources": {"length": 1}},
                      {"id": "A", "resources": {"length": 2}}]), 'duplicate element id "A"'),
     (with_(elements=[{"id": "A", "resources": {"length": -1}}]),
