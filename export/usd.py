@@ -176,7 +176,10 @@ def _own_prototype(inst: Instance) -> bool:
 def _meshes_spec(root: Sdf.PrimSpec, pieces: Sequence[Piece], parts_dir: str) -> None:
     """A mesh per piece under ``root`` (``<piece>_<i>``), each bound to its library
     material: a ``Looks/<material>`` prim referencing the shared material layer in
-    ``parts_dir``, one per material."""
+    ``parts_dir``, one per material. No pieces (a part a sharp corner's two cuts leave
+    nothing of) make no ``Looks`` either: an empty scope is clutter in a DCC's outliner."""
+    if not pieces:
+        return
     looks = Sdf.PrimSpec(root, "Looks", Sdf.SpecifierDef, "Scope")
     bound: dict[str, Sdf.Path] = {}
     for i, piece in enumerate(pieces):

@@ -190,3 +190,30 @@ def test_part_files_of_another_library_are_written_again(tmp_path):
     from citysynth.parts_db import load_library
     assert layer.GetPrimAtPath(layer.defaultPrim).customData["citysynth"]["library"] \
         == load_library(lib).library_hash
+
+
+def test_a_cut_that_leaves_nothing_of_its_part_writes_no_empty_looks(tmp_path, sample_db):
+    """A short part at a sharp corner can be cut away whole by the corner's two planes
+    (5 of the demo district's 14,259 cut prototypes): its prototype holds no mesh, and
+    had an empty ``Looks`` scope all the same, clutter in a DCC's outliner. A cut that
+    keeps some of the part still binds its materials there."""
+    from citysynth.export.layout import Cut, Instance
+    from citysynth.export.usd import ensure_parts, write_cuts
+
+    part = next(p for p in sample_db.parts if p.cls == "middle")
+    gone = Cut((0.0, 0.0), ((1.0, 0.0, -1.0),))          # keeps x <= -1: nothing
+    kept = Cut((0.0, 0.0), ((1.0, 0.0, 0.5),))           # keeps x <= 0.5
+    insts = {name: Instance(part.id, part.cls, 0, 0, None, (1.0, 0.0), (0.0, 1.0),
+                            (0.0, 0.0), cut) for name, cut in (("gone", gone), ("kept", kept))}
+    assert not prototype_pieces(sample_db, insts["gone"])
+    path = tmp_path / "b.cuts.usdc"
+    ensure_parts(sample_db, insts, tmp_path)       # the materials the cuts reference
+    write_cuts(sample_db, insts, path)
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    protos = {p.customData["citysynth"]["cut"]["planes"][0]: p
+              for p in layer.GetPrimAtPath("/Cuts").nameChildren}
+    empty, full = protos["[1.0, 0.0, -1.0]"], protos["[1.0, 0.0, 0.5]"]
+    assert [c.name for c in empty.nameChildren] == []
+    assert "Looks" in [c.name for c in full.nameChildren]
+    assert any(c.typeName == "Mesh" for c in full.nameChildren)
+    assert validate(path) == []
