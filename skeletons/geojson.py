@@ -122,11 +122,35 @@ class Frame:
         finds it in their GIS."""
         return format_xy(input_xy((self.crs, *self.origin), self.source_crs, xy))
 
-    def describe(self) -> str:
-        text = f"{self.crs}, origin {self.origin[0]:.6f}, {self.origin[1]:.6f}"
-        if self.source_crs and self.crs == LONLAT_FRAME:
-            text += f" (input in {self.source_crs}, reprojected)"
+    def describe(self, told: bool = False) -> str:
+        """The frame as a layout records it: its CRS (for a kept projected one, its
+        name and identifier), origin and input CRS. ``told``: as a person reads it
+        on the console, where a CRS without an authority code, named by its WKT (1.5
+        kB on one line), is named by its name and "WKT" only."""
+        crs, source = self.crs, self.source_crs
+        if told:
+            kept = kept_crs_parts(crs)
+            if kept is not None and _wkt(kept[1]):
+                crs = (f"{_named(kept[0])} (projected, no authority code: its WKT is in "
+                       "--json's frame)")
+            if _wkt(source):
+                source = f"{_named(pyproj.CRS.from_user_input(source).name)} (WKT)"
+        text = f"{crs}, origin {self.origin[0]:.6f}, {self.origin[1]:.6f}"
+        if source and self.crs == LONLAT_FRAME:
+            text += f" (input in {source}, reprojected)"
         return text
+
+
+def _named(name: str) -> str:
+    """A CRS's name as a person reads it ("unknown", PROJ's name for one it was given
+    only the parameters of, says nothing)."""
+    return "a custom CRS" if name in ("", "unknown") else name
+
+
+def _wkt(crs: str) -> bool:
+    """Whether a CRS identifier is WKT (or PROJ JSON, or a PROJ string), not a short
+    code such as "EPSG:3067"."""
+    return len(crs) > 40 or "[" in crs or "{" in crs
 
 
 def read_geojson(path: str | Path, crs: str | None = None,

@@ -1007,3 +1007,35 @@ def test_a_collection_holding_a_footprint_is_read_as_its_polygons():
     assert feats[0].geometry.area == pytest.approx(27.7 * 22.2, rel=0.02)
     (line,) = [str(w.message) for w in seen if "(B)" in str(w.message)]
     assert "a LineString cannot be a polygon" in line and "export it as a Polygon" in line
+
+
+def test_a_crs_without_an_authority_code_is_named_in_a_line_on_the_console(tmp_path, capsys):
+    """Streets in a custom transverse Mercator (no authority code: named by its WKT,
+    884 characters on one line) made ``skeleton``'s frame line a screenful; the line
+    names the CRS and says where its WKT is, which ``--json``'s frame (what a layout
+    records, for tools) still holds whole. Input reprojected from such a CRS is told
+    by its name too."""
+    from citysynth.pipeline.cli import main
+    from citysynth.skeletons.geojson import LONLAT_FRAME, Frame
+
+    crs = pyproj.CRS.from_proj4("+proj=tmerc +lat_0=0 +lon_0=24.5 +k=0.9999 +x_0=500000 "
+                                "+y_0=0 +ellps=GRS80 +units=m +no_defs")
+    wkt = crs.to_wkt()
+    assert crs.to_authority(min_confidence=90) is None and len(wkt) > 500
+    x0, y0 = 385000, 6672000
+    ring = [(x0, y0), (x0 + 100, y0), (x0 + 100, y0 + 80), (x0, y0 + 80), (x0, y0)]
+    path = tmp_path / "streets.geojson"
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"highway": "residential"},
+         "geometry": {"type": "LineString", "coordinates": [a, b]}}
+        for a, b in zip(ring, ring[1:], strict=False)]}))
+    assert main(["skeleton", str(path), "--crs", wkt]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first == ("frame: a custom CRS (projected, no authority code: its WKT is in "
+                     "--json's frame), origin 385050.000000, 6672040.000000")
+    assert main(["skeleton", str(path), "--crs", wkt, "--json"]) == 0
+    assert wkt in json.loads(capsys.readouterr().out)["frame"]
+    told = Frame(LONLAT_FRAME, (24.5, 60.2), wkt).describe(told=True)
+    assert told.endswith("(input in a custom CRS (WKT), reprojected)") and len(told) < 150
+    kept = Frame("ETRS89 / TM35FIN(E,N) (projected, EPSG:3067)", (1.0, 2.0))
+    assert kept.describe(told=True) == kept.describe()

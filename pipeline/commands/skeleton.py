@@ -61,7 +61,7 @@ def run(args) -> int:
         print(json.dumps({"frame": frame.describe(), "skipped": skipped,
                           "skeletons": [s.to_dict() for s in skels]}, indent=1))
         return 0
-    print(f"frame: {frame.describe()}")
+    print(f"frame: {frame.describe(told=True)}")
     for s in skels:
         print(describe(s))
     for reason in skipped:
