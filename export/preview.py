@@ -10,12 +10,15 @@ display needed.
 from __future__ import annotations
 
 import math
+import threading
 from pathlib import Path
 
 import numpy as np
 import pyvista as pv
 import trimesh
+import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (vtkRenderWindow() is then its EGL window)
 from vtkmodules.vtkCommonCore import vtkLogger
+from vtkmodules.vtkRenderingCore import vtkRenderer, vtkRenderWindow
 
 from citysynth.parts_db import PartDB
 from citysynth.parts_db.files import atomic_path
@@ -24,6 +27,32 @@ pv.OFF_SCREEN = True
 # VTK tries an X display before falling back to EGL and warns on stderr when there is
 # none; headless is the normal case here, so keep its log to errors.
 vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_ERROR)
+
+
+_DRIVER_HOLD: list[vtkRenderWindow] = []
+_DRIVER_HOLD_LOCK = threading.Lock()
+
+
+def _hold_gl_driver() -> None:
+    """Keep one 1 x 1 off-screen render window open for the rest of the process, so the
+    OpenGL driver stays loaded between previews.
+
+    Closing a Plotter's window calls ``eglTerminate``, which on Mesa unloads the driver
+    (``swrast_dri.so``) when no other window holds the display; the next Plotter loads
+    it again, and each load maps a fresh 10 MiB executable code heap while the last
+    one is never unmapped. 100 previews (``street --k 100``) grew the address space by
+    1 GB and aborted under ``ulimit -v 3000000``. With this window open the driver and
+    its heap stay, and every preview is still drawn by a Plotter of its own (the same
+    pixels as before)."""
+    with _DRIVER_HOLD_LOCK:
+        if _DRIVER_HOLD:
+            return
+        win = vtkRenderWindow()
+        win.SetOffScreenRendering(True)
+        win.SetSize(1, 1)
+        win.AddRenderer(vtkRenderer())
+        win.Render()
+        _DRIVER_HOLD.append(win)
 
 
 def to_polydata(mesh: trimesh.Trimesh) -> pv.PolyData:
@@ -73,6 +102,7 @@ def render_meshes(mesh: trimesh.Trimesh, out_png: str | Path, *, title: str = ""
     ext = np.array(poly.bounds[1::2]) - np.array(poly.bounds[::2])
     if ext[2] > 1.5 * max(ext[0], ext[1]):
         zoom = min(zoom, 1.0)
+    _hold_gl_driver()
     plotter = pv.Plotter(off_screen=True, shape=(1, 2), window_size=size, border=False)
     for col, top in ((0, False), (1, True)):
         plotter.subplot(0, col)
@@ -119,6 +149,7 @@ def contact_sheet(db: PartDB, library_dir: str | Path, out_png: str | Path, *,
     root = Path(library_dir)
     n = len(db.parts)
     rows = math.ceil(n / columns)
+    _hold_gl_driver()
     plotter = pv.Plotter(off_screen=True, shape=(rows, columns),
                          window_size=(columns * tile, rows * tile), border=False)
     plotter.set_background("white")

@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import math
 import os
 import shlex
 import zipfile
@@ -39,6 +40,7 @@ from citysynth.parts_db.measure import (
     snap_legs,
 )
 from citysynth.parts_db.meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh, mesh_bytes
+from citysynth.solver.methods import DEFAULT_MAX_MEMORY_MB
 
 FORMAT_VERSION = 2
 DB_JSON = "partdb.json"
@@ -164,6 +166,7 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
            progress: Callable[[int, int, str], None] | None = None) -> PartDB:
     """Ingest ``library_dir`` into ``out`` (default: :func:`cache_dir`)."""
     m = read_manifest(library_dir)
+    _check_table_size(m)
     root = m.path.parent
     out_dir = Path(out) if out is not None else cache_dir(root)
     digest = library_hash(m)
@@ -193,6 +196,25 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
     else:     # the folder the user named: failing to write it is an error
         save(db, out_dir)
     return db
+
+
+TABLE_BYTES = 18   # a (part, part) pair's: allowed, cost, T-branch cost and its mask
+
+
+def _check_table_size(m: Manifest) -> None:
+    """Refuse, before measuring a mesh, a library whose transition tables (one entry for
+    each ordered pair of parts) would not fit the memory budget: 15,000 parts measured
+    for 195 s and then died making a 3.4 GB table (a traceback)."""
+    n = len(m.parts)
+    need = n * n * TABLE_BYTES
+    budget = DEFAULT_MAX_MEMORY_MB * 2**20
+    if need > budget:
+        most = math.isqrt(budget // TABLE_BYTES)
+        raise LibraryError(
+            f"{m.path}: {n:,} parts: their transition-cost tables (an entry for each part "
+            f"that may follow each part) would take {need / 2**20:,.0f} MB, over the memory "
+            f"budget of {DEFAULT_MAX_MEMORY_MB:,} MB (at most about {most:,} parts); "
+            "split the library into smaller ones, by style or by kind of structure")
 
 
 def _check_stored(parts: list[Part], m: Manifest) -> None:
@@ -296,6 +318,11 @@ def save(db: PartDB, out_dir: Path) -> None:
     JSON: ``--force`` over a good database broke it, and into an empty folder left a
     lone npz."""
     out_dir.mkdir(parents=True, exist_ok=True)
+    for name in (DB_JSON, DB_NPZ):   # a rename over it would fail after the other's
+        there = out_dir / name
+        if there.is_dir() and not there.is_symlink():
+            raise LibraryError(f"{there}: a folder stands where the part database's "
+                               f"{name} goes; move it away or give another output folder (-o)")
     buf = io.BytesIO()
     np.savez_compressed(buf, allowed=db.allowed, cost=db.cost, cost_branch=db.cost_branch)
     npz = buf.getvalue()

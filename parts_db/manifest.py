@@ -8,6 +8,7 @@ the file. The format is documented in the README ("Part libraries").
 from __future__ import annotations
 
 import math
+import posixpath
 import re
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath, PureWindowsPath
@@ -195,7 +196,12 @@ def check_file(f: object, where: str) -> str:
     if PurePosixPath(f).is_absolute() or PureWindowsPath(f).is_absolute():
         raise LibraryError(f"{where}: file {shown(f)} must be a path relative to the "
                            "library folder (so the library can be moved and shared)")
-    if ".." in PurePosixPath(f.replace("\\", "/")).parts:
+    if any(ord(c) < 32 or 127 <= ord(c) < 160 for c in f):   # a NUL crashed os.stat
+        raise LibraryError(f"{where}: file {shown(f)} holds a character no file name "
+                           "holds (a NUL, a line break or another control character): "
+                           "write the mesh's file name as it is")
+    if posixpath.normpath(f.replace("\\", "/")).split("/")[0] == "..":
+        # (meshes/../meshes/a.glb stays inside, and is read)
         raise LibraryError(f"{where}: file {shown(f)} climbs out of the library folder "
                            "(..); keep the part's mesh inside it, so the library can be "
                            "moved and shared")

@@ -266,11 +266,18 @@ class _Gltf:
 
     def __init__(self, doc: dict) -> None:
         self.doc = doc
+        self._checked: dict[str, list[dict]] = {}
 
     def items(self, key: str) -> list[dict]:
+        """The list ``key`` holds, checked once (each reference asks for its list: checked
+        again each time, a file of 16,000 nodes took 25 s, 150,000 over 10 minutes)."""
+        got = self._checked.get(key)
+        if got is not None:
+            return got
         got = self.doc.get(key, [])
         if not isinstance(got, list) or not all(isinstance(g, dict) for g in got):
             raise MeshFault(f"its glTF {key!r} is not a list of objects: the file is damaged")
+        self._checked[key] = got
         return got
 
     def ref(self, value: object, key: str, what: str) -> int:
@@ -346,6 +353,9 @@ def _resource(folder: Path, uri: object, what: str) -> Path:
     if not isinstance(uri, str) or not uri.strip():
         raise MeshFault(f"it refers to a {what} file with no name: the file is damaged")
     name = unquote(uri.strip())
+    if "\0" in name:   # (%00): the file system call raised a traceback
+        raise MeshFault(f"it refers to a {what} file whose name holds a NUL character "
+                        f"({json.dumps(uri)[:80]}): the file is damaged")
     target = (folder / name).resolve()
     if PurePosixPath(name).is_absolute() or re.match(r"^[A-Za-z]:[\\/]", name) or \
             not target.is_relative_to(folder.resolve()):
@@ -527,8 +537,15 @@ def check_loaded(loaded: object) -> None:
     """What trimesh made of the file is a mesh: some faces, every face on vertices that
     exist, every coordinate a finite number."""
     if isinstance(loaded, trimesh.Scene):
-        geoms = [loaded.geometry.get(g) for _, g in
-                 (loaded.graph[n] for n in loaded.graph.nodes_geometry)]
+        placed = [(n, *loaded.graph[n]) for n in loaded.graph.nodes_geometry]
+        geoms = [loaded.geometry.get(g) for _, _, g in placed]
+        for node, transform, _ in placed:   # a NaN there made every point NaN: a
+            if not np.isfinite(transform).all():   # traceback, or NaN in the USD
+                raise MeshFault(f"its scene node {json.dumps(str(node))[:60]} is placed "
+                                "by a transform that is not finite numbers (NaN or "
+                                "infinity in its translation, rotation or scale)",
+                                "fix that node's transform in the modelling tool and "
+                                "export again")
     else:
         geoms = [loaded]
     meshes = [g for g in geoms if isinstance(g, trimesh.Trimesh)]

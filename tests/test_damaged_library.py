@@ -318,3 +318,63 @@ def test_a_library_link_that_loops_or_dangles_says_so(tmp_path, capsys, cmd):
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert f"{lib}: {said}; " in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_folder_where_the_database_goes_leaves_nothing_written(tmp_path, capsys):
+    """A folder named ``partdb.json`` in the output: the npz was renamed into place,
+    then the JSON's rename failed ("Is a directory"), and a stray npz stayed. Both
+    places are looked at before either file is written."""
+    from citysynth.parts_db.library import DB_JSON, DB_NPZ
+    lib = _small_library(tmp_path / "lib")
+    out = tmp_path / "db"
+    (out / DB_JSON).mkdir(parents=True)
+    assert main(["ingest", str(lib), "-o", str(out)]) == 2
+    assert "a folder stands where the part database's partdb.json goes" in \
+        capsys.readouterr().err
+    assert not (out / DB_NPZ).exists()
+
+
+def test_a_library_too_large_for_its_tables_is_refused_before_measuring(tmp_path, capsys,
+                                                                         monkeypatch):
+    """15,000 parts were measured for 195 s, then ingest died making a 3.4 GB table (a
+    traceback). Their tables (an entry per ordered pair of parts) are estimated from
+    the manifest and refused before any mesh is read."""
+    from citysynth.parts_db import library
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    (lib / "manifest.toml").write_text("".join(
+        f'[[part]]\nid = "p{i}"\nfile = "gone.glb"\nclass = "middle"\nstyle = "s"\n'
+        for i in range(11_000)))
+    monkeypatch.setattr(library, "_measure_all", lambda *a: pytest.fail("measured"))
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 2
+    err = capsys.readouterr().err
+    assert "11,000 parts: their transition-cost tables (an entry for each part that may " \
+           "follow each part) would take 2,077 MB, over the memory budget of 2,048 MB " \
+           "(at most about 10,922 parts); split the library" in err, err
+
+
+def test_the_cost_table_filled_in_bands_is_the_table():
+    """The cost table is filled a band of rows at a time from integer pair codes (the
+    pairs as Python lists took 3.4 GB for 15,000 parts): any band height gives the
+    table an exhaustive pair-by-pair computation gives."""
+    import shapely
+    from shapely.geometry import box
+
+    from citysynth.parts_db import costs
+    rng = np.random.default_rng(5)
+    n = 60
+    outs = [box(0, 0, 1 + rng.integers(0, 4) * 0.5, 2 + rng.integers(0, 3)) for _ in range(n)]
+    ins = [box(0, 0, 1 + rng.integers(0, 4) * 0.5, 2 + rng.integers(0, 3)) for _ in range(n)]
+    classes = list(rng.choice(["middle", "corner", "end_left", "end_right", "building"], n))
+    allowed = costs.allowed_matrix(classes)
+    want = np.full((n, n), np.inf)
+    for e, f in zip(*np.nonzero(allowed), strict=True):
+        want[e, f] = round(shapely.symmetric_difference(outs[e], ins[f]).area, 4)
+    for band in (1, 7, n, 10 * n * n):
+        costs.CHUNK_PAIRS = band
+        try:
+            got = costs.cost_matrix(outs, ins, allowed)
+        finally:
+            costs.CHUNK_PAIRS = 1 << 22
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    assert np.isinf(costs.cost_matrix(outs, ins, np.zeros((n, n), bool))).all()

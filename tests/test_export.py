@@ -297,3 +297,29 @@ def test_a_preview_past_its_triangles_draws_each_part_as_its_box(tmp_path, monke
                  "-o", str(out)]) == 0
     png = out / "t_building.png"
     assert png.is_file() and png.stat().st_size > 10_000
+
+
+def test_previews_do_not_grow_the_address_space(tmp_path):
+    """Each preview's Plotter, closed, let Mesa unload its OpenGL driver; the next one
+    loaded it again and mapped a fresh 10 MB code heap the last load never gave back:
+    ``street --k 100`` grew by 1 GB and aborted (std::bad_alloc, exit 134) after 31
+    previews under ``ulimit -v 3000000``. One tiny window now keeps the driver loaded,
+    and each preview is still drawn by a Plotter of its own (the same pixels)."""
+
+    from citysynth.export.preview import render_meshes
+
+    def vm_mb() -> float:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmSize:"):
+                return int(line.split()[1]) / 1024
+        raise AssertionError("no VmSize")
+
+    mesh = trimesh.creation.box(extents=(20, 10, 15))
+    render_meshes(mesh, tmp_path / "warm.png", size=(200, 100))
+    render_meshes(mesh, tmp_path / "warm2.png", size=(200, 100))
+    before = vm_mb()
+    for i in range(12):
+        render_meshes(mesh, tmp_path / f"p{i}.png", size=(200, 100))
+    grown = vm_mb() - before
+    assert grown < 40, f"{grown:.0f} MB more address space after 12 previews (10 MB each leaked)"
+    assert (tmp_path / "p11.png").read_bytes() == (tmp_path / "p0.png").read_bytes()
