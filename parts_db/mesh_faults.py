@@ -42,6 +42,22 @@ _ZERO_FACE = re.compile(rb"^[ \t]*f[ \t](?:[^\n]*[ \t])?0(?:/|[ \t\r]|$)", re.MU
 _RELINK = "point the link at the mesh file, or name the mesh file itself in the manifest"
 
 
+MAX_TRIANGLES = 2_000_000   # a part's; measuring takes about 350 bytes a triangle
+BYTES_PER_TRIANGLE = 350
+MAX_FILE_BYTES = 2**30      # a part's mesh file: 2,000,000 triangles take far less in
+                            # any format; the file is read whole, so a larger one is
+                            # refused unread (8 GB of zeros was a MemoryError traceback)
+
+
+def too_many_triangles(n: int) -> str:
+    """Why a part of ``n`` triangles (past :data:`MAX_TRIANGLES`) is refused."""
+    return (f"{n:,} triangles, past the {MAX_TRIANGLES:,} a part may have (measuring it "
+            f"would take about {n * BYTES_PER_TRIANGLE / 2**30:.1f} GB)")
+
+
+DECIMATE = "decimate it in its modelling tool"
+
+
 class MeshFault(Exception):
     """Why a mesh file cannot be used, and the fix when one is specific to the fault
     (else the caller's: export again, or ingest again)."""
@@ -77,6 +93,10 @@ def read_file(path: Path) -> bytes:
                         "name the mesh file itself in the manifest")
     if st.st_size == 0:
         raise MeshFault("the file is empty (0 bytes)")
+    if st.st_size > MAX_FILE_BYTES:
+        raise MeshFault(f"the file is {st.st_size / 2**30:,.1f} GB, more than the "
+                        f"{MAX_FILE_BYTES / 2**30:.0f} GB a part's mesh may be (a part has at "
+                        f"most {MAX_TRIANGLES:,} triangles, far less in any format)", DECIMATE)
     try:
         return path.read_bytes()
     except PermissionError:
@@ -438,6 +458,8 @@ def _check_stl(path: Path, data: bytes, kind: str | None) -> None:
     if need < size:
         raise MeshFault(f"the file is damaged or not an STL: its header gives {count:,} "
                         f"triangles ({need:,} bytes), the file has {size:,}")
+    if count > MAX_TRIANGLES:   # told from the header, before trimesh reads them all
+        raise MeshFault(f"its header gives {too_many_triangles(count)}", DECIMATE)
 
 
 def _check_ply(path: Path, data: bytes, kind: str | None) -> None:
@@ -466,6 +488,9 @@ def _check_ply(path: Path, data: bytes, kind: str | None) -> None:
                 sizes[-1] += _PLY_SIZES[w[2] if w[1] == "list" else w[1]]
         except (IndexError, ValueError, KeyError):
             raise MeshFault(f"its PLY header is damaged at the line {line.strip()!r}") from None
+    faces = sum(n for name, n in elements if name == "face")
+    if faces > MAX_TRIANGLES:   # (each face one triangle at least)
+        raise MeshFault(f"its header gives {too_many_triangles(faces)}", DECIMATE)
     counts = " and ".join(_many(n, name) for name, n in elements) or "no elements"
     if fmt == "ascii":
         lines = [ln.split() for ln in body.splitlines() if ln.strip()]

@@ -13,13 +13,16 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from citysynth.parts_db import mesh_faults
 from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.mesh_faults import (
+    DECIMATE,
     MeshFault,
     check_content,
     check_loaded,
     explain_failure,
     read_file,
+    too_many_triangles,
 )
 
 FORMATS = {".glb", ".gltf", ".obj", ".ply", ".stl"}
@@ -55,20 +58,15 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
     return mesh, counts
 
 
-MAX_TRIANGLES = 2_000_000   # a part's; measuring takes about 350 bytes a triangle
-BYTES_PER_TRIANGLE = 350
-
-
 def check_triangles(mesh, where: str) -> None:
-    """Refuse, with the memory it would take, a part past :data:`MAX_TRIANGLES`
-    before it is measured: a scan of 6.2 million triangles took 2 GB and 24 s, and
-    under a memory limit ended in a traceback inside trimesh (exit 3)."""
+    """Refuse, with the memory it would take, a part past
+    :data:`mesh_faults.MAX_TRIANGLES` before it is measured: a scan of 6.2 million
+    triangles took 2 GB and 24 s, and under a memory limit ended in a traceback inside
+    trimesh (exit 3). (An STL's or PLY's header tells its count before trimesh reads
+    the file: see mesh_faults.)"""
     n = 0 if mesh is None else len(mesh.faces)
-    if n > MAX_TRIANGLES:
-        raise LibraryError(
-            f"{where}: {n:,} triangles, past the {MAX_TRIANGLES:,} a part may have "
-            f"(measuring it would take about {n * BYTES_PER_TRIANGLE / 2**30:.1f} GB); "
-            "decimate it in its modelling tool")
+    if n > mesh_faults.MAX_TRIANGLES:
+        raise LibraryError(f"{where}: {too_many_triangles(n)}; {DECIMATE}")
 
 
 def read_mesh(path: Path, where: str, fix: str):

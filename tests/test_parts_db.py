@@ -141,13 +141,39 @@ def test_a_part_of_too_many_triangles_is_refused_with_the_memory_it_takes(
     """A scanned part of 6.2 million triangles was measured for 24 s in 2 GB, and
     under a memory limit ended in a traceback inside trimesh. Past the limit (here
     lowered to 10, for a 12-triangle box) a part is refused before it is measured."""
-    import citysynth.parts_db.meshes as meshes
-    monkeypatch.setattr(meshes, "MAX_TRIANGLES", 10)
+    import citysynth.parts_db.mesh_faults as mesh_faults
+    monkeypatch.setattr(mesh_faults, "MAX_TRIANGLES", 10)
     lib = _library(tmp_path, [("A", "a.glb", _box(0, 4, 0, 10, 0, 6), 'class = "building"')])
     assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 2
     err = capsys.readouterr().err
     assert '"A"' in err and "12 triangles, past the 10 a part may have" in err, err
     assert "decimate it" in err and not (tmp_path / "db").exists()
+
+
+@pytest.mark.parametrize("ext", ["stl", "ply"])
+def test_a_mesh_past_the_triangles_or_the_size_is_refused_before_it_is_read(
+        tmp_path, monkeypatch, capsys, ext):
+    """A binary STL of 10 million triangles was refused only after trimesh read it
+    (2.7 GB); 40 million under a 4 GB limit were called "damaged"; an 8 GB file was a
+    MemoryError traceback, read whole before any check. The STL's and PLY's headers
+    tell the count before the file is read, and a file over the size a part's mesh
+    may be is refused unread."""
+    import trimesh
+
+    import citysynth.parts_db.mesh_faults as mesh_faults
+    box = trimesh.creation.box(extents=(4, 10, 6))
+    box.apply_translation((2, 5, 3))
+    lib = _library(tmp_path, [("A", f"a.{ext}", box, 'class = "building"')])
+    monkeypatch.setattr(mesh_faults, "MAX_TRIANGLES", 10)
+    monkeypatch.setattr(trimesh, "load", lambda *a, **k: pytest.fail("read"))
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 2
+    err = capsys.readouterr().err
+    assert "its header gives 12 triangles, past the 10 a part may have" in err, err
+    monkeypatch.setattr(mesh_faults, "MAX_TRIANGLES", 2_000_000)
+    monkeypatch.setattr(mesh_faults, "MAX_FILE_BYTES", 100)
+    assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 2
+    err = capsys.readouterr().err
+    assert "GB, more than the 0 GB a part's mesh may be" in err and "decimate it" in err, err
 
 
 def test_tower_floors_stack_along_z(tmp_path):
