@@ -34,7 +34,9 @@ from citysynth.parts_db.manifest import Manifest, PartClass, read_manifest
 from citysynth.parts_db.measure import (
     STACKED,
     STRAIGHT,
+    coarse_floats,
     corner_disagrees,
+    inside_out,
     measure,
     off_frame,
     snap_legs,
@@ -271,8 +273,10 @@ def _ingest_part(root: Path, m: Manifest, spec, warnings: list[str]) -> Part:
         warnings.append(f"{spec.id}: snapped by {change:.3f} m to the {q:g} m grid")
     if (wrong := corner_disagrees(mesh, spec, meas.legs)) is not None:
         warnings.append(f"{spec.id}: {wrong}")
-    if (off := off_frame(mesh, spec.cls)) is not None:
-        warnings.append(f"{spec.id}: {off}")
+    for why in (off_frame(mesh, spec.cls), coarse_floats(mesh, f.suffix, m.meters_per_unit),
+                inside_out(mesh)):
+        if why is not None:
+            warnings.append(f"{spec.id}: {why}")
     if spec.ignored:   # a corner labelled with another class would be used as that
         warnings.append(f"{spec.id}: {' and '.join(spec.ignored)} ignored: only corners "
                         f"have them, and its class is {spec.cls} (set class = \"corner\" "

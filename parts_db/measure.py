@@ -215,3 +215,33 @@ def _check_length(total: float, where: str) -> None:
     if not lo_ok <= total <= hi_ok:
         raise LibraryError(f"{where}: {total:g} m along its primary axis is implausible "
                            f"(expected {lo_ok:g}-{hi_ok:g} m); check [library] units")
+
+
+FLOAT32_FORMATS = {".glb", ".gltf", ".stl"}   # store a point's coordinates as 32-bit floats
+COARSE_STEP = 0.001   # m: a float32 coordinate stepping by more than this is warned of
+
+
+def coarse_floats(mesh, suffix: str, meters_per_unit: float) -> str | None:
+    """Why a part stored far from its origin in a format of 32-bit floats has lost its
+    measure, or None. Such a float steps by 1 m at 10,000 km: a 5.1 m box 20,000 km
+    along X was measured 6.0 m, at 1,000 km 5.125 m, without a word."""
+    if suffix.lower() not in FLOAT32_FORMATS or not len(mesh.vertices):
+        return None
+    far = float(np.abs(mesh.vertices).max()) / meters_per_unit   # in the file's units
+    step = float(np.spacing(np.float32(far))) * meters_per_unit
+    if step <= COARSE_STEP:
+        return None
+    return (f"its points lie up to {far * meters_per_unit:,.0f} m from its origin, where "
+            f"the file's 32-bit coordinates step by {step * 1000:,.0f} mm: its lengths are "
+            "off by as much; move it to its canonical frame (see README) and export again")
+
+
+def inside_out(mesh) -> str | None:
+    """Why a closed part's faces point into it (its volume negative), or None: such a
+    part was ingested and exported as it is, every face turned away from the viewer
+    (an engine culling back faces shows its inside)."""
+    if not mesh.is_watertight or mesh.volume >= 0:
+        return None
+    return ("its faces point inwards (a closed mesh of negative volume): flip its normals "
+            "in the modelling tool (Blender: Mesh > Normals > Recalculate Outside) and "
+            "export again")

@@ -544,3 +544,25 @@ def test_a_manifest_without_part_tables_says_what_it_has(tmp_path, capsys, manif
     assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 2
     err = capsys.readouterr().err
     assert said in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_parts_far_out_in_32_bit_floats_or_inside_out_are_warned_of(tmp_path):
+    """A 5.1 m GLB box 20,000 km along X measured 6.0 m (its float32 coordinates step
+    by 2 m there), and a box whose faces all point inwards was exported inside out
+    (every building of a street of it had a volume of -720 m³), both without a word.
+    Both are warned of; the same parts at home, faces out, are not (nor is an OBJ far
+    out: its text keeps every digit)."""
+    far = _box(2e7, 2e7 + 5.2, 0, 10, 0, 15)
+    inverted = _box(0, 6, 0, 10, 0, 12)
+    inverted.invert()
+    lib = _library(tmp_path, [
+        ("far", "far.glb", far, 'class = "building"'),
+        ("near", "near.glb", _box(0, 5.2, 0, 10, 0, 15), 'class = "building"'),
+        ("far_obj", "far.obj", _box(1e6, 1e6 + 5.2, 0, 10, 0, 15), 'class = "building"'),
+        ("inv", "inv.stl", inverted, 'class = "building"')])
+    db = ingest(lib, tmp_path / "db")
+    said = {w.split(":", 1)[0]: w for w in db.warnings if "snapped" not in w}
+    assert "32-bit coordinates step by 2,000 mm" in said["far"], db.warnings
+    assert "its faces point inwards (a closed mesh of negative volume)" in said["inv"]
+    assert "near" not in said and "far_obj" not in said, db.warnings
+    assert db.part("far_obj").legs_measured[0] == pytest.approx(5.2, abs=1e-6)
