@@ -41,6 +41,7 @@ from citysynth.parts_db.measure import (
     off_frame,
     snap_legs,
 )
+from citysynth.parts_db.mesh_faults import companions
 from citysynth.parts_db.meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh, mesh_bytes
 from citysynth.solver.methods import DEFAULT_MAX_MEMORY_MB
 
@@ -135,7 +136,11 @@ def library_hash(m: Manifest) -> str:
     for spec in m.parts:
         f = root / spec.file
         h.update(spec.file.encode() + b"\0")
-        h.update(mesh_bytes(f, f'part "{spec.id}" ({f})'))
+        data = mesh_bytes(f, f'part "{spec.id}" ({f})')
+        h.update(data)
+        for other in companions(f, data):   # a .gltf's .bin, an OBJ's .mtl
+            h.update(b"\0" + other.name.encode() + b"\0")
+            h.update(mesh_bytes(other, f'part "{spec.id}" ({other})'))
     return h.hexdigest()
 
 
@@ -393,6 +398,27 @@ def load_db(out_dir: str | Path) -> PartDB:
                            "--force") from None
 
 
+def _check_still_its_library(db: PartDB, folder: Path) -> None:
+    """Refuse a database written with ``ingest -o`` whose library (still where it was)
+    has changed since: a part's mesh made 9 m long was placed at the 6 m the database
+    measured, ten buildings each overlapping the next by 3 m, exit 0. (A library gone
+    is told where its meshes are read; a manifest that no longer reads leaves the
+    database as it is.)"""
+    root = db.library_root
+    if root is None or not (root / "manifest.toml").is_file():
+        return
+    try:
+        digest = library_hash(read_manifest(root))
+    except LibraryError:
+        return
+    if digest != db.library_hash:
+        raise LibraryError(
+            f"{folder}: the part database was written from {root}, whose manifest or "
+            "meshes have changed since (a part's mesh edited, a part added or removed): "
+            f"its lengths and costs are stale; write it again with citysynth ingest "
+            f"{shlex.quote(str(root))} -o {shlex.quote(str(folder))} --force")
+
+
 def _read_cached(out_dir: Path, digest: str) -> PartDB | None:
     """The cached database when it is this library's and whole; None (ingest again,
     which overwrites it: the cache heals) when it is missing, stale or damaged."""
@@ -455,7 +481,9 @@ def load_library(path: str | Path) -> PartDB:
     if (p / "manifest.toml").is_file():
         return ingest(p)
     if (p / DB_JSON).is_file():
-        return load_db(p)
+        db = load_db(p)
+        _check_still_its_library(db, p)
+        return db
     if not p.exists():
         raise LibraryError(f"{p}: {no_such_folder(p)}; give the folder of a part library (with "
                            f"manifest.toml) or of a part database (with {DB_JSON})")

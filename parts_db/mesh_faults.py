@@ -408,6 +408,34 @@ def _check_obj(path: Path, data: bytes, kind: str | None) -> None:
         raise MeshFault(f"the file is cut short: it ends within a line ({' '.join(last)!r})")
 
 
+def companions(path: Path, data: bytes) -> list[Path]:
+    """The files a mesh file reads beside itself, which a library's hash covers with
+    it: a .gltf's external buffers and images, an OBJ's material libraries (editing
+    only a glTF's .bin kept the cached database of the old geometry). Faults are left
+    to :func:`check_content`: a damaged or missing one is simply not listed."""
+    names: list[tuple[Path, str, str]] = []
+    try:
+        if path.suffix.lower() == ".gltf":
+            doc = _json(data, "its JSON")
+            for key, what in (("buffers", "buffer"), ("images", "texture")):
+                names += [(path.parent, item["uri"], what) for item in _Gltf(doc).items(key)
+                          if isinstance(item.get("uri"), str)
+                          and not item["uri"].startswith("data:")]
+        elif path.suffix.lower() == ".obj":
+            text = data.decode("utf-8", errors="replace")
+            for libs in re.findall(r"^[ \t]*mtllib[ \t]+(.+?)[ \t]*$", text, re.MULTILINE):
+                names += [(path.parent, lib, "material") for lib in _names(path.parent, libs)]
+    except MeshFault:
+        return []
+    found = []
+    for folder, name, what in names:
+        try:
+            found.append(_resource(folder, name, what))
+        except (MeshFault, OSError):
+            continue
+    return found
+
+
 def _names(folder: Path, rest: str) -> list[str]:
     """The file names on an ``mtllib`` or texture line: the whole rest of the line if
     that is a file (names may hold spaces), else its words (several libraries, or

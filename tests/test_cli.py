@@ -277,13 +277,15 @@ def test_a_block_whose_facade_would_not_fit_the_budget_is_refused_at_once(tmp_pa
                      r"2,[34]\d\d MB to solve, over the 2,048 MB budget; split it", err), err
 
 
-def test_a_failure_while_writing_leaves_no_half_result(tmp_path, capsys):
+def test_a_failure_while_writing_leaves_no_half_result(tmp_path, capsys, monkeypatch):
     """A part mesh damaged after ingest fails the export after the layout JSON was
     written: the command leaves the output folder as it found it (it left the JSON and
-    part files behind)."""
+    part files behind). (A mesh changed before the command starts is refused when the
+    database is read, before anything is written; here it is damaged as if during the
+    run, after that check.)"""
     import shutil
 
-    from citysynth.parts_db import ingest
+    from citysynth.parts_db import ingest, library
     lib = tmp_path / "lib"
     shutil.copytree(EXAMPLES / "library", lib)
     ingest(lib, tmp_path / "db")
@@ -292,6 +294,11 @@ def test_a_failure_while_writing_leaves_no_half_result(tmp_path, capsys):
     out = tmp_path / "out"
     out.mkdir()
     (out / "mine.txt").write_text("the user's own file\n")
+    assert main(["building", str(EXAMPLES / "skeletons" / "t_building.geojson"), "--library",
+                 str(tmp_path / "db"), "-o", str(out), "--no-preview"]) == 2
+    assert "whose manifest or meshes have changed since" in capsys.readouterr().err
+    assert sorted(p.name for p in out.rglob("*")) == ["mine.txt"]
+    monkeypatch.setattr(library, "_check_still_its_library", lambda db, folder: None)
     code = main(["building", str(EXAMPLES / "skeletons" / "t_building.geojson"), "--library",
                  str(tmp_path / "db"), "-o", str(out), "--no-preview"])
     err = capsys.readouterr().err

@@ -378,3 +378,22 @@ def test_the_cost_table_filled_in_bands_is_the_table():
             costs.CHUNK_PAIRS = 1 << 22
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
     assert np.isinf(costs.cost_matrix(outs, ins, np.zeros((n, n), bool))).all()
+
+
+def test_a_database_whose_library_changed_since_is_refused(tmp_path):
+    """A database written with ``ingest -o`` was used as it was after its library's
+    meshes were edited: a 6 m part made 9 m was placed at 6 m pitch, ten buildings
+    each overlapping the next by 3 m, exit 0. Read while its library is still where
+    it was (its meshes are read from there), a database must match it."""
+    from citysynth.parts_db import LibraryError
+    lib = _small_library(tmp_path / "lib")
+    out = tmp_path / "db"
+    assert main(["ingest", str(lib), "-o", str(out)]) == 0
+    assert load_library(out).library_hash == load_db(out).library_hash   # unchanged: fine
+    meshes = sorted((lib / "meshes").iterdir())
+    kept = meshes[0].read_bytes()
+    meshes[0].write_bytes(meshes[1].read_bytes())
+    with pytest.raises(LibraryError, match="whose manifest or meshes have changed since"):
+        load_library(out)
+    meshes[0].write_bytes(kept)                     # put back: the database is its again
+    assert load_library(out).library_hash == load_db(out).library_hash

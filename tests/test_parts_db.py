@@ -566,3 +566,32 @@ def test_parts_far_out_in_32_bit_floats_or_inside_out_are_warned_of(tmp_path):
     assert "its faces point inwards (a closed mesh of negative volume)" in said["inv"]
     assert "near" not in said and "far_obj" not in said, db.warnings
     assert db.part("far_obj").legs_measured[0] == pytest.approx(5.2, abs=1e-6)
+
+
+def test_editing_only_a_gltf_buffer_or_an_obj_material_measures_the_part_again(tmp_path):
+    """The library's hash covered only the files the manifest names: a .gltf's
+    external .bin rewritten (a 5 m box made 9 m) kept the cached database ("cache
+    hit", 5 m) until --force. The files a mesh reads beside itself (a .gltf's buffers
+    and images, an OBJ's material libraries) are hashed with it."""
+    def gltf_files(length: float) -> dict[str, bytes]:
+        return trimesh.exchange.gltf.export_gltf(_box(0, length, 0, 10, 0, 15))
+
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    for name, data in gltf_files(5.0).items():
+        (lib / name).write_bytes(data)
+    (lib / "a.obj").write_text("mtllib a.mtl\nusemtl brick\n" + _box(0, 6, 0, 10, 0, 15)
+                               .export(file_type="obj"))
+    (lib / "a.mtl").write_text("newmtl brick\nKd 0.8 0.3 0.2\n")
+    (lib / "manifest.toml").write_text(
+        '[[part]]\nid = "g"\nfile = "model.gltf"\nclass = "building"\n\n'
+        '[[part]]\nid = "o"\nfile = "a.obj"\nclass = "building"\n')
+    first = ingest(lib, tmp_path / "db")
+    assert first.part("g").legs_measured[0] == pytest.approx(5.0)
+    nine = gltf_files(9.0)
+    for name in (n for n in nine if n.endswith(".bin")):   # the .gltf itself kept
+        (lib / name).write_bytes(nine[name])
+    assert ingest(lib, tmp_path / "db").part("g").legs_measured[0] == pytest.approx(9.0)
+    again = ingest(lib, tmp_path / "db").library_hash
+    (lib / "a.mtl").write_text("newmtl brick\nKd 0.2 0.3 0.8\n")
+    assert ingest(lib, tmp_path / "db").library_hash != again
