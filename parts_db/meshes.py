@@ -41,11 +41,8 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
     loaded = read_mesh(path, where, EXPORT_AGAIN)
     counts = {k: 0 for k in COUNTED}
     if isinstance(loaded, trimesh.Scene):
-        for node in loaded.graph.nodes_geometry:
-            _, geom_name = loaded.graph[node]
-            m = _NAME.match(str(node)) or _NAME.match(str(geom_name))
-            if m:
-                counts[m.group(1).lower()] += 1
+        for kind, _ in sorted(_named_features(loaded)):
+            counts[kind] += 1
         mesh = _flatten(loaded)
     else:
         mesh = loaded
@@ -56,6 +53,34 @@ def load_part_mesh(path: Path, part_id: str, meters_per_unit: float):
         mesh = mesh.copy()
         mesh.apply_scale(meters_per_unit)
     return mesh, counts
+
+
+_PRIMITIVE = re.compile(r"^(?P<node>.+)_[0-9a-f]{6}$")   # trimesh's name for one of a
+                                                        # node's several primitives
+_NUMBERED = re.compile(r"^(?:window|door|balcony)s?[_\-.\s]*(\d+)", re.IGNORECASE)
+
+
+def _named_features(scene: trimesh.Scene) -> set[tuple[str, str]]:
+    """The windows, doors and balconies a glTF scene names, each once: (kind, its
+    number when its name gives one, else its node's name). A node of two primitives
+    (a window's frame and glass materials: trimesh makes a child of each) is one
+    window, and the nodes of one numbered window (``window_1``, ``window_1_frame``,
+    ``window_1_glass``) are one window: each was counted, three windows for one."""
+    parents = scene.graph.transforms.parents
+    found: set[tuple[str, str]] = set()
+    for node in scene.graph.nodes_geometry:
+        _, geom_name = scene.graph[node]
+        name = str(node)
+        whole = _PRIMITIVE.match(name)
+        if whole and parents.get(node) == whole["node"]:
+            name = whole["node"]
+        for named in (name, str(geom_name)):
+            m = _NAME.match(named)
+            if m:
+                number = _NUMBERED.match(named)
+                found.add((m.group(1).lower(), f"#{number.group(1)}" if number else named))
+                break
+    return found
 
 
 def check_triangles(mesh, where: str) -> None:

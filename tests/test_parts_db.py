@@ -238,6 +238,46 @@ def test_sample_attributes_come_from_named_submeshes(sample_db):
     assert b.attributes["doors"] == 1
 
 
+def test_a_window_of_several_nodes_or_primitives_counts_once(tmp_path):
+    """``window_1`` with its ``window_1_frame`` and ``window_1_glass`` nodes counted 3
+    windows, and a door mesh of two primitives (frame and leaf materials, the usual
+    multi-material export; trimesh makes a child node of each) 2 doors. A numbered
+    window counts once whatever its nodes, a node once whatever its primitives;
+    windows of other numbers, or unnumbered nodes of their own, count each."""
+    from citysynth.parts_db.meshes import _named_features
+    s = trimesh.Scene()
+    for i, name in enumerate(["window_1", "window_1_frame", "window_1_glass", "window_2",
+                              "Window3", "windows", "door", "body"]):
+        s.add_geometry(_box(0, 1, 0, 1, 0, 1), node_name=name, geom_name=f"g{i}")
+    s.export(tmp_path / "a.glb")
+    got = _named_features(trimesh.load(tmp_path / "a.glb", process=False))
+    assert sorted(got) == [("door", "door"), ("window", "#1"), ("window", "#2"),
+                           ("window", "#3"), ("window", "windows")], got
+    (tmp_path / "b.gltf").write_text(json.dumps(_two_primitive_door()))
+    assert sorted(_named_features(trimesh.load(tmp_path / "b.gltf", process=False))) == [
+        ("door", "door_main")]
+
+
+def _two_primitive_door() -> dict:
+    """A glTF of one node, ``door_main``, whose mesh has two primitives (a unit
+    triangle each), its buffer inline."""
+    import base64
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], dtype="<f4").tobytes()
+    i = np.array([0, 1, 2], dtype="<u4").tobytes()
+    data = "data:application/octet-stream;base64," + base64.b64encode(v + i).decode()
+    prim = {"attributes": {"POSITION": 0}, "indices": 1}
+    return {"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+            "nodes": [{"mesh": 0, "name": "door_main"}],
+            "meshes": [{"primitives": [prim, dict(prim)]}],
+            "buffers": [{"uri": data, "byteLength": len(v + i)}],
+            "bufferViews": [{"buffer": 0, "byteLength": len(v)},
+                            {"buffer": 0, "byteOffset": len(v), "byteLength": len(i)}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3,
+                           "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+                          {"bufferView": 1, "componentType": 5125, "count": 3,
+                           "type": "SCALAR"}]}
+
+
 def test_sample_costs_and_lengths(sample_db):
     db = sample_db
     q = db.quantum
