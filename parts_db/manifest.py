@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import posixpath
 import re
+import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Literal, get_args
@@ -106,6 +107,7 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     if not isinstance(name, str):
         raise LibraryError(f"{path}: [library] name must be text in quotes, got "
                            f"{shown(name)}")
+    _printable(name, f"{path}: [library] name")
     return Manifest(path, name, quantum, UNITS[units],
                     rescale, tuple(parts))
 
@@ -131,6 +133,8 @@ def positive(v: object, where: str) -> float:
 
 MIN_QUANTUM = 0.001     # m: the finest length step a library may count in
 MAX_ATTRIBUTE = 10_000   # doors, windows...: of one part (1e300 overflowed the solver)
+_DEVICES = {"CON", "PRN", "AUX", "NUL", *(f"COM{i}" for i in range(1, 10)),
+            *(f"LPT{i}" for i in range(1, 10))}   # Windows opens these names as devices
 MAX_ID = 200   # characters: a part's id names its files (parts/<id>.usdc), and file
                # systems take 255 bytes a name
 
@@ -154,14 +158,29 @@ def check_id(pid: object, where: str, seen: dict[str, str]) -> str:
         raise LibraryError(f"{where}: an id is at most {MAX_ID} printable characters (it "
                            "names the part's files: counted in UTF-8 bytes, so é counts "
                            "2); shorten it or drop its control characters")
-    other = seen.get(id_key(pid))
+    if pid != pid.strip():   # "a " and "a" were two parts no listing tells apart
+        raise LibraryError(f"{where}: id {shown(pid)} begins or ends with a space, which "
+                           "no listing shows; remove it")
+    if id_key(pid).upper() in _DEVICES:
+        raise LibraryError(f"{where}: id {shown(pid)} names its prototype file "
+                           f"parts/{pid}.usdc, a device name Windows does not open "
+                           "as a file (CON, PRN, AUX, NUL, COM1-9, LPT1-9); rename the part")
+    # its file's key, and that of the same text in NFC (é typed two ways looks one)
+    keys = (id_key(pid), id_key(unicodedata.normalize("NFC", pid)))
+    other = next((seen[k] for k in keys if k in seen), None)
     if other == pid:
         raise LibraryError(f'{where}: duplicate id "{pid}"')
+    if other is not None and unicodedata.normalize("NFC", other) == \
+            unicodedata.normalize("NFC", pid):
+        raise LibraryError(f'{where}: its id and "{other}" are one text written two ways '
+                           "(an accented letter as one character, and as a letter and an "
+                           "accent: Unicode NFC and NFD), which no listing tells apart; "
+                           "rename one of them")
     if other is not None:
         raise LibraryError(f'{where}: its id and "{other}" differ only in case or in '
                            "characters other than letters, digits and _, so both would "
                            "be written as one USD prototype file; rename one of them")
-    seen[id_key(pid)] = pid
+    seen.update(dict.fromkeys(keys, pid))
     return pid
 
 
@@ -217,7 +236,17 @@ def check_class(cls: object, where: str) -> PartClass:
 def check_style(style: object, where: str) -> str:
     if not isinstance(style, str) or not style:
         raise LibraryError(f"{where}: style must be a non-empty string")
+    _printable(style, f"{where}: style")
     return style
+
+
+def _printable(text: str, where: str) -> None:
+    """Refuse a name the summaries print that holds a control character (an escape
+    sequence in a library's name cleared the terminal when ingest printed it)."""
+    if not text.isprintable():
+        raise LibraryError(f"{where} {shown(text)} holds a control character (a line "
+                           "break, tab, escape or invisible mark); write it in plain "
+                           "characters")
 
 
 def check_corner(angle: object, convex: object, where: str) -> tuple[float, bool]:

@@ -441,6 +441,10 @@ def _toml_words(message: str, text: str) -> str:
     where = message[message.find(" (at line"):] if " (at line" in message else ""
     if "\x00" in text:
         return f"it holds NUL bytes{where}, so it is no text file: check that it is the right file"
+    other = _other_format(text)
+    if other:
+        return (f"it looks like {other}{where}; this file is TOML (key = value lines under "
+                "[table] headers): write it so (see README)")
     if message.startswith("Cannot overwrite a value"):
         return (f"a key given a value twice{where} (or a key and a table of one name); "
                 "keep one of them")
@@ -449,6 +453,21 @@ def _toml_words(message: str, text: str) -> str:
         table = ".".join(part.strip(" '\"") for part in m.group(1).split(",") if part.strip())
         return f"the table [{table}] is declared twice{where}; merge them into one"
     return message
+
+
+_YAML_LINE = re.compile(r"""^\s*(?:-\s|---\s*$|[\w"'.-]+\s*:(?:\s|$))""")
+
+
+def _other_format(text: str) -> str:
+    """The format a file TOML could not read looks like ("JSON", "YAML"), or ""."""
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        return ""
+    if lines[0].lstrip().startswith("{"):
+        return "JSON"
+    if _YAML_LINE.match(lines[0]) and "=" not in lines[0]:
+        return "YAML"
+    return ""
 
 
 def _int_past_64_bits(data: Any) -> str | None:

@@ -109,6 +109,11 @@ def test_an_integer_past_every_float_is_told_not_a_crash(tmp_path, capsys):
     ("[footprints]\nstretch = 0.1\n[footprints]\ninfill = true\n",
      "the table [footprints] is declared twice (at line 3"),
     ("\x00\x00\x00", "it holds NUL bytes"),
+    # a config (or manifest) written in another format: "Invalid statement"
+    ('{"footprints": {"stretch": 0.1}}\n', "it looks like JSON (at line 1, column 1); this "
+     "file is TOML (key = value lines under [table] headers)"),
+    ("# mine\nfootprints:\n  stretch: 0.1\n", "it looks like YAML (at line 2"),
+    ("- a\n- b\n", "it looks like YAML"),
 ])
 def test_a_city_toml_the_reader_refuses_is_told_in_words(tmp_path, capsys, toml, said):
     """The TOML reader's own words ("Cannot overwrite a value", "Cannot declare

@@ -398,6 +398,22 @@ GLB = GOOD.export(file_type="glb")
     ([("ü", "a.stl", GOOD, 'class = "middle"'), ("__", "b.stl", GOOD, 'class = "middle"')],
      "", 'its id and "ü" differ only in case or in characters other than letters'),
     ([("A\\nB", "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
+    # found by the ingest fuzzing pass of 2026-12-01: ids no listing tells apart, an id
+    # Windows opens as a device, a style or library name that cleared the terminal
+    ([("caf\u00e9", "a.stl", GOOD, 'class = "middle"'),
+      ("cafe\u0301", "b.stl", GOOD, 'class = "middle"')], "",
+     'its id and "caf\u00e9" are one text written two ways'),
+    ([("a", "a.stl", GOOD, 'class = "middle"'), ("a ", "b.stl", GOOD, 'class = "middle"')],
+     "", 'id "a " begins or ends with a space'),
+    ([("CON", "a.stl", GOOD, 'class = "middle"')], "", "parts/CON.usdc, a device name"),
+    ([("lpt1", "a.stl", GOOD, 'class = "middle"')], "", "a device name Windows does not"),
+    # the raw file keys of NFD é ("e" and the accent's two bytes) and "e__" are one
+    ([("e\u0301", "a.stl", GOOD, 'class = "middle"'), ("e__", "b.stl", GOOD,
+                                                        'class = "middle"')],
+     "", "differ only in case or in characters other than letters"),
+    ([("A", "a.stl", GOOD, 'class = "middle"\nstyle = "s\\u001b[2J"')], "",
+     'style "s\\u001b[2J" holds a control character'),
+
     ([("x" * 201, "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
     # 120 characters, 240 bytes: its files' names went past the file system's 255
     ([("é" * 120, "a.stl", GOOD, 'class = "middle"')], "", "counted in UTF-8 bytes"),
@@ -434,11 +450,21 @@ def test_bad_input_is_one_message_exit_2_nothing_written(tmp_path, capsys, parts
     msg = str(exc.value)
     assert fragment in msg
     if not any(w in fragment for w in ("duplicate", "units", "differ", "printable", "UTF-8")):
-        assert '"A"' in msg
+        assert f'"{parts[-1][0]}"' in msg     # the part it is about, by its id
     assert main(["ingest", str(lib), "-o", str(out)]) == 2
     err = capsys.readouterr().err
     assert fragment in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not (out / DB_JSON).exists() and not (out / DB_NPZ).exists()
+
+
+def test_a_library_name_with_a_control_character_is_refused(tmp_path):
+    """A library's name is printed by ingest's summary: an escape sequence in it
+    cleared the terminal."""
+    lib = _library(tmp_path, [("A", "a.stl", GOOD, 'class = "middle"')])
+    text = (lib / "manifest.toml").read_text().replace('name = "test"', 'name = "x\\u001b[2J"')
+    (lib / "manifest.toml").write_text(text)
+    with pytest.raises(LibraryError, match=r'\[library\] name "x\\u001b\[2J" holds a control'):
+        ingest(lib, tmp_path / "db")
 
 
 def test_ingest_cli_summary(tmp_path, capsys):
