@@ -441,7 +441,7 @@ def _toml_words(message: str, text: str) -> str:
     where = message[message.find(" (at line"):] if " (at line" in message else ""
     if "\x00" in text:
         return f"it holds NUL bytes{where}, so it is no text file: check that it is the right file"
-    other = _other_format(text)
+    other = _toml_lookalike(text)
     if other:
         return (f"it looks like {other}{where}; this file is TOML (key = value lines under "
                 "[table] headers): write it so (see README)")
@@ -458,7 +458,7 @@ def _toml_words(message: str, text: str) -> str:
 _YAML_LINE = re.compile(r"""^\s*(?:-\s|---\s*$|[\w"'.-]+\s*:(?:\s|$))""")
 
 
-def _other_format(text: str) -> str:
+def _toml_lookalike(text: str) -> str:
     """The format a file TOML could not read looks like ("JSON", "YAML"), or ""."""
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
