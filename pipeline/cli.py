@@ -17,7 +17,9 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import signal
 import sys
+import threading
 import traceback
 import warnings
 from collections.abc import Sequence
@@ -161,6 +163,25 @@ def main(argv: list[str] | None = None) -> int:
     return code
 
 
+def _import_meshes_shielded() -> None:
+    """Import trimesh with Ctrl-C held back until it is in: it wraps its optional
+    imports in ``except BaseException``, so a Ctrl-C in the first half second of
+    ``ingest`` was swallowed (the command ran on and wrote its database, exit 0) or
+    left a half-made module behind (a TypeError traceback, exit 3). A Ctrl-C during
+    the import is noted and raised when it ends, and the command stops there (exit
+    130)."""
+    if "trimesh" in sys.modules or threading.current_thread() is not threading.main_thread():
+        return
+    caught: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, _frame: caught.append(signum))
+    try:
+        import trimesh  # noqa: F401
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if caught:
+        raise KeyboardInterrupt
+
+
 def _run(argv: list[str] | None) -> int:
     warnings.formatwarning = _format_warning
     for stream in (sys.stdout, sys.stderr):   # a Latin-1 terminal: "≤" as "?", not a
@@ -184,6 +205,8 @@ def _run(argv: list[str] | None) -> int:
         if args.command in SOLVING:
             announce_compile()
         with terminate_as_interrupt():   # SIGTERM anywhere in a command: exit 143
+            if args.command in SOLVING or args.command == "ingest":
+                _import_meshes_shielded()
             return int(args.run(args))
     except USER_ERRORS as exc:
         print(f"citysynth {args.command}: error: {_cut(str(exc))}", file=sys.stderr)

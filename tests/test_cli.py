@@ -364,3 +364,33 @@ def test_a_block_file_of_many_features_says_how_far_it_has_got(tmp_path, capsys)
     assert [t for t in told if t.startswith("laid out")] == \
         [f"laid out {2 * i} of 20 ({10 * i} %)" for i in range(1, 11)]
     assert told[-1] == "written 20 of 20 (100 %)"
+
+
+def test_a_ctrl_c_during_the_mesh_import_is_held_until_it_is_in(monkeypatch):
+    """trimesh wraps its optional imports in ``except BaseException``: a Ctrl-C in
+    the first half second of ``ingest`` was swallowed there (the command ran on and
+    wrote its database, exit 0) or left a half-made module (a TypeError traceback).
+    The import runs with SIGINT held back; the Ctrl-C arrives once it is done."""
+    import builtins
+    import os
+    import signal
+    import sys
+    import time
+
+    from citysynth.pipeline import cli
+
+    real_import = builtins.__import__
+    done: list[str] = []
+
+    def importing(name, *a, **k):
+        if name == "trimesh":
+            os.kill(os.getpid(), signal.SIGINT)   # Ctrl-C while it is being imported
+            time.sleep(0.05)                      # (unheld, it would land here)
+            done.append(name)
+        return real_import(name, *a, **k)
+
+    monkeypatch.delitem(sys.modules, "trimesh")
+    monkeypatch.setattr(builtins, "__import__", importing)
+    with pytest.raises(KeyboardInterrupt):
+        cli._import_meshes_shielded()
+    assert done == ["trimesh"]
