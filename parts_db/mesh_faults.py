@@ -34,7 +34,7 @@ _OBJ_LINE = re.compile(rb"^[ \t]*(v|vt|vn|f|o|g|mtllib|usemtl)[ \t]", re.MULTILI
 _GLTF_SIZES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
 _GLTF_WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 _GLTF_PART = {"buffers": "buffer", "bufferViews": "buffer view", "accessors": "accessor",
-              "meshes": "mesh", "nodes": "node", "scenes": "scene"}
+              "meshes": "mesh", "nodes": "node", "scenes": "scene", "materials": "material"}
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2,
               "int16": 2, "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4,
               "float": 4, "float32": 4, "double": 8, "float64": 8}
@@ -277,7 +277,31 @@ def _check_gltf_doc(doc: dict, binary: int | None, folder: Path) -> None:
     for i, scene in enumerate(g.items("scenes")):
         g.refs(scene.get("nodes", []), "nodes", f"scene {i}")
     if "scene" in doc or "scenes" in doc:    # without "scene", the first is shown
-        g.ref(doc.get("scene", 0), "scenes", "the file's default scene")
+        shown_scene = g.ref(doc.get("scene", 0), "scenes", "the file's default scene")
+        meshes = len(g.items("meshes"))
+        if meshes and not _places_a_mesh(g, g.items("scenes")[shown_scene].get("nodes", [])):
+            # trimesh read nothing, and ingest said "the file holds no vertices or faces"
+            raise MeshFault(f"its default scene (scene {shown_scene}) places none of its "
+                            f"{_many(meshes, 'mesh')}: the modelling tool exported an empty "
+                            "scene", "export it again with the part's objects in the "
+                            "scene (not only the selected objects of another)")
+
+
+def _places_a_mesh(g: _Gltf, roots: object) -> bool:
+    """Whether the nodes ``roots`` (a scene's) or their descendants place a mesh."""
+    nodes = g.items("nodes")
+    todo = list(roots) if isinstance(roots, list) else []
+    seen: set[int] = set()
+    while todo:
+        i = todo.pop()
+        if not isinstance(i, int) or i in seen or not 0 <= i < len(nodes):
+            continue
+        seen.add(i)
+        if "mesh" in nodes[i]:
+            return True
+        children = nodes[i].get("children", [])
+        todo += children if isinstance(children, list) else []
+    return False
 
 
 class _Gltf:
@@ -348,6 +372,8 @@ class _Gltf:
                 raise MeshFault(f"its glTF mesh {i} is damaged (attributes not an object)")
             self.refs([*attrs.values(), *([p["indices"]] if "indices" in p else [])],
                       "accessors", f"mesh {i}")
+            if "material" in p:   # trimesh failed on it: "does not hold a valid GLB mesh"
+                self.ref(p["material"], "materials", f"mesh {i}")
 
     def accessor(self, i: int, acc: dict) -> None:
         """Accessor ``i``'s values fit inside its buffer view."""

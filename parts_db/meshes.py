@@ -8,10 +8,12 @@ names are counted so a manifest need not repeat what the model already says.
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 import trimesh
+from PIL import Image
 
 from citysynth.parts_db import mesh_faults
 from citysynth.parts_db.errors import LibraryError
@@ -103,7 +105,9 @@ def read_mesh(path: Path, where: str, fix: str):
     try:
         check_content(path, data)
         try:
-            loaded = trimesh.load(str(path), force=None, process=False)
+            with warnings.catch_warnings():   # a big texture: PIL's warning, with its
+                warnings.simplefilter("ignore", Image.DecompressionBombWarning)   # path,
+                loaded = trimesh.load(str(path), force=None, process=False)   # on stderr
         except (Exception, MemoryError) as exc:  # noqa: BLE001 - trimesh raises many kinds
             raise explain_failure(path, data, exc) from None
         check_loaded(loaded)

@@ -104,10 +104,17 @@ class _Parser(argparse.ArgumentParser):
         """Words left over are blamed on the command they were given to, whose --help
         lists its options (argparse blames the top-level ``citysynth``)."""
         ns, extras = self.parse_known_args(args, namespace)
+        where = self.commands.get(getattr(ns, "command", None) or "", self)
         if extras:
             unknown = "unknown option" if extras[0].startswith("-") else "unexpected argument"
-            where = self.commands.get(getattr(ns, "command", None) or "", self)
             where.error(f"{unknown} {' '.join(extras)}")
+        for action in where._actions:   # "" is no name: `ingest ""` said "manifest.toml:
+            value = getattr(ns, action.dest, None)   # missing", of the current folder
+            if isinstance(value, str) and not value.strip() and \
+                    action.dest not in ("command", "out"):   # (-o: its own message)
+                name = action.option_strings[-1] if action.option_strings else \
+                    (action.metavar or action.dest.upper())
+                where.error(f"{name}: empty ({value!r}); give a value")
         return ns
 
 

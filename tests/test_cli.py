@@ -330,6 +330,15 @@ def test_a_failure_while_writing_leaves_no_half_result(tmp_path, capsys, monkeyp
                 "'skeleton', 'building', 'block', 'tower', 'street', 'city', 'diff', 'demo', "
                 "'gallery'; see citysynth --help"),
     ([], "citysynth: error: no command given; see citysynth --help"),
+    # "" (an unset shell variable) is no name: `ingest ""` read the current folder and
+    # said "manifest.toml: missing"; `street --line ""` "a folder, not a GeoJSON file"
+    (["ingest", ""], "citysynth ingest: error: LIBRARY: empty (''); give a value; see "
+                     "citysynth ingest --help"),
+    (["street", "--line", " "], "citysynth street: error: --line: empty (' '); give a value; "
+                                "see citysynth street --help"),
+    (["building", "b.geojson", "--library", "x", "--style", ""],
+     "citysynth building: error: --style: empty (''); give a value; see citysynth building "
+     "--help"),
 ])
 def test_a_usage_mistake_is_one_line_saying_where_to_read_more(capsys, argv, said):
     """argparse printed its usage block (4+ lines) before the error; now the error alone,

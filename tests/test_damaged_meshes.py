@@ -188,6 +188,11 @@ _add("glb_node_nan", "x.glb", _glb_with(lambda d: d["nodes"][0].update(
 _add("glb_second_node_nan", "x.glb", _glb_with(lambda d: (
     d["nodes"].append({**d["nodes"][0], "scale": [1, float("inf"), 1]}),
     d["scenes"][0]["nodes"].append(len(d["nodes"]) - 1))), "not finite numbers (NaN")
+_add("glb_scene_empty", "x.glb", _glb_with(lambda d: d["scenes"][0].update(nodes=[])),
+     "its default scene (scene 0) places none of its 1 mesh")   # was "the mesh is empty"
+_add("glb_material_missing", "x.glb", _glb_with(lambda d: d["meshes"][0]["primitives"][0]
+                                                 .update(material=7)),
+     "mesh 0 refers to material 7")   # was "does not hold a valid GLB mesh"
 _add("gltf_buffer_nul", "x.gltf", GLTF.replace(b'"gltf_buffer_0.bin"', b'"x%00.bin"'),
      "a buffer file whose name holds a NUL character")    # (a traceback: embedded null)
 _add("link_loop", "x.obj", lambda d: (d / "x.obj").symlink_to("x.obj"),
@@ -289,3 +294,29 @@ def test_a_gltf_of_many_nodes_checks_each_list_once():
     for i in range(1000):
         g.ref(i, "nodes", "scene 0")
     assert Counted.walks == 1
+
+
+def test_a_large_texture_prints_no_pil_warning(tmp_path, capsys, monkeypatch):
+    """A 12,000 x 12,000 texture in a part's GLB printed PIL's DecompressionBombWarning,
+    with its source path, on stderr of ingest and of every command exporting the part
+    (here the limit is lowered below a 64 x 64 texture). Textures are not what a part
+    is measured by; the warning is no concern of the user's."""
+    import warnings
+
+    from PIL import Image
+    box = trimesh.creation.box(extents=(4, 10, 6))
+    box.apply_translation((2, 5, 3))
+    box.visual = trimesh.visual.TextureVisuals(
+        uv=np.random.default_rng(0).random((len(box.vertices), 2)),
+        image=Image.new("RGB", (64, 64), (200, 100, 50)))
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    box.export(lib / "a.glb")
+    (lib / "manifest.toml").write_text('[[part]]\nid = "a"\nfile = "a.glb"\n'
+                                       'class = "building"\n')
+    monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 3000)     # 4,096 pixels: a warning
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        assert main(["ingest", str(lib), "-o", str(tmp_path / "db")]) == 0
+    assert not [w for w in said if issubclass(w.category, Image.DecompressionBombWarning)]
+    assert "DecompressionBomb" not in capsys.readouterr().err
