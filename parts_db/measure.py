@@ -132,14 +132,21 @@ OFF_FRAME = 1.0   # m: a facade part this far from y = 0, or off the ground, is 
 
 
 def off_frame(mesh, cls: str) -> str | None:
-    """Why a facade part lies off its canonical frame, or None: its facade far from the
-    plane y = 0 the skeleton line runs in, or its body not on the ground z = 0. Ingest
+    """Why a part lies off its canonical frame, or None: a facade part's facade far from
+    the plane y = 0 the skeleton line runs in, or its body not on the ground z = 0; a
+    tower part's plan not reaching the vertical axis its storeys stack along. Ingest
     measured such a part as any other, and a building stood 100 km behind its street
     (a part exported with its world position) or buried 50 m deep, its preview framed
     on it and looking right."""
-    if cls in STACKED:
-        return None
     lo, hi = mesh.vertices.min(axis=0), mesh.vertices.max(axis=0)
+    if cls in STACKED:   # storeys stack about the vertical axis: a floor off it overhung
+        off = max(lo[0], -hi[0], lo[1], -hi[1])   # by 8 m, told only by a high cost
+        if off <= OFF_FRAME:
+            return None
+        return (f"its plan (x {float(lo[0]):g} to {float(hi[0]):g} m, y {float(lo[1]):g} to "
+                f"{float(hi[1]):g} m) lies {float(off):g} m off the vertical axis x = y = 0 "
+                "that a tower's storeys stack along; move it to its canonical frame (see "
+                "README)")
     if lo[1] > OFF_FRAME or hi[1] < -OFF_FRAME:
         far = float(lo[1] if lo[1] > 0 else -hi[1])
         side = "behind" if lo[1] > 0 else "in front of"

@@ -191,6 +191,21 @@ def test_tower_floors_stack_along_z(tmp_path):
     assert f.attributes["floor_area"] == pytest.approx(64)
     assert db.cost[i["G"], i["F"]] == pytest.approx(100 - 64)
     assert not db.allowed[i["F"], i["G"]] and not db.allowed[i["R"], i["F"]]
+    assert not db.warnings
+
+
+def test_a_tower_part_off_the_vertical_axis_is_warned_of(tmp_path):
+    """A floor modelled 3 to 13 m along X (the ground floor and roof about the axis)
+    stacked 8 m out over the street, told only by a high cost. A tower part whose plan
+    does not reach the axis x = y = 0 its storeys stack along is warned of."""
+    lib = _library(tmp_path, [
+        ("G", "g.stl", _box(-5, 5, -5, 5, 0, 4), 'class = "ground_floor"\nstyle = "t"'),
+        ("F", "f.stl", _box(3, 13, -5, 5, 0, 4), 'class = "floor"\nstyle = "t"'),
+        ("R", "r.stl", _box(-5, 5, -5, 5, 0, 1), 'class = "roof"\nstyle = "t"')])
+    db = ingest(lib, tmp_path / "db")
+    assert db.warnings == ["F: its plan (x 3 to 13 m, y -5 to 5 m) lies 3 m off the vertical "
+                           "axis x = y = 0 that a tower's storeys stack along; move it to its "
+                           "canonical frame (see README)"], db.warnings
 
 
 def test_class_rules():
