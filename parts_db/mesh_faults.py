@@ -17,6 +17,7 @@ import os
 import re
 import stat
 import struct
+import unicodedata
 from pathlib import Path, PurePosixPath
 from urllib.parse import unquote
 
@@ -115,12 +116,18 @@ def _near_miss(path: Path) -> str | None:
         return ("write its path in the manifest with / between folders, not \\ (a "
                 "backslash is part of a file name here)")
     try:
-        same = [p.name for p in path.parent.iterdir() if p.name.lower() == path.name.lower()]
+        names = [p.name for p in path.parent.iterdir()]
     except OSError:
         return None
+    same = [n for n in names if n.lower() == path.name.lower()]
     if same:
         return (f"the folder has {same[0]!r}: file names differ in case here; write it so "
                 "in the manifest")
+    nfc = unicodedata.normalize("NFC", path.name)
+    if any(unicodedata.normalize("NFC", n) == nfc for n in names):   # looks the same
+        return ("the folder has a file of this name with its accented letters encoded "
+                "otherwise (Unicode NFC and NFD, which look alike); copy the file's name "
+                "from the folder into the manifest")
     return None
 
 
@@ -402,6 +409,9 @@ def _resource(folder: Path, uri: object, what: str) -> Path:
     if "\0" in name:   # (%00): the file system call raised a traceback
         raise MeshFault(f"it refers to a {what} file whose name holds a NUL character "
                         f"({json.dumps(uri)[:80]}): the file is damaged")
+    if any(len(part.encode("utf-8")) > 255 for part in PurePosixPath(name).parts):
+        raise MeshFault(f"it refers to a {what} file named in {len(name):,} characters, "
+                        "longer than any file name can be: the file is damaged")
     target = (folder / name).resolve()
     if PurePosixPath(name).is_absolute() or re.match(r"^[A-Za-z]:[\\/]", name) or \
             not target.is_relative_to(folder.resolve()):

@@ -193,6 +193,11 @@ _add("glb_scene_empty", "x.glb", _glb_with(lambda d: d["scenes"][0].update(nodes
 _add("glb_material_missing", "x.glb", _glb_with(lambda d: d["meshes"][0]["primitives"][0]
                                                  .update(material=7)),
      "mesh 0 refers to material 7")   # was "does not hold a valid GLB mesh"
+_add("gltf_buffer_name_too_long", "x.gltf", GLTF.replace(b'"gltf_buffer_0.bin"',
+                                                        b'"' + b"b" * 5000 + b'.bin"'),
+     "a buffer file named in 5,004 characters, longer than any file name can be")
+_add("named_nfd_file_nfc", "caf\u0065\u0301.glb".encode().decode(), {"caf\u00e9.glb": GLB},
+     "its accented letters encoded otherwise (Unicode NFC and NFD")
 _add("gltf_buffer_nul", "x.gltf", GLTF.replace(b'"gltf_buffer_0.bin"', b'"x%00.bin"'),
      "a buffer file whose name holds a NUL character")    # (a traceback: embedded null)
 _add("link_loop", "x.obj", lambda d: (d / "x.obj").symlink_to("x.obj"),
