@@ -122,6 +122,8 @@ def _check_span(lo: np.ndarray, hi: np.ndarray, where: str) -> None:
     lo_ok, hi_ok = PLAUSIBLE_SPAN
     if not lo_ok <= float(span[axis]) <= hi_ok:
         far = " (a stray vertex far from the rest?)" if span[axis] > hi_ok else ""
+        if hi_ok < span[axis] <= 1000 * hi_ok and (span / 1000 >= lo_ok).all():
+            far = ' (millimetres? set units = "mm"; or a stray vertex far from the rest?)'
         raise LibraryError(f"{where}: {float(span[axis]):g} m across along "
                            f"{'XYZ'[axis]}, implausible for a building part (expected "
                            f"{lo_ok:g}-{hi_ok:g} m){far}; check [library] units and the "
@@ -207,13 +209,30 @@ def measure(mesh, spec: PartSpec, where: str) -> Measured:
         total = sum(m.legs)
         if spec.length is not None and not 0.8 <= total / spec.length <= 1.25:
             ratio = total / spec.length
-            hint = " (it looks like centimetres: set units = \"cm\")" if 50 < ratio < 200 \
-                else ""
+            hint = _units_hint(ratio)
             raise LibraryError(f"{where}: measures {total:g} m along its primary axis but the "
                                f"manifest says {spec.length:g} m{hint}; check [library] "
                                "units and the canonical frame")
         _check_length(total, where)
     return m
+
+
+_SCALES = {"cm": 100.0, "mm": 1000.0, "in": 1 / 0.0254, "ft": 1 / 0.3048}
+_NAMES = {"cm": "centimetres", "mm": "millimetres", "in": "inches", "ft": "feet"}
+
+
+def _units_hint(ratio: float) -> str:
+    """What a part measured ``ratio`` times the length the manifest gives suggests: a
+    mesh in other units than [library] units says, by a factor a unit explains (only
+    centimetres were told: a mesh in millimetres, or one in metres under units = "cm",
+    got no hint)."""
+    for unit, factor in _SCALES.items():
+        if abs(math.log(ratio / factor)) < math.log(1.1):
+            return f' (it looks like {_NAMES[unit]}: set units = "{unit}")'
+        if abs(math.log(ratio * factor)) < math.log(1.1):
+            return (f" (it measures 1/{factor:.4g} of the length given: a mesh in metres "
+                    f'under units = "{unit}"?)')
+    return ""
 
 
 def _check_length(total: float, where: str) -> None:

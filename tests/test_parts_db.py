@@ -404,6 +404,11 @@ GLB = GOOD.export(file_type="glb")
        'class = "middle"')], "", "no cross-section"),
     ([("A", "a.stl", _box(0, 300, 0, 1000, 0, 600), 'class = "middle"\nlength = 3.0')], "",
      "centimetres"),
+    # only centimetres were told (2026-12-01): millimetres, and metres under "cm"
+    ([("A", "a.stl", _box(0, 3000, 0, 10000, 0, 6000), 'class = "middle"\nlength = 3.0')], "",
+     '(millimetres? set units = "mm"; or a stray vertex far from the rest?)'),
+    ([("A", "a.stl", _box(0, 3, 0, 10, 0, 6), 'class = "middle"\nlength = 300.0')], "",
+     'it measures 1/100 of the length given: a mesh in metres under units = "cm"?'),
     ([("A", "a.stl", GOOD, 'class = "middle"'), ("A", "b.stl", GOOD, 'class = "middle"')],
      "", 'duplicate id "A"'),
     ([("wall.2", "a.stl", GOOD, 'class = "middle"'), ("Wall_2", "b.stl", GOOD,
