@@ -113,6 +113,12 @@ def _facade_section(mesh, direction, dist, outward_end: bool, labels):
     return plane_section(mesh, d * dist, travel, u, np.array([0.0, 0.0, 1.0]), labels)
 
 
+def _faces_twice(mesh) -> int:
+    """How many faces of ``mesh`` (its vertices merged) repeat another's corners."""
+    faces = np.sort(np.asarray(mesh.faces), axis=1)
+    return len(faces) - len(np.unique(faces, axis=0)) if len(faces) else 0
+
+
 def _check_span(lo: np.ndarray, hi: np.ndarray, where: str) -> None:
     """A mesh no building part can be: one stray vertex a modelling tool left 1e30 m
     away (its sections then failed inside trimesh: a traceback), or a part a
@@ -203,6 +209,12 @@ def measure(mesh, spec: PartSpec, where: str) -> Measured:
             m.sec_branch = _facade_section(mesh, dirs[2], legs[2] - EPS, True, labels)
     for name, sec in (("in", m.sec_in), ("out", m.sec_out), ("branch", m.sec_branch)):
         if sec is not None and (sec.is_empty or sec.area <= 0):
+            twice = _faces_twice(mesh)
+            if twice:   # two coincident copies cancel out: each loop a hole in the other
+                raise LibraryError(f"{where}: no cross-section at its {name}-end: the mesh "
+                                   f"holds {twice:,} of its faces twice (two coincident "
+                                   "copies of a body, as a double export leaves); delete the "
+                                   "copy in the modelling tool and export again")
             raise LibraryError(f"{where}: no cross-section at its {name}-end; the mesh must "
                                "be closed and reach both ends of its primary axis")
     if spec.cls not in STACKED:

@@ -404,6 +404,10 @@ GLB = GOOD.export(file_type="glb")
        'class = "middle"')], "", "no cross-section"),
     ([("A", "a.stl", _box(0, 300, 0, 1000, 0, 600), 'class = "middle"\nlength = 3.0')], "",
      "centimetres"),
+    # a double export's two coincident copies cancel out in every section: it was "the
+    # mesh must be closed", which it is, twice
+    ([("A", "a.glb", trimesh.util.concatenate([GOOD, GOOD]), 'class = "middle"')], "",
+     "the mesh holds 12 of its faces twice (two coincident copies of a body"),
     # only centimetres were told (2026-12-01): millimetres, and metres under "cm"
     ([("A", "a.stl", _box(0, 3000, 0, 10000, 0, 6000), 'class = "middle"\nlength = 3.0')], "",
      '(millimetres? set units = "mm"; or a stray vertex far from the rest?)'),
