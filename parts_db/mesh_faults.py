@@ -635,6 +635,13 @@ def check_loaded(loaded: object) -> None:
                                 "infinity in its translation, rotation or scale)",
                                 "fix that node's transform in the modelling tool and "
                                 "export again")
+            if abs(np.linalg.det(np.asarray(transform, dtype=float)[:3, :3])) < 1e-12:
+                # its mesh flattened to a point or a plane: the part then measured to
+                # it and its sections came out empty ("no cross-section at its out-end")
+                raise MeshFault(f"its scene node {json.dumps(str(node))[:60]} is scaled to "
+                                "nothing (a scale of 0 along an axis flattens its mesh)",
+                                "delete that node, or give it its scale, in the modelling "
+                                "tool and export again")
     else:
         geoms = [loaded]
     meshes = [g for g in geoms if isinstance(g, trimesh.Trimesh)]

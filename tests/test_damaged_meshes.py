@@ -198,6 +198,10 @@ _add("gltf_buffer_name_too_long", "x.gltf", GLTF.replace(b'"gltf_buffer_0.bin"',
      "a buffer file named in 5,004 characters, longer than any file name can be")
 _add("named_nfd_file_nfc", "caf\u0065\u0301.glb".encode().decode(), {"caf\u00e9.glb": GLB},
      "its accented letters encoded otherwise (Unicode NFC and NFD")
+_add("glb_node_scale_0", "x.glb", _glb_with(lambda d: (
+    d["nodes"].append({**d["nodes"][0], "scale": [0, 1, 1], "translation": [100, 0, 0]}),
+    d["scenes"][0]["nodes"].append(len(d["nodes"]) - 1))),
+     "is scaled to nothing (a scale of 0 along an axis")   # was "no cross-section"
 _add("gltf_buffer_nul", "x.gltf", GLTF.replace(b'"gltf_buffer_0.bin"', b'"x%00.bin"'),
      "a buffer file whose name holds a NUL character")    # (a traceback: embedded null)
 _add("link_loop", "x.obj", lambda d: (d / "x.obj").symlink_to("x.obj"),
