@@ -187,7 +187,7 @@ def measure(mesh, spec: PartSpec, where: str) -> Measured:
     elif spec.cls in STRAIGHT:
         length = float(hi[0] - lo[0])
         if length < PLAUSIBLE_LENGTH[0]:   # before its sections: a 1 µm one has none
-            _check_length(length, where)
+            _check_length(length, where, float(np.abs(v).max()))
         d = (1.0, 0.0)
         sec_in = _facade_section(mesh, d, lo[0] + EPS, True, labels)
         sec_out = _facade_section(mesh, d, hi[0] - EPS, True, labels)
@@ -225,7 +225,7 @@ def measure(mesh, spec: PartSpec, where: str) -> Measured:
             raise LibraryError(f"{where}: measures {total:g} m along its primary axis but the "
                                f"manifest says {spec.length:g} m{hint}; check [library] "
                                "units and the canonical frame")
-        _check_length(total, where)
+        _check_length(total, where, float(np.abs(mesh.vertices).max()))
     return m
 
 
@@ -247,12 +247,18 @@ def _units_hint(ratio: float) -> str:
     return ""
 
 
-def _check_length(total: float, where: str) -> None:
-    """A part's length along its primary axis is a building part's."""
+def _check_length(total: float, where: str, far: float = 0.0) -> None:
+    """A part's length along its primary axis is a building part's. A part far from its
+    origin (``far``: its farthest coordinate) is told so where that explains a length
+    lost: a 5 m part 1,000,000 km out measured 0 m, its 32-bit coordinates one step."""
     lo_ok, hi_ok = PLAUSIBLE_LENGTH
     if not lo_ok <= total <= hi_ok:
+        step = float(np.spacing(np.float32(far)))
+        cause = (f" (its points lie {far:,.0f} m from its origin, where a file's 32-bit "
+                 f"coordinates step by {step:,.2g} m: move it to its canonical frame and "
+                 "export again)") if step > lo_ok / 10 else ""
         raise LibraryError(f"{where}: {total:g} m along its primary axis is implausible "
-                           f"(expected {lo_ok:g}-{hi_ok:g} m); check [library] units")
+                           f"(expected {lo_ok:g}-{hi_ok:g} m){cause}; check [library] units")
 
 
 FLOAT32_FORMATS = {".glb", ".gltf", ".stl"}   # store a point's coordinates as 32-bit floats

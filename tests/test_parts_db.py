@@ -408,6 +408,11 @@ GLB = GOOD.export(file_type="glb")
     # mesh must be closed", which it is, twice
     ([("A", "a.glb", trimesh.util.concatenate([GOOD, GOOD]), 'class = "middle"')], "",
      "the mesh holds 12 of its faces twice (two coincident copies of a body"),
+    # 1,000,000 km out a GLB's 32-bit coordinates step by 64 m: it was told only "0 m
+    # along its primary axis is implausible"
+    ([("A", "a.glb", _box(1e9, 1e9 + 5, 0, 10, 0, 6), 'class = "middle"')], "",
+     "(its points lie 1,000,000,000 m from its origin, where a file's 32-bit coordinates "
+     "step by 64 m"),
     # only centimetres were told (2026-12-01): millimetres, and metres under "cm"
     ([("A", "a.stl", _box(0, 3000, 0, 10000, 0, 6000), 'class = "middle"\nlength = 3.0')], "",
      '(millimetres? set units = "mm"; or a stray vertex far from the rest?)'),
