@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Literal
 
 from citysynth.export.gltf import write_glb
+from citysynth.export.imports import import_shielded
 from citysynth.export.layout import Layout
 from citysynth.export.usd import CUTS_SUFFIX, write_layouts
 from citysynth.export.usd import write_layout as write_usd
@@ -34,8 +35,8 @@ def write_json(lay: Layout, db: PartDB, path: Path) -> Path:
 
 
 def write_png(lay: Layout, db: PartDB, path: Path) -> Path:
-    from citysynth.export.preview import render_layout  # pyvista: only when previewing
-
+    # pyvista only when previewing; Ctrl-C inside VTK's import crashed the process
+    render_layout = import_shielded("citysynth.export.preview").render_layout
     title = f"{lay.name}  #{lay.rank}  cost {lay.cost:g}  {len(lay.instances)} parts"
     return render_layout(lay, db, path, title=title)
 

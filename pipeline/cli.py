@@ -17,15 +17,14 @@ from __future__ import annotations
 import argparse
 import os
 import re
-import signal
 import sys
-import threading
 import traceback
 import warnings
 from collections.abc import Sequence
 from importlib.metadata import PackageNotFoundError, version
 from typing import NoReturn
 
+from citysynth.export.imports import import_shielded
 from citysynth.pipeline.city.process import (
     EXIT_TERMINATED,
     Terminated,
@@ -171,22 +170,10 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _import_meshes_shielded() -> None:
-    """Import trimesh with Ctrl-C held back until it is in: it wraps its optional
-    imports in ``except BaseException``, so a Ctrl-C in the first half second of
-    ``ingest`` was swallowed (the command ran on and wrote its database, exit 0) or
-    left a half-made module behind (a TypeError traceback, exit 3). A Ctrl-C during
-    the import is noted and raised when it ends, and the command stops there (exit
-    130)."""
-    if "trimesh" in sys.modules or threading.current_thread() is not threading.main_thread():
-        return
-    caught: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, _frame: caught.append(signum))
-    try:
-        import trimesh  # noqa: F401
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    if caught:
-        raise KeyboardInterrupt
+    """Import trimesh with Ctrl-C held back until it is in (see :mod:`export.imports`):
+    a Ctrl-C in the first half second of ``ingest`` was swallowed by its import (the
+    command ran on and wrote its database, exit 0)."""
+    import_shielded("trimesh")
 
 
 def _run(argv: list[str] | None) -> int:

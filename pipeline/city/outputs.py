@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from citysynth.export.imports import import_shielded
 from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.files import write_text
 from citysynth.pipeline.city.folder import (
@@ -322,7 +323,8 @@ def render_overview(out: Path, inputs: CityInputs, report: Report, *,
     import trimesh
 
     from citysynth.export.assemble import triangle_count, world_boxes, world_mesh
-    from citysynth.export.preview import MAX_TRIANGLES, render_meshes
+    preview = import_shielded("citysynth.export.preview")   # (VTK's import: see there)
+    MAX_TRIANGLES, render_meshes = preview.MAX_TRIANGLES, preview.render_meshes
 
     if not report["built"]:
         return None

@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 
 from citysynth import examples
+from citysynth.export.imports import import_shielded
 from citysynth.pipeline.errors import UsageError
 
 # The figures (the solver, trimesh, pyvista) are imported when the command runs, so the
@@ -57,7 +58,8 @@ def run(args) -> int:
     if unknown:
         raise UsageError(f"--only: no figure {', '.join(unknown)}; the figures are "
                          f"{', '.join([*FIGURES, *SHEETS])}")
-    from citysynth.export.preview import render_meshes  # pyvista: only when rendering
+    # pyvista only when rendering (Ctrl-C inside VTK's import crashed the process)
+    render_meshes = import_shielded("citysynth.export.preview").render_meshes
 
     db = load_library(examples.SAMPLE_LIBRARY)
     out = Path(args.out)
