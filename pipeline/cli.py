@@ -147,6 +147,8 @@ def _format_warning(message: Warning | str, category: type[Warning], filename: s
 
 # commands that run the solver's kernels
 SOLVING = {"solve", "building", "block", "city", "demo", "tower", "street", "gallery"}
+# commands that read part meshes (trimesh; solve reads problem files only)
+READING_MESHES = (SOLVING - {"solve"}) | {"ingest"}
 EXIT_PIPE = 141      # 128 + SIGPIPE, as a Unix tool killed by the closed pipe ends
 EXIT_INTERRUPTED = 130   # 128 + SIGINT
 
@@ -199,7 +201,7 @@ def _run(argv: list[str] | None) -> int:
         if args.command in SOLVING:
             announce_compile()
         with terminate_as_interrupt():   # SIGTERM anywhere in a command: exit 143
-            if args.command in SOLVING or args.command == "ingest":
+            if args.command in READING_MESHES:
                 _import_meshes_shielded()
             return int(args.run(args))
     except USER_ERRORS as exc:
