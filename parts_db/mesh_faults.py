@@ -39,6 +39,7 @@ _GLTF_PART = {"buffers": "buffer", "bufferViews": "buffer view", "accessors": "a
 _PLY_SIZES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2,
               "int16": 2, "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4,
               "float": 4, "float32": 4, "double": 8, "float64": 8}
+_MTLLIB = re.compile(r"^[ \t]*mtllib[ \t]+(.+?)[ \t]*$", re.MULTILINE)   # an OBJ's materials
 _ZERO_FACE = re.compile(rb"^[ \t]*f[ \t](?:[^\n]*[ \t])?0(?:/|[ \t\r]|$)", re.MULTILINE)
 _RELINK = "point the link at the mesh file, or name the mesh file itself in the manifest"
 
@@ -429,7 +430,7 @@ def _check_obj(path: Path, data: bytes, kind: str | None) -> None:
     if kind is None:
         raise MeshFault("the file is not text, so it is not an OBJ (OBJ is a text format)")
     text = data.decode("utf-8", errors="replace")
-    for libs in re.findall(r"^[ \t]*mtllib[ \t]+(.+?)[ \t]*$", text, re.MULTILINE):
+    for libs in _MTLLIB.findall(text):
         for lib in _names(path.parent, libs):
             mtl = _resource(path.parent, lib, "material")
             mtext = mtl.read_bytes().decode("utf-8", errors="replace")
@@ -459,7 +460,7 @@ def companions(path: Path, data: bytes) -> list[Path]:
                           and not item["uri"].startswith("data:")]
         elif path.suffix.lower() == ".obj":
             text = data.decode("utf-8", errors="replace")
-            for libs in re.findall(r"^[ \t]*mtllib[ \t]+(.+?)[ \t]*$", text, re.MULTILINE):
+            for libs in _MTLLIB.findall(text):
                 names += [(path.parent, lib, "material") for lib in _names(path.parent, libs)]
     except MeshFault:
         return []

@@ -171,13 +171,6 @@ def main(argv: list[str] | None = None) -> int:
     return code
 
 
-def _import_meshes_shielded() -> None:
-    """Import trimesh with Ctrl-C held back until it is in (see :mod:`export.imports`):
-    a Ctrl-C in the first half second of ``ingest`` was swallowed by its import (the
-    command ran on and wrote its database, exit 0)."""
-    import_shielded("trimesh")
-
-
 def _run(argv: list[str] | None) -> int:
     warnings.formatwarning = _format_warning
     for stream in (sys.stdout, sys.stderr):   # a Latin-1 terminal: "≤" as "?", not a
@@ -201,8 +194,8 @@ def _run(argv: list[str] | None) -> int:
         if args.command in SOLVING:
             announce_compile()
         with terminate_as_interrupt():   # SIGTERM anywhere in a command: exit 143
-            if args.command in READING_MESHES:
-                _import_meshes_shielded()
+            if args.command in READING_MESHES:   # Ctrl-C in trimesh's import was
+                import_shielded("trimesh")        # swallowed (see export.imports)
             return int(args.run(args))
     except USER_ERRORS as exc:
         print(f"citysynth {args.command}: error: {_cut(str(exc))}", file=sys.stderr)
