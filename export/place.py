@@ -31,7 +31,7 @@ import itertools
 from bisect import bisect_right
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 import shapely
@@ -336,22 +336,75 @@ class _Placer:
         if p.cls == "corner":
             a = _fit(np.asarray(p.directions[0]) * p.legs_measured[0],
                      np.asarray(p.directions[1]) * p.legs_measured[1], legs[0], legs[1])
-        else:  # a T: fitted to its in-leg and its branch; its out-leg follows the in-leg
-            key = self.sol.keys[j]
-            m = part_leg(key, 0)
-            depth = _depth(p, key)
-            a = _fit(np.asarray(p.directions[m]) * p.legs_measured[m],
-                     np.asarray(p.directions[2]) * (p.legs_measured[2] - depth),
-                     legs[0], legs[2])
-            # turned over, the part's key point lies on its back face, ``depth`` behind
-            i = self._add(_instance(p, self.si, None, j, a,
-                                    self.kxy[j] - a @ np.array([0.0, depth])))
-            for leg in (0, 1, 2):
-                self.record.keys[(j, leg)] = i
+        else:
+            self._place_t(j, p, legs)
             return
         i = self._add(_instance(p, self.si, None, j, a, self.kxy[j]))
         for leg in (0, 1, 2):
             self.record.keys[(j, leg)] = i
+
+    def _place_t(self, j: int, p: Part, legs: dict[int, np.ndarray]) -> None:
+        """A T part, fitted to its in-leg and its branch; its out-leg follows the in-leg
+        where the main line runs straight through the junction. Where the main line
+        bends there (a digitised T rarely runs dead straight), a rigid part would miss
+        the far side by its leg times the bend (15 mm at 0.05 degrees, 0.8 m at 3): the
+        part is placed twice, each kept on its own side of the wing's facade line, so
+        both main facades lie on the skeleton and meet at the key point, as a filler
+        folds at a bend. The one whose side the wing is built on (its part's leg 0
+        side: README, "The canonical frame") is fitted to its main leg and the branch;
+        the other, whose wing is cut away, only turned onto its leg (fitted to the
+        branch too, it would shear by the bend and open a wedge against the next
+        module: 0.6 m across at 3 degrees on a 12 m deep range)."""
+        key = self.sol.keys[j]
+        depth = _depth(p, key)
+        wing = np.asarray(p.directions[2]) * (p.legs_measured[2] - depth)
+        back = np.array([0.0, depth])   # turned over, its key point is on its back face
+
+        def fit(leg: int) -> np.ndarray:
+            m = part_leg(key, leg)
+            return _fit(np.asarray(p.directions[m]) * p.legs_measured[m], wing, legs[leg],
+                        legs[2])
+
+        def place(a: np.ndarray) -> int:
+            return self._add(_instance(p, self.si, None, j, a, self.kxy[j] - a @ back))
+
+        u_in, u_out = -legs[0], legs[1]
+        off = abs(float(u_in[0] * u_out[1] - u_in[1] * u_out[0])) / float(np.hypot(*u_in))
+        if off <= TOL / 10:         # straight through: the out-leg lands on its line
+            i = place(fit(0))
+            for leg in (0, 1, 2):
+                self.record.keys[(j, leg)] = i
+            return
+        wing_leg = 0 if part_leg(key, 0) == 0 else 1
+        other = 1 - wing_leg
+        a = {wing_leg: fit(wing_leg)}
+        x = legs[other] / float(np.hypot(*legs[other])) * float(
+            p.directions[part_leg(key, other)][0])
+        a[other] = np.column_stack([x, _left(x) * np.sign(np.linalg.det(a[wing_leg]))])
+        idx = {leg: place(a[leg]) for leg in (wing_leg, other)}
+        # the two meet on the wing's facade line moved out by what its facade bears
+        # (cornices, sills: cut on the line itself, the wing's facade lost them), the
+        # wing's own on its part's leg 0 side (README, "The canonical frame") ...
+        bears = float(cast(BaseGeometry, p.sec_branch).bounds[2])
+        split = self._part_plane(idx[wing_leg], (1.0, 0.0), bears)
+        self.placed[idx[wing_leg]].halves.append(split)
+        self.placed[idx[other]].halves.append(HalfPlane(tuple(-np.asarray(split.normal)),
+                                                        split.point, extends=False))
+        # ... and the other keeps only its main range: of its wing (turned with it) a
+        # wedge stood past the wing's facade, 1 m into the yard at 3 degrees
+        self.placed[idx[other]].halves.append(
+            self._part_plane(idx[other], (0.0, 1.0), y_range(p)[1]))
+        for leg in (0, 1):
+            self.record.keys[(j, leg)] = idx[leg]
+        self.record.keys[(j, 2)] = idx[wing_leg]
+
+    def _part_plane(self, i: int, normal: tuple[float, float], c: float) -> HalfPlane:
+        """The world half-plane of instance i's part-frame half-plane ``normal . X <=
+        c`` (``normal`` an axis)."""
+        placed = self.placed[i]
+        n = np.linalg.inv(placed.a).T @ np.asarray(normal)
+        point = placed.origin + placed.a @ (np.asarray(normal) * c)
+        return HalfPlane(tuple(n / float(np.hypot(*n))), tuple(point), extends=False)
 
     # -- fillers, from the end of the start key's leg on ----------------------------------
 

@@ -1,0 +1,104 @@
+"""A T junction whose main line bends where the wing meets it: digitised footprints and
+building lines rarely run dead straight through a junction. A T part is rigid, its main
+legs collinear, so it missed the far side by its leg times the bend and the command
+failed with an internal message ("stage 1: parts do not meet at (15.79, -19.72), 14.9
+mm apart" at 0.05 degrees, 792 mm at 3). The part is now placed twice, each copy on its
+own side of the wing (export/place.py, ``_Placer._place_t``): both main facades lie on
+the skeleton, and a bend of a few degrees meets the 3D audit's bar either way the main
+line runs, the wing leaves and the line bends."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import pytest
+
+from citysynth.pipeline.cli import main
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_audit import LIB, _audit, _failures  # noqa: E402
+
+ORIGIN = (391000.0, 5820000.0)   # EPSG:25833 (UTM 33N), in Berlin
+
+
+def _t_file(tmp_path: Path, bend: float, wing_side: int, reverse: bool) -> Path:
+    """A T: a 63 m main line bending ``bend`` degrees at its middle, where a wing
+    leaves on ``wing_side`` (+1: left of the first half) and turns after 40 m."""
+    a = math.radians(bend)
+    main_line = [(0.0, 0.0), (31.5, 0.0), (31.5 + 31.5 * math.cos(a), 31.5 * math.sin(a))]
+    if reverse:
+        main_line.reverse()
+    wing = [(31.5, 0.0), (31.5, 40.0 * wing_side), (63.0, 40.0 * wing_side)]
+
+    return _lines_file(tmp_path / f"t_{bend:g}_{wing_side}_{int(reverse)}.geojson",
+                       main_line, wing)
+
+
+def _lines_file(src: Path, main_line: list[tuple[float, float]],
+                wing: list[tuple[float, float]]) -> Path:
+    """The main line and the wing (local metres about ORIGIN) as a GeoJSON file."""
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": name}, "geometry": {
+            "type": "LineString",
+            "coordinates": [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in line]}}
+        for name, line in (("front", main_line), ("wing", wing))]}))
+    return src
+
+
+def _build(tmp_path: Path, src: Path, style: str) -> tuple[int, Path]:
+    out = tmp_path / src.stem
+    code = main(["building", str(src), "--library", str(LIB), "--style", style,
+                 "--crs", "EPSG:25833", "-o", str(out), "--no-preview"])
+    return code, out / f"{src.stem}.layout.json"
+
+
+@pytest.mark.parametrize("bend,wing_side,reverse,style", [
+    (0.05, 1, False, "classic"),
+    (3.0, 1, False, "classic"), (3.0, -1, False, "modern"),
+    (-3.0, 1, False, "modern"), (-3.0, 1, True, "classic"),
+    (3.0, 1, True, "modern"), (3.0, -1, True, "classic"),
+])
+def test_a_t_bending_at_its_wing_builds_and_meets_the_audit_bar(
+        tmp_path, sample_db, bend, wing_side, reverse, style):
+    code, layout = _build(tmp_path, _t_file(tmp_path, bend, wing_side, reverse), style)
+    assert code == 0
+    lay = json.loads(layout.read_text())
+    ts = [i for i in lay["instances"] if i["class"] == "t_junction"]
+    assert len(ts) == 2 and ts[0]["part"] == ts[1]["part"]     # one part, both sides
+    assert all(i["cut"]["planes"] for i in ts)
+    name, a = _audit(layout, sample_db)
+    assert not _failures(name, a)
+
+
+def test_a_bend_under_a_t_leg_builds_and_meets_the_audit_bar(tmp_path, sample_db):
+    """A 3 degree bend 6 m along the main line from the junction, under the T's leg
+    (15.8-21 m in the sample library): it failed with "parts do not meet ... 514.7 mm
+    apart"."""
+    a = math.radians(3.0)
+    main_line = [(0.0, 0.0), (31.5, 0.0), (37.5, 0.0),
+                 (37.5 + 25.5 * math.cos(a), 25.5 * math.sin(a))]
+    wing = [(31.5, 0.0), (31.5, -40.0), (63.0, -40.0)]
+    src = _lines_file(tmp_path / "bend_under_leg.geojson", main_line, wing)
+    code, layout = _build(tmp_path, src, "classic")
+    assert code == 0
+    name, audit = _audit(layout, sample_db)
+    assert not _failures(name, audit)
+
+
+def test_a_straight_t_is_one_part_uncut(tmp_path):
+    code, layout = _build(tmp_path, _t_file(tmp_path, 0.0, 1, False), "classic")
+    assert code == 0
+    ts = [i for i in json.loads(layout.read_text())["instances"]
+          if i["class"] == "t_junction"]
+    assert len(ts) == 1 and "cut" not in ts[0]
+
+
+def test_a_sharper_bend_still_builds(tmp_path):
+    """At 10 degrees the copy holding the wing is sheared by the bend, as a T whose wing
+    leaves at 80 degrees is (README, *Known limits*), but every facade lies on its line
+    (the export's own checks) and the command succeeds."""
+    code, _layout = _build(tmp_path, _t_file(tmp_path, 10.0, -1, False), "classic")
+    assert code == 0
