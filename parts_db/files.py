@@ -14,6 +14,7 @@ import os
 import tempfile
 from collections.abc import Iterator
 from contextvars import ContextVar
+from dataclasses import dataclass, field
 from pathlib import Path
 
 _UMASK = os.umask(0)
@@ -25,6 +26,10 @@ TMP_MARK = ".tmp-"     # in every temporary's name, so a later run can sweep lef
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path to write; on success it is renamed to ``path``."""
     path = Path(path)
+    block = _BLOCK.get()
+    if block is not None:
+        block.folders.extend(_missing_folders(path.parent))
+        new = not os.path.lexists(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     try:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}{TMP_MARK}",
@@ -37,6 +42,8 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         os.chmod(tmp, 0o666 & ~_UMASK)   # mkstemp makes 0600; outputs are shared files
         _keep_for_undo(path)
         os.replace(tmp, path)
+        if block is not None and new:
+            block.files.append(path)
     except OSError as exc:
         Path(tmp).unlink(missing_ok=True)
         if exc.filename in (None, tmp):   # a full disk met on flush names no file
@@ -67,23 +74,41 @@ def sweep_temporaries(folder: str | Path) -> int:
     return n
 
 
-# the files an all_or_nothing block replaced, each with a hard link to its old content
-_UNDO: ContextVar[list[tuple[Path, Path]] | None] = ContextVar("undo", default=None)
+@dataclass
+class _Block:
+    """What an :func:`all_or_nothing` block wrote: the files it replaced, each with a
+    hard link to its old content, and the files and folders it made."""
+
+    undo: list[tuple[Path, Path]] = field(default_factory=list)
+    files: list[Path] = field(default_factory=list)
+    folders: list[Path] = field(default_factory=list)
+
+
+_BLOCK: ContextVar[_Block | None] = ContextVar("block", default=None)
+
+
+def _missing_folders(folder: Path) -> list[Path]:
+    """``folder`` and those of its parents that do not exist yet, deepest first."""
+    out = []
+    while not os.path.lexists(folder) and folder != folder.parent:
+        out.append(folder)
+        folder = folder.parent
+    return out
 
 
 def _keep_for_undo(path: Path) -> None:
     """Within :func:`all_or_nothing`, a file about to be replaced keeps its old content
     under a hidden link (a temporary's name: a killed run's is swept), to be put back
     if the block fails. Best effort: a file system without hard links keeps none."""
-    undo = _UNDO.get()
-    if undo is None or not path.is_file() or any(p == path for p, _b in undo):
+    block = _BLOCK.get()
+    if block is None or not path.is_file() or any(p == path for p, _b in block.undo):
         return
     keep = path.parent / f".{path.stem}{TMP_MARK}undo-{os.getpid()}{path.suffix}"
     try:
         os.link(path, keep)
     except OSError:
         return
-    undo.append((path, keep))
+    block.undo.append((path, keep))
 
 
 @contextlib.contextmanager
@@ -93,29 +118,30 @@ def all_or_nothing(folder: str | Path) -> Iterator[None]:
     (a layout's JSON, its USD, the part files it references) and meets an error after
     the first (a disk that filled, a part's mesh damaged since ingest, a name the file
     system refuses) leaves the folder as it found it, not half a result (a street run
-    again into its folder left the new JSON and USD beside the old GLB)."""
+    again into its folder left the new JSON and USD beside the old GLB). Only what the
+    block itself wrote goes: another run writing into the same folder meanwhile keeps
+    its files (everything new in the folder went, so one run's Ctrl-C deleted the
+    other's finished buildings), and the folders made for ``folder`` go too if they
+    are left empty (``-o a/b/c`` on a full disk left ``a/b``)."""
     root = Path(folder)
-    existed = root.exists()
-    before = set(root.rglob("*")) if existed else set()
-    undo: list[tuple[Path, Path]] = []
-    token = _UNDO.set(undo)
+    block = _Block(folders=_missing_folders(root))
+    token = _BLOCK.set(block)
     try:
         yield
     except BaseException:
-        _UNDO.reset(token)
-        for path, keep in reversed(undo):
+        _BLOCK.reset(token)
+        for path, keep in reversed(block.undo):
             with contextlib.suppress(OSError):
                 os.replace(keep, path)
-        made = (set(root.rglob("*")) if root.exists() else set()) - before
-        for p in sorted(made, key=lambda q: len(q.parts), reverse=True):   # deepest first
+        for path in block.files:
             with contextlib.suppress(OSError):
-                p.rmdir() if p.is_dir() and not p.is_symlink() else p.unlink()
-        if not existed:
-            with contextlib.suppress(OSError):
-                root.rmdir()
+                path.unlink()
+        for d in sorted(set(block.folders), key=lambda q: len(q.parts), reverse=True):
+            with contextlib.suppress(OSError):   # not empty: another run's, or the user's
+                d.rmdir()
         raise
-    _UNDO.reset(token)
-    for _path, keep in undo:
+    _BLOCK.reset(token)
+    for _path, keep in block.undo:
         keep.unlink(missing_ok=True)
 
 
