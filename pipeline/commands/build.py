@@ -207,7 +207,8 @@ def run_block(args) -> int:
     from citysynth.skeletons import skeletons_from_polygons
 
     db, style, feats, frame = _prepare(args)
-    feats = _gaps_closed(args, _distinct(args, feats))
+    _storeys_note(args, feats, style)
+    feats = _gaps_closed(args, _overlaps_settled(args, _distinct(args, feats)))
     stem = safe_name(Path(args.file).stem)
     names, ids, labels = [], [], []
     for f in feats:
@@ -267,6 +268,63 @@ def _distinct(args, feats: list) -> list:
         print(f"citysynth {args.command}: {args.file}: {copies - SAID_COPIES:,} more "
               "features repeat an outline given before them; each outline laid out once",
               file=sys.stderr)
+    return out
+
+
+def _storeys_note(args, feats: list, style: str) -> None:
+    """One line on stderr when features give storeys or heights, which ``block`` does not
+    build to (its blocks are the style's parts as they are) and ``city --footprints``
+    does: they were ignored without a word."""
+    from citysynth.pipeline.city.footprints import Storeys, footprint_spec
+
+    specs = [footprint_spec(args.file, f.index, f.properties, "", 0.0, 0.0, Storeys())
+             for f in feats]
+    given = [f for f, sp in zip(feats, specs, strict=True)
+             if sp.levels is not None or sp.height is not None]
+    if given:
+        print(f"citysynth {args.command}: {args.file}: {len(given):,} of {len(feats):,} "
+              f"features give storeys or a height ({given[0].name} first); block builds "
+              f"every outline of the {style} style's parts as they are; to build "
+              "footprints to their storeys, give them to citysynth city --footprints",
+              file=sys.stderr)
+
+
+def _overlaps_settled(args, feats: list) -> list:
+    """The features with overlaps settled as a city settles its footprints' (larger
+    first: one inside a larger by half or more left out, one overlapping less trimmed
+    to the ground the larger leaves), each told on stderr: two overlapping blocks were
+    both built whole, 268 m² of walls standing through walls. A trim that leaves
+    several pieces builds each, the second on named ``<name>-2``, ``-3``..."""
+    from dataclasses import replace
+
+    from shapely.geometry import Polygon
+
+    from citysynth.pipeline.city.config import CityConfig
+    from citysynth.pipeline.city.footprints import Storeys, footprint_spec
+    from citysynth.pipeline.city.overlaps import Footprint, separate
+
+    polys = [f for f in feats if isinstance(f.geometry, Polygon)]
+    if len(polys) < 2:
+        return feats
+    built, left = separate([Footprint(f.geometry, footprint_spec(
+        args.file, f.index, f.properties, "", 0.0, 0.0, Storeys())) for f in polys],
+        CityConfig.min_area)
+    for why, _shape in left:
+        print(f"citysynth {args.command}: {why}", file=sys.stderr)
+    pieces: dict[int, list] = {}
+    for fp in built:
+        pieces.setdefault(fp.spec.feature, []).append(fp)
+    out = []
+    for f in feats:
+        if not isinstance(f.geometry, Polygon):
+            out.append(f)
+            continue
+        for n, fp in enumerate(pieces.get(f.index, []), start=1):
+            if n == 1 and fp.spec.trimmed:
+                print(f"citysynth {args.command}: {fp.spec.trimmed}", file=sys.stderr)
+            own = f.properties.get("id", f.properties.get("name", f.name))
+            props = f.properties if n == 1 else {**f.properties, "id": f"{own}-{n}"}
+            out.append(replace(f, geometry=fp.polygon, properties=props))
     return out
 
 

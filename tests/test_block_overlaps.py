@@ -1,0 +1,81 @@
+"""``block`` with outlines that overlap settles them as ``city`` settles its footprints
+(pipeline/city/overlaps.py): the larger is built whole, one lying half or more inside a
+larger one is left out, one overlapping less is trimmed to the ground the larger leaves
+(each piece built), and stderr says which and by how much. Both were built whole: 268 m²
+of walls standing through walls. Features giving storeys or a height, which ``block``
+does not build to, are told once."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import shapely
+
+from citysynth.export.audit import footprint, instance_triangles
+from citysynth.pipeline.cli import main
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_audit import LIB  # noqa: E402
+
+ORIGIN = (391000.0, 5820000.0)   # EPSG:25833 (UTM 33N), in Berlin
+
+
+def _file(tmp_path: Path, blocks: dict[str, list[tuple[float, float]]],
+          props: dict[str, dict] | None = None) -> Path:
+    src = tmp_path / "blocks.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": name, **(props or {}).get(name, {})},
+         "geometry": {"type": "Polygon", "coordinates": [
+             [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in ring + ring[:1]]]}}
+        for name, ring in blocks.items()]}))
+    return src
+
+
+def _run(tmp_path: Path, src: Path, capsys) -> tuple[int, str]:
+    code = main(["block", str(src), "--library", str(LIB), "--style", "classic",
+                 "--crs", "EPSG:25833", "-o", str(tmp_path / "out"), "--no-preview"])
+    return code, capsys.readouterr().err
+
+
+def _ground(tmp_path: Path, name: str) -> shapely.Geometry:
+    tris = instance_triangles(tmp_path / "out" / f"{name}.usda")
+    return shapely.union_all([footprint(t) for t in tris.values()])
+
+
+def test_overlapping_blocks_are_trimmed_and_one_inside_is_left_out(tmp_path, capsys):
+    src = _file(tmp_path, {
+        "a": [(0, 0), (60, 0), (60, 40), (0, 40)],
+        "b": [(45, 10), (100, 10), (100, 50), (45, 50)],   # 15 x 30 m under a
+        "c": [(10, 10), (30, 10), (30, 30), (10, 30)]})    # wholly inside a
+    code, err = _run(tmp_path, src, capsys)
+    assert code == 0
+    assert "feature 2 (c): all of it lies inside feature 0 (a)" in err and "left out" in err
+    assert "feature 1 (b): trimmed by 450.00 m² where it overlapped feature 0 (a)" in err
+    out = tmp_path / "out"
+    assert sorted(p.name for p in out.glob("*.layout.json")) == ["a.layout.json",
+                                                                 "b.layout.json"]
+    shared = _ground(tmp_path, "a").intersection(_ground(tmp_path, "b")).area
+    assert shared < 1.0, f"{shared:.1f} m² of a and b stand in the same ground"
+
+
+def test_a_block_cut_in_two_builds_both_pieces(tmp_path, capsys):
+    src = _file(tmp_path, {
+        "long": [(0, 40), (200, 40), (200, 70), (0, 70)],     # 6,000 m²
+        "cross": [(80, 0), (130, 0), (130, 110), (80, 110)]})  # 5,500 m², 1,500 under
+    code, err = _run(tmp_path, src, capsys)
+    assert code == 0, err
+    assert "feature 1 (cross): trimmed by 1500.00 m²" in err
+    assert sorted(p.name for p in (tmp_path / "out").glob("*.layout.json")) == [
+        "cross-2.layout.json", "cross.layout.json", "long.layout.json"]
+
+
+def test_storeys_that_block_does_not_build_to_are_told(tmp_path, capsys):
+    src = _file(tmp_path, {"a": [(0, 0), (60, 0), (60, 40), (0, 40)],
+                           "b": [(80, 0), (140, 0), (140, 40), (80, 40)]},
+                {"b": {"building:levels": 5}})
+    code, err = _run(tmp_path, src, capsys)
+    assert code == 0
+    assert "1 of 2 features give storeys or a height (feature 1 (b) first)" in err
+    assert "citysynth city --footprints" in err
