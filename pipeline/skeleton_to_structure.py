@@ -56,7 +56,7 @@ from citysynth.parts_db.sections import disagreement
 from citysynth.pipeline.corner_room import CornerRoom, mass_depth
 from citysynth.skeletons import KeyPoint, Skeleton
 from citysynth.skeletons.errors import SkeletonError
-from citysynth.skeletons.from_geometry import STRAIGHT_TOL
+from citysynth.skeletons.from_geometry import STRAIGHT_TOL, opposite_fronts
 from citysynth.solver.structures import Stage, Structure
 
 MAX_KEYS = 2_000    # key points of one structure: more is refused with an estimate
@@ -394,7 +394,7 @@ def _key_parts(sk: Skeleton, db: PartDB, style: str, keys: list[int], chains: li
                 extra = list(_joint_variants(db.quantum))
         elif kp.kind == "t_junction":
             branch[j] = next(s for s, c in enumerate(chains) if kp.branch in c.edges)
-            swap, street = _t_pose(sk, j, branch[j], oriented, placed)
+            swap, street = _t_pose(sk, j, v, branch[j], oriented, placed)
             ts = db.select("t_junction", style)
             if street:   # the wing must still reach past the key point
                 ts = [p for p in ts if p.legs[2] > main_depth(p.sec_in, db.quantum) + 1e-9]
@@ -463,7 +463,7 @@ def _start_alike(a: Part, b: Part) -> bool:
     return disagreement(a.sec_in, b.sec_in) <= SEAM_SAME
 
 
-def _t_pose(sk: Skeleton, j: int, b: int, oriented: dict[int, tuple[int, int]],
+def _t_pose(sk: Skeleton, j: int, v: int, b: int, oriented: dict[int, tuple[int, int]],
             placed: list[tuple[tuple[Point, ...], Front, tuple[int, ...]]]
             ) -> tuple[bool, bool]:
     """(swap, street) of the T parts at structure key point j, whose branch stage is b:
@@ -473,10 +473,10 @@ def _t_pose(sk: Skeleton, j: int, b: int, oriented: dict[int, tuple[int, int]],
     s_out = next(s for s, (a, _e) in oriented.items() if a == j and s != b)
     pts_in, front_in, _ = placed[s_in]
     if placed[s_out][1] != front_in:
-        xy = pts_in[-1]
-        raise SkeletonError(f"{sk.name}: the main line through the T junction at "
-                            f"{sk.frame.at(xy)} changes its front there; give both its "
-                            "edges the same front")
+        e = sk.edges[placed[s_out][2][0]]
+        raise SkeletonError(opposite_fronts(
+            f"{sk.name}: the T junction at {sk.frame.at(pts_in[-1])}", e,
+            v, what="the main line's two halves meeting there"))
     pts_b, front_b, _ = placed[b]
     leaves = oriented[b][0] == j
     u = np.subtract(pts_in[-1], pts_in[-2])

@@ -38,6 +38,7 @@ from citysynth.skeletons.model import (
 from citysynth.skeletons.streets import street_blocks
 from citysynth.solver.safe_read import shown
 
+SAID_PIECES = 3   # pieces of a disconnected skeleton a message names
 SNAP = 0.01            # metres: endpoints closer than this are the same key point
 STRAIGHT_TOL = 15.0    # degrees: a smaller turn is a bend, not a corner
 DENSE = 0.02           # metres: an outline simplified within this (dense CAD or GIS curves)
@@ -84,7 +85,8 @@ def _front(props: dict[str, Any], where: str) -> Front:
 
 
 def _classify(ids: Iterable[int], xy: dict[int, np.ndarray], g: nx.Graph, edges: list[Edge],
-              straight_tol: float, where: Callable[[int], str]) -> list[KeyPoint]:
+              straight_tol: float, where: Callable[[int], str],
+              named: Callable[[Edge], str] = lambda e: e.source) -> list[KeyPoint]:
     kps = []
     for v in ids:
         nbrs = list(g.neighbors(v))
@@ -99,8 +101,7 @@ def _classify(ids: Iterable[int], xy: dict[int, np.ndarray], g: nx.Graph, edges:
             f_in = e_in.front if e_in.b == v else flip(e_in.front)
             f_out = e_out.front if e_out.a == v else flip(e_out.front)
             if f_in != f_out:
-                raise SkeletonError(f"{where(v)}: the facades of its two edges face opposite "
-                                    "sides; give both edges the same front")
+                raise SkeletonError(opposite_fronts(where(v), e_out, v, named))
             turn = angle_between(xy[v] - xy[nbrs[0]], xy[nbrs[1]] - xy[v])
             convex = turn > 0 if f_in == "right" else turn < 0
             kind: KeyPointKind = "bend" if abs(turn) < straight_tol else "corner"
@@ -115,6 +116,19 @@ def _classify(ids: Iterable[int], xy: dict[int, np.ndarray], g: nx.Graph, edges:
             raise SkeletonError(f"{where(v)}: {d} edges meet here; a key point joins at most "
                                 "3 (end, corner, T); split the junction into two T junctions")
     return kps
+
+
+def opposite_fronts(where: str, e: Edge, v: int, named: Callable[[Edge], str] = lambda e: e.source,
+                    what: str = "the lines meeting here") -> str:
+    """The message for two lines that put their facades on opposite sides of the point
+    where they meet, with the fix on the second: the front is a side of the way a line
+    is drawn, so two lines drawn toward each other with the same front face opposite
+    ways (the message said "give both edges the same front" when they had it)."""
+    towards = "toward" if e.b == v else "away from"
+    return (f"{where}: {what} put their facades on opposite sides; a "
+            f"line's facades face the {e.front} of the way it is drawn (its \"front\"), "
+            f"and {named(e) or 'the second'} is drawn {towards} this point: reverse it, or "
+            f'give it "front": "{flip(e.front)}"')
 
 
 class _Nodes:
@@ -179,17 +193,24 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
             raise SkeletonError(f"{e.source}: two edges join the same key points "
                                 f"{frame.at(xy[e.a])} and {frame.at(xy[e.b])}")
         g.add_edge(e.a, e.b, index=i)
-    parts = list(nx.connected_components(g))
+    parts = sorted(nx.connected_components(g), key=lambda c: (-len(c), min(c)))
     if len(parts) > 1:
-        sizes = sorted((len(c) for c in parts), reverse=True)
-        raise SkeletonError(f"{prefix}the skeleton is disconnected: {len(parts)} separate pieces "
-                            f"(key points per piece: {sizes}); connect them or give them "
-                            "as separate buildings")
+        # each piece by a feature in it (the key point counts of 1,000 pieces made a
+        # 2,103-character line that said neither which lines nor why)
+        shown_ = [next(e.source for e in edges if e.a in c).removeprefix(prefix)
+                  for c in parts[:SAID_PIECES]]
+        more = f" and {len(parts) - SAID_PIECES:,} more" if len(parts) > SAID_PIECES else ""
+        raise SkeletonError(
+            f"{prefix}the skeleton is disconnected: {len(parts):,} separate pieces, "
+            f"{' / '.join(shown_)}{more}; lines join only where they share an end point "
+            f"(within {SNAP * 100:g} cm); connect them, or give each piece as a building "
+            "of its own")
 
     def where(v: int) -> str:
         return f"{prefix}key point at {frame.at(xy[v])}"
 
-    kps = _classify(sorted(xy), xy, g, edges, straight_tol, where)
+    kps = _classify(sorted(xy), xy, g, edges, straight_tol, where,
+                    lambda e: e.source.removeprefix(prefix))
     closed = all(k.degree == 2 for k in kps)
     sk = Skeleton(name, seamed(kps) if closed else kps, edges, closed, frame)
     _check_sides(sk, min_edge)   # after splitting: a wing drawn to a line can cut it short

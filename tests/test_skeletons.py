@@ -276,7 +276,9 @@ def test_street_blocks_place_only_the_pieces_they_skip():
       feat("LineString", metres([(20, 0), (20, -20)]))], "lines", "4 edges meet"),
     ([feat("LineString", metres([(0, 0), (20, 0)])),
       feat("LineString", metres([(20, 0), (20, 20)]), front="left")], "lines",
-     "face opposite sides"),
+     'put their facades on opposite sides; a line\'s facades face the left of the way it is '
+     'drawn (its "front"), and feature 1 is drawn away from this point: reverse it, or give '
+     'it "front": "right"'),
     ([feat("Point", [LON, LAT])], "lines", "LineStrings"),
     ([feat("LineString", metres([(0, 0), (30, 0)]), constraints={"doors": [3, 1]})], "lines",
      "constraint doors"),
@@ -285,6 +287,15 @@ def test_street_blocks_place_only_the_pieces_they_skip():
 ])
 def test_bad_geometry_is_one_message(features, kind, fragment):
     assert fragment in skeleton_error(features, kind)
+
+
+def test_a_skeleton_of_many_pieces_names_three_in_one_short_line():
+    """1,000 disconnected lines: the message listed every piece's key point count (2,103
+    characters) and named no line."""
+    msg = skeleton_error([feat("LineString", metres([(50 * i, 0), (50 * i + 30, 0)]))
+                          for i in range(1000)], "lines")
+    assert "1,000 separate pieces, feature 0 / feature 1 / feature 2 and 997 more" in msg
+    assert "share an end point" in msg and len(msg) < 300, msg
 
 
 def skeleton_error(features: list, kind: str) -> str:
