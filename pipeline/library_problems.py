@@ -57,14 +57,21 @@ def tower_problem(db: PartDB, height: float, floor_area: tuple[float, float], *,
     Floor areas are not multiples of anything, so they are quantised to
     ``area_quantum`` m² and the rounding error is reported by the solver. ``keep``
     leaves out parts (``citysynth tower``: those that do not fit the lot)."""
-    parts = [p for p in db.parts if p.cls in ("ground_floor", "floor", "roof")
-             and (style is None or p.style == style) and (keep is None or keep(p))]
-    if not any(p.cls == "ground_floor" for p in parts) or not any(
-            p.cls == "roof" for p in parts):
-        raise LibraryError(f"the library {db.name!r} has no tower"
-                           f"{f' of style {style}' if style else ''}"
-                           f"{' that fits the lot' if keep is not None else ''}: a tower "
-                           "needs ground_floor, floor and roof parts")
+    styled = [p for p in db.parts if p.cls in ("ground_floor", "floor", "roof")
+              and (style is None or p.style == style)]
+    parts = [p for p in styled if keep is None or keep(p)]
+    if not _stacks(styled):   # no tower of the style at all: not the lot's fault
+        towers = sorted({p.style for p in db.parts if p.cls == "ground_floor"}
+                        & {p.style for p in db.parts if p.cls == "roof"})
+        raise LibraryError(
+            f"the library {db.name!r} has no tower parts{f' of style {style}' if style else ''}"
+            ": a tower needs ground_floor, floor and roof parts" + (
+                f"; its towers are of style {', '.join(towers)} (--style {towers[0]})"
+                if towers else ""))
+    if not _stacks(parts):
+        raise LibraryError(f"no {style + ' ' if style else ''}tower of the library "
+                           f"{db.name!r} fits the lot: every ground floor or roof of it "
+                           "stands past the lot's outline; give a larger lot")
 
     def area(p: Part) -> float:
         return 0.0 if p.cls == "roof" else float(np.round(p.floor_area or 0.0, 3))
@@ -81,3 +88,8 @@ def tower_problem(db: PartDB, height: float, floor_area: tuple[float, float], *,
                         "floor_area": [float(floor_area[0]), float(floor_area[1])]},
         "k": k,
     }
+
+
+def _stacks(parts: list[Part]) -> bool:
+    """Whether ``parts`` hold a ground floor and a roof, the least a tower is."""
+    return any(p.cls == "ground_floor" for p in parts) and any(p.cls == "roof" for p in parts)

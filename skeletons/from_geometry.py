@@ -427,13 +427,21 @@ def _checked_polygon(poly: BaseGeometry, where: str, min_area: float, frame: Fra
                      ) -> Polygon:
     """A valid polygon of some area, oriented counter-clockwise (holes clockwise)."""
     if not isinstance(poly, Polygon):
-        raise SkeletonError(f"{where}: expected a Polygon, got {poly.geom_type}")
+        how = {"GeometryCollection": "; give each of its polygons as a feature of its own",
+               "LineString": "; building lines go to citysynth building",
+               "MultiLineString": "; building lines go to citysynth building"}
+        raise SkeletonError(f"{where}: a {poly.geom_type} is no outline; blocks are laid "
+                            "out from Polygon and MultiPolygon features (holes as "
+                            f"courtyards){how.get(poly.geom_type, '')}")
     _check_courtyards_apart(poly, where, frame)
     if not poly.is_valid:
         what, fix = why_invalid(poly, frame)
         raise SkeletonError(f"{where}: invalid polygon ({what}); {fix}")
     if poly.area < min_area:
-        raise SkeletonError(f"{where}: degenerate polygon (area {poly.area:.2f} m²)")
+        raise SkeletonError(
+            f"{where}: the outline at {frame.at(poly.exterior.coords[0])} encloses "
+            f"{poly.area:.2f} m², under the {min_area:g} m² of the smallest block; check "
+            "its coordinates are in the CRS the file says (or --crs), or remove it")
     return shapely.orient_polygons(poly) if hasattr(shapely, "orient_polygons") \
         else shapely.geometry.polygon.orient(poly, 1.0)
 

@@ -355,8 +355,11 @@ def _geometry(g: Any, where: str) -> BaseGeometry | None:
     except Exception as exc:  # shapely raises several kinds for malformed geometry
         raise SkeletonError(f"{where}: malformed {kind} ({_geos_words(exc, kind)})") from None
     coords = shapely.get_coordinates(geom)
-    if not np.isfinite(coords).all():
-        raise SkeletonError(f"{where}: non-finite coordinates")
+    bad = ~np.isfinite(coords).all(axis=1)
+    if bad.any():
+        n = int(np.argmax(bad))
+        raise SkeletonError(f"{where}: its point {n} ({shown(coords[n].tolist())}) is not "
+                            "finite numbers; fix or remove that point")
     return geom
 
 

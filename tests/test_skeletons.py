@@ -245,7 +245,17 @@ def test_street_blocks_place_only_the_pieces_they_skip():
 @pytest.mark.parametrize("features, kind, fragment", [
     ([feat("Polygon", [metres([(0, 0), (10, 10), (10, 0), (0, 10), (0, 0)])], id="bow")],
      "poly", "invalid polygon"),
-    ([feat("Polygon", [metres([(0, 0), (10, 0), (20, 0), (0, 0)])])], "poly", "degenerate"),
+    # where and how, not "degenerate polygon (area 0.00 m²)"
+    ([feat("Polygon", [metres([(0, 0), (10, 0), (20, 0), (0, 0)])])], "poly",
+     "encloses 0.00 m², under the 1 m² of the smallest block; check its coordinates are in "
+     "the CRS the file says (or --crs), or remove it"),
+    # what a block is laid out from, not "expected a Polygon, got GeometryCollection"
+    ([{"type": "Feature", "properties": {}, "geometry": {
+        "type": "GeometryCollection", "geometries": [{"type": "Polygon", "coordinates": [
+            metres([(0, 0), (20, 0), (20, 20), (0, 0)])]}]}}], "poly",
+     "a GeometryCollection is no outline; blocks are laid out from Polygon and "
+     "MultiPolygon features (holes as courtyards); give each of its polygons as a feature "
+     "of its own"),
     ([feat("Polygon", [metres([(0, 0), (20, 0), (20, 20), (0, 20), (0, 0)]),
                        metres([(30, 0), (35, 0), (35, 5), (30, 5), (30, 0)])])], "poly",
      "(hole lies outside shell at ("),
@@ -296,6 +306,16 @@ def test_a_skeleton_of_many_pieces_names_three_in_one_short_line():
                           for i in range(1000)], "lines")
     assert "1,000 separate pieces, feature 0 / feature 1 / feature 2 and 997 more" in msg
     assert "share an end point" in msg and len(msg) < 300, msg
+
+
+def test_a_point_not_finite_is_named():
+    """A GIS file's geometry with an infinite or NaN coordinate (GeoJSON's parser refuses
+    them first) names the point, not just "non-finite coordinates"."""
+    from citysynth.skeletons.geojson import _geometry
+    with pytest.raises(SkeletonError, match=r"f.gpkg: feature 3: its point 1 \(\[1.0, "
+                       r"Infinity\]\) is not finite numbers; fix or remove that point"):
+        _geometry({"type": "LineString", "coordinates": [[0, 0], [1, float("inf")], [2, 2]]},
+                  "f.gpkg: feature 3")
 
 
 def skeleton_error(features: list, kind: str) -> str:

@@ -155,6 +155,17 @@ def test_a_lot_too_small_for_any_ground_floor_is_one_clear_error(tmp_path, capsy
     assert "Traceback" not in err
 
 
+def test_a_style_with_no_tower_parts_names_the_styles_that_have_them(tmp_path, capsys):
+    """--style classic (facade modules only): the lot was blamed ("no tower of style
+    classic that fits the lot") on a 900 m² lot that holds every tower."""
+    assert main(["tower", "--height", "40", "--far", "3", "--lot-area", "900", "--style",
+                 "classic", "--no-preview", "-o", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "has no tower parts of style classic: a tower needs ground_floor, floor and " \
+        "roof parts; its towers are of style tower (--style tower)" in err, err
+    assert "lot" not in err and not list(tmp_path.iterdir())
+
+
 def test_a_lot_round_a_courtyard_says_so(tmp_path, capsys):
     """A 60 x 60 m lot round a 40 x 40 m courtyard was told as 60 x 60 m that a 16 m
     ground floor does not fit; the courtyard and the widest free ground (a circle in a

@@ -53,7 +53,7 @@ def run(args) -> int:
         side_by_side,
     )
 
-    names = args.only or [*FIGURES, *SHEETS]
+    names = list(dict.fromkeys(args.only or [*FIGURES, *SHEETS]))   # fig4 fig4: once
     unknown = [n for n in names if n not in FIGURES and n not in SHEETS]
     if unknown:
         raise UsageError(f"--only: no figure {', '.join(unknown)}; the figures are "
