@@ -252,6 +252,9 @@ class _Placer:
             self._place_key(j)
         for s in range(len(self.plan.stages)):
             self._place_fillers(s)
+        for s, st in enumerate(self.plan.stages):
+            self._meet_t_end(s, st.start, st.start_leg, start=True)
+            self._meet_t_end(s, st.end, st.end_leg, start=False)
         for j in range(len(self.plan.keys)):
             if is_joint(self.sol.keys[j]):
                 self._joint(j)
@@ -405,6 +408,35 @@ class _Placer:
         n = np.linalg.inv(placed.a).T @ np.asarray(normal)
         point = placed.origin + placed.a @ (np.asarray(normal) * c)
         return HalfPlane(tuple(n / float(np.hypot(*n))), tuple(point), extends=False)
+
+    def _meet_t_end(self, s: int, j: int, leg: int, *, start: bool) -> None:
+        """A T part fitted to a wing that leaves its main line off the square (80
+        degrees; or a main line bending at the junction, on the wing's side) is sheared:
+        its leg's end face runs along the wing, not square to the facade, and the next
+        module's square end left a wedge of ground open on one side and doubled on the
+        other (0.86 % of the footprint overlapping, 1.51 % of the roof band open at 80
+        degrees). That module is cut and extended to the T's end face instead."""
+        i = self.record.keys.get((j, leg))
+        fill = self.record.stages[s].fill if s in self.record.stages else []
+        if i is None or not fill or self.placed[i].cls != "t_junction":
+            return
+        placed, key = self.placed[i], self.sol.keys[j]
+        p = self.parts[placed.part]
+        m = part_leg(key, leg)
+        o = np.array([0.0, _depth(p, key)])
+        reach = np.asarray(p.directions[m]) * (p.legs_measured[m] - (o[1] if m == 2 else 0.0))
+        end = placed.origin + placed.a @ (o + reach)        # the leg's end on the facade
+        face = placed.a @ (np.array([1.0, 0.0]) if m == 2 else np.array([0.0, 1.0]))
+        path = self.paths[s]
+        u = path.dir[0] if start else path.dir[-1]
+        face = face / float(np.hypot(*face))
+        deep = max(abs(placed.y_range[0]), abs(placed.y_range[1]))
+        if abs(float(face @ u)) * deep < TOL:   # square to the facade: the module meets it
+            return
+        n = np.array([-face[1], face[0]])
+        n = n if float(n @ (-u if start else u)) > 0 else -n   # toward the T's side
+        target = fill[0] if start else fill[-1]
+        self.placed[target].halves.append(HalfPlane(tuple(n), tuple(end)))
 
     # -- fillers, from the end of the start key's leg on ----------------------------------
 
