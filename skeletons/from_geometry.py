@@ -118,6 +118,21 @@ def _classify(ids: Iterable[int], xy: dict[int, np.ndarray], g: nx.Graph, edges:
     return kps
 
 
+def _nearest_gap(parts: list[set[int]], edges: list[Edge], xy: dict[int, np.ndarray],
+                 frame: Frame) -> str:
+    """How far the largest piece of a disconnected skeleton lies from the nearest other,
+    and where: a wing drawn to end 2 cm short of its main line reads as two buildings."""
+    def piece(c: set[int]) -> BaseGeometry:
+        return shapely.MultiLineString([[xy[e.a], xy[e.b]] for e in edges if e.a in c])
+
+    rest = shapely.union_all([piece(c) for c in parts[1:]])
+    gap = shapely.shortest_line(piece(parts[0]), rest)
+    a, b = np.asarray(gap.coords)
+    d = float(np.hypot(*(b - a)))
+    far = f"{d * 1000:.0f} mm" if d < 0.1 else f"{d * 100:.0f} cm" if d < 1 else f"{d:,.1f} m"
+    return f"the largest lies {far} from the nearest other at {frame.at(a)}"
+
+
 def opposite_fronts(where: str, e: Edge, v: int, named: Callable[[Edge], str] = lambda e: e.source,
                     what: str = "the lines meeting here") -> str:
     """The message for two lines that put their facades on opposite sides of the point
@@ -202,9 +217,9 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
         more = f" and {len(parts) - SAID_PIECES:,} more" if len(parts) > SAID_PIECES else ""
         raise SkeletonError(
             f"{prefix}the skeleton is disconnected: {len(parts):,} separate pieces, "
-            f"{' / '.join(shown_)}{more}; lines join only where they share an end point "
-            f"(within {SNAP * 100:g} cm); connect them, or give each piece as a building "
-            "of its own")
+            f"{' / '.join(shown_)}{more}; lines join only where an end of one lies on "
+            f"the other (within {SNAP * 100:g} cm), and {_nearest_gap(parts, edges, xy, frame)}"
+            "; connect them, or give each piece as a building of its own")
 
     def where(v: int) -> str:
         return f"{prefix}key point at {frame.at(xy[v])}"

@@ -305,7 +305,17 @@ def test_a_skeleton_of_many_pieces_names_three_in_one_short_line():
     msg = skeleton_error([feat("LineString", metres([(50 * i, 0), (50 * i + 30, 0)]))
                           for i in range(1000)], "lines")
     assert "1,000 separate pieces, feature 0 / feature 1 / feature 2 and 997 more" in msg
-    assert "share an end point" in msg and len(msg) < 300, msg
+    assert "lines join only where an end of one lies on the other (within 1 cm), and the " \
+        "largest lies 20.0 m from the nearest other at (" in msg and len(msg) < 400, msg
+
+
+def test_a_wing_ending_short_of_its_main_line_says_by_how_much():
+    """A wing drawn to end 2 cm short of the main line: two buildings' worth of lines,
+    and the message says where they nearly meet."""
+    msg = skeleton_error([feat("LineString", metres([(0, 0), (63, 0)])),
+                          feat("LineString", metres([(31.5, -0.02), (31.5, -40)]))],
+                         "lines")
+    assert "2 separate pieces" in msg and "lies 20 mm from the nearest other at (" in msg
 
 
 def test_a_point_not_finite_is_named():
