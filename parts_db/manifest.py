@@ -17,7 +17,7 @@ from typing import Literal, get_args
 
 from citysynth.parts_db.errors import LibraryError
 from citysynth.parts_db.files import no_such_folder
-from citysynth.solver.safe_read import read_toml, shown
+from citysynth.solver.safe_read import check_printable, read_toml, shown
 
 PartClass = Literal["end_left", "end_right", "middle", "corner", "t_junction", "floor",
                     "ground_floor", "roof", "building"]
@@ -107,7 +107,7 @@ def read_manifest(library_dir: str | Path) -> Manifest:
     if not isinstance(name, str):
         raise LibraryError(f"{path}: [library] name must be text in quotes, got "
                            f"{shown(name)}")
-    _printable(name, f"{path}: [library] name")
+    check_printable(name, str(path), "[library] name", LibraryError)
     return Manifest(path, name, quantum, UNITS[units],
                     rescale, tuple(parts))
 
@@ -154,10 +154,10 @@ def check_id(pid: object, where: str, seen: dict[str, str]) -> str:
     """A part's id: a printable string, as unique as the file names it becomes."""
     if not isinstance(pid, str) or not pid:
         raise LibraryError(f"{where}: needs an id (a non-empty string)")
-    if len(pid.encode("utf-8")) > MAX_ID or not pid.isprintable():
-        raise LibraryError(f"{where}: an id is at most {MAX_ID} printable characters (it "
-                           "names the part's files: counted in UTF-8 bytes, so é counts "
-                           "2); shorten it or drop its control characters")
+    check_printable(pid, where, "its id", LibraryError)
+    if len(pid.encode("utf-8")) > MAX_ID:
+        raise LibraryError(f"{where}: an id is at most {MAX_ID} characters (it names the "
+                           "part's files: counted in UTF-8 bytes, so é counts 2); shorten it")
     if pid != pid.strip():   # "a " and "a" were two parts no listing tells apart
         raise LibraryError(f"{where}: id {shown(pid)} begins or ends with a space, which "
                            "no listing shows; remove it")
@@ -236,17 +236,8 @@ def check_class(cls: object, where: str) -> PartClass:
 def check_style(style: object, where: str) -> str:
     if not isinstance(style, str) or not style:
         raise LibraryError(f"{where}: style must be a non-empty string")
-    _printable(style, f"{where}: style")
+    check_printable(style, where, "style", LibraryError)
     return style
-
-
-def _printable(text: str, where: str) -> None:
-    """Refuse a name the summaries print that holds a control character (an escape
-    sequence in a library's name cleared the terminal when ingest printed it)."""
-    if not text.isprintable():
-        raise LibraryError(f"{where} {shown(text)} holds a control character (a line "
-                           "break, tab, escape or invisible mark); write it in plain "
-                           "characters")
 
 
 def check_corner(angle: object, convex: object, where: str) -> tuple[float, bool]:

@@ -11,7 +11,6 @@ stage downstream can trust it, and every error names the offending place
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Collection
 from dataclasses import dataclass, field, replace
@@ -22,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from citysynth.solver.errors import ProblemError
-from citysynth.solver.safe_read import read_json, shown
+from citysynth.solver.safe_read import check_printable, read_json, shown
 
 _TOP_KEYS = {
     "resources", "quantum", "elements", "transitions", "front", "back", "constraints", "k",
@@ -240,21 +239,8 @@ def _parse_resources(resources: Any, source: str) -> list[str]:
     if len(set(resources)) != len(resources):
         raise ProblemError(f'{source}: "resources" has duplicate names: {resources}')
     for i, r in enumerate(resources):
-        _plain_name(r, f"{source}: resources[{i}]", "a resource's name")
+        check_printable(r, f"{source}: resources[{i}]", "a resource's name", ProblemError)
     return resources
-
-
-def _plain_name(name: str, where: str, what: str) -> None:
-    """Refuse a name with a character that is not printed as itself (a line break, a
-    NUL, a terminal escape, a right-to-left override): every listing of a solution
-    prints the names, and ``solve`` wrote such ids raw, breaking its lines and
-    recolouring or reversing the terminal's text."""
-    if not name.isprintable():
-        bad = next(c for c in name if not c.isprintable())
-        raise ProblemError(f"{where}: {what} {json.dumps(name[:60])} holds a character "
-                           f"that prints as no letter (U+{ord(bad):04X}: a line break, tab, "
-                           "control or invisible mark); names are written in printable "
-                           "characters: remove it")
 
 
 def _parse_quantum(q_in: Any, resources: list[str], source: str) -> dict[str, float]:
@@ -298,7 +284,7 @@ def _parse_element(e: Any, where: str, resources: list[str], seen: set[str], sou
     eid = e.get("id")
     if not isinstance(eid, str) or not eid:
         raise ProblemError(f"{source}: {where}.id: must be a non-empty string")
-    _plain_name(eid, f"{source}: {where}.id", "the id")
+    check_printable(eid, f"{source}: {where}.id", "the id", ProblemError)
     if eid in seen:
         raise ProblemError(f'{source}: {where}.id: duplicate element id "{eid}"')
     seen.add(eid)

@@ -331,6 +331,20 @@ def _other_format(body: str) -> str:
     return ""
 
 
+def check_printable(text: str, where: str, what: str, error: type[Exception]) -> None:
+    """Refuse a name holding a character that is not printed as itself (a line break,
+    a NUL, a terminal escape, a right-to-left override): listings and summaries print
+    names, and such a one broke their lines, cleared or recoloured the terminal, or
+    reversed the text after it. The one check for part ids, style and library names
+    and a problem's element ids and resource names."""
+    if text.isprintable():
+        return
+    bad = next(c for c in text if not c.isprintable())
+    raise error(f"{where}: {what} {shown(text)} holds a character that prints as no "
+                f"letter (U+{ord(bad):04X}: a line break, tab, control or invisible mark); "
+                "write it in printable characters")
+
+
 def shown(v: Any, most: int = 60) -> str:
     """A value from a user's file as a message quotes it, in the file's own spelling
     (TOML, JSON, OSM tags): true, not True; "a", not 'a'; 1979-05-27T07:32:00+00:00,
@@ -343,9 +357,16 @@ def shown(v: Any, most: int = 60) -> str:
         text = f"{v:,}" if isinstance(v, int) and abs(v) >= 10_000 else repr(v)
     elif isinstance(v, datetime.date | datetime.time):
         text = v.isoformat()
-    else:
-        text = json.dumps(v, ensure_ascii=False, default=str)
+    else:   # letters as themselves (é), what prints as no letter escaped: JSON leaves
+        # a right-to-left override or a zero-width space raw, and the message's text
+        # after it read backwards, or two names looked one
+        text = "".join(c if c.isprintable() else _escaped(c)
+                       for c in json.dumps(v, ensure_ascii=False, default=str))
     return text if len(text) <= most else text[:most - 3] + "..."
+
+
+def _escaped(c: str) -> str:
+    return f"\\u{ord(c):04x}" if ord(c) <= 0xFFFF else f"\\U{ord(c):08x}"
 
 
 class _Twice(dict):

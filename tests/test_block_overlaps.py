@@ -79,3 +79,25 @@ def test_storeys_that_block_does_not_build_to_are_told(tmp_path, capsys):
     assert code == 0
     assert "1 of 2 features give storeys or a height (feature 1 (b) first)" in err
     assert "citysynth city --footprints" in err
+
+
+def test_a_sliver_of_an_outline_is_told(tmp_path, capsys):
+    """A 200 x 3 m strip and a 0.5 m ring round a courtyard were built as walls that
+    thin, windows on both faces, without a word; a city skips such slivers (min_width)."""
+    src = tmp_path / "thin.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": name}, "geometry": {
+            "type": "Polygon", "coordinates": [[[ORIGIN[0] + x, ORIGIN[1] + y]
+                                                for x, y in ring + ring[:1]]
+                                               for ring in rings]}}
+        for name, rings in (
+            ("strip", [[(0, 0), (200, 0), (200, 3), (0, 3)]]),
+            ("ring", [[(0, 100), (60, 100), (60, 160), (0, 160)],
+                      [(0.5, 100.5), (0.5, 159.5), (59.5, 159.5), (59.5, 100.5)]]),
+            ("block", [[(100, 100), (160, 100), (160, 140), (100, 140)]]))]}))
+    code, err = _run(tmp_path, src, capsys)
+    assert code == 0
+    assert "feature 0 (strip): 3.0 m wide on average, under the 8 m a city's block must " \
+        "be" in err
+    assert "feature 1 (ring): 0.5 m wide on average" in err
+    assert "feature 2 (block)" not in err

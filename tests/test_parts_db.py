@@ -426,7 +426,8 @@ GLB = GOOD.export(file_type="glb")
     # "ü" is "__" in USD (a "_" per UTF-8 byte): one prototype file for both parts
     ([("ü", "a.stl", GOOD, 'class = "middle"'), ("__", "b.stl", GOOD, 'class = "middle"')],
      "", 'its id and "ü" differ only in case or in characters other than letters'),
-    ([("A\\nB", "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
+    ([("A\\nB", "a.stl", GOOD, 'class = "middle"')], "",
+     'its id "A\\nB" holds a character that prints as no letter (U+000A'),
     # found by the ingest fuzzing pass of 2026-12-01: ids no listing tells apart, an id
     # Windows opens as a device, a style or library name that cleared the terminal
     ([("caf\u00e9", "a.stl", GOOD, 'class = "middle"'),
@@ -441,9 +442,9 @@ GLB = GOOD.export(file_type="glb")
                                                         'class = "middle"')],
      "", "differ only in case or in characters other than letters"),
     ([("A", "a.stl", GOOD, 'class = "middle"\nstyle = "s\\u001b[2J"')], "",
-     'style "s\\u001b[2J" holds a control character'),
+     'style "s\\u001b[2J" holds a character that prints as no letter (U+001B'),
 
-    ([("x" * 201, "a.stl", GOOD, 'class = "middle"')], "", "at most 200 printable characters"),
+    ([("x" * 201, "a.stl", GOOD, 'class = "middle"')], "", "an id is at most 200 characters"),
     # 120 characters, 240 bytes: its files' names went past the file system's 255
     ([("é" * 120, "a.stl", GOOD, 'class = "middle"')], "", "counted in UTF-8 bytes"),
     ([("A", "a.stl", GOOD, 'class = "middle"\nattributes = {doors = 1e300}')], "",
@@ -492,7 +493,8 @@ def test_a_library_name_with_a_control_character_is_refused(tmp_path):
     lib = _library(tmp_path, [("A", "a.stl", GOOD, 'class = "middle"')])
     text = (lib / "manifest.toml").read_text().replace('name = "test"', 'name = "x\\u001b[2J"')
     (lib / "manifest.toml").write_text(text)
-    with pytest.raises(LibraryError, match=r'\[library\] name "x\\u001b\[2J" holds a control'):
+    with pytest.raises(LibraryError, match=r'\[library\] name "x\\u001b\[2J" holds a '
+                       r'character that prints as no letter \(U\+001B'):
         ingest(lib, tmp_path / "db")
 
 

@@ -209,6 +209,7 @@ def run_block(args) -> int:
     db, style, feats, frame = _prepare(args)
     _storeys_note(args, feats, style)
     feats = _gaps_closed(args, _overlaps_settled(args, _distinct(args, feats)))
+    _thin_note(args, feats)
     stem = safe_name(Path(args.file).stem)
     names, ids, labels = [], [], []
     for f in feats:
@@ -287,6 +288,23 @@ def _storeys_note(args, feats: list, style: str) -> None:
               f"every outline of the {style} style's parts as they are; to build "
               "footprints to their storeys, give them to citysynth city --footprints",
               file=sys.stderr)
+
+
+def _thin_note(args, feats: list) -> None:
+    """A line on stderr for each outline thinner on average (twice its area over its
+    perimeter) than a city's ``min_width``, as a city skips a sliver: a 3 m strip or a
+    0.5 m ring round a courtyard was built without a word as walls that thin, windows on
+    both faces."""
+    from citysynth.pipeline.city.config import CityConfig
+
+    for f in feats:
+        g = f.geometry
+        width = 2 * g.area / g.length if g.length > 0 else 0.0
+        if width < CityConfig.min_width:
+            print(f"citysynth {args.command}: {f.where}: {width:.1f} m wide on average, "
+                  f"under the {CityConfig.min_width:g} m a city's block must be: its "
+                  "modules are cut to walls that thin; check the outline (a wall, a kerb "
+                  "or a courtyard drawn just inside it?)", file=sys.stderr)
 
 
 def _overlaps_settled(args, feats: list) -> list:
