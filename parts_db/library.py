@@ -44,6 +44,7 @@ from citysynth.parts_db.measure import (
 from citysynth.parts_db.mesh_faults import companions
 from citysynth.parts_db.meshes import COUNT_ATTRIBUTE, COUNTED, load_part_mesh, mesh_bytes
 from citysynth.solver.methods import DEFAULT_MAX_MEMORY_MB
+from citysynth.solver.safe_read import shown
 
 FORMAT_VERSION = 2
 DB_JSON = "partdb.json"
@@ -177,6 +178,8 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
     root = m.path.parent
     out_dir = Path(out) if out is not None else cache_dir(root)
     digest = library_hash(m)
+    if out is not None and not force:
+        _check_not_anothers(out_dir, root, digest)
     if not force:   # where the cache falls back to, too (see _save_cache)
         for folder in [out_dir] if out is not None else _cache_folders(out_dir, root):
             cached = _read_cached(folder, digest)
@@ -203,6 +206,25 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
     else:     # the folder the user named: failing to write it is an error
         save(db, out_dir)
     return db
+
+
+def _check_not_anothers(out_dir: Path, root: Path, digest: str) -> None:
+    """Refuse ``-o`` naming a folder that holds another library's database (another
+    library folder, other parts): it was replaced without a word, and every command
+    reading it as the other library's then placed this library's parts. The same
+    library ingested again (changed since, or moved) replaces it, as ever."""
+    try:
+        meta = json.loads((out_dir / DB_JSON).read_text(encoding="utf-8"))
+        theirs = meta.get("library_root")
+        if meta.get("library_hash") == digest or not isinstance(theirs, str) or \
+                Path(theirs).resolve() == root.resolve() or not Path(theirs).is_dir():
+            return
+    except (OSError, ValueError, AttributeError):   # none there, or not one to keep
+        return
+    raise LibraryError(
+        f"{out_dir}: holds the part database of another library ({shown(meta.get('name'))}"
+        f", from {theirs}); a folder holds one library's database: give another output "
+        "folder (-o), or --force to replace it")
 
 
 TABLE_BYTES = 18   # a (part, part) pair's: allowed, cost, T-branch cost and its mask

@@ -692,3 +692,25 @@ def test_editing_only_a_gltf_buffer_or_an_obj_material_measures_the_part_again(t
     again = ingest(lib, tmp_path / "db").library_hash
     (lib / "a.mtl").write_text("newmtl brick\nKd 0.2 0.3 0.8\n")
     assert ingest(lib, tmp_path / "db").library_hash != again
+
+
+def test_ingest_into_a_folder_holding_another_librarys_database_is_refused(tmp_path):
+    """``ingest B -o X`` where X holds library A's database replaced it without a word,
+    and every command reading X as A's then placed B's parts. Refused, naming A; the
+    same library again (changed since) and --force replace it."""
+    from citysynth.parts_db.library import load_db
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    a = _library(tmp_path / "a", [("A", "a.stl", GOOD, 'class = "middle"')])
+    b = _library(tmp_path / "b", [("B", "b.stl", GOOD, 'class = "middle"')])
+    out = tmp_path / "db"
+    ingest(a, out)
+    with pytest.raises(LibraryError, match=r"db: holds the part database of another library "
+                       r'\("test", from .*a/lib\); a folder holds one library\'s database: '
+                       r"give another output folder \(-o\), or --force to replace it"):
+        ingest(b, out)
+    assert [p.id for p in load_db(out).parts] == ["A"]
+    _box(0, 4, 0, 10, 0, 6).export(a / "a.stl")      # its mesh edited
+    ingest(a, out)                                   # its own library, changed: replaced
+    assert [p.id for p in ingest(b, out, force=True).parts] == ["B"]
+    assert [p.id for p in load_db(out).parts] == ["B"]
