@@ -101,3 +101,27 @@ def test_a_sliver_of_an_outline_is_told(tmp_path, capsys):
         "be" in err
     assert "feature 1 (ring): 0.5 m wide on average" in err
     assert "feature 2 (block)" not in err
+
+
+def test_pieces_of_features_without_ids_or_with_clashing_ids_get_names_of_their_own(
+        tmp_path, capsys):
+    """A feature with no id cut in two named both pieces alike (``blocks_1``), and one
+    whose piece name another feature already had clashed: the run failed "two blocks
+    share a name"."""
+    src = tmp_path / "blocks.geojson"
+    rings = {"long": [(0, 40), (200, 40), (200, 70), (0, 70)],
+             None: [(80, 0), (130, 0), (130, 110), (80, 110)],
+             "cross": [(300, 0), (350, 0), (350, 110), (300, 110)],
+             "cross-2": [(400, 0), (450, 0), (450, 40), (400, 40)],
+             "bar": [(220, 40), (420, 40), (420, 70), (220, 70)]}
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {} if name is None else {"id": name},
+         "geometry": {"type": "Polygon", "coordinates": [
+             [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in ring + ring[:1]]]}}
+        for name, ring in rings.items()]}))
+    code, err = _run(tmp_path, src, capsys)
+    assert code == 0, err
+    names = sorted(p.name.removesuffix(".layout.json")
+                   for p in (tmp_path / "out").glob("*.layout.json"))
+    assert names == ["bar", "blocks_1", "blocks_1-2", "cross", "cross-2", "cross-2-2",
+                     "long"], names

@@ -333,6 +333,7 @@ def _overlaps_settled(args, feats: list) -> list:
     for fp in built:
         pieces.setdefault(fp.spec.feature, []).append(fp)
     out = []
+    used = {str(f.properties.get("id", f.properties.get("name"))) for f in feats}
     for f in feats:
         if not isinstance(f.geometry, Polygon):
             out.append(f)
@@ -340,9 +341,19 @@ def _overlaps_settled(args, feats: list) -> list:
         for n, fp in enumerate(pieces.get(f.index, []), start=1):
             if n == 1 and fp.spec.trimmed:
                 print(f"citysynth {args.command}: {fp.spec.trimmed}", file=sys.stderr)
-            own = f.properties.get("id", f.properties.get("name", f.name))
-            props = f.properties if n == 1 else {**f.properties, "id": f"{own}-{n}"}
-            out.append(replace(f, geometry=fp.polygon, properties=props))
+            if n == 1:
+                out.append(replace(f, geometry=fp.polygon))
+                continue
+            # a piece's name: its feature's (as run_block names one with no id), -n,
+            # and again while another feature has that id
+            own = f.properties.get("id", f.properties.get("name"))
+            if own is None:
+                own = f"{safe_name(Path(args.file).stem)}_{f.index}"
+            piece = f"{own}-{n}"
+            while piece in used:
+                piece += f"-{n}"
+            used.add(piece)
+            out.append(replace(f, geometry=fp.polygon, properties={**f.properties, "id": piece}))
     return out
 
 
