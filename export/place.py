@@ -381,9 +381,13 @@ class _Placer:
         wing_leg = 0 if part_leg(key, 0) == 0 else 1
         other = 1 - wing_leg
         a = {wing_leg: fit(wing_leg)}
-        x = legs[other] / float(np.hypot(*legs[other])) * float(
-            p.directions[part_leg(key, other)][0])
-        a[other] = np.column_stack([x, _left(x) * np.sign(np.linalg.det(a[wing_leg]))])
+        # along its leg onto the skeleton's point its leg's length along (a chord a
+        # hair shorter where the line bends under the leg: 1-2 mm past the checks'
+        # tolerance at full length), square across it
+        m = part_leg(key, other)
+        x = legs[other] / (float(p.directions[m][0]) * p.legs_measured[m])
+        y = _left(x) / float(np.hypot(*x)) * np.sign(np.linalg.det(a[wing_leg]))
+        a[other] = np.column_stack([x, y])
         idx = {leg: place(a[leg]) for leg in (wing_leg, other)}
         # the two meet on the wing's facade line moved out by what its facade bears
         # (cornices, sills: cut on the line itself, the wing's facade lost them), the
