@@ -359,9 +359,7 @@ class _Placer:
         branch too, it would shear by the bend and open a wedge against the next
         module: 0.6 m across at 3 degrees on a 12 m deep range)."""
         key = self.sol.keys[j]
-        depth = _depth(p, key)
-        wing = np.asarray(p.directions[2]) * (p.legs_measured[2] - depth)
-        back = np.array([0.0, depth])   # turned over, its key point is on its back face
+        back, wing = _leg_reach(p, key, 2)   # turned over, its key point is on its back face
 
         def fit(leg: int) -> np.ndarray:
             m = part_leg(key, leg)
@@ -425,12 +423,9 @@ class _Placer:
         if i is None or not fill or self.placed[i].cls != "t_junction":
             return
         placed, key = self.placed[i], self.sol.keys[j]
-        p = self.parts[placed.part]
-        m = part_leg(key, leg)
-        o = np.array([0.0, _depth(p, key)])
-        reach = np.asarray(p.directions[m]) * (p.legs_measured[m] - (o[1] if m == 2 else 0.0))
+        o, reach = _leg_reach(self.parts[placed.part], key, leg)
         end = placed.origin + placed.a @ (o + reach)        # the leg's end on the facade
-        face = placed.a @ (np.array([1.0, 0.0]) if m == 2 else np.array([0.0, 1.0]))
+        face = placed.a @ (np.array([1.0, 0.0]) if leg == 2 else np.array([0.0, 1.0]))
         path = self.paths[s]
         u = path.dir[0] if start else path.dir[-1]
         face = face / float(np.hypot(*face))
@@ -1372,13 +1367,18 @@ def _key_segment(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
     p = parts[inst[i].part]
     if p.cls in ("end_left", "end_right"):
         return inst[i].apply([0.0, 0.0]), inst[i].apply([_geom_length(p), 0.0]), i, None
-    element = plan_keys[j]
-    m = part_leg(element, leg)
-    o = np.array([0.0, _depth(p, element)])   # the key point, in the part's frame
-    key = inst[i].apply(o)
-    end = inst[i].apply(o + np.asarray(p.directions[m]) * (p.legs_measured[m] - (
-        o[1] if m == 2 else 0.0)))
+    o, reach = _leg_reach(p, plan_keys[j], leg)
+    key, end = inst[i].apply(o), inst[i].apply(o + reach)
     return (key, end, i, leg) if outgoing else (end, key, i, leg)
+
+
+def _leg_reach(p: Part, element: str, leg: int) -> tuple[np.ndarray, np.ndarray]:
+    """Key part p's key point in its own frame (on its back face when a T is turned
+    over) and the vector its structure leg ``leg`` spans from there to the leg's end on
+    the facade."""
+    m = part_leg(element, leg)
+    o = np.array([0.0, _depth(p, element)])
+    return o, np.asarray(p.directions[m]) * (p.legs_measured[m] - (o[1] if m == 2 else 0.0))
 
 
 def _check_length(where: str, st: PlanStage, r: _StageRecord, solver: float | None,

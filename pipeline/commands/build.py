@@ -207,8 +207,11 @@ def run_block(args) -> int:
     from citysynth.skeletons import skeletons_from_polygons
 
     db, style, feats, frame = _prepare(args)
-    _storeys_note(args, feats, style)
-    feats = _gaps_closed(args, _overlaps_settled(args, _distinct(args, feats)))
+    from citysynth.pipeline.city.footprints import Storeys, footprint_spec
+    specs = {f.index: footprint_spec(args.file, f.index, f.properties, "", 0.0, 0.0,
+                                     Storeys()) for f in feats}
+    _storeys_note(args, feats, specs, style)
+    feats = _gaps_closed(args, _overlaps_settled(args, _distinct(args, feats), specs))
     _thin_note(args, feats)
     stem = safe_name(Path(args.file).stem)
     names, ids, labels = [], [], []
@@ -272,16 +275,13 @@ def _distinct(args, feats: list) -> list:
     return out
 
 
-def _storeys_note(args, feats: list, style: str) -> None:
-    """One line on stderr when features give storeys or heights, which ``block`` does not
-    build to (its blocks are the style's parts as they are) and ``city --footprints``
-    does: they were ignored without a word."""
-    from citysynth.pipeline.city.footprints import Storeys, footprint_spec
-
-    specs = [footprint_spec(args.file, f.index, f.properties, "", 0.0, 0.0, Storeys())
-             for f in feats]
-    given = [f for f, sp in zip(feats, specs, strict=True)
-             if sp.levels is not None or sp.height is not None]
+def _storeys_note(args, feats: list, specs: dict, style: str) -> None:
+    """One line on stderr when features give storeys or heights (``specs``: each
+    feature's, by index), which ``block`` does not build to (its blocks are the style's
+    parts as they are) and ``city --footprints`` does: they were ignored without a
+    word."""
+    given = [f for f in feats
+             if specs[f.index].levels is not None or specs[f.index].height is not None]
     if given:
         print(f"citysynth {args.command}: {args.file}: {len(given):,} of {len(feats):,} "
               f"features give storeys or a height ({given[0].name} first); block builds "
@@ -307,7 +307,7 @@ def _thin_note(args, feats: list) -> None:
                   "or a courtyard drawn just inside it?)", file=sys.stderr)
 
 
-def _overlaps_settled(args, feats: list) -> list:
+def _overlaps_settled(args, feats: list, specs: dict) -> list:
     """The features with overlaps settled as a city settles its footprints' (larger
     first: one inside a larger by half or more left out, one overlapping less trimmed
     to the ground the larger leaves), each told on stderr: two overlapping blocks were
@@ -315,13 +315,12 @@ def _overlaps_settled(args, feats: list) -> list:
     several pieces builds each, the second on named ``<name>-2``, ``-3``...; a
     MultiPolygon's polygons are settled each, and what is left of them stays one
     feature (a MultiPolygon beside an overlapping polygon was built whole: 600 m²
-    doubled)."""
+    doubled). ``specs``: each feature's footprint spec, by index."""
     from dataclasses import replace
 
     from shapely.geometry import MultiPolygon, Polygon
 
     from citysynth.pipeline.city.config import CityConfig
-    from citysynth.pipeline.city.footprints import Storeys, footprint_spec
     from citysynth.pipeline.city.overlaps import Footprint, separate
 
     shapes = [(f, g) for f in feats for g in (
@@ -329,9 +328,8 @@ def _overlaps_settled(args, feats: list) -> list:
         list(f.geometry.geoms) if isinstance(f.geometry, MultiPolygon) else [])]
     if len({f.index for f, _g in shapes}) < 2:
         return feats
-    built, left = separate([Footprint(g, footprint_spec(
-        args.file, f.index, f.properties, "", 0.0, 0.0, Storeys())) for f, g in shapes],
-        CityConfig.min_area)
+    built, left = separate([Footprint(g, specs[f.index]) for f, g in shapes],
+                           CityConfig.min_area)
     for why in dict.fromkeys(why for why, _shape in left):
         print(f"citysynth {args.command}: {why}", file=sys.stderr)
     pieces: dict[int, list] = {}
