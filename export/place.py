@@ -55,7 +55,7 @@ from citysynth.export.joints import (
 )
 from citysynth.export.layout import Instance, Layout
 from citysynth.export.party import Segment, party_halves, plan_hull
-from citysynth.export.plan import Front, PlacementPlan, PlanStage, is_joint
+from citysynth.export.plan import FILLED, Front, PlacementPlan, PlanStage, is_joint
 from citysynth.export.t_poses import SEP, main_depth, part_leg, t_pose
 from citysynth.parts_db import Part, PartDB
 
@@ -1460,7 +1460,7 @@ def _summary(plan: PlacementPlan, sol: StructureSolution, record: _Record) -> di
             "parts": [t_pose(sol.keys[st.start]).part, *sol.stages[s],
                       t_pose(sol.keys[st.end]).part],
             "asked": {k: list(v) for k, v in st.asked.items()},
-            "met": dict(sol.resources[s]),
+            "met": {r: v for r, v in sol.resources[s].items() if r != FILLED},
             "skeleton_edges": list(st.edges),
             "polyline": [list(p) for p in st.points],
         })
@@ -1471,7 +1471,8 @@ def _summary(plan: PlacementPlan, sol: StructureSolution, record: _Record) -> di
     total: dict[str, float] = {}
     for res in sol.resources:
         for name, v in res.items():
-            total[name] = total.get(name, 0.0) + v
+            if name != FILLED:
+                total[name] = total.get(name, 0.0) + v
     out = {"name": plan.name, "closed": plan.closed, "cost": sol.cost,
            "keys": keys, "stages": stages, "resources": total}
     if plan.asked:

@@ -33,6 +33,15 @@ JOINT = "joint:mitre"
 run to the corner, extended over the joint's legs, and are cut on its bisector plane."""
 
 
+FILLED = "citysynth:middle parts"
+"""The resource counting a stage's middle parts. A stage whose key parts' legs alone
+come within its length interval on the solver's grid, but not within a millimetre of
+its skeleton as their geometry measures, would leave a gap no middle part absorbs
+(nothing is stretched between two rigid key parts): the pipeline asks such a stage for
+at least one middle part on this resource. It is the pipeline's, not the user's: a
+layout's asked and met intervals leave it out."""
+
+
 def is_joint(element: str) -> bool:
     return element.startswith(JOINT)
 

@@ -22,6 +22,7 @@ count toward each side's intervals and, in full, toward the structure-wide ones.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import OrderedDict, defaultdict
 from dataclasses import dataclass, field
@@ -32,7 +33,9 @@ import shapely
 import shapely.affinity
 
 from citysynth.export.joints import ACUTE_DEG, NOSE
+from citysynth.export.place import TOL
 from citysynth.export.plan import (
+    FILLED,
     JOINT,
     Front,
     PlacementPlan,
@@ -329,19 +332,31 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                              stretch, per_side or {}, attrs, style)
     kp = _key_parts(sk, db, style, keys, chains, oriented, angle_tol, placed)
     resources = ("length", *attrs)
+    common = dict(quantum={"length": db.quantum}, **_transitions(db, fillers, kp),
+                  keypoints=kp.options, branch=kp.branch, k=k, source=sk.name,
+                  global_constraints={n: (float(lo), float(hi))
+                                      for n, (lo, hi) in (per_structure or {}).items()})
     structure = Structure.build(
-        resources=resources, quantum={"length": db.quantum},
-        **_elements(fillers, kp, resources, joint_cost, db.quantum),
-        **_transitions(db, fillers, kp),
-        keypoints=kp.options, branch=kp.branch, stages=stages, k=k, source=sk.name,
-        global_constraints={n: (float(lo), float(hi))
-                            for n, (lo, hi) in (per_structure or {}).items()})
+        resources=resources, stages=stages,
+        **_elements(fillers, kp, resources, joint_cost, db.quantum), **common)
+    rigid = _rigid_gaps(structure, kp, [c.length for c in chains])
+    if rigid:   # rare: a short side between rigid key parts; asked for a middle part
+        most = float(max(st.constraints["length"][1] for st in stages)
+                     // min(p.length for p in fillers) + 1)
+        resources = (*resources, FILLED)
+        stages = [Stage({**st.constraints, FILLED: (1.0, most)}, st.elements, st.start,
+                        st.end) if s in rigid else st for s, st in enumerate(stages)]
+        structure = Structure.build(
+            resources=resources, stages=stages,
+            **_elements(fillers, kp, resources, joint_cost, db.quantum), **common)
     kp_of = {v.id: v for v in sk.keypoints}
     placement = PlacementPlan(
         name=sk.name, closed=sk.closed, style=style, frame=sk.frame.describe(),
         keys=tuple(PlanKey(kp_of[v].xy, kp_of[v].kind, v) for v in keys),  # type: ignore[arg-type]
         stages=tuple(PlanStage(st.start, st.end, structure.start_leg(s), *placed[s],
-                               asked=dict(st.constraints), end_leg=structure.end_leg(s))
+                               asked={r: iv for r, iv in st.constraints.items()
+                                      if r != FILLED},
+                               end_leg=structure.end_leg(s))
                      for s, st in enumerate(structure.stages)),
         branch=dict(kp.branch), asked=dict(structure.global_constraints),
         joints=_joints(db.quantum, kp.seam) if kp.joint else {})
@@ -562,14 +577,46 @@ def _stages(sk: Skeleton, floor: float, keys: list[int], chains: list[_Chain],
     return stages, placed
 
 
-def _legs(p: Part, element: str, quantum: float) -> tuple[float, ...]:
-    """A key element's legs (in, out, branch): a T part's as its pose puts them."""
+def _legs(p: Part, element: str, quantum: float | None) -> tuple[float, ...]:
+    """A key element's legs (in, out, branch): a T part's as its pose puts them; on the
+    quantum grid (the solver's), or as its geometry measures them (``quantum`` None:
+    what placing it spans)."""
     if p.cls in ("end_left", "end_right"):
-        return (p.length, p.length)
-    legs = [p.legs[part_leg(element, i)] for i in range(len(p.legs))]
+        x = p.length if quantum is not None else p.legs_measured[0] * p.scale
+        return (x, x)
+    src = p.legs if quantum is not None else p.legs_measured
+    legs = [src[part_leg(element, i)] for i in range(len(p.legs))]
     if p.cls == "t_junction" and t_pose(element).street:
         legs[2] = round(legs[2] - main_depth(p.sec_in, quantum), 9)
     return tuple(legs)
+
+
+def _rigid_gaps(st: Structure, kp: _KeyParts, lengths: list[float]) -> set[int]:
+    """The stages the solver could fill with two T parts alone (their legs on the grid
+    within the stage's length interval) though the parts' geometry misses the
+    skeleton's ``lengths`` by more than the export's tolerance: a T part is rigid (the
+    export stretches corners and ends with a stage's modules, never a T), so only a
+    middle part's stretch takes up the difference (an H's bar of 10.5 m between two T
+    parts whose wings measure 5.2 m each failed to place, 100 mm apart). Such a stage
+    must hold a middle part (:data:`FILLED`). A pair that meets exactly beside one that
+    does not loses its empty stage too (a skeleton side within a millimetre of two legs'
+    sum is chance, not design)."""
+    out = set()
+    for s, stage in enumerate(st.stages):
+        lo, hi = stage.constraints["length"]
+        first, a_leg, b_leg = st.first_table(s), st.start_leg(s), st.end_leg(s)
+        rigid = [[x for x in st.keypoints[v] if x in kp.parts
+                  and kp.parts[x].cls == "t_junction"] for v in (stage.start, stage.end)]
+        for a, b in itertools.product(*rigid):
+            if (a, b) not in first:
+                continue
+            grid = st.legs[a][a_leg]["length"] + st.legs[b][b_leg]["length"]
+            measured = (_legs(kp.parts[a], a, None)[a_leg]
+                        + _legs(kp.parts[b], b, None)[b_leg])
+            if lo - 1e-9 <= grid <= hi + 1e-9 and abs(measured - lengths[s]) > TOL:
+                out.add(s)
+                break
+    return out
 
 
 def _shares(attributes: dict[str, float], n: int) -> list[dict[str, float]]:
@@ -598,8 +645,9 @@ def _elements(fillers: list[Part], kp: _KeyParts, resources: tuple[str, ...],
     elements: dict[str, dict[str, float]] = {}
     costs: dict[str, float] = {}
     legs: dict[str, tuple[dict[str, float], ...]] = {}
+    filled = {FILLED: 1.0} if FILLED in resources else {}
     for p in fillers:
-        elements[p.id] = {**zero, "length": p.length,
+        elements[p.id] = {**zero, "length": p.length, **filled,
                           **{a: float(v) for a, v in p.attributes.items()}}
         costs[p.id] = 0.0
     for pid, p in kp.parts.items():

@@ -145,11 +145,14 @@ def _unmet(blocked_at: BlockedAt | None) -> tuple[str, float, float, list[float]
     """The interval the blocked stage's diagnosis finds out of reach on its own (its last
     blocking constraint, when nothing else is to blame), and what the parts make nearest
     it: ("doors", 60, 60, [12]); or None."""
+    from citysynth.export.plan import FILLED
     from citysynth.solver.diagnose import nearest
 
-    if blocked_at is None or not blocked_at[1].details:
+    told = [d for d in blocked_at[1].details if d["constraint"] != FILLED] \
+        if blocked_at is not None else []
+    if not told:   # the pipeline's own count of middle parts is no user's interval
         return None
-    d = blocked_at[1].details[-1]
+    d = told[-1]
     if d.get("blocks") != "alone":
         return None
     lo, hi = d["asked"]
