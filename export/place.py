@@ -195,6 +195,8 @@ class _Record:
     joints: dict[int, str] = field(default_factory=dict)
     # where the facades end on either side of a joint (the corner itself for a mitre)
     joint_ends: dict[int, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    # a T leg folded over a bend: the piece its far end lies on (``keys``: the near one)
+    leg_ends: dict[tuple[int, int], int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -360,6 +362,12 @@ class _Placer:
         module: 0.6 m across at 3 degrees on a 12 m deep range)."""
         key = self.sol.keys[j]
         back, wing = _leg_reach(p, key, 2)   # turned over, its key point is on its back face
+        runs = {leg: self._leg_runs(j, leg) for leg in (0, 1)}
+        for leg, run in runs.items():   # a leg over a bend: aimed along its first run
+            if run is not None and len(run[1]) > 1:
+                path, segs, at_start = run
+                u = path.dir[segs[0]] if at_start else -path.dir[segs[-1]]
+                legs[leg] = u * self.leg_len(j, leg)
 
         def fit(leg: int) -> np.ndarray:
             m = part_leg(key, leg)
@@ -375,6 +383,7 @@ class _Placer:
             i = place(fit(0))
             for leg in (0, 1, 2):
                 self.record.keys[(j, leg)] = i
+            self._fold_t(j, p, runs)
             return
         wing_leg = 0 if part_leg(key, 0) == 0 else 1
         other = 1 - wing_leg
@@ -402,6 +411,86 @@ class _Placer:
         for leg in (0, 1):
             self.record.keys[(j, leg)] = idx[leg]
         self.record.keys[(j, 2)] = idx[wing_leg]
+        self._fold_t(j, p, runs)
+
+    def _leg_runs(self, j: int, leg: int) -> tuple[_Path, list[int], bool] | None:
+        """The straight runs of the skeleton under T key j's main leg ``leg``: its
+        stage's path, the indices of the path's segments the leg covers (in the path's
+        order) and whether the key point is the path's start; None without such a
+        stage."""
+        if leg == 0:
+            s = self.ins[j]
+        else:
+            s = next((t for t in self.outs[j] if self.plan.stages[t].start_leg == 1), None)
+        if s is None or (leg == 0 and self.plan.stages[s].end_leg != 0):
+            return None
+        path, n = self.paths[s], self.leg_len(j, leg)
+        lo, hi = (0.0, n) if leg == 1 else (path.length - n, path.length)
+        return path, [path.segment(lo + TOL)] + path.bends_within(lo, hi), leg == 1
+
+    def _fold_t(self, j: int, p: Part, runs: dict[int, tuple[_Path, list[int], bool] | None]
+                ) -> None:
+        """A T part's main leg over a bend of its skeleton is folded there, as a module
+        is: the part is rigid, and spanning the bend as a chord its facade stood up to
+        0.6 m off the skeleton at 10 degrees 5 m along (or its range doubled the next
+        module's ground, 1 % of the footprint). The placed copy keeps the run at the key
+        point; each further run takes a copy turned about the skeleton onto it (the leg
+        keeps its length along the skeleton), with its main range only, and each is cut
+        on the bend's bisector."""
+        for leg, run in runs.items():
+            if run is None or len(run[1]) < 2:
+                continue
+            path, segs, at_start = run
+            i = self.record.keys[(j, leg)]
+            base, near = self.placed[i], (segs[0] if at_start else segs[-1])
+            u0, key = path.dir[near], self.kxy[j]
+            s_key = 0.0 if at_start else path.length
+            pieces, own = [], list(base.halves)
+            for n, k in enumerate(segs):
+                if k == near:
+                    pieces.append(i)
+                else:
+                    u = path.dir[k]
+                    c, sn = float(u0 @ u), float(u0[0] * u[1] - u0[1] * u[0])
+                    rot = np.array([[c, -sn], [sn, c]])
+                    origin = rot @ (base.origin - key) + path.p[k] + u * (s_key - path.cum[k])
+                    pieces.append(self._add(_instance(p, self.si, None, j, rot @ base.a,
+                                                      origin)))
+                    self.placed[pieces[-1]].halves.append(
+                        self._part_plane(pieces[-1], (0.0, 1.0), y_range(p)[1]))
+                piece = self.placed[pieces[-1]]
+                if n > 0:   # (a T is not extended to a plane: its x is no length)
+                    fold = bisector(path.dir[k - 1], path.dir[k])
+                    piece.halves.append(HalfPlane(tuple(-fold), tuple(path.p[k]), False))
+                if n < len(segs) - 1:
+                    nxt = segs[n + 1]
+                    fold = bisector(path.dir[k], path.dir[nxt])
+                    piece.halves.append(HalfPlane(tuple(fold), tuple(path.p[nxt]), False))
+            if self.record.keys[(j, 2)] == i:    # the copy holding the wing
+                self._keep_wing(j, p, i, own, self.placed[i].halves[len(own)],
+                                pieces[1] if at_start else pieces[-2])
+            self.record.leg_ends[(j, leg)] = pieces[-1] if at_start else pieces[0]
+
+    def _keep_wing(self, j: int, p: Part, i: int, own: list[HalfPlane],
+                   fold: HalfPlane, turned: int) -> None:
+        """A bend closer to the junction than the wing is wide (5 m along, under a wing
+        about 12 m deep) has its fold plane run through the wing behind the main range:
+        what of the wing lies past it (2-3 % of the roof band open) is kept by one more
+        copy, cut to the wing behind the main range (a millimetre behind: the range's
+        back face itself lies in that plane), behind the ``turned`` copy's range too
+        (where the bend turns toward the wing, that range reaches into it: 13 m²
+        doubled at 15 degrees) and past the fold."""
+        base, (_y0, back) = self.placed[i], y_range(p)
+        u0, _v0, u1, _v1 = cast(BaseGeometry, p.sec_branch).bounds
+        box = np.array([(x, y) for x in (u0, u1) for y in (back, p.legs_measured[2])])
+        world = base.origin + box @ base.a.T
+        if float(((world - np.asarray(fold.point)) @ np.asarray(fold.normal)).max()) <= TOL:
+            return
+        w = self._add(_instance(p, self.si, None, j, base.a, base.origin))
+        self.placed[w].halves.extend([*own, HalfPlane(tuple(-np.asarray(fold.normal)),
+                                                      fold.point, extends=False),
+                                      self._part_plane(w, (0.0, -1.0), -back - TOL),
+                                      self._part_plane(turned, (0.0, -1.0), -back - TOL)])
 
     def _part_plane(self, i: int, normal: tuple[float, float], c: float) -> HalfPlane:
         """The world half-plane of instance i's part-frame half-plane ``normal . X <=
@@ -418,7 +507,7 @@ class _Placer:
         module's square end left a wedge of ground open on one side and doubled on the
         other (0.86 % of the footprint overlapping, 1.51 % of the roof band open at 80
         degrees). That module is cut and extended to the T's end face instead."""
-        i = self.record.keys.get((j, leg))
+        i = self.record.leg_ends.get((j, leg), self.record.keys.get((j, leg)))
         fill = self.record.stages[s].fill if s in self.record.stages else []
         if i is None or not fill or self.placed[i].cls != "t_junction":
             return
@@ -1368,7 +1457,8 @@ def _key_segment(plan: PlacementPlan, record: _Record, parts: dict[str, Part],
     if p.cls in ("end_left", "end_right"):
         return inst[i].apply([0.0, 0.0]), inst[i].apply([_geom_length(p), 0.0]), i, None
     o, reach = _leg_reach(p, plan_keys[j], leg)
-    key, end = inst[i].apply(o), inst[i].apply(o + reach)
+    far = record.leg_ends.get((j, leg), i)     # a leg folded over a bend ends on its last piece
+    key, end = inst[i].apply(o), inst[far].apply(o + reach)
     return (key, end, i, leg) if outgoing else (end, key, i, leg)
 
 

@@ -20,7 +20,7 @@ import pytest
 from citysynth.pipeline.cli import main
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from test_audit import LIB, MAX_GAP, MAX_OVERLAP, _audit, _failures  # noqa: E402
+from test_audit import LIB, _audit, _failures  # noqa: E402
 
 ORIGIN = (391000.0, 5820000.0)   # EPSG:25833 (UTM 33N), in Berlin
 
@@ -94,9 +94,9 @@ def test_a_bend_under_the_leg_of_the_copy_turned_onto_it_lands_on_the_skeleton(
     """A 0.05 degree bend at the junction and a 9.8 degree one 5 m along the other half
     (a helper's fuzzing found it): the copy turned onto that half spanned its leg's full
     length, and the skeleton's point that far along is a chord 2.4 mm nearer, past the
-    checks' 1 mm ("stage 0: parts do not meet ... 2.4 mm apart"). It builds; the rigid
-    leg spans the bend as a chord, up to 0.6 m off the skeleton by the bend (the audit's
-    "beyond"), so only ground doubled and roof open are held to the bar here."""
+    checks' 1 mm ("stage 0: parts do not meet ... 2.4 mm apart"). It builds, and the
+    leg is folded at the bend: it spanned it as a chord, up to 0.6 m off the skeleton
+    (the audit's "beyond")."""
     a, b = math.radians(9.8), math.radians(0.05)
     west = [(26.5 - 26.5 * math.cos(a), -26.5 * math.sin(a)), (26.5, 0.0)]
     main_line = [*west, (31.5, 0.0), (31.5 + 31.5 * math.cos(b), 31.5 * math.sin(b))]
@@ -106,8 +106,8 @@ def test_a_bend_under_the_leg_of_the_copy_turned_onto_it_lands_on_the_skeleton(
                       [(31.5, 0.0), end, (end[0] + 31.5, end[1])])
     code, layout = _build(tmp_path, src, "modern")
     assert code == 0
-    _name, audit = _audit(layout, sample_db)
-    assert audit.overlap_share < MAX_OVERLAP and audit.gap_share < MAX_GAP, audit.line()
+    name, audit = _audit(layout, sample_db)
+    assert not _failures(name, audit)
 
 
 def test_a_straight_t_is_one_part_uncut(tmp_path):
@@ -150,3 +150,39 @@ def test_a_t_whose_wing_leaves_off_the_square_meets_the_audit_bar(
     name, audit = _audit(layout, sample_db)
     assert not _failures(name, audit)
     assert audit.overlap_share < 0.001, audit.line()
+
+
+@pytest.mark.parametrize("bend,along,side,wing_side,style", [
+    (10.0, 5.0, "east", -1, "classic"),     # was 0.99 % of the footprint doubled
+    (-10.0, 5.0, "west", 1, "modern"),      # was 0.61 m beyond
+    (15.0, 5.0, "west", 1, "classic"),      # was 1.28 % doubled
+    (-10.0, 10.0, "east", 1, "classic"),    # was 0.61 m beyond
+    (15.0, 5.0, "east", 1, "modern"),       # was 0.35 m beyond
+])
+def test_a_t_leg_over_a_sharper_bend_is_folded_there(tmp_path, sample_db, bend, along,
+                                                     side, wing_side, style):
+    """A bend of 10-15 degrees 5 or 10 m along a T's main leg (the sample library's
+    legs are 15.8-21 m): the rigid leg spanned it as a chord, its facade up to 0.63 m
+    off the skeleton or its range doubling the next module's ground (1.45 % of the
+    footprint); 25 of 48 such buildings missed the audit's bar. The leg is folded at the
+    bend as a module is (a copy of the T turned onto each further run, cut on the bend's
+    bisector), and what of the wing the fold plane cuts off is kept by one more copy:
+    all 48 meet the bar, nothing doubled."""
+    a = math.radians(bend)
+    if side == "east":
+        main_line = [(0.0, 0.0), (31.5, 0.0), (31.5 + along, 0.0),
+                     (31.5 + along + 30 * math.cos(a), 30 * math.sin(a))]
+    else:
+        main_line = [(31.5 - along - 30 * math.cos(a), 30 * math.sin(a)),
+                     (31.5 - along, 0.0), (31.5, 0.0), (63.0, 0.0)]
+    wing = [(31.5, 0.0), (31.5, 40.0 * wing_side), (63.0, 40.0 * wing_side)]
+    src = _lines_file(tmp_path / f"fold_{bend:g}_{along:g}_{side}.geojson", main_line, wing)
+    code, layout = _build(tmp_path, src, style)
+    assert code == 0
+    ts = [i for i in json.loads(layout.read_text())["instances"]
+          if i["class"] == "t_junction"]
+    turned = {tuple(round(v, 6) for v in i["x_axis"]) for i in ts}
+    assert len(turned) == 2        # the copy at the key point and the one past the bend
+    name, audit = _audit(layout, sample_db)
+    assert audit.overlap_share < 0.001 and not _failures(name, audit), audit.line()
+
