@@ -178,11 +178,12 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
     root = m.path.parent
     out_dir = Path(out) if out is not None else cache_dir(root)
     digest = library_hash(m)
+    there = _stored_json(out_dir) if out is not None and not force else None
     if out is not None and not force:
-        _check_not_anothers(out_dir, root, digest)
+        _check_not_anothers(there, out_dir, root, digest)
     if not force:   # where the cache falls back to, too (see _save_cache)
         for folder in [out_dir] if out is not None else _cache_folders(out_dir, root):
-            cached = _read_cached(folder, digest)
+            cached = _read_cached(folder, digest, there if folder == out_dir else None)
             if cached is not None:
                 return cached
     parts, warnings = [], []
@@ -208,18 +209,28 @@ def ingest(library_dir: str | Path, out: str | Path | None = None, *, force: boo
     return db
 
 
-def _check_not_anothers(out_dir: Path, root: Path, digest: str) -> None:
-    """Refuse ``-o`` naming a folder that holds another library's database (another
-    library folder, other parts): it was replaced without a word, and every command
-    reading it as the other library's then placed this library's parts. The same
-    library ingested again (changed since, or moved) replaces it, as ever."""
+def _stored_json(out_dir: Path) -> object:
+    """The JSON of the database in ``out_dir``, read once for every check ingest makes
+    of it (a large library's is megabytes); None when there is none or it is no JSON."""
     try:
-        meta = json.loads((out_dir / DB_JSON).read_text(encoding="utf-8"))
-        theirs = meta.get("library_root")
+        return stored.read_json(out_dir / DB_JSON)
+    except LibraryError:
+        return None
+
+
+def _check_not_anothers(meta: object, out_dir: Path, root: Path, digest: str) -> None:
+    """Refuse ``-o`` naming a folder that holds another library's database (``meta``,
+    its JSON; another library folder, other parts): it was replaced without a word, and
+    every command reading it as the other library's then placed this library's parts.
+    The same library ingested again (changed since, or moved) replaces it, as ever."""
+    if not isinstance(meta, dict):    # none there, or not one to keep
+        return
+    theirs = meta.get("library_root")
+    try:
         if meta.get("library_hash") == digest or not isinstance(theirs, str) or \
                 Path(theirs).resolve() == root.resolve() or not Path(theirs).is_dir():
             return
-    except (OSError, ValueError, AttributeError):   # none there, or not one to keep
+    except (OSError, ValueError):     # a path no file system has
         return
     raise LibraryError(
         f"{out_dir}: holds the part database of another library ({shown(meta.get('name'))}"
@@ -375,11 +386,12 @@ _DAMAGED = (OSError, ValueError, KeyError, TypeError, IndexError, AttributeError
             RecursionError, zipfile.BadZipFile, zlib.error, shapely.errors.ShapelyError)
 
 
-def _read_db(out_dir: Path) -> PartDB:
-    """The database in ``out_dir``, every table read now (an npz is read lazily), checked
-    against the hash the JSON records for it, and every value checked as ingest makes it
-    (:mod:`parts_db.stored`): what the pipeline reads later, it may trust."""
-    meta = stored.read_meta(out_dir / DB_JSON, FORMAT_VERSION)
+def _read_db(out_dir: Path, parsed: object = None) -> PartDB:
+    """The database in ``out_dir`` (``parsed``: its JSON, when already read), every
+    table read now (an npz is read lazily), checked against the hash the JSON records
+    for it, and every value checked as ingest makes it (:mod:`parts_db.stored`): what
+    the pipeline reads later, it may trust."""
+    meta = stored.read_meta(out_dir / DB_JSON, FORMAT_VERSION, parsed)
     try:
         npz = (out_dir / DB_NPZ).read_bytes()
     except FileNotFoundError:
@@ -441,14 +453,17 @@ def _check_still_its_library(db: PartDB, folder: Path) -> None:
             f"{shlex.quote(str(root))} -o {shlex.quote(str(folder))} --force")
 
 
-def _read_cached(out_dir: Path, digest: str) -> PartDB | None:
-    """The cached database when it is this library's and whole; None (ingest again,
-    which overwrites it: the cache heals) when it is missing, stale or damaged."""
+def _read_cached(out_dir: Path, digest: str, meta: object = None) -> PartDB | None:
+    """The cached database when it is this library's and whole (``meta``: its JSON,
+    when already read); None (ingest again, which overwrites it: the cache heals) when
+    it is missing, stale or damaged."""
     try:
-        meta = json.loads((out_dir / DB_JSON).read_text(encoding="utf-8"))
-        if meta.get("format") != FORMAT_VERSION or meta.get("library_hash") != digest:
+        if meta is None:
+            meta = stored.read_json(out_dir / DB_JSON)
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT_VERSION or \
+                meta.get("library_hash") != digest:
             return None
-        return _read_db(out_dir)
+        return _read_db(out_dir, meta)
     except _DAMAGED:
         return None
 

@@ -93,10 +93,17 @@ def _read_json(path: Path) -> object:
     return value
 
 
-def read_meta(path: Path, format_version: int) -> dict[str, Any]:
-    """The JSON of ``partdb.json``, its top-level keys checked (``format`` first: a
-    database of another version is named as such, not as damaged)."""
-    meta = _read_json(path)
+def read_json(path: Path) -> object:
+    """``partdb.json``'s JSON value, every failure one LibraryError (read once, where
+    several checks look at it: :func:`read_meta` takes it)."""
+    return _read_json(path)
+
+
+def read_meta(path: Path, format_version: int, parsed: object = None) -> dict[str, Any]:
+    """The JSON of ``partdb.json`` (``parsed``: already read), its top-level keys
+    checked (``format`` first: a database of another version is named as such, not as
+    damaged)."""
+    meta = _read_json(path) if parsed is None else parsed
     if not isinstance(meta, dict):
         raise LibraryError(f"{path}: holds {type(meta).__name__}, not a part database "
                            "(a JSON object)")

@@ -33,6 +33,7 @@ from citysynth.pipeline.city.config import MAX_TOWER_HEIGHT
 from citysynth.pipeline.errors import UsageError
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import tower_problem
+from citysynth.skeletons.clean import mean_width
 from citysynth.solver import Problem, TooLargeError, solve
 from citysynth.solver.compiled import Compiled, compile_problem, with_bounds
 from citysynth.solver.diagnose import nearest, reach_given, spans_fit
@@ -468,7 +469,7 @@ def cut_lots(ground: BaseGeometry, size: float) -> list[Polygon]:
                 cell = box(x0 + i * w, y0 + j * h, x0 + (i + 1) * w, y0 + (j + 1) * h)
                 for piece in shapely.get_parts(g.intersection(cell)):
                     if (not isinstance(piece, Polygon) or piece.area < MIN_LOT_SHARE * size ** 2
-                            or 2 * piece.area / piece.length < MIN_LOT_WIDTH * size / 2):
+                            or mean_width(piece) < MIN_LOT_WIDTH * size / 2):
                         continue
                     back = affinity.rotate(piece, angle, origin=c)
                     back = shapely.transform(back, lambda xy: np.round(xy, 3))

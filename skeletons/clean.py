@@ -26,6 +26,14 @@ NOISE = 0.3           # metres: Douglas-Peucker tolerance for survey noise
 MIN_ANGLE = 30.0      # degrees: a sharper corner is a spike, and its tip is cut off
 
 
+def mean_width(g: BaseGeometry) -> float:
+    """How wide an outline is on average: twice its area over its perimeter (a
+    rectangle's width when it is long, a ring's wall thickness). Slivers, strips and
+    thin rings are told or skipped by it wherever outlines come in (a city's blocks and
+    footprints, ``block``'s outlines, a tower's lots); 0 for an outline of no length."""
+    return 2 * g.area / g.length if g.length > 0 else 0.0
+
+
 def _turns(pts: np.ndarray) -> np.ndarray:
     n = len(pts)
     return np.array([angle_between(pts[i] - pts[i - 1], pts[(i + 1) % n] - pts[i])

@@ -714,3 +714,24 @@ def test_ingest_into_a_folder_holding_another_librarys_database_is_refused(tmp_p
     ingest(a, out)                                   # its own library, changed: replaced
     assert [p.id for p in ingest(b, out, force=True).parts] == ["B"]
     assert [p.id for p in load_db(out).parts] == ["B"]
+
+
+def test_ingest_reads_the_database_it_finds_once(tmp_path, monkeypatch):
+    """``ingest -o X`` of the library X already holds: partdb.json is read and parsed
+    once for the checks and the load (it was three times: the other-library check, the
+    cache check and the load each parsed it, megabytes for a large library)."""
+    lib = _library(tmp_path, [("A", "a.stl", GOOD, 'class = "middle"')])
+    out = tmp_path / "db"
+    ingest(lib, out)
+    reads = []
+    for method in ("read_bytes", "read_text"):
+        real = getattr(Path, method)
+
+        def counted(self, *args, _real=real, **kw):
+            if self.name == "partdb.json":
+                reads.append(self)
+            return _real(self, *args, **kw)
+        monkeypatch.setattr(Path, method, counted)
+    db = ingest(lib, out)
+    assert db.cache_hit and [p.id for p in db.parts] == ["A"]
+    assert len(reads) == 1

@@ -29,7 +29,12 @@ from citysynth.pipeline.errors import MAX_STRETCH, shown
 from citysynth.pipeline.layouts import BlockedAt
 from citysynth.pipeline.skeleton_to_structure import _chains, shortest_stage
 from citysynth.skeletons import Feature, Frame, Skeleton, skeletons_from_polygons
-from citysynth.skeletons.clean import absorb_short_edges, clean_footprint, without_tips
+from citysynth.skeletons.clean import (
+    absorb_short_edges,
+    clean_footprint,
+    mean_width,
+    without_tips,
+)
 from citysynth.skeletons.errors import SkeletonError
 from citysynth.skeletons.from_geometry import STRAIGHT_TOL
 from citysynth.skeletons.geojson import format_xy, input_xy, local_xy, side_words
@@ -674,7 +679,7 @@ def cut_back(blocks: list[shapely.Polygon], buildings: list[shapely.Polygon], *,
         for piece in shapely.get_parts(left):
             if not isinstance(piece, shapely.Polygon) or piece.is_empty:
                 continue
-            if piece.area < min_area or 2 * piece.area / piece.length < min_width:
+            if piece.area < min_area or mean_width(piece) < min_width:
                 continue
             if piece.exterior.intersection(street).length < min_width:
                 enclosed += 1

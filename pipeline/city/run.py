@@ -80,6 +80,7 @@ from citysynth.pipeline.paths import same_input
 from citysynth.pipeline.progress import progress_line
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
+from citysynth.skeletons.clean import mean_width
 from citysynth.skeletons.errors import FarFromFrame, FarFromFrameWarning, InputWarning
 from citysynth.skeletons.from_geometry import why_invalid
 from citysynth.skeletons.geojson import Accept, box_around
@@ -162,7 +163,7 @@ def _street_outlines(streets: str | Path, cfg: CityConfig, crs: str | None,
                                     skipped_shapes=shapes, locate=frame.at)
     skipped += [_skip("block", r, g) for r, g in zip(reasons, shapes, strict=True)]
     for b in blocks:
-        width = 2 * b.polygon.area / b.polygon.length
+        width = mean_width(b.polygon)
         c = b.polygon.centroid
         if b.streets and all(is_roundabout(feats[i].properties) for i in b.streets):
             skipped.append(_skip("block", f"block at {frame.at((c.x, c.y))}: a roundabout's "

@@ -299,10 +299,10 @@ def _thin_note(args, feats: list) -> None:
     0.5 m ring round a courtyard was built without a word as walls that thin, windows on
     both faces."""
     from citysynth.pipeline.city.config import CityConfig
+    from citysynth.skeletons.clean import mean_width
 
     for f in feats:
-        g = f.geometry
-        width = 2 * g.area / g.length if g.length > 0 else 0.0
+        width = mean_width(f.geometry)
         if width < CityConfig.min_width:
             print(f"citysynth {args.command}: {f.where}: {width:.1f} m wide on average, "
                   f"under the {CityConfig.min_width:g} m a city's block must be: its "
