@@ -152,3 +152,21 @@ def test_a_multipolygon_beside_an_overlapping_polygon_is_settled(tmp_path, capsy
     # touching rectangles share about 1 m² there, as before); it was 600 m²
     shared = _ground(tmp_path, "pair").intersection(_ground(tmp_path, "bar")).area
     assert shared < 3.0, f"{shared:.1f} m² of pair and bar stand in the same ground"
+
+
+def test_two_overlapping_blocks_of_one_name_are_refused_before_any_note(tmp_path, capsys):
+    """Two features of one id that overlap: the refusal ("two blocks share a name") came
+    after a note that one was trimmed, telling of work the run then refused to do. The
+    names are checked first; the refusal is the one line said."""
+    src = tmp_path / "blocks.geojson"
+    rings = [[(0, 0), (60, 0), (60, 40), (0, 40)], [(50, 0), (110, 0), (110, 40), (50, 40)]]
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": "a", "storeys": 4},
+         "geometry": {"type": "Polygon", "coordinates": [
+             [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in ring + ring[:1]]]}}
+        for ring in rings]}))
+    code, err = _run(tmp_path, src, capsys)
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "two blocks share a name: 'a' and 'a'" in lines[0], err
+    assert not (tmp_path / "out").exists()

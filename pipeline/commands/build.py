@@ -213,19 +213,13 @@ def run_block(args) -> int:
     from citysynth.pipeline.city.footprints import Storeys, footprint_spec
     specs = {f.index: footprint_spec(args.file, f.index, f.properties, "", 0.0, 0.0,
                                      Storeys()) for f in feats}
+    feats = _distinct(args, feats)
+    _check_names(args.file, *_block_names(args, feats)[:2], args.k)   # before any note
     _storeys_note(args, feats, specs, style)
-    feats = _gaps_closed(args, _overlaps_settled(args, _distinct(args, feats), specs))
+    feats = _gaps_closed(args, _overlaps_settled(args, feats, specs))
     _thin_note(args, feats)
-    stem = safe_name(Path(args.file).stem)
-    names, ids, labels = [], [], []
-    for f in feats:
-        fid = f.properties.get("id", f.properties.get("name"))
-        ids.append(str(fid) if fid is not None else f"feature {f.index}")
-        labels.append(f"{args.file}: feature {f.index}"
-                      + (f" ({shown(fid)})" if fid is not None else ""))
-        names.append(safe_name(str(fid)) if fid is not None else
-                     (stem if len(feats) == 1 else f"{stem}_{f.index}"))
-    _check_names(args.file, names, ids, args.k)
+    names, ids, labels = _block_names(args, feats)
+    _check_names(args.file, names, ids, args.k)     # the pieces of a trimmed one too
     rings = [skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
              for f in feats]
     walls = party_walls([f.geometry for f in feats])   # where features touch
@@ -235,6 +229,21 @@ def run_block(args) -> int:
              for name, label, r, w in _told(list(zip(names, labels, rings, walls,
                                                      strict=True)), "laid out")]
     return _finish(args, db, style, frame, built)
+
+
+def _block_names(args, feats: list) -> tuple[list[str], list[str], list[str]]:
+    """Each feature's block name (its files'), id (what the messages quote) and label
+    (where it is in the input)."""
+    stem = safe_name(Path(args.file).stem)
+    names, ids, labels = [], [], []
+    for f in feats:
+        fid = f.properties.get("id", f.properties.get("name"))
+        ids.append(str(fid) if fid is not None else f"feature {f.index}")
+        labels.append(f"{args.file}: feature {f.index}"
+                      + (f" ({shown(fid)})" if fid is not None else ""))
+        names.append(safe_name(str(fid)) if fid is not None else
+                     (stem if len(feats) == 1 else f"{stem}_{f.index}"))
+    return names, ids, labels
 
 
 TOLD_FROM = 20   # features from which a command says how far it has got
