@@ -186,3 +186,29 @@ def test_a_t_leg_over_a_sharper_bend_is_folded_there(tmp_path, sample_db, bend, 
     name, audit = _audit(layout, sample_db)
     assert audit.overlap_share < 0.001 and not _failures(name, audit), audit.line()
 
+
+
+@pytest.mark.parametrize("main_line,wing,style", [
+    # 3 degrees at the junction, 14 more 0.3 m past it: folded there, the fold piece
+    # doubled a wedge of the other copy's range (8 m² of coplanar roof); the leg now
+    # spans so near a bend as a chord
+    ([(0.0, 0.0), (31.5, 0.0), (31.7996, 0.0157), (61.6363, 9.1377)],
+     [(31.5, 0.0), (31.5, -40.0), (63.0, -40.0)], "modern"),
+    # the same 0.5 m past: folded, and the notch between the wing and the range turned
+    # away from it (16 m²) is filled by the wing's copy
+    ([(0.0, 0.0), (31.5, 0.0), (31.999, 0.026), (61.645, 9.09)],
+     [(31.5, 0.0), (31.5, -40.0), (63.0, -40.0)], "modern"),
+    # two bends under one leg (2 m at -10 degrees, 6 m at -3): the wing past the first
+    # fold was doubled by the copy past the second (1.08 m² of coplanar roof)
+    ([(63.0, 0.0), (31.5, 0.0), (29.5, 0.0), (25.561, 0.695), (0.714, 6.431)],
+     [(31.5, 0.0), (31.5, 40.0), (63.0, 40.0)], "modern"),
+])
+def test_bends_near_a_bent_junction_or_two_under_a_leg_meet_the_bar(
+        tmp_path, sample_db, main_line, wing, style):
+    """Shapes a helper's fuzzing of the fold found failing the bar (three of 430 runs)."""
+    src = _lines_file(tmp_path / f"near_{len(main_line)}_{main_line[2][0]:g}.geojson",
+                      main_line, wing)
+    code, layout = _build(tmp_path, src, style)
+    assert code == 0
+    name, audit = _audit(layout, sample_db)
+    assert audit.overlap_share < 0.001 and not _failures(name, audit), audit.line()
