@@ -17,7 +17,7 @@ import json
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from citysynth.export.assemble import extent
@@ -32,6 +32,7 @@ from citysynth.pipeline.errors import UsageError, shown
 from citysynth.pipeline.paths import written_over
 from citysynth.pipeline.skeleton_to_structure import skeleton_structure
 from citysynth.skeletons import Skeleton
+from citysynth.solver.diagnose import nearest
 from citysynth.solver.errors import TooLargeError
 from citysynth.solver.methods import DEFAULT_MAX_MEMORY_MB
 from citysynth.solver.structures import solve_structure
@@ -109,6 +110,26 @@ def check_facade(name: str, skeletons: list[Skeleton]) -> None:
             budget_mb=DEFAULT_MAX_MEMORY_MB)
 
 
+def _with_alone(blocked: Blocked, alone: dict[int, tuple[float, ...]]) -> Blocked:
+    """``blocked`` with the lengths its stage's two T parts span alone (``alone``, when
+    the pipeline asked that stage for a middle part) among the nearest lengths its
+    diagnosis names: a 10.3 m bar between two T parts was told "the nearest they make
+    there is 14.00 m", though a 10.4 m one builds with the T parts alone."""
+    spans = alone.get(blocked.stage)
+    if not spans:
+        return blocked
+    details = []
+    for d in blocked.details:
+        if d["constraint"] == "length":
+            lo, hi = d["asked"]
+            mid = (lo + hi) / 2
+            made = [*nearest(d), *spans]
+            d = {**d, "nearest_below": max((x for x in made if x < mid), default=None),
+                 "nearest_above": min((x for x in made if x > mid), default=None)}
+        details.append(d)
+    return replace(blocked, details=details)
+
+
 def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
                   k: int = 1, *, infill: Roof = "pockets", party: Sequence[Segment] = (),
                   label: str | None = None, **options) -> Built:
@@ -136,10 +157,11 @@ def solve_layouts(name: str, skeletons: list[Skeleton], db: PartDB, style: str,
                             resources=exc.resources, k=exc.k) from None
     t2 = time.perf_counter()
     timings = {"structure_s": t1 - t0, "solve_s": t2 - t1}
-    for sk, r in zip(skeletons, results, strict=True):
+    for sk, p, r in zip(skeletons, plans, results, strict=True):
         if r.status != "ok":
             return Built(name, "infeasible", reason=f"{sk.name}: {r.reason}", timings=timings,
-                         blocked_at=(sk.name, r.blocked) if r.blocked else None)
+                         blocked_at=(sk.name, _with_alone(r.blocked, p.alone))
+                         if r.blocked else None)
     count = max(len(r.solutions) for r in results)
     placements = [p.placement for p in plans]
     layouts = [layout(name, i + 1, placements,

@@ -232,6 +232,8 @@ class StructurePlan:
 
     structure: Structure           # what the solver solves
     placement: PlacementPlan       # what export places the solution on
+    # a stage two T parts could span alone but not exactly -> the lengths they do span
+    alone: dict[int, tuple[float, ...]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -360,7 +362,7 @@ def skeleton_structure(sk: Skeleton, db: PartDB, style: str, *, k: int = 1,
                      for s, st in enumerate(structure.stages)),
         branch=dict(kp.branch), asked=dict(structure.global_constraints),
         joints=_joints(db.quantum, kp.seam) if kp.joint else {})
-    return StructurePlan(structure, placement)
+    return StructurePlan(structure, placement, rigid)
 
 
 class _only:
@@ -591,7 +593,8 @@ def _legs(p: Part, element: str, quantum: float | None) -> tuple[float, ...]:
     return tuple(legs)
 
 
-def _rigid_gaps(st: Structure, kp: _KeyParts, lengths: list[float]) -> set[int]:
+def _rigid_gaps(st: Structure, kp: _KeyParts, lengths: list[float]
+                ) -> dict[int, tuple[float, ...]]:
     """The stages the solver could fill with two T parts alone (their legs on the grid
     within the stage's length interval) though the parts' geometry misses the
     skeleton's ``lengths`` by more than the export's tolerance: a T part is rigid (the
@@ -600,22 +603,25 @@ def _rigid_gaps(st: Structure, kp: _KeyParts, lengths: list[float]) -> set[int]:
     parts whose wings measure 5.2 m each failed to place, 100 mm apart). Such a stage
     must hold a middle part (:data:`FILLED`). A pair that meets exactly beside one that
     does not loses its empty stage too (a skeleton side within a millimetre of two legs'
-    sum is chance, not design)."""
-    out = set()
+    sum is chance, not design). Each with the lengths its T parts span exactly (what
+    a refusal names as buildable)."""
+    out: dict[int, tuple[float, ...]] = {}
     for s, stage in enumerate(st.stages):
         lo, hi = stage.constraints["length"]
         first, a_leg, b_leg = st.first_table(s), st.start_leg(s), st.end_leg(s)
         rigid = [[x for x in st.keypoints[v] if x in kp.parts
                   and kp.parts[x].cls == "t_junction"] for v in (stage.start, stage.end)]
+        spans, missed = set(), False
         for a, b in itertools.product(*rigid):
             if (a, b) not in first:
                 continue
             grid = st.legs[a][a_leg]["length"] + st.legs[b][b_leg]["length"]
             measured = (_legs(kp.parts[a], a, None)[a_leg]
                         + _legs(kp.parts[b], b, None)[b_leg])
-            if lo - 1e-9 <= grid <= hi + 1e-9 and abs(measured - lengths[s]) > TOL:
-                out.add(s)
-                break
+            spans.add(round(measured, 3))
+            missed |= lo - 1e-9 <= grid <= hi + 1e-9 and abs(measured - lengths[s]) > TOL
+        if missed:
+            out[s] = tuple(sorted(spans))
     return out
 
 

@@ -48,6 +48,9 @@ def test_a_bar_the_wings_miss_by_a_tenth_is_told_in_metres(tmp_path, capsys):
     assert code == 1, err
     assert "the 10.50 m side from (391000.00, 5820030.00) to (391010.50, 5820030.00)" in err
     assert "no row of the classic kit's parts fits it" in err
+    # the lengths the T parts span alone are named: it said 14.00 m, the nearest with a
+    # middle part, though 10.4 m builds
+    assert "(the nearest they make there is 10.40 or 11.00 m)" in err
     for internal in ("stage", "mm apart", "key part", FILLED):
         assert internal not in err
     assert not (tmp_path / "h_10.5").exists()
