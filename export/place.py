@@ -419,9 +419,9 @@ class _Placer:
         stage's path, the indices of the path's segments the leg covers (in the path's
         order; one, where the leg's chord stays within :data:`CHORD_TOL` of its bends)
         and whether the key point is the path's start; None without such a stage. A
-        bend close to the key point is spanned as a chord, as a bend at the junction
-        is: folded 0.3 m past a bent junction, the fold left its wing a 16 m² notch
-        where the chord met the bar."""
+        bend a few decimetres from the key point is spanned as a chord, as a bend at
+        the junction is (folded 0.3 m past a bent junction, the pieces left 1 % of the
+        roof band open)."""
         if leg == 0:
             s = self.ins[j]
         else:
@@ -473,14 +473,8 @@ class _Placer:
                     self.placed[pieces[-1]].halves.extend(
                         [*(sides or {}).get(leg, []),
                          self._part_plane(pieces[-1], (0.0, 1.0), y_range(p)[1])])
-                folds.append([])   # (a T is not extended to a plane: its x is no length)
-                if n > 0:
-                    fold = bisector(path.dir[k - 1], path.dir[k])
-                    folds[-1].append(HalfPlane(tuple(-fold), tuple(path.p[k]), False))
-                if n < len(segs) - 1:
-                    nxt = segs[n + 1]
-                    fold = bisector(path.dir[k], path.dir[nxt])
-                    folds[-1].append(HalfPlane(tuple(fold), tuple(path.p[nxt]), False))
+                # (a T is not extended to a plane: its x is no length)
+                folds.append(_run_folds(path, segs, n, extends=False))
                 self.placed[pieces[-1]].halves.extend(folds[-1])
             if self.record.keys[(j, 2)] == i:    # the copy holding the wing
                 turned = list(zip(pieces, folds, strict=True))
@@ -583,13 +577,7 @@ class _Placer:
             a = np.column_stack([u * (w / _geom_length(p)),
                                  _left(u) if front == "right" else -_left(u)])
             placed = _instance(p, self.si, s, None, a, path.p[k] + u * (pos - path.cum[k]))
-            if n > 0:            # after the bend at vertex k: keep what lies past it
-                fold = bisector(path.dir[k - 1], u)
-                placed.halves.append(HalfPlane(tuple(-fold), tuple(path.p[k])))
-            if n < len(runs) - 1:   # before the next bend
-                nxt = runs[n + 1]
-                fold = bisector(u, path.dir[nxt])
-                placed.halves.append(HalfPlane(tuple(fold), tuple(path.p[nxt])))
+            placed.halves.extend(_run_folds(path, runs, n))
             out.append(placed)
         _fold_at_ends(out, path, runs, reach)
         return out
@@ -1248,6 +1236,22 @@ def _reopen(placers: Sequence[_Placer]) -> None:
                 placed.halves.remove(half)
                 feet[(n, i)] = p._covered(i)
                 gaps = gaps.difference(back)
+
+
+def _run_folds(path: _Path, runs: list[int], n: int, extends: bool = True
+               ) -> list[HalfPlane]:
+    """The bend planes that cut the piece on run ``runs[n]`` of ``path`` (a segment
+    index; ``runs`` those a folded module or T leg covers, in order): past the bend
+    before it, and short of the next, each on the bend's bisector."""
+    k, out = runs[n], []
+    if n > 0:            # after the bend at vertex k: keep what lies past it
+        fold = bisector(path.dir[k - 1], path.dir[k])
+        out.append(HalfPlane(tuple(-fold), tuple(path.p[k]), extends))
+    if n < len(runs) - 1:   # before the next bend
+        nxt = runs[n + 1]
+        fold = bisector(path.dir[k], path.dir[nxt])
+        out.append(HalfPlane(tuple(fold), tuple(path.p[nxt]), extends))
+    return out
 
 
 def _fold_at_ends(pieces: list[Placed], path: _Path, runs: list[int],
