@@ -170,3 +170,21 @@ def test_two_overlapping_blocks_of_one_name_are_refused_before_any_note(tmp_path
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "two blocks share a name: 'a' and 'a'" in lines[0], err
     assert not (tmp_path / "out").exists()
+
+
+def test_two_ids_that_make_one_file_name_are_told_so(tmp_path, capsys):
+    """Ids "a" and "a_" make one file name ("a": a file name drops '_' at its ends):
+    the refusal said they "share a name" and to give each feature a distinct id, which
+    they had."""
+    src = tmp_path / "blocks.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": name}, "geometry": {
+            "type": "Polygon", "coordinates": [[[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in
+                                                [(x0, 0), (x0 + 50, 0), (x0 + 50, 40),
+                                                 (x0, 40), (x0, 0)]]]}}
+        for name, x0 in (("a", 0), ("a_", 100))]}))
+    code, err = _run(tmp_path, src, capsys)
+    assert code == 2
+    assert "two blocks make one file name ('a': a file name keeps" in err, err
+    assert "'a' and 'a_'" in err and "give them ids that differ in those characters" in err
+    assert "share a name" not in err and not (tmp_path / "out").exists()

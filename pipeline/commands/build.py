@@ -409,13 +409,18 @@ def _check_names(source, names: list[str], ids: list[str], k: int) -> None:
             m = seen.get(file.casefold())
             if m is not None:
                 other = names[m]
-                why = ("share a name" if other == name else
+                why = ("share a name" if ids[m] == ids[n] else
+                       f"make one file name ({name!r}: a file name keeps ASCII letters, "
+                       "digits, '.', '_' and '-', and no '_' or '.' at either end)"
+                       if other == name else
                        "share a name but for letter case (one file on Windows and macOS)"
                        if other.casefold() == name.casefold() else
                        f"would write the same files ({file!r})")
+                fix = ("give each feature a distinct id" if other != name or ids[m] == ids[n]
+                       else "give them ids that differ in those characters")
                 raise SkeletonError(
                     f"{source}: two blocks {why}: {ids[m]!r} and {ids[n]!r} (their "
-                    "\"id\"); give each feature a distinct id" + (
+                    f"\"id\"); {fix}" + (
                         f", not ending in _1 to _{k} after another's (with --k {k} a block's "
                         "files are named <id>_<rank>)" if k > 1 and
                         other.casefold() != name.casefold() else ""))
