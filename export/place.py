@@ -363,7 +363,7 @@ class _Placer:
         module: 0.6 m across at 3 degrees on a 12 m deep range)."""
         key = self.sol.keys[j]
         back, wing = _leg_reach(p, key, 2)   # turned over, its key point is on its back face
-        runs = {leg: self._leg_runs(j, leg) for leg in (0, 1)}
+        runs = self._t_runs(j)
         for leg, run in runs.items():   # a leg over a bend: aimed along its first run
             if run is not None and len(run[1]) > 1:
                 path, segs, at_start = run
@@ -414,30 +414,45 @@ class _Placer:
         self.record.keys[(j, 2)] = idx[wing_leg]
         self._fold_t(j, p, runs, {wing_leg: [split], other: [self.placed[idx[other]].halves[0]]})
 
-    def _leg_runs(self, j: int, leg: int) -> tuple[_Path, list[int], bool] | None:
-        """The straight runs of the skeleton under T key j's main leg ``leg``: its
-        stage's path, the indices of the path's segments the leg covers (in the path's
-        order; one, where the leg's chord stays within :data:`CHORD_TOL` of its bends)
-        and whether the key point is the path's start; None without such a stage. A
-        bend a few decimetres from the key point is spanned as a chord, as a bend at
-        the junction is (folded 0.3 m past a bent junction, the pieces left 1 % of the
-        roof band open)."""
-        if leg == 0:
-            s = self.ins[j]
-        else:
-            s = next((t for t in self.outs[j] if self.plan.stages[t].start_leg == 1), None)
-        if s is None or (leg == 0 and self.plan.stages[s].end_leg != 0):
-            return None
-        path, n = self.paths[s], self.leg_len(j, leg)
-        lo, hi = (0.0, n) if leg == 1 else (path.length - n, path.length)
-        bends = path.bends_within(lo, hi)
-        a, b = path.at(lo), path.at(hi)
-        chord = (b - a) / max(float(np.hypot(*(b - a))), 1e-12)
-        off = max((abs(float(chord[0] * (path.p[k] - a)[1] - chord[1] * (path.p[k] - a)[0]))
-                   for k in bends), default=0.0)
-        if off <= CHORD_TOL:    # spanned as a chord, the leg stays on the skeleton
-            bends = []
-        return path, [path.segment(lo + TOL)] + bends, leg == 1
+    def _t_runs(self, j: int) -> dict[int, tuple[_Path, list[int], bool] | None]:
+        """The straight runs of the skeleton under T key j's main legs (0, 1): each
+        leg's stage path, the indices of the path's segments it covers (in the path's
+        order) and whether the key point is the path's start; None without such a
+        stage. Where the main line bends at the junction too (the T placed twice), a leg
+        whose chord stays within :data:`CHORD_TOL` of its bends spans them as a chord,
+        as it spans that bend (folded 0.3 m past a bent junction, its pieces left 1 %
+        of the roof band open); where it runs straight through, a leg is folded at any
+        bend (spanned as a chord it is placed twice and sheared: an H's bar between two
+        T parts doubled 10.7 m² at a 10 degree bend 0.5 m along)."""
+        runs: dict[int, tuple[_Path, list[int], bool] | None] = {}
+        offs = {}
+        for leg in (0, 1):
+            if leg == 0:
+                s = self.ins[j]
+            else:
+                s = next((t for t in self.outs[j] if self.plan.stages[t].start_leg == 1),
+                         None)
+            if s is None or (leg == 0 and self.plan.stages[s].end_leg != 0):
+                runs[leg] = None
+                continue
+            path, n = self.paths[s], self.leg_len(j, leg)
+            lo, hi = (0.0, n) if leg == 1 else (path.length - n, path.length)
+            bends = path.bends_within(lo, hi)
+            a, b = path.at(lo), path.at(hi)
+            chord = (b - a) / max(float(np.hypot(*(b - a))), 1e-12)
+            offs[leg] = max((abs(float(chord[0] * (path.p[k] - a)[1]
+                                       - chord[1] * (path.p[k] - a)[0])) for k in bends),
+                            default=0.0)
+            runs[leg] = (path, [path.segment(lo + TOL)] + bends, leg == 1)
+        first = [r[0].dir[r[1][0]] if r[2] else r[0].dir[r[1][-1]]
+                 for r in runs.values() if r is not None]
+        bent = len(first) == 2 and abs(float(first[0][0] * first[1][1]
+                                             - first[0][1] * first[1][0])) > TOL / 10
+        for leg, run in runs.items():
+            if run is not None and bent and offs[leg] <= CHORD_TOL:
+                path, segs, at_start = run
+                runs[leg] = (path, [segs[0] if at_start else segs[-1]], at_start)
+        return runs
 
     def _fold_t(self, j: int, p: Part, runs: dict[int, tuple[_Path, list[int], bool] | None],
                 sides: dict[int, list[HalfPlane]] | None = None) -> None:

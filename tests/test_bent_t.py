@@ -212,3 +212,26 @@ def test_bends_near_a_bent_junction_or_two_under_a_leg_meet_the_bar(
     assert code == 0
     name, audit = _audit(layout, sample_db)
     assert audit.overlap_share < 0.001 and not _failures(name, audit), audit.line()
+
+
+def test_an_h_whose_side_bends_just_past_its_bar_meets_the_bar(tmp_path, sample_db):
+    """An H (an 11 m bar between two T parts) whose east line bends 10 degrees 0.5 m
+    past the bar: spanned as a chord, the east T was placed twice and sheared, and its
+    wing doubled the west T's (10.7 m², 0.72 % of the footprint). Where the main line
+    runs straight through the junction the leg is folded at any bend, the T kept
+    square."""
+    a = math.radians(10.0)
+    lines = {"west": [(0.0, 0.0), (0.0, 30.0), (0.0, 60.0)],
+             "east": [(11.0 - 29.5 * math.sin(a), 30.5 + 29.5 * math.cos(a)), (11.0, 30.5),
+                      (11.0, 30.0), (11.0, 0.0)],
+             "bar": [(0.0, 30.0), (11.0, 30.0)]}
+    src = tmp_path / "h_bend.geojson"
+    src.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": name}, "geometry": {
+            "type": "LineString",
+            "coordinates": [[ORIGIN[0] + x, ORIGIN[1] + y] for x, y in line]}}
+        for name, line in lines.items()]}))
+    code, layout = _build(tmp_path, src, "classic")
+    assert code == 0
+    name, audit = _audit(layout, sample_db)
+    assert audit.overlap_share < 0.001 and not _failures(name, audit), audit.line()
