@@ -67,8 +67,9 @@ def _show(v: object) -> str:
     return r if len(r) <= 40 else r[:37] + "..."
 
 
-def _read_json(path: Path) -> object:
-    """The JSON value of ``path``, every failure one LibraryError. NaN is let through:
+def read_json(path: Path) -> object:
+    """The JSON value of ``path``, every failure one LibraryError (read once where
+    several checks look at ``partdb.json``: :func:`read_meta` takes it). NaN is let through:
     the check of the key holding it names it, which parse_json cannot."""
     try:
         data = path.read_bytes()
@@ -93,17 +94,11 @@ def _read_json(path: Path) -> object:
     return value
 
 
-def read_json(path: Path) -> object:
-    """``partdb.json``'s JSON value, every failure one LibraryError (read once, where
-    several checks look at it: :func:`read_meta` takes it)."""
-    return _read_json(path)
-
-
 def read_meta(path: Path, format_version: int, parsed: object = None) -> dict[str, Any]:
     """The JSON of ``partdb.json`` (``parsed``: already read), its top-level keys
     checked (``format`` first: a database of another version is named as such, not as
     damaged)."""
-    meta = _read_json(path) if parsed is None else parsed
+    meta = read_json(path) if parsed is None else parsed
     if not isinstance(meta, dict):
         raise LibraryError(f"{path}: holds {type(meta).__name__}, not a part database "
                            "(a JSON object)")

@@ -409,15 +409,15 @@ def _check_names(source, names: list[str], ids: list[str], k: int) -> None:
             m = seen.get(file.casefold())
             if m is not None:
                 other = names[m]
-                why = ("share a name" if ids[m] == ids[n] else
-                       f"make one file name ({name!r}: a file name keeps ASCII letters, "
+                one_file = other == name and ids[m] != ids[n]   # distinct ids, one name
+                why = (f"make one file name ({name!r}: a file name keeps ASCII letters, "
                        "digits, '.', '_' and '-', and no '_' or '.' at either end)"
-                       if other == name else
+                       if one_file else "share a name" if other == name else
                        "share a name but for letter case (one file on Windows and macOS)"
                        if other.casefold() == name.casefold() else
                        f"would write the same files ({file!r})")
-                fix = ("give each feature a distinct id" if other != name or ids[m] == ids[n]
-                       else "give them ids that differ in those characters")
+                fix = ("give them ids that differ in those characters" if one_file
+                       else "give each feature a distinct id")
                 raise SkeletonError(
                     f"{source}: two blocks {why}: {ids[m]!r} and {ids[n]!r} (their "
                     f"\"id\"); {fix}" + (
