@@ -175,28 +175,33 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
     xy = node.xy
     edges: list[Edge] = []
 
-    drawn: list[tuple[Feature, np.ndarray]] = []
+    # each line with the feature it is drawn in and how messages name it: a
+    # MultiLineString's lines by part ("feature 0 (s) part 1"), or a skeleton of two
+    # disjoint parts was "2 separate pieces, feature 0 (s) / feature 0 (s)"
+    drawn: list[tuple[Feature, str, np.ndarray]] = []
     for f in features:
         lines = list(f.geometry.geoms) if isinstance(f.geometry, MultiLineString) \
             else [f.geometry]
-        for line in lines:
+        for k, line in enumerate(lines):
             if not isinstance(line, LineString):
                 raise SkeletonError(f"{f.where}: a skeleton is made of LineStrings, got "
                                     f"{f.geometry.geom_type}")
-            drawn.append((f, np.asarray(line.coords)[:, :2]))
-    for (f, raw), pts in zip(drawn, _undensified([pts for _f, pts in drawn]), strict=True):
+            drawn.append((f, f.where + (f" part {k}" if len(lines) > 1 else ""),
+                          np.asarray(line.coords)[:, :2]))
+    for (f, label, raw), pts in zip(drawn, _undensified([pts for _f, _w, pts in drawn]),
+                                    strict=True):
         front = _front(f.properties, f.where)
         cons = _constraints(f.properties, f.where)
         for p, q in zip(raw[:-1], raw[1:], strict=True):   # as drawn (no key points)
             if float(np.linalg.norm(q - p)) < SNAP or \
                     (round(p[0] / SNAP), round(p[1] / SNAP)) == (round(q[0] / SNAP),
                                                                  round(q[1] / SNAP)):
-                raise SkeletonError(f"{f.where}: a zero-length edge at {frame.at(p)}; "
+                raise SkeletonError(f"{label}: a zero-length edge at {frame.at(p)}; "
                                     "remove the repeated point")
         for p, q in zip(pts[:-1], pts[1:], strict=True):
             a, b = node(p), node(q)
             edges.append(Edge(a, b, float(np.linalg.norm(xy[b] - xy[a])), front, cons,
-                              f.where))
+                              label))
     if not edges:
         raise SkeletonError(f"{prefix}no skeleton edges in the input")
     edges = _split_at_touching_ends(edges, xy)
@@ -417,15 +422,11 @@ def skeletons_from_polygons(features: Iterable[Feature], frame: Frame, *,
     also name the file."""
     out = []
     for f in features:
-        polys = list(f.geometry.geoms) if isinstance(f.geometry, MultiPolygon) \
-            else [f.geometry]
+        polys = _outline_parts(f)
         if len(polys) > 1 and all(p.is_valid for p in polys) and not f.geometry.is_valid:
-            what, _fix = why_invalid(f.geometry, frame)   # parts that overlap or touch
-            raise SkeletonError(f"{_in_file(f, f.name)}: its polygons overlap ({what}); "
-                                "two buildings cannot share ground: merge them into one "
-                                "polygon, or move them apart")
+            raise SkeletonError(_parts_meet(f, polys, frame))
         for k, poly in enumerate(polys):
-            label = f.name + (f" part {k}" if len(polys) > 1 else "")
+            label = _part_label(f, k, len(polys))
             poly = _checked_polygon(poly, _in_file(f, label), min_area, frame)
             rings = [poly.exterior, *poly.interiors]
             for r, ring in enumerate(rings):
@@ -438,9 +439,59 @@ def _in_file(f: Feature, label: str) -> str:
     return f"{f.source}: {label}" if f.source else label
 
 
+def _outline_parts(f: Feature) -> list[BaseGeometry]:
+    return list(f.geometry.geoms) if isinstance(f.geometry, MultiPolygon) else [f.geometry]
+
+
+def _part_label(f: Feature, k: int, n: int) -> str:
+    return f.name + (f" part {k}" if n > 1 else "")
+
+
+def check_outline(f: Feature, frame: Frame) -> None:
+    """Refuse feature ``f`` unless each of its polygons is a valid outline (a Polygon,
+    its courtyards apart, crossing itself nowhere), as :func:`skeletons_from_polygons`
+    would: a command checks this before it does anything with the outlines (``block``
+    settled the overlaps of a self-crossing outline first, and GEOS failed there: exit
+    3). Area and how a MultiPolygon's polygons lie to each other are left to that
+    function: a trim may still settle them."""
+    polys = _outline_parts(f)
+    for k, poly in enumerate(polys):
+        _valid_polygon(poly, _in_file(f, _part_label(f, k, len(polys))), frame)
+
+
+def _parts_meet(f: Feature, polys: list[BaseGeometry], frame: Frame) -> str:
+    """Why a MultiPolygon of valid polygons is not valid: they overlap, or they only
+    touch (along a side or at a point; "overlap" sent the user looking for shared
+    ground there was none of)."""
+    what, _fix = why_invalid(f.geometry, frame)
+    where = _in_file(f, f.name)
+    if shapely.union_all(polys).area < sum(p.area for p in polys) - SHARED_AREA:
+        return (f"{where}: its polygons overlap ({what}); two buildings cannot share "
+                "ground: merge them into one polygon, or move them apart")
+    at = what.rpartition(" at ")[2]
+    return (f"{where}: its polygons touch at {at}; the polygons of one feature must stand "
+            "apart: give each its own feature (features that touch get a party wall), or "
+            "merge them into one polygon")
+
+
+SHARED_AREA = 1e-3   # m²: polygons sharing less only touch
+
+
 def _checked_polygon(poly: BaseGeometry, where: str, min_area: float, frame: Frame
                      ) -> Polygon:
     """A valid polygon of some area, oriented counter-clockwise (holes clockwise)."""
+    _valid_polygon(poly, where, frame)
+    if poly.area < min_area:
+        raise SkeletonError(
+            f"{where}: the outline at {frame.at(poly.exterior.coords[0])} encloses "
+            f"{poly.area:.2f} m², under the {min_area:g} m² of the smallest block; check "
+            "its coordinates are in the CRS the file says (or --crs), or remove it")
+    return shapely.orient_polygons(poly) if hasattr(shapely, "orient_polygons") \
+        else shapely.geometry.polygon.orient(poly, 1.0)
+
+
+def _valid_polygon(poly: BaseGeometry, where: str, frame: Frame) -> None:
+    """Refuse ``poly`` unless it is a valid Polygon whose courtyards stand apart."""
     if not isinstance(poly, Polygon):
         how = {"GeometryCollection": "; give each of its polygons as a feature of its own",
                "LineString": "; building lines go to citysynth building",
@@ -452,13 +503,6 @@ def _checked_polygon(poly: BaseGeometry, where: str, min_area: float, frame: Fra
     if not poly.is_valid:
         what, fix = why_invalid(poly, frame)
         raise SkeletonError(f"{where}: invalid polygon ({what}); {fix}")
-    if poly.area < min_area:
-        raise SkeletonError(
-            f"{where}: the outline at {frame.at(poly.exterior.coords[0])} encloses "
-            f"{poly.area:.2f} m², under the {min_area:g} m² of the smallest block; check "
-            "its coordinates are in the CRS the file says (or --crs), or remove it")
-    return shapely.orient_polygons(poly) if hasattr(shapely, "orient_polygons") \
-        else shapely.geometry.polygon.orient(poly, 1.0)
 
 
 COURT_TOUCH = 0.01   # m: a courtyard this near the outline or another courtyard meets it

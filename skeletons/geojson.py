@@ -44,7 +44,7 @@ from citysynth.skeletons.errors import (
 )
 from citysynth.skeletons.gis_files import gis_format, read_gis_file
 from citysynth.skeletons.overture import osm_tags
-from citysynth.solver.safe_read import parse_json, read_text, shown
+from citysynth.solver.safe_read import parse_json, printable, read_text, shown
 
 TRUE_SCALE = 1e-3      # a projected CRS whose scale strays more from 1 is reprojected
 #                        (and a run's local frame warns of data it stretches more)
@@ -75,7 +75,7 @@ def feature_label(index: int, properties: dict[str, Any]) -> str:
         fid = f"way {properties['osm_way_id']}"
     elif fid is None and properties.get("osm_id") is not None:
         fid = f"OSM id {properties['osm_id']}"
-    return f"feature {index}" + (f" ({fid})" if fid is not None else "")
+    return f"feature {index}" + (f" ({printable(str(fid))})" if fid is not None else "")
 
 
 @dataclass(frozen=True)

@@ -357,12 +357,18 @@ def shown(v: Any, most: int = 60) -> str:
         text = f"{v:,}" if isinstance(v, int) and abs(v) >= 10_000 else repr(v)
     elif isinstance(v, datetime.date | datetime.time):
         text = v.isoformat()
-    else:   # letters as themselves (é), what prints as no letter escaped: JSON leaves
-        # a right-to-left override or a zero-width space raw, and the message's text
-        # after it read backwards, or two names looked one
-        text = "".join(c if c.isprintable() else _escaped(c)
-                       for c in json.dumps(v, ensure_ascii=False, default=str))
+    else:
+        text = printable(json.dumps(v, ensure_ascii=False, default=str))
     return text if len(text) <= most else text[:most - 3] + "..."
+
+
+def printable(text: str) -> str:
+    """``text`` with letters as themselves (é) and what prints as no letter escaped
+    (``\\u000a``): JSON leaves a right-to-left override or a zero-width space raw, and
+    the message's text after it read backwards, or two names looked one; a line break
+    in a feature's id split a one-line message in three, and a terminal escape in one
+    recoloured the terminal."""
+    return "".join(c if c.isprintable() else _escaped(c) for c in text)
 
 
 def _escaped(c: str) -> str:

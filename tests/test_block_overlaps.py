@@ -97,8 +97,8 @@ def test_a_sliver_of_an_outline_is_told(tmp_path, capsys):
             ("block", [[(100, 100), (160, 100), (160, 140), (100, 140)]]))]}))
     code, err = _run(tmp_path, src, capsys)
     assert code == 0
-    assert "feature 0 (strip): 3.0 m wide on average, under the 8 m a city's block must " \
-        "be" in err
+    assert "feature 0 (strip): 3.0 m wide on average, under the 8 m below which a city " \
+        "leaves a block out" in err
     assert "feature 1 (ring): 0.5 m wide on average" in err
     assert "feature 2 (block)" not in err
 

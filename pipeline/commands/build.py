@@ -208,20 +208,23 @@ def run_block(args) -> int:
     from citysynth.pipeline.city.party import party_walls
     from citysynth.pipeline.layouts import solve_layouts
     from citysynth.skeletons import skeletons_from_polygons
+    from citysynth.skeletons.from_geometry import check_outline
 
     db, style, feats, frame = _prepare(args)
     from citysynth.pipeline.city.footprints import Storeys, footprint_spec
     specs = {f.index: footprint_spec(args.file, f.index, f.properties, "", 0.0, 0.0,
                                      Storeys()) for f in feats}
     feats = _distinct(args, feats)
-    _check_names(args.file, *_block_names(args, feats)[:2], args.k)   # before any note
+    for f in feats:   # before any note, and before GEOS overlays them (a self-crossing
+        check_outline(f, frame)      # outline over another failed there: exit 3)
+    _check_names(args.file, *_block_names(args, feats)[:2], args.k)
     _storeys_note(args, feats, specs, style)
     feats = _gaps_closed(args, _overlaps_settled(args, feats, specs))
-    _thin_note(args, feats)
     names, ids, labels = _block_names(args, feats)
     _check_names(args.file, names, ids, args.k)     # the pieces of a trimmed one too
     rings = [skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
              for f in feats]
+    _thin_note(args, feats)   # once every outline is one a block is laid out from
     walls = party_walls([f.geometry for f in feats])   # where features touch
     roof: Roof = "all" if args.infill else "pockets"     # footprints, or street blocks
     built = [(solve_layouts(name, r, db, style, args.k, infill=roof, label=label,
@@ -314,9 +317,10 @@ def _thin_note(args, feats: list) -> None:
         width = mean_width(f.geometry)
         if width < CityConfig.min_width:
             print(f"citysynth {args.command}: {f.where}: {width:.1f} m wide on average, "
-                  f"under the {CityConfig.min_width:g} m a city's block must be: its "
-                  "modules are cut to walls that thin; check the outline (a wall, a kerb "
-                  "or a courtyard drawn just inside it?)", file=sys.stderr)
+                  f"under the {CityConfig.min_width:g} m below which a city leaves a "
+                  "block out; laid out, its modules cut to walls that thin; check the "
+                  "outline (a wall, a kerb or a courtyard drawn just inside it?)",
+                  file=sys.stderr)
 
 
 def _overlaps_settled(args, feats: list, specs: dict) -> list:
