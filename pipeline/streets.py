@@ -32,7 +32,7 @@ from citysynth.export.joints import HalfPlane, Placed, bisector
 from citysynth.export.layout import Instance, Layout
 from citysynth.export.place import y_range
 from citysynth.parts_db import Part, PartDB
-from citysynth.pipeline.errors import UsageError
+from citysynth.pipeline.errors import UsageError, shown
 from citysynth.pipeline.layouts import Built
 from citysynth.pipeline.library_problems import street_front_problem
 from citysynth.skeletons import InputWarning
@@ -352,8 +352,11 @@ def solve_street(name: str, street: LineString, db: PartDB, ask: StreetAsk,
     are solved, see :func:`solve_runs`)."""
     parts = db.select("building", ask.style)
     if not parts:
+        styles = sorted({p.style for p in db.select("building")})
+        has = (f"; it has them in {', '.join(styles)}" if styles else
+               "; a street is filled with parts of class building, and it has none")
         raise UsageError(f"the library {db.name!r} has no complete buildings"
-                         f"{f' of style {ask.style}' if ask.style else ''}")
+                         f"{f' of style {shown(ask.style)}' if ask.style else ''}{has}")
     depth = building_depth(parts)
     with warnings.catch_warnings(record=True) as told:   # said only if something is built
         warnings.simplefilter("always", InputWarning)

@@ -150,6 +150,9 @@ def test_the_outer_rows_of_a_hairpin_stop_near_the_turn(turn):
     # has windows: told at once by the sparsest rate)
     (["--windows", "0", "0"], 1, ")): its windows in [0, 0] cannot be met by the buildings, "
                                  "which make at least "),
+    # a style the library has no buildings of names those it has, as block does
+    (["--style", "nosuch"], 2, 'has no complete buildings of style "nosuch"; it has them '
+                               "in classic, modern"),
 ])
 def test_street_bad_or_impossible_asks(tmp_path, capsys, args, code, text):
     argv = ["street", "--line", str(_line_file(tmp_path / "s.geojson")), "--no-preview",
