@@ -61,7 +61,8 @@ def test_a_self_crossing_outline_over_another_is_refused_in_one_line(tmp_path, c
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 
-@pytest.mark.parametrize("geo", [_geo("Point", (3, 4)), _geo("Polygon", BOWTIE)])
+@pytest.mark.parametrize("geo", [_geo("Point", (3, 4)), _geo("Polygon", BOWTIE),
+                                 _geo("Polygon", [(0, 0), (100, 0), (0, 3.5), (0, 0)])])
 def test_an_outline_that_is_none_is_told_without_a_width_note(tmp_path, capsys, geo):
     code, err = _run("block", _write(tmp_path, [("b", geo)]), tmp_path / "out", capsys)
     assert code == 2, err

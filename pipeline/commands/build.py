@@ -224,13 +224,15 @@ def run_block(args) -> int:
     _check_names(args.file, names, ids, args.k)     # the pieces of a trimmed one too
     rings = [skeletons_from_polygons([f], frame, min_edge=_smallest(db, style))
              for f in feats]
-    _thin_note(args, feats)   # once every outline is one a block is laid out from
     walls = party_walls([f.geometry for f in feats])   # where features touch
     roof: Roof = "all" if args.infill else "pockets"     # footprints, or street blocks
     built = [(solve_layouts(name, r, db, style, args.k, infill=roof, label=label,
                             party=w, **_options(args)), r)
              for name, label, r, w in _told(list(zip(names, labels, rings, walls,
                                                      strict=True)), "laid out")]
+    # once every block is solved: an outline refused on the way (a 2° tip) is told that
+    # alone; one no row fits (exit 1) is told thin too, a likely cause
+    _thin_note(args, feats)
     return _finish(args, db, style, frame, built)
 
 
