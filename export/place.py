@@ -1243,9 +1243,9 @@ class _Placer:
             self._cut_reaching([*fill_out, *self._end_part(s_out, start=False)], half, s_out,
                                s_in, bisector=m == 0)
         if how == "mitre" and not is_convex(u_in, u_out, mass_left):
-            for s, reach in self._past_concave(j, s_in, s_out, before[0], after[0],
-                                               self._stage_depth):
-                end = fill_in[-1] if s == s_in else fill_out[0]
+            # (in, then out: one stage is both at a ring's seam)
+            for end, (_s, reach) in zip((fill_in[-1], fill_out[0]), self._past_concave(
+                    j, s_in, s_out, before[0], after[0], self._stage_depth), strict=True):
                 self._extension.setdefault(end, []).append(reach)
         self.record.joints[j] = how
         self.record.joint_ends[j] = (self.kxy[j] - u_in * trim, self.kxy[j] + u_out * trim)
