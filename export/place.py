@@ -277,6 +277,12 @@ class _Placer:
         key = self.sol.keys[j]
         return None if is_joint(key) else self.parts[t_pose(key).part]
 
+    def _sides(self, j: int) -> tuple[int | None, int | None]:
+        """The stages arriving at key j and leaving it along its main line (not its
+        branch), None where there is none (an end)."""
+        return self.ins[j], next((s for s in self.outs[j] if self.plan.branch.get(j) != s),
+                                 None)
+
     def leg_len(self, j: int, leg: int) -> float:
         """How far key j reaches along a leg (a mitre joint: what it counts for; the
         modules beside it are extended over that to the corner)."""
@@ -728,8 +734,7 @@ class _Placer:
         another structure) only takes the new planes."""
         i = self.record.keys.get((j, 0))
         p = self.leg_part(j)
-        s_in = self.ins[j]
-        s_out = next((s for s in self.outs[j] if self.plan.branch.get(j) != s), None)
+        s_in, s_out = self._sides(j)
         if i is None or p is None or p.cls != "corner" or s_in is None or s_out is None:
             return
         allowed = (set(range(len(other.plan.stages))) if other is not self
@@ -839,15 +844,23 @@ class _Placer:
                 return
             if mass.intersection(self._stage_band(t)).area <= MEDIAL_MIN_AREA:
                 continue
-            medial = self._medial_half(i, s, t)
-            half = next((h for h in (medial, self._short_of_sliver(i, s, t, medial, mass))
-                         if h is not None and h not in placed.halves
-                         and (past := self._past(i, h, mass)).area > MEDIAL_MIN_AREA
-                         and self._covered_by_others(i, t, past)), None)
-            if half is None:
-                continue
+            half = self._medial_half(i, s, t)
+            if not self._cuts_covered(i, t, half, mass):   # else the fallback, made only then
+                half = self._short_of_sliver(i, s, t, half, mass)
+                if not self._cuts_covered(i, t, half, mass):
+                    continue
+            assert half is not None
             placed.halves.append(half)
             mass = _clipped(mass, replace(placed, halves=[half]))
+
+    def _cuts_covered(self, i: int, t: int, half: HalfPlane | None,
+                      ext: BaseGeometry) -> bool:
+        """Whether ``half`` is a new plane for module i that takes off some of it (with
+        its extension ``ext``) and only what others cover (:meth:`_covered_by_others`)."""
+        if half is None or half in self.placed[i].halves:
+            return False
+        past = self._past(i, half, ext)
+        return past.area > MEDIAL_MIN_AREA and self._covered_by_others(i, t, past)
 
     def _short_of_sliver(self, i: int, s: int, t: int, medial: HalfPlane | None,
                          ground: BaseGeometry) -> HalfPlane | None:
@@ -866,7 +879,7 @@ class _Placer:
                if _clipped_footprint(self.placed[j], self.span[j]).intersects(ground)]
         deeper = placed.y_range[1] - min((self.placed[j].y_range[1] for j in met),
                                          default=placed.y_range[1])
-        centre = placed.origin + placed.a @ np.array([placed.length / 2, 0.0])
+        centre = _centre(placed)
         path_t = self.paths[t]
         m_s = _mass_normal(placed.a[:, 0], self.plan.stages[s].front)
         m_t = _mass_normal(path_t.dir[_nearest_segment(centre, path_t)],
@@ -1126,7 +1139,7 @@ class _Placer:
         """The plane of :meth:`_medial` (None where there is none, or where it would
         cut module i's facade); stage t of ``other`` structure, if given."""
         placed = self.placed[i]
-        centre = placed.origin + placed.a @ np.array([placed.length / 2, 0.0])
+        centre = _centre(placed)
         of_t = other if other is not None else self
         path_t = of_t.paths[t]
         if k is None:
@@ -1197,8 +1210,7 @@ class _Placer:
         either (58.6 m²)."""
         p = self.leg_part(j)
         i = self.record.keys.get((j, 0))
-        s_in = self.ins[j]
-        s_out = next((s for s in self.outs[j] if self.plan.branch.get(j) != s), None)
+        s_in, s_out = self._sides(j)
         if p is None or p.cls != "corner" or i is None or s_in is None or s_out is None:
             return
         mass_left = self.plan.stages[s_in].front == "right"
@@ -1220,8 +1232,7 @@ class _Placer:
 
     def _joint(self, j: int) -> None:
         """Cut the modules meeting at joint j on its bisector plane."""
-        s_in = self.ins[j]
-        s_out = next((s for s in self.outs[j] if self.plan.branch.get(j) != s), None)
+        s_in, s_out = self._sides(j)
         if s_in is None or s_out is None:
             return
         fill_in = self.record.stages[s_in].fill
@@ -1324,6 +1335,11 @@ def _reopen(placers: Sequence[_Placer]) -> None:
                 placed.halves.remove(half)
                 feet[(n, i)] = p._covered(i)
                 gaps = gaps.difference(back)
+
+
+def _centre(placed: Placed) -> np.ndarray:
+    """The middle of a placed part's facade (where it meets its stage's path)."""
+    return placed.origin + placed.a @ np.array([placed.length / 2, 0.0])
 
 
 def _shared_area(a: BaseGeometry, b: BaseGeometry) -> float:

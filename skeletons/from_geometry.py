@@ -186,7 +186,7 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
             if not isinstance(line, LineString):
                 raise SkeletonError(f"{f.where}: a skeleton is made of LineStrings, got "
                                     f"{f.geometry.geom_type}")
-            drawn.append((f, f.where + (f" part {k}" if len(lines) > 1 else ""),
+            drawn.append((f, _part_label(f.where, k, len(lines)),
                           np.asarray(line.coords)[:, :2]))
     for (f, label, raw), pts in zip(drawn, _undensified([pts for _f, _w, pts in drawn]),
                                     strict=True):
@@ -426,7 +426,7 @@ def skeletons_from_polygons(features: Iterable[Feature], frame: Frame, *,
         if len(polys) > 1 and all(p.is_valid for p in polys) and not f.geometry.is_valid:
             raise SkeletonError(_parts_meet(f, polys, frame))
         for k, poly in enumerate(polys):
-            label = _part_label(f, k, len(polys))
+            label = _part_label(f.name, k, len(polys))
             poly = _checked_polygon(poly, _in_file(f, label), min_area, frame)
             rings = [poly.exterior, *poly.interiors]
             for r, ring in enumerate(rings):
@@ -443,8 +443,9 @@ def _outline_parts(f: Feature) -> list[BaseGeometry]:
     return list(f.geometry.geoms) if isinstance(f.geometry, MultiPolygon) else [f.geometry]
 
 
-def _part_label(f: Feature, k: int, n: int) -> str:
-    return f.name + (f" part {k}" if n > 1 else "")
+def _part_label(name: str, k: int, n: int) -> str:
+    """Part k of a feature named ``name`` with n parts (the feature itself when n is 1)."""
+    return name + (f" part {k}" if n > 1 else "")
 
 
 def check_outline(f: Feature, frame: Frame) -> None:
@@ -456,7 +457,7 @@ def check_outline(f: Feature, frame: Frame) -> None:
     function: a trim may still settle them."""
     polys = _outline_parts(f)
     for k, poly in enumerate(polys):
-        _valid_polygon(poly, _in_file(f, _part_label(f, k, len(polys))), frame)
+        _valid_polygon(poly, _in_file(f, _part_label(f.name, k, len(polys))), frame)
 
 
 def _parts_meet(f: Feature, polys: list[BaseGeometry], frame: Frame) -> str:
