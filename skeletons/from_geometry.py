@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal, cast
 
@@ -458,6 +458,27 @@ def check_outline(f: Feature, frame: Frame) -> None:
     polys = _outline_parts(f)
     for k, poly in enumerate(polys):
         _valid_polygon(poly, _in_file(f, _part_label(f.name, k, len(polys))), frame)
+
+
+def check_outlines(features: Sequence[Feature], frame: Frame, most: int = 5) -> None:
+    """:func:`check_outline` for every feature, refusing them in one message: the first
+    refusal whole, and the names of the other features refused (a file with two
+    bowties named the first only: fixed, the run stopped at the second)."""
+    refused: list[tuple[Feature, str]] = []
+    for f in features:
+        try:
+            check_outline(f, frame)
+        except SkeletonError as exc:
+            refused.append((f, str(exc)))
+    if not refused:
+        return
+    (_f, first), rest = refused[0], [f.name for f, _why in refused[1:]]
+    if rest:
+        named = ", ".join(rest[:most]) + (f" and {len(rest) - most} more"
+                                          if len(rest) > most else "")
+        first += (f" ({len(rest)} more of the file's outlines "
+                  f"{'are' if len(rest) > 1 else 'is'} refused too: {named})")
+    raise SkeletonError(first)
 
 
 def _parts_meet(f: Feature, polys: list[BaseGeometry], frame: Frame) -> str:

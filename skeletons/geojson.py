@@ -432,16 +432,20 @@ def _check_coordinates(g: dict, where: str) -> None:
 
 
 def _polygons_of(g: BaseGeometry | None, accept: Accept) -> BaseGeometry | None:
-    """Where polygons are asked for, a GeometryCollection's polygons (a Google Earth
+    """Where polygons may be used, a GeometryCollection's polygons (a Google Earth
     placemark is a MultiGeometry of its label's Point and its Polygon; some exports
     wrap each footprint in a collection): they were refused, "a GeometryCollection
-    cannot be a polygon". Anything else as it is."""
-    if accept != "polygons" or not isinstance(g, shapely.GeometryCollection) or \
+    cannot be a polygon". A caller that takes any geometry (``block`` reads its
+    polygons so, to tell a line where it belongs) gets them only when the rest are
+    points, labels: ``city --footprints`` built such a placemark and ``block`` refused
+    it. Anything else as it is."""
+    if accept == "lines" or not isinstance(g, shapely.GeometryCollection) or \
             isinstance(g, shapely.MultiPolygon):
         return g
-    polys = [p for q in shapely.get_parts(g) for p in shapely.get_parts(q)
-             if isinstance(p, shapely.Polygon) and not p.is_empty]
-    if not polys:
+    parts = [p for q in shapely.get_parts(g) for p in shapely.get_parts(q) if not p.is_empty]
+    polys = [p for p in parts if isinstance(p, shapely.Polygon)]
+    if not polys or accept == "any" and not all(
+            isinstance(p, shapely.Polygon | shapely.Point) for p in parts):
         return g
     return polys[0] if len(polys) == 1 else shapely.MultiPolygon(polys)
 

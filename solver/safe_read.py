@@ -353,8 +353,13 @@ def shown(v: Any, most: int = 60) -> str:
         text = "true" if v else "false"
     elif v is None:
         text = "null"
-    elif isinstance(v, int | float):
-        text = f"{v:,}" if isinstance(v, int) and abs(v) >= 10_000 else repr(v)
+    elif isinstance(v, int):
+        text = f"{v:,}" if abs(v) >= 10_000 else repr(v)
+    elif isinstance(v, float):
+        # 1e+09 for 1e9 (repr: 1000000000.0) where it is exact and much shorter, but a
+        # northing as written (5820000.0, not 5.82e+06)
+        text, short = repr(v), f"{v:g}"
+        text = short if len(short) <= len(text) - 4 and float(short) == v else text
     elif isinstance(v, datetime.date | datetime.time):
         text = v.isoformat()
     else:

@@ -261,6 +261,9 @@ def test_config_values_are_quoted_as_the_file_spells_them():
     assert shown(True) == "true" and shown("a") == '"a"' and shown(None) == "null"
     assert shown(datetime.datetime(1979, 5, 27, 7, 32)) == "1979-05-27T07:32:00"
     assert shown(["a", 1]) == '["a", 1]' and shown(1000000000) == "1,000,000,000"
+    # a float as TOML spells it short (1e9 was 1000000000.0), but only where exact
+    assert shown(1e9) == "1e+09" and shown(1234567.0) == "1234567.0" and shown(2.5) == "2.5"
+    assert shown(5820000.0) == "5820000.0" and shown(1e-7) == "1e-07"
     for value, says in ((True, "got true"), ("3", 'got "3"'),
                         (datetime.date(1979, 5, 27), "got 1979-05-27")):
         with pytest.raises(ConfigError) as exc:
@@ -421,7 +424,7 @@ def test_no_error_line_is_longer_than_a_screenful(tmp_path, capsys):
      '"old" names zone[0] too'),
     ({"corner_tolerance": 360}, "corner_tolerance", "must be at most 90, got 360"),
     ({"footprints": {"tolerance": 1e9}}, "footprints.tolerance",
-     "must be at most 10, got 1000000000.0"),
+     "must be at most 10, got 1e+09"),
     ({"footprints": {"storeys": {"classic": {"a": 100000}}}}, "footprints.storeys.classic.a",
      "a whole number from 1 to 200), got 100,000"),
     ({"mitre_cost": 1e308}, "mitre_cost", "must be at most 1e+15 (a cost this large sums to "

@@ -114,6 +114,9 @@ def test_an_integer_past_every_float_is_told_not_a_crash(tmp_path, capsys):
      "file is TOML (key = value lines under [table] headers)"),
     ("# mine\nfootprints:\n  stretch: 0.1\n", "it looks like YAML (at line 2"),
     ("- a\n- b\n", "it looks like YAML"),
+    # a float a user wrote as 1e9 was echoed as 1000000000.0
+    ("k = 1e9\n", "k: must be an integer from 1 to 100, got 1e+09"),
+    ("k = 2.5\n", "k: must be an integer from 1 to 100, got 2.5"),
 ])
 def test_a_city_toml_the_reader_refuses_is_told_in_words(tmp_path, capsys, toml, said):
     """The TOML reader's own words ("Cannot overwrite a value", "Cannot declare

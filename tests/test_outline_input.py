@@ -102,3 +102,37 @@ def test_an_id_that_prints_as_no_letter_is_escaped_in_messages(tmp_path, capsys,
     code, err = _run("block", src, tmp_path / "out", capsys)
     assert code == 2, err
     assert len(err) == 1 and f"feature 0 ({shown}): invalid polygon" in err[0], err
+
+
+def test_every_refused_outline_of_a_file_is_named(tmp_path, capsys):
+    """A file with two bowties named the first only: fixed, the next run stopped at the
+    second. The first refusal is said whole, the other refused outlines by name."""
+    far = [(x + 100, y) for x, y in BOWTIE]
+    src = _write(tmp_path, [("good", _geo("Polygon", SQUARE)),
+                            ("bad", _geo("Polygon", BOWTIE)),
+                            ("worse", _geo("Polygon", far))])
+    code, err = _run("block", src, tmp_path / "out", capsys)
+    assert code == 2, err
+    assert len(err) == 1 and "feature 1 (bad): invalid polygon (self-intersection at" \
+        in err[0], err
+    assert err[0].endswith("(1 more of the file's outlines is refused too: "
+                           "feature 2 (worse))"), err
+
+
+def test_a_placemark_s_polygon_and_label_is_laid_out_as_its_polygon(tmp_path, capsys):
+    """A Google Earth placemark is a collection of its label's Point and its Polygon:
+    ``city --footprints`` built it and ``block`` refused it ("a GeometryCollection is
+    no outline"). Both build it; a collection holding a line is still refused."""
+    def collection(*members):
+        return {"type": "GeometryCollection", "geometries": list(members)}
+    placemark = collection(_geo("Point", (20, 15)), _geo("Polygon", SQUARE))
+    code, err = _run("block", _write(tmp_path, [("p", placemark)]), tmp_path / "a", capsys)
+    assert code == 0, err
+    code, err = _run("block", _write(tmp_path, [("p", _geo("Polygon", SQUARE))]),
+                     tmp_path / "b", capsys)
+    assert code == 0, err
+    assert (tmp_path / "a" / "p.layout.json").read_bytes() == \
+        (tmp_path / "b" / "p.layout.json").read_bytes()
+    mixed = collection(_geo("MultiLineString", [[(0, 0), (40, 0)]]), _geo("Polygon", SQUARE))
+    code, err = _run("block", _write(tmp_path, [("m", mixed)]), tmp_path / "c", capsys)
+    assert code == 2 and len(err) == 1 and "a GeometryCollection is no outline" in err[0], err

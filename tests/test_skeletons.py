@@ -250,9 +250,11 @@ def test_street_blocks_place_only_the_pieces_they_skip():
      "encloses 0.00 m², under the 1 m² of the smallest block; check its coordinates are in "
      "the CRS the file says (or --crs), or remove it"),
     # what a block is laid out from, not "expected a Polygon, got GeometryCollection"
+    # (a collection of polygons and label points is read as its polygons)
     ([{"type": "Feature", "properties": {}, "geometry": {
         "type": "GeometryCollection", "geometries": [{"type": "Polygon", "coordinates": [
-            metres([(0, 0), (20, 0), (20, 20), (0, 0)])]}]}}], "poly",
+            metres([(0, 0), (20, 0), (20, 20), (0, 0)])]},
+            {"type": "LineString", "coordinates": metres([(0, 0), (20, 0)])}]}}], "poly",
      "a GeometryCollection is no outline; blocks are laid out from Polygon and "
      "MultiPolygon features (holes as courtyards); give each of its polygons as a feature "
      "of its own"),

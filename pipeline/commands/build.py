@@ -208,15 +208,15 @@ def run_block(args) -> int:
     from citysynth.pipeline.city.party import party_walls
     from citysynth.pipeline.layouts import solve_layouts
     from citysynth.skeletons import skeletons_from_polygons
-    from citysynth.skeletons.from_geometry import check_outline
+    from citysynth.skeletons.from_geometry import check_outlines
 
     db, style, feats, frame = _prepare(args)
     from citysynth.pipeline.city.footprints import Storeys, footprint_spec
     specs = {f.index: footprint_spec(args.file, f.index, f.properties, "", 0.0, 0.0,
                                      Storeys()) for f in feats}
     feats = _distinct(args, feats)
-    for f in feats:   # before any note, and before GEOS overlays them (a self-crossing
-        check_outline(f, frame)      # outline over another failed there: exit 3)
+    check_outlines(feats, frame)   # before any note, and before GEOS overlays them (a
+    #                                self-crossing outline over another failed there: exit 3)
     _check_names(args.file, *_block_names(args, feats)[:2], args.k)
     _storeys_note(args, feats, specs, style)
     feats = _gaps_closed(args, _overlaps_settled(args, feats, specs))
