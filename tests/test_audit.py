@@ -286,3 +286,28 @@ def test_a_z_s_inner_corners_meet_the_wing_beyond_without_doubling(tmp_path, sam
     assert a.band > 1000, a.line()
     assert a.overlap < 5.0 and a.band_gap < 0.1, a.line()
     assert not _failures(name, a)
+
+
+_BAYS = {   # a 50 x 30 m block with a bay (its sides' two inner corners) on a long side
+    "centred": [(0, 0), (20, 0), (20, -4), (28, -4), (28, 0), (50, 0), (50, 30), (0, 30),
+                (0, 0)],
+    "off_centre": [(0, 0), (8, 0), (8, -4), (18, -4), (18, 0), (50, 0), (50, 30),
+                   (0, 30), (0, 0)],
+    "wide": [(0, 0), (20, 0), (20, -4), (32, -4), (32, 0), (50, 0), (50, 30), (0, 30),
+             (0, 0)],
+}
+
+
+@pytest.mark.parametrize("bay, style", [("centred", "modern"), ("off_centre", "modern"),
+                                        ("wide", "classic")])
+def test_the_modules_beside_a_bay_share_the_ground_behind_it(tmp_path, sample_db, bay,
+                                                              style):
+    """At a bay's two inner corners the modules of the long side on either hand each
+    reach past their corner, over the ground behind the bay; their facades run on one
+    line, facing the same way, so no plane of equal depth lies between them, and both
+    roofed it: 64.0 m² (4.1 %) doubled behind an 8 m bay, 36.0 m² behind one off the
+    middle (and as much of coplanar roof), 31.8 m² behind a 12 m one. One takes what
+    the other's extension covers now, or they meet midway (_Placer._beside)."""
+    name, a = _audit(_block(tmp_path, f"bay_{bay}", _BAYS[bay], style), sample_db)
+    assert a.overlap < 1.0 and a.band_gap < 0.1, a.line()
+    assert not _failures(name, a)
