@@ -32,3 +32,11 @@ def footprint(tris: np.ndarray) -> BaseGeometry:
         return shapely.union_all(polys, grid_size=GRID)
     except shapely.errors.GEOSException:   # snapping slivers of a cut can tangle a ring
         return shapely.union_all(polys)
+
+
+def polygons_in(geom: BaseGeometry) -> list[shapely.Polygon]:
+    """The polygons of a geometry with area, however nested (what ``make_valid`` or a
+    difference returns: a polygon, a multipolygon, a collection of them and lines; a
+    snapped overlay refuses the lines)."""
+    return [g for part in shapely.get_parts(geom) for g in shapely.get_parts(part)
+            if g.geom_type == "Polygon" and g.area > 0]

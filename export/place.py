@@ -38,7 +38,7 @@ import shapely
 from shapely.geometry.base import BaseGeometry
 
 from citysynth.export.errors import ExportError
-from citysynth.export.ground import GRID
+from citysynth.export.ground import GRID, polygons_in
 from citysynth.export.infill import Roof, plan_infill
 from citysynth.export.joints import (
     EXTEND_MARGIN,
@@ -1405,11 +1405,9 @@ def _centre(placed: Placed) -> np.ndarray:
 def _shared_area(a: BaseGeometry, b: BaseGeometry) -> float:
     """The area ``a`` and ``b`` share, overlaid on :data:`GRID` (their polygons only: a
     difference may hold lines too, which a snapped overlay refuses)."""
-    def areal(g: BaseGeometry) -> BaseGeometry:
-        return shapely.multipolygons([p for part in shapely.get_parts(g)
-                                      for p in shapely.get_parts(part)
-                                      if p.geom_type == "Polygon"])
-    return float(shapely.intersection(areal(a), areal(b), grid_size=GRID).area)
+    return float(shapely.intersection(shapely.multipolygons(polygons_in(a)),
+                                      shapely.multipolygons(polygons_in(b)),
+                                      grid_size=GRID).area)
 
 
 def _run_folds(path: _Path, runs: list[int], n: int, extends: bool = True

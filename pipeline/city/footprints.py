@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import shapely
 
+from citysynth.export.ground import polygons_in
 from citysynth.export.joints import ACUTE_DEG, NOSE
 from citysynth.export.party import TOUCH
 from citysynth.parts_db import Part, PartDB
@@ -210,13 +211,6 @@ def not_built(props: dict[str, Any]) -> str | None:
                     f"one, which the kit cannot build from the ground (remove {given} to "
                     "build it from the ground)")
     return None
-
-
-def polygons_in(geom: shapely.Geometry) -> list[shapely.Polygon]:
-    """The polygons of a geometry with area, however nested (what ``make_valid`` or a
-    difference returns: a polygon, a multipolygon, a collection of them and lines)."""
-    return [g for part in shapely.get_parts(geom) for g in shapely.get_parts(part)
-            if g.geom_type == "Polygon" and g.area > 0]
 
 
 # --- storeys ---------------------------------------------------------------------------

@@ -27,7 +27,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 import shapely
 
-from citysynth.pipeline.city.footprints import FootprintSpec, polygons_in
+from citysynth.export.ground import polygons_in
+from citysynth.pipeline.city.footprints import FootprintSpec
 from citysynth.pipeline.city.jobs import outline_wkt
 
 TOUCH = 0.01      # m²: smaller overlaps are noise along a shared wall

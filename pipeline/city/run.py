@@ -32,6 +32,7 @@ from typing import Protocol, TextIO
 import shapely
 
 from citysynth.export.cuts import load_kernels
+from citysynth.export.ground import polygons_in
 from citysynth.export.usd import MATERIALS_DIR, PARTS_DIR
 from citysynth.parts_db import PartDB, load_library
 from citysynth.parts_db.errors import LibraryError
@@ -44,7 +45,6 @@ from citysynth.pipeline.city.footprints import (
     cut_back_outlines,
     footprint_spec,
     not_built,
-    polygons_in,
     street_crossings,
     style_families,
     wanted_storeys,
