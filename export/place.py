@@ -283,6 +283,13 @@ class _Placer:
         return self.ins[j], next((s for s in self.outs[j] if self.plan.branch.get(j) != s),
                                  None)
 
+    def _turn(self, s_in: int, s_out: int) -> tuple[np.ndarray, np.ndarray, bool]:
+        """How the facade turns at the key point stage s_in arrives at and s_out leaves
+        from: the direction in, the direction out, and whether the mass lies left of
+        them (what :func:`joint_halves` and :func:`is_convex` take)."""
+        return (self.paths[s_in].dir[-1], self.paths[s_out].dir[0],
+                self.plan.stages[s_in].front == "right")
+
     def leg_len(self, j: int, leg: int) -> float:
         """How far key j reaches along a leg (a mitre joint: what it counts for; the
         modules beside it are extended over that to the corner)."""
@@ -906,9 +913,7 @@ class _Placer:
         s_in, s_out = self._sides(j)
         if not is_joint(self.sol.keys[j]) or s_in is None or s_out is None:
             return None
-        before, after, _how, _trim = joint_halves(
-            self.kxy[j], self.paths[s_in].dir[-1], self.paths[s_out].dir[0],
-            self.plan.stages[s_in].front == "right")
+        before, after, _how, _trim = joint_halves(self.kxy[j], *self._turn(s_in, s_out))
         return after[0] if start else before[0]
 
     def _cuts_covered(self, i: int, t: int, half: HalfPlane | None,
@@ -1273,8 +1278,7 @@ class _Placer:
         s_in, s_out = self._sides(j)
         if p is None or p.cls != "corner" or i is None or s_in is None or s_out is None:
             return
-        mass_left = self.plan.stages[s_in].front == "right"
-        u_in, u_out = self.paths[s_in].dir[-1], self.paths[s_out].dir[0]
+        u_in, u_out, mass_left = self._turn(s_in, s_out)
         if is_convex(u_in, u_out, mass_left):
             return
         before, after, _how, _trim = joint_halves(self.kxy[j], u_in, u_out, mass_left)
@@ -1302,8 +1306,7 @@ class _Placer:
             raise ExportError(f"{self.plan.name}: a side at the corner ({xy[0]:.1f}, "
                               f"{xy[1]:.1f}) is too short for any module of the style; "
                               "merge it into its neighbours or use a corner part")
-        mass_left = self.plan.stages[s_in].front == "right"
-        u_in, u_out = self.paths[s_in].dir[-1], self.paths[s_out].dir[0]
+        u_in, u_out, mass_left = self._turn(s_in, s_out)
         before, after, how, trim = joint_halves(self.kxy[j], u_in, u_out, mass_left)
         # every module near the corner whose mass reaches past a plane is cut by it (at
         # a right angle, the modules within a building depth of the corner)
