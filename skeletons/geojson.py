@@ -238,6 +238,8 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
     chosen, overrides = _chosen_crs(crs, member)
     given = _with_member(lambda: _input_crs(chosen, source), overrides, member)
     kept, skipped = _usable(raw, source, accept, others)
+    if not kept and not skipped and others is not None and accept in ACCEPTED:
+        raise SkeletonError(_only_others(source, len(raw), accept, others))
     if not kept:
         raise SkeletonError(f"{source}: no usable features: all {len(raw)} left out ("
                             + skipped[0].removeprefix(f"{source}: ").removesuffix("; left out")
@@ -255,6 +257,17 @@ def parse_geojson(data: Any, source: str = "input", crs: str | None = None,
     feats = Features((Feature(i, shapely.transform(g, project), osm_tags(props), source)
                       for i, g, props in kept), skipped)
     return feats, frame
+
+
+def _only_others(source: str, n: int, accept: Accept, others: Accept) -> str:
+    """Why a file given for two readers (a city's streets and its footprints) holds
+    nothing for this one: every feature is the other reader's. ``parse_geojson`` quoted
+    the first feature it left out, and there was none (IndexError, exit 3)."""
+    what = "its one feature is " + _WHAT[others] if n == 1 else \
+        f"its {n:,} features are all {others}"
+    return (f"{source}: no {accept} ({' or '.join(ACCEPTED[accept])}) in it: {what} "
+            f"({' or '.join(ACCEPTED[others])}), which the run reads from it as well; give "
+            f"the file that holds the {accept}, or add them to this one")
 
 
 # --- the FeatureCollection and its features ---------------------------------------------

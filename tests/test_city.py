@@ -547,7 +547,7 @@ def test_a_footprints_note_naming_the_file_does_not_change_its_hash(tmp_path):
     def spelled(source: str) -> jobs.BlockJob:
         fp = replace(job.footprint, source=source,
                      trimmed=f"{source}: feature 0: trimmed by 0.44 m² where it "
-                             "overlapped feature 2, larger and built whole")
+                             "overlapped feature 2, larger and kept whole")
         return replace(job, footprint=fp).with_hash()
 
     assert spelled("b.geojson").input_hash == spelled(str(f)).input_hash

@@ -63,7 +63,7 @@ def test_a_building_drawn_twice_5_mm_apart_is_told_as_it_is(tmp_path):
     assert len(built) == 1        # which one: the larger by a float's last digits
     (skip,) = [s["reason"] for s in inputs.skipped]
     assert ": 99.9" in skip and " % of it lies inside feature " in skip \
-        and ", as large and built" in skip, skip
+        and ", as large and kept" in skip, skip
 
 
 def test_a_tower_inside_is_left_out_and_a_neighbour_drawn_over_is_trimmed(tmp_path):
@@ -72,7 +72,7 @@ def test_a_tower_inside_is_left_out_and_a_neighbour_drawn_over_is_trimmed(tmp_pa
     assert sorted(built) == ["east", "hall", "north"]
     (skip,) = [s["reason"] for s in inputs.skipped]
     assert skip == (f"{fp}: feature 1 (tower): all of it lies inside feature 0 (hall), "
-                    "larger and built; left out (a part of that building, or the same "
+                    "larger and kept; left out (a part of that building, or the same "
                     "building drawn twice)")
     # the larger is whole, the exact neighbour untouched, the other trimmed to the wall
     assert built["hall"].area == pytest.approx(600, abs=0.05)
@@ -82,7 +82,7 @@ def test_a_tower_inside_is_left_out_and_a_neighbour_drawn_over_is_trimmed(tmp_pa
     assert worst_overlap(list(built.values())) <= TOUCH
     (east,) = [j for j in inputs.jobs if j.footprint.ref == "east"]
     assert east.footprint.trimmed == (f"{fp}: feature 2 (east): trimmed by 6.00 m² where "
-                                      "it overlapped feature 0 (hall), larger and built whole")
+                                      "it overlapped feature 0 (hall), larger and kept whole")
 
 
 def test_the_rule_does_not_depend_on_the_order_of_the_file(tmp_path):

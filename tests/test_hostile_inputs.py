@@ -117,6 +117,12 @@ def test_an_integer_past_every_float_is_told_not_a_crash(tmp_path, capsys):
     # a float a user wrote as 1e9 was echoed as 1000000000.0
     ("k = 1e9\n", "k: must be an integer from 1 to 100, got 1e+09"),
     ("k = 2.5\n", "k: must be an integer from 1 to 100, got 2.5"),
+    # was told as "feature 0" of a file, and to simplify it with ogr2ogr
+    ("[[zone]]\nname = 'z'\nstyle = 'modern'\npolygon = [" + ", ".join(
+        f"[{LON + 0.01 * math.cos(math.tau * a / 6e4):.7f}, "
+        f"{LAT + 0.01 * math.sin(math.tau * a / 6e4):.7f}]"
+        for a in range(60_000)) + "]\n",
+     "zone[0].polygon: 60,000 points, more than the 50,000 a zone's polygon may have"),
 ])
 def test_a_city_toml_the_reader_refuses_is_told_in_words(tmp_path, capsys, toml, said):
     """The TOML reader's own words ("Cannot overwrite a value", "Cannot declare
@@ -828,3 +834,23 @@ def test_structure_wide_shares_kept_for_every_stage_past_the_budget_are_refused(
     assert code == 2, err
     assert "structure-wide constraints on doors: 6,001 ways to share the totals, kept for " \
         "each of its 2,000 stages, about 0.7 GB, over the memory budget of 256 MB" in err, err
+
+
+@pytest.mark.parametrize("kind", ["polygons", "lines"])
+def test_one_file_for_streets_and_footprints_with_one_kind_is_told(tmp_path, capsys, kind):
+    """``city --streets F --footprints F`` (the README's one-GeoPackage city) on a file
+    of footprints only, or of streets only: every feature was the other reader's, none
+    was left out with a message to quote, and the run failed (IndexError, exit 3)."""
+    feats = [_rect("a", LON), _rect("b", LON + 0.002)]
+    if kind == "lines":
+        feats = [{"type": "Feature", "properties": {"highway": "residential"},
+                  "geometry": {"type": "LineString", "coordinates": f["geometry"][
+                      "coordinates"][0][:2]}} for f in feats]
+    src = _write(tmp_path / "city.geojson", {"type": "FeatureCollection", "features": feats})
+    code, err = _run(["city", "--streets", str(src), "--footprints", str(src), "--library",
+                      str(LIB), "-o", str(tmp_path / "run"), "--workers", "1",
+                      "--no-overview"], capsys)
+    missing = "lines" if kind == "polygons" else "polygons"
+    assert code == 2 and f"city.geojson: no {missing} (" in err, err
+    assert f"its 2 features are all {kind}" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "run").exists()

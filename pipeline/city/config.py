@@ -70,6 +70,7 @@ from shapely.geometry import Polygon
 from citysynth.pipeline.city.footprints import MAX_LEVELS, Storeys
 from citysynth.pipeline.errors import MAX_K, MAX_STRETCH, ConfigError, shown
 from citysynth.skeletons.from_geometry import interval_problem, why_invalid
+from citysynth.skeletons.geojson import MAX_VERTICES
 from citysynth.skeletons.streets import NOT_STREETS, Setbacks
 from citysynth.solver.problem import MAX_COST
 from citysynth.solver.safe_read import read_toml
@@ -402,6 +403,10 @@ def _polygon(poly: Any, where: str, err: _Err) -> tuple[tuple[float, float], ...
             isinstance(q, list) and len(q) == 2 and all(_isnum(c) for c in q)
             for q in poly)):
         raise err(where + "polygon", "must be a list of at least 3 [lon, lat] pairs")
+    if len(poly) > MAX_VERTICES:   # else refused on the way, as "feature 0" of a file
+        raise err(where + "polygon", f"{len(poly):,} points, more than the "
+                  f"{MAX_VERTICES:,} a zone's polygon may have; a zone's edge need not "
+                  "follow every kerb: give fewer points")
     if not Polygon(poly).is_valid:
         what, fix = why_invalid(Polygon(poly), None)
         raise err(where + "polygon", f"not a valid polygon ({what}); {fix}")

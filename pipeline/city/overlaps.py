@@ -9,7 +9,7 @@ inside walls, and a neighbour's corner sticking through the street front.
 The rule, larger first (by area, then feature order, so it never depends on which file
 order a GIS wrote):
 
-- the largest footprint is built whole;
+- the largest footprint is kept whole (whether its layout is then found or not);
 - a footprint with at least half its area under larger ones is left out, and the report
   says inside which (a building part, or a building drawn twice);
 - a footprint that overlaps larger ones less is trimmed to the ground they leave, and
@@ -82,17 +82,17 @@ def separate(footprints: list[Footprint], min_area: float
             larger = max(footprints[j].polygon.area for j in under)
             size = "larger" if larger > fp.polygon.area * (1 + 1e-3) else "as large"
             left[i] = (f"{fp.spec.where}: {_share(share)} of it lies inside {where}, "
-                       f"{size} and built; left out (a part of that building, or the same "
+                       f"{size} and kept; left out (a part of that building, or the same "
                        "building drawn twice)", fp.polygon)
             continue
         pieces = _pieces(rest, min_area)
         if not pieces:
-            left[i] = (f"{fp.spec.where}: what {where} (larger, built) leaves of it is "
+            left[i] = (f"{fp.spec.where}: what {where} (larger, kept) leaves of it is "
                        f"slivers under min_area {min_area:g} m²; left out", fp.polygon)
             continue
         lost = fp.polygon.area - sum(p.area for p in pieces)
         note = (f"{fp.spec.where}: trimmed by {lost:.2f} m² where it overlapped "
-                f"{where}, larger and built whole")
+                f"{where}, larger and kept whole")
         kept[i] = [Footprint(p, replace(fp.spec, trimmed=note)) for p in pieces]
     return ([f for i in range(len(footprints)) for f in kept.get(i, [])],
             [left[i] for i in range(len(footprints)) if i in left])
