@@ -854,3 +854,16 @@ def test_one_file_for_streets_and_footprints_with_one_kind_is_told(tmp_path, cap
     assert code == 2 and f"city.geojson: no {missing} (" in err, err
     assert f"its 2 features are all {kind}" in err and len(err.strip().splitlines()) == 1
     assert not (tmp_path / "run").exists()
+
+
+def test_a_footprint_too_large_to_lay_out_is_named_as_its_feature(tmp_path, capsys):
+    """A 100 km square footprint was failed as "f9224b35296: too large to lay out"
+    (its block id only, where every other reason names the file and the feature)."""
+    src = _write(tmp_path / "big.geojson", {"type": "FeatureCollection",
+                                            "features": [_rect("big", LON, 1.4, 0.9)]})
+    code, err = _run(["city", "--footprints", str(src), "--library", str(LIB), "-o",
+                      str(tmp_path / "run"), "--workers", "1", "--no-overview"], capsys)
+    assert code == 1, err
+    (rec,) = json.loads((tmp_path / "run" / "manifest.json").read_text())["blocks"].values()
+    assert rec["status"] == "failed", rec
+    assert rec["reason"].startswith(f"{src}: feature 0 (big): too large to lay out: "), rec

@@ -405,7 +405,11 @@ def _roof(job: BlockJob) -> Roof:
 
 
 def _solve(job: BlockJob, db: PartDB, prep: Prepared) -> Built:
-    return solve_layouts(job.id, prep.rings, db, job.style, job.k,
+    # named as its skeleton is (so that _of_block says it as every other reason): a
+    # block too large to solve was the bare id ("baad70468d2: baad70468d2: too large")
+    label = job.footprint.label if job.footprint is not None else \
+        f"feature 0 ({job.id})"
+    return solve_layouts(job.id, prep.rings, db, job.style, job.k, label=label,
                          infill=_roof(job),
                          party=job.footprint.party if job.footprint is not None else (),
                          angle_tol=job.corner_tolerance, joint_cost=job.mitre_cost,
