@@ -867,3 +867,23 @@ def test_a_footprint_too_large_to_lay_out_is_named_as_its_feature(tmp_path, caps
     (rec,) = json.loads((tmp_path / "run" / "manifest.json").read_text())["blocks"].values()
     assert rec["status"] == "failed", rec
     assert rec["reason"].startswith(f"{src}: feature 0 (big): too large to lay out: "), rec
+
+
+@pytest.mark.parametrize("corners", [[[0, 0], [1e7, 0], [1e7, 1e7], [0, 1e7]],
+                                     [[-200, -200], [300, -200], [300, 300], [-200, 300]],
+                                     [[200, 200], [300, 200], [300, 300], [200, 300]]])
+def test_a_zone_in_metres_over_lon_lat_streets_is_refused_alike(tmp_path, capsys, corners):
+    """A zone's polygon in metres where the streets are lon/lat: one lying within the
+    box round the blocks once clipped (a 10,000 km square, one from -200 to 300) was
+    applied to every block without a word, one of 100 m was refused."""
+    grid = [[(x, 0), (x, 300)] for x in (0, 150, 300)] + \
+        [[(0, y), (300, y)] for y in (0, 150, 300)]
+    streets = _lines_file(tmp_path / "s.geojson", grid)
+    cfg = _write(tmp_path / "c.toml", "[[zone]]\nname = 'z'\nstyle = 'modern'\n"
+                                      f"polygon = {json.dumps(corners)}\n")
+    code, err = _run(["city", "--streets", str(streets), "--library", str(LIB), "--config",
+                      str(cfg), "-o", str(tmp_path / "run"), "--workers", "1",
+                      "--no-overview"], capsys)
+    assert code == 2 and "city.toml zone 'z': its polygon's points such as " in err, err
+    assert "are not longitude/latitude, as the streets' and footprints' are" in err
+    assert not (tmp_path / "run").exists()

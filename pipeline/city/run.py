@@ -81,7 +81,12 @@ from citysynth.pipeline.progress import progress_line
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
 from citysynth.skeletons.clean import mean_width
-from citysynth.skeletons.errors import FarFromFrame, FarFromFrameWarning, InputWarning
+from citysynth.skeletons.errors import (
+    FarFromFrame,
+    FarFromFrameWarning,
+    InputWarning,
+    SkeletonError,
+)
 from citysynth.skeletons.from_geometry import why_invalid
 from citysynth.skeletons.geojson import Accept, box_around
 from citysynth.skeletons.streets import (
@@ -491,8 +496,17 @@ def _zone_polygon(name: str, poly: tuple[tuple[float, float], ...], zone_crs: st
     the point of each block :func:`_zone_for` places by. A polygon reaching past the
     blocks is clipped to a box :data:`ZONE_MARGIN` around them first (a zone of the
     whole country, or of the world, was projected whole: told far from the frame, or
-    garbled so that no block fell in it, "the nearest is 234,906 m outside it")."""
+    garbled so that no block fell in it, "the nearest is 234,906 m outside it"). Not
+    a polygon read as lon/lat that lies past +-180, +-90 (metres, where the input is
+    lon/lat): clipped, the box round the blocks was all that was left of it, and the
+    zone applied to every block where a smaller one in metres was refused."""
     shape: dict = {"type": "Polygon", "coordinates": [[*map(list, poly), list(poly[0])]]}
+    source = f"city.toml zone {name!r}"
+    off = [(x, y) for x, y in poly if not (-180 <= x <= 180 and -90 <= y <= 90)]
+    if zone_crs is None and off:
+        raise SkeletonError(f"{source}: its polygon's points such as {off[0][0]:g}, "
+                            f"{off[0][1]:g} are not longitude/latitude, as the streets' "
+                            "and footprints' are; give the zone's points as [lon, lat]")
     if not blocks.is_empty:
         x0, y0, x1, y1 = blocks.bounds
         box = box_around(frame, (x0 - ZONE_MARGIN, y0 - ZONE_MARGIN, x1 + ZONE_MARGIN,
@@ -504,7 +518,6 @@ def _zone_polygon(name: str, poly: tuple[tuple[float, float], ...], zone_crs: st
             shape = json.loads(shapely.to_geojson(near))
     fc = {"type": "FeatureCollection", "features": [
         {"type": "Feature", "properties": {"name": name}, "geometry": shape}]}
-    source = f"city.toml zone {name!r}"
     far = None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
