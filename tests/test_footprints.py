@@ -726,3 +726,25 @@ def test_osm_heights_in_feet_are_read_as_metres(value, metres):
     four-storey house was asked for 12 storeys."""
     from citysynth.skeletons.streets import osm_number
     assert osm_number(value) == pytest.approx(metres, abs=1e-3)
+
+
+def test_many_light_wells_are_told_by_count_and_size(tmp_path):
+    """A footprint of many light wells had a note naming each ("a 4.0 m² courtyard and
+    a 4.0 m² courtyard and ...": 23,112 characters for 1,000); past three it says how
+    many and how large."""
+    from citysynth.pipeline.city.footprints import courtyards_said
+
+    assert courtyards_said([4.0, 6.5]) == "a 4.0 m² courtyard and a 6.5 m² courtyard"
+    assert courtyards_said([4.0] * 999 + [9.0]) == \
+        "1,000 courtyards of 4.0 to 9.0 m² (4,005.0 m² in all)"
+    outer = [(0, 0), (50, 0), (50, 40), (0, 40), (0, 0)]
+    wells = [[(x, 30), (x, 32), (x + 2, 32), (x + 2, 30), (x, 30)] for x in (6, 16, 26, 36)]
+    rings = [lonlat_from_local(r, (24.94, 60.17)) for r in (outer, *wells)]
+    fp = tmp_path / "wells.geojson"
+    fp.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {"id": "house"},
+         "geometry": {"type": "Polygon", "coordinates": rings}}]}))
+    assert run_city(tmp_path / "run", fp, workers=1) == 0
+    (rec,) = json.loads((tmp_path / "run" / "manifest.json").read_text())["blocks"].values()
+    assert rec["status"] == "built"
+    assert "4 courtyards of 4.0 m² each closed under the roof" in rec["note"], rec

@@ -525,13 +525,13 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
     if clean is None:
         return "nothing buildable is left of its outline once cleaned"
     props = {"id": fp.ref} if fp.ref else {}
-    closed: list[str] = []
-    unlined: list[str] = []
+    closed: list[float] = []     # the areas of the courtyards closed, m²
+    unlined: list[float] = []
     if close:   # light wells no layout can line (a 4 m side between corners): closed
         wells = [shapely.Polygon(r) for r in clean.interiors]
         shut = {i for i, w in enumerate(wells)
                 if any(w.contains(shapely.Point(p)) for p in close)}
-        unlined = [f"a {wells[i].area:.1f} m² courtyard" for i in sorted(shut)]
+        unlined = [wells[i].area for i in sorted(shut)]
         clean = shapely.Polygon(clean.exterior, [r for i, r in enumerate(clean.interiors)
                                                  if i not in shut])
     narrowed: list[tuple[int, float]] = []      # per filling: niches, m²
@@ -555,14 +555,14 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
         if well is None or well.area >= LIGHT_WELL:
             break
         # a light well the kit's facades cannot line: closed under the roof
-        closed.append(f"a {well.area:.1f} m² courtyard")
+        closed.append(well.area)
         clean = shapely.Polygon(clean.exterior, [r for i, r in enumerate(clean.interiors)
                                                  if i != hole])
     if bad is not None:
         raise SkeletonError(too_short(fp.where, job.frame, fp.source_crs, bad[1], shortest,
                                       job.style))
     parts, storeys, note = choose_family(fp, db, job.style)
-    why = [f"{' and '.join(closed)} closed under the roof (sides under the {shortest:.1f} "
+    why = [f"{courtyards_said(closed)} closed under the roof (sides under the {shortest:.1f} "
            f"m the {job.style} kit needs)"] if closed else []
     if narrowed:
         niches = sum(n for n, _a in narrowed)
@@ -572,12 +572,23 @@ def prepare(job: BlockJob, db: PartDB, longer: float = 0.0,
                    f"narrower than the {shortest:.1f} m the {job.style} kit needs between "
                    "two corners)")
     if unlined:
-        why.append(f"{' and '.join(unlined)} closed under the roof (no layout of the "
+        why.append(f"{courtyards_said(unlined)} closed under the roof (no layout of the "
                    f"{job.style} kit lines it)")
     notes = [fp.remarks or None, note, f"{fp.where}: {'; '.join(why)}" if why else None,
              fp.trimmed or None]
     return Prepared(rings, fp.where, fp.stretch, job.slack, parts, storeys,
                     "\n".join(n for n in notes if n) or None)
+
+
+def courtyards_said(areas: Sequence[float], most: int = 3) -> str:
+    """Courtyards of these areas (m²) in a note: each ("a 4.0 m² courtyard and a 6.5 m²
+    courtyard") up to ``most``, else how many and how large (a footprint of 1,000
+    light wells had a note of 23,112 characters, the same words each time)."""
+    if len(areas) <= most:
+        return " and ".join(f"a {a:.1f} m² courtyard" for a in areas)
+    lo, hi = f"{min(areas):.1f}", f"{max(areas):.1f}"
+    return (f"{len(areas):,} courtyards of " + (f"{lo} m² each" if lo == hi else
+                                                f"{lo} to {hi} m² ({sum(areas):,.1f} m² in all)"))
 
 
 def party_lines(party: Sequence[tuple[float, float, float, float]]
