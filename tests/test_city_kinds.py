@@ -177,9 +177,9 @@ def test_lots_are_roughly_square_and_inside_the_ground():
     # lots no ground floor fits: said as such (it was told as a ratio of 1557 to 1e5)
     ('kind = "towers"\nlot = 0.5\nheight = [40, 110]\nfar = [3, 8]',
      "zone 'z': lot: lots of about 0.5 m are too small for any tower: no ground floor"),
-    ('kind = "towers"\nlot = 1e9\nheight = [40, 90]\nfar = [2, 6]', "on lots of about 1e+09 "
-                                                                   "m have a floor-area "
-                                                                   "ratio between 3.89e-16"),
+    # lots larger than a block: said of the lot (it was told as a ratio of 3.89e-16)
+    ('kind = "towers"\nlot = 1e9\nheight = [40, 90]\nfar = [2, 6]',
+     "zone[0].lot: must be at most 500, got 1e+09"),
     ('kind = "towers"\nstyle = "classic"\nheight = [40, 90]\nfar = [2, 6]',
      "zone 'z': style: the library 'citysynth sample' has no towers of style 'classic'"),
     ('kind = "row"\n[zone.per_block]\ndoors = [0, 9]', "zone 'z': per_block: a row is"),

@@ -117,6 +117,9 @@ def test_an_integer_past_every_float_is_told_not_a_crash(tmp_path, capsys):
     # a float a user wrote as 1e9 was echoed as 1000000000.0
     ("k = 1e9\n", "k: must be an integer from 1 to 100, got 1e+09"),
     ("k = 2.5\n", "k: must be an integer from 1 to 100, got 2.5"),
+    # was refused as its floor-area ratio ("between 3.89e-16 and 1.51e-14; ask within that")
+    ("[[zone]]\nname = 't'\nkind = 'towers'\nhighway = ['primary']\nheight = [40, 80]\n"
+     "far = [2, 4]\nlot = 1e9\n", "zone[0].lot: must be at most 500, got 1e+09"),
     # was told as "feature 0" of a file, and to simplify it with ogr2ogr
     ("[[zone]]\nname = 'z'\nstyle = 'modern'\npolygon = [" + ", ".join(
         f"[{LON + 0.01 * math.cos(math.tau * a / 6e4):.7f}, "

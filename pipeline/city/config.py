@@ -50,7 +50,7 @@ name = "park towers"
 highway = ["tertiary"]
 kind = "towers"             # a tower per lot cut from the block
 setback = 4.0               # row, towers: the block inset this far first (m; default 0)
-lot = 36.0                  # towers: lots about this many metres square (default 36)
+lot = 36.0                  # towers: lots about this many metres square (default 36, <= 500)
 height = [40, 90]           # towers: each tower's height in metres (required)
 far = [2, 6]                # towers: floor area / lot area of each tower (required)
 # style = "tower"           # towers: only a style set in the zone itself counts
@@ -383,7 +383,7 @@ def _zone_kind(z: dict, name: str, where: str, err: _Err) -> ZoneKind:
         raise err(where + "height", f"zone {name!r}: towers of up to {height[1]:g} m; "
                   f"citysynth stacks towers of at most {MAX_TOWER_HEIGHT:,.0f} m")
     return ZoneKind(kind, _pos(z, "setback", 0.0, where, err, zero=True, most=MAX_SETBACK),
-                    _pos(z, "lot", LOT, where, err), height,
+                    _pos(z, "lot", LOT, where, err, most=MAX_LOT), height,
                     _positive_interval(z, "far", where, name, err),
                     style if isinstance(style, str) else None)
 
@@ -427,6 +427,8 @@ MAX_CORNER_TOLERANCE = 90.0   # degrees a corner part may be bent: more is anoth
 MAX_TOLERANCE = 10.0       # metres footprint cleaning may move an outline: more is not it
 MAX_SETBACK = 500.0        # metres from a centre line (or a zone's edge) to the facades:
                            # more is no street (1e300 overflowed GEOS's buffer)
+MAX_LOT = 500.0            # metres square a towers zone's lot may be: more is a block,
+                           # and lot = 1e9 was refused as a floor-area ratio of 1.5e-14
 MAX_SLACK = 2.0            # metres a side may be missed by: more would leave gaps visibly
 MAX_TOWER_HEIGHT = 1000.0  # metres: the tallest building stands 828 m; a tower of a km
                            # or more is a typo, and its search would run for minutes
