@@ -191,7 +191,7 @@ def _run(argv: list[str] | None) -> int:
         check_names_encodable(args)
         if getattr(args, "out", None) is not None:
             check_out_dir(args.out)
-        if args.command in SOLVING:
+        if args.command in SOLVING - {"city"}:   # a city says it once its inputs are read
             announce_compile()
         with terminate_as_interrupt():   # SIGTERM anywhere in a command: exit 143
             if args.command in READING_MESHES:   # Ctrl-C in trimesh's import was

@@ -48,10 +48,14 @@ def kernels_cold() -> bool:
     return bool(kernels) and cold > COLD_SHARE * len(kernels)
 
 
+_SAID: list[bool] = []    # the notice printed in this process (``demo`` runs a city)
+
+
 def announce_compile(stream: TextIO | None = None) -> bool:
-    """Print :data:`NOTICE` (on stderr) when the kernels are about to be compiled;
-    whether it did."""
-    if kernels_cold():
+    """Print :data:`NOTICE` (on stderr) when the kernels are about to be compiled, once
+    in a process; whether it did."""
+    if not _SAID and kernels_cold():
         print(NOTICE, file=stream or sys.stderr, flush=True)
+        _SAID.append(True)
         return True
     return False

@@ -702,8 +702,30 @@ def test_a_cold_kernel_cache_is_announced(tmp_path, monkeypatch, capsys):
                           env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty")})
     assert cold.stdout.strip() == "True", cold.stderr
     monkeypatch.setattr(compile_notice, "kernels_cold", lambda: True)
+    monkeypatch.setattr(compile_notice, "_SAID", [])     # (said once in a process)
     assert cli.main(["solve", str(ROOT / "examples" / "facade_small.json")]) == 0
     assert compile_notice.NOTICE in capsys.readouterr().err
+
+
+def test_a_city_announces_compiling_once_its_inputs_are_read(tmp_path, monkeypatch,
+                                                            capsys):
+    """A city.toml refused in a second was told after "compiling the solver kernels
+    once, about 60 s" (two lines, the first untrue); a city says it only when it has
+    blocks to solve, and a run whose blocks are all done says nothing."""
+    from citysynth.pipeline import compile_notice
+
+    monkeypatch.setattr(compile_notice, "kernels_cold", lambda: True)
+    monkeypatch.setattr(compile_notice, "_SAID", [])     # (said once in a process)
+    streets, out = grid_streets(tmp_path / "s.geojson", 1), tmp_path / "run"
+    bad = tmp_path / "c.toml"
+    bad.write_text("k = 0\n")
+    assert main(city_args(streets, out, "--workers", "1", "--config", str(bad))) == 2
+    assert compile_notice.NOTICE not in capsys.readouterr().err
+    assert main(city_args(streets, out, "--workers", "1")) == 0
+    assert capsys.readouterr().err.count(compile_notice.NOTICE) == 1
+    compile_notice._SAID.clear()      # a new process, its blocks all done
+    assert main(city_args(streets, out, "--workers", "1")) == 0
+    assert compile_notice.NOTICE not in capsys.readouterr().err
 
 
 def test_sigterm_after_the_blocks_still_exits_143(clean, tmp_path, monkeypatch, capsys):

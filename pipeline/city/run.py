@@ -74,6 +74,7 @@ from citysynth.pipeline.city.process import (
     terminate_as_interrupt,
     worker_init,
 )
+from citysynth.pipeline.compile_notice import announce_compile
 from citysynth.pipeline.errors import ConfigError, UsageError, shown
 from citysynth.pipeline.layouts import check_style, default_style
 from citysynth.pipeline.paths import same_input
@@ -682,6 +683,8 @@ def run_city(inputs: CityInputs, out_dir: str | Path, *, workers: int = 1,
                 tell(len(results), len(inputs.jobs), results[job.id])
             else:
                 todo.append(job)
+        if todo and client is None:   # (said here, not before a config is read: a
+            announce_compile()        # one-second refusal came after it)
         stream: Iterable[BlockRecord] = _dask(todo, out, client) if client else \
             _local(todo, out, workers)
         for rec in stream:
