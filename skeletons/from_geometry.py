@@ -36,7 +36,7 @@ from citysynth.skeletons.model import (
     flip,
 )
 from citysynth.skeletons.streets import street_blocks
-from citysynth.solver.safe_read import shown
+from citysynth.solver.safe_read import first_few, shown
 
 SAID_PIECES = 3   # pieces of a disconnected skeleton a message names
 SNAP = 0.01            # metres: endpoints closer than this are the same key point
@@ -217,12 +217,12 @@ def skeleton_from_lines(features: Iterable[Feature], frame: Frame, name: str = "
     if len(parts) > 1:
         # each piece by a feature in it (the key point counts of 1,000 pieces made a
         # 2,103-character line that said neither which lines nor why)
-        shown_ = [next(e.source for e in edges if e.a in c).removeprefix(prefix)
-                  for c in parts[:SAID_PIECES]]
-        more = f" and {len(parts) - SAID_PIECES:,} more" if len(parts) > SAID_PIECES else ""
+        named = [next(e.source for e in edges if e.a in c).removeprefix(prefix)
+                 for c in parts[:SAID_PIECES]]
         raise SkeletonError(
             f"{prefix}the skeleton is disconnected: {len(parts):,} separate pieces, "
-            f"{' / '.join(shown_)}{more}; lines join only where an end of one lies on "
+            f"{first_few(named, SAID_PIECES, ' / ', len(parts))}; lines join only where "
+            "an end of one lies on "
             f"the other (within {SNAP * 100:g} cm), and {_nearest_gap(parts, edges, xy, frame)}"
             "; connect them, or give each piece as a building of its own")
 
@@ -474,8 +474,7 @@ def check_outlines(features: Sequence[Feature], frame: Frame, most: int = 5) -> 
         return
     (_f, first), rest = refused[0], [f.name for f, _why in refused[1:]]
     if rest:
-        named = ", ".join(rest[:most]) + (f" and {len(rest) - most} more"
-                                          if len(rest) > most else "")
+        named = first_few(rest, most)
         first += (f" ({len(rest)} more of the file's outlines "
                   f"{'are' if len(rest) > 1 else 'is'} refused too: {named})")
     raise SkeletonError(first)

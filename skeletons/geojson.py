@@ -36,6 +36,7 @@ import shapely
 from shapely.geometry import shape
 from shapely.geometry.base import BaseGeometry
 
+from citysynth.skeletons.degrees import in_degrees
 from citysynth.skeletons.errors import (
     FarFromFrame,
     FarFromFrameWarning,
@@ -748,7 +749,7 @@ def _check_not_degrees(allc: Coords, given: pyproj.CRS, source: str, named_by: s
     would span less than a metre, which no city does."""
     lo, hi = allc.min(axis=0), allc.max(axis=0)
     span = float((hi - lo).max()) * _unit(given)
-    if not (-180 <= lo[0] and hi[0] <= 180 and -90 <= lo[1] and hi[1] <= 90) or (
+    if not in_degrees(*lo, *hi) or (
             given.area_of_use is None and span >= 1.0):
         return
     fix = ("leave --crs out (GeoJSON is lon/lat) or give --crs EPSG:4326"
@@ -869,12 +870,12 @@ def _transform(src: pyproj.CRS | str, dst: pyproj.CRS | str, source: str, outsid
 
 def _check_lonlat(allc: Coords, source: str, given: pyproj.CRS | None) -> None:
     lo, hi = allc.min(axis=0), allc.max(axis=0)
-    if -180 <= lo[0] and hi[0] <= 180 and -90 <= lo[1] and hi[1] <= 90:
+    if in_degrees(*lo, *hi):
         return
     if given is not None:
         raise SkeletonError(f"{source}: coordinates in {given.name} land outside "
                             "longitude/latitude; is the CRS right?")
-    out = ~((np.abs(allc[:, 0]) <= 180) & (np.abs(allc[:, 1]) <= 90))
+    out = ~in_degrees(allc[:, 0], allc[:, 1])
     x, y = allc[int(np.argmax(out))]      # the first point outside, with the digits
     said = (f"{x:.7g}, {y:.7g}" if abs(x) < 1e4 and abs(y) < 1e4   # that show it is
             else f"{_num(x)}, {_num(y)}")                          # (180.0005, not 180.0)
@@ -969,7 +970,7 @@ def local_xy(p: tuple[float, float]) -> str:
 
 def format_xy(p: tuple[float, float]) -> str:
     """A point as messages give it: 6 decimals for lon/lat, 2 (cm) for metres."""
-    nd = 6 if abs(p[0]) <= 180 and abs(p[1]) <= 90 else 2
+    nd = 6 if in_degrees(*p) else 2
     x, y = (f"{v:.{nd}f}" for v in p)
     return f"({x.removeprefix('-') if float(x) == 0 else x}, " \
         f"{y.removeprefix('-') if float(y) == 0 else y})"   # no "-0.000000"

@@ -39,7 +39,7 @@ import shapely
 from citysynth.skeletons.errors import InputWarning, SkeletonError, cannot_read
 from citysynth.skeletons.geoparquet import FORMAT as PARQUET
 from citysynth.skeletons.geoparquet import geojson_geometries, json_value, read_geoparquet
-from citysynth.solver.safe_read import check_data_size, check_file
+from citysynth.solver.safe_read import check_data_size, check_file, first_few
 
 LAYER_SEP = "::"                    # FILE::LAYER picks one layer of a file
 FORMATS = {                         # file signature -> format name
@@ -319,8 +319,7 @@ def _check_zip_holds(path: Path, fmt: str, members: list[str]) -> None:
     wanted = ".kml" if fmt == "KMZ" else ".shp"
     if any(m.lower().endswith(wanted) for m in members):
         return
-    held = ", ".join(members[:3]) + (f" and {len(members) - 3} more"
-                                     if len(members) > 3 else "")
+    held = first_few(members, 3)
     raise SkeletonError(f"{path}: a zip archive holding {held or 'nothing'}, with no "
                         f"{wanted} file in it (a zipped "
                         f"{'KML' if fmt == 'KMZ' else 'Shapefile'} is read as it is); "

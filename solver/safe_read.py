@@ -367,6 +367,17 @@ def shown(v: Any, most: int = 60) -> str:
     return text if len(text) <= most else text[:most - 3] + "..."
 
 
+def first_few(names: list[str], most: int, sep: str = ", ", total: int | None = None
+              ) -> str:
+    """The first ``most`` of ``names`` joined by ``sep``, and how many more there are:
+    "a, b, c and 7 more". A message naming what a file holds, or what it refused,
+    stays a line long however many there are. ``total``: how many there are in all,
+    where only the first few were worth naming."""
+    total = len(names) if total is None else total
+    more = f" and {total - most:,} more" if total > most else ""
+    return sep.join(names[:most]) + more
+
+
 def printable(text: str) -> str:
     """``text`` with letters as themselves (é) and what prints as no letter escaped
     (``\\u000a``): JSON leaves a right-to-left override or a zero-width space raw, and

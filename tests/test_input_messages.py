@@ -165,3 +165,32 @@ def test_nearest_totals_past_six_digits_are_said_in_full():
     assert r.status == "infeasible"
     assert "length = 1e+06" in r.reason and "666666.8 (below)" in r.reason \
         and "1000000.2 (above)" in r.reason, r.reason
+
+
+def test_lonlat_is_told_from_metres_by_one_rule_at_its_edges():
+    """Every place that tells lon/lat from metres by range asks one predicate (it was
+    written about eight times); the edges themselves are degrees."""
+    import numpy as np
+
+    from citysynth.skeletons.degrees import in_degrees
+
+    assert in_degrees(180.0, -90.0) and in_degrees(-180.0, 90.0)
+    assert not in_degrees(180.0001, 0.0) and not in_degrees(0.0, -90.5)
+    assert in_degrees(-10.0, -5.0, 170.0, 60.0) and not in_degrees(-10.0, -5.0, 181.0, 60.0)
+    assert in_degrees(np.array([24.9, 385000.0]), np.array([60.2, 6672000.0])).tolist() \
+        == [True, False]
+    # a city.toml origin past the range is refused with its value
+    with pytest.raises(ValueError, match="must be \[lon, lat\] in degrees, got"):
+        from citysynth.pipeline.city.config import _origin
+
+        def err(key, why):
+            return ValueError(f"{key}: {why}")
+        _origin({"origin": [385000.0, 60.2]}, err)
+
+
+def test_a_long_list_in_a_message_names_the_first_few_and_counts_the_rest():
+    from citysynth.solver.safe_read import first_few
+
+    assert first_few(["a", "b"], 3) == "a, b"
+    assert first_few(["a", "b", "c", "d", "e"], 3) == "a, b, c and 2 more"
+    assert first_few(["a"], 1, " / ", total=1_234) == "a and 1,233 more"

@@ -69,6 +69,7 @@ from shapely.geometry import Polygon
 
 from citysynth.pipeline.city.footprints import MAX_LEVELS, Storeys
 from citysynth.pipeline.errors import MAX_K, MAX_STRETCH, ConfigError, shown
+from citysynth.skeletons.degrees import in_degrees
 from citysynth.skeletons.from_geometry import interval_problem, why_invalid
 from citysynth.skeletons.geojson import MAX_VERTICES
 from citysynth.skeletons.streets import NOT_STREETS, Setbacks
@@ -316,7 +317,7 @@ def _origin(data: dict, err: _Err) -> tuple[float, float] | None:
         return None
     if not isinstance(origin, list) or len(origin) != 2 or not all(_isnum(c) for c in origin):
         raise err("origin", "must be [lon, lat]")
-    if not (-180 <= origin[0] <= 180 and -90 <= origin[1] <= 90):
+    if not in_degrees(*origin):
         raise err("origin", f"must be [lon, lat] in degrees, got {origin}")
     return float(origin[0]), float(origin[1])
 

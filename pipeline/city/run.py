@@ -82,6 +82,7 @@ from citysynth.pipeline.progress import progress_line
 from citysynth.pipeline.towers import LARGEST_LOT, Lot, check_lot, far_bounds
 from citysynth.skeletons import Feature, Features, Frame, parse_geojson, read_geojson
 from citysynth.skeletons.clean import mean_width
+from citysynth.skeletons.degrees import in_degrees
 from citysynth.skeletons.errors import (
     FarFromFrame,
     FarFromFrameWarning,
@@ -480,7 +481,7 @@ def _zone_polygons(cfg: CityConfig, frame: Frame, crs: str | None,
     with_poly = [(z.name, z.polygon) for z in cfg.zones if z.polygon]
     if not with_poly:
         return [None] * len(cfg.zones)
-    lonlat = all(-180 <= x <= 180 and -90 <= y <= 90 for _, poly in with_poly for x, y in poly)
+    lonlat = all(in_degrees(x, y) for _, poly in with_poly for x, y in poly)
     zone_crs = None if lonlat else (frame.source_crs or crs)
     points = shapely.MultiPoint([o[1].representative_point() for o in outlines])
     geoms = iter([_zone_polygon(name, poly, zone_crs, frame, points)
@@ -503,7 +504,7 @@ def _zone_polygon(name: str, poly: tuple[tuple[float, float], ...], zone_crs: st
     zone applied to every block where a smaller one in metres was refused."""
     shape: dict = {"type": "Polygon", "coordinates": [[*map(list, poly), list(poly[0])]]}
     source = f"city.toml zone {name!r}"
-    off = [(x, y) for x, y in poly if not (-180 <= x <= 180 and -90 <= y <= 90)]
+    off = [(x, y) for x, y in poly if not in_degrees(x, y)]
     if zone_crs is None and off:
         raise SkeletonError(f"{source}: its polygon's points such as {off[0][0]:g}, "
                             f"{off[0][1]:g} are not longitude/latitude, as the streets' "

@@ -20,6 +20,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from citysynth.parts_db.files import atomic_path
 from citysynth.pipeline.errors import UsageError
+from citysynth.skeletons.degrees import in_degrees
 from citysynth.solver.safe_read import read_json
 
 BLOCKS = "blocks.geojson"
@@ -104,8 +105,8 @@ def write_map(d: dict[str, Any], run_a: Path, run_b: Path, png: Path) -> Path:
         raise UsageError(f"{run_b / BLOCKS}: no block outlines to draw")
     shapes, marks = _across_antimeridian(shapes, marks)
     x0, y0, x1, y1 = shapely.total_bounds([g for g, _, _ in shapes])
-    squash = math.cos(math.radians((y0 + y1) / 2)) if -90 <= y0 <= y1 <= 90 and \
-        -180 <= x0 <= x1 <= 180 else 1.0     # lon/lat: metres east shrink with latitude
+    squash = math.cos(math.radians((y0 + y1) / 2)) if in_degrees(x0, y0, x1, y1) \
+        else 1.0     # lon/lat: metres east shrink with latitude
     w, h = max((x1 - x0) * squash, 1e-9), max(y1 - y0, 1e-9)
     scale = (SIZE - 2 * MARGIN) / max(w, h)
     size = (int(w * scale) + 2 * MARGIN + LEGEND, max(int(h * scale) + 2 * MARGIN, 260))
@@ -141,7 +142,7 @@ def _across_antimeridian(shapes: list, marks: list) -> tuple[list, list]:
     the map narrower: drawn as they are, the map spanned the globe and the city was a
     dot at either edge."""
     x0, y0, x1, y1 = shapely.total_bounds([g for g, _, _ in shapes])
-    if not (-180 <= x0 and x1 <= 180 and -90 <= y0 and y1 <= 90 and x1 - x0 > 180):
+    if not (in_degrees(x0, y0, x1, y1) and x1 - x0 > 180):
         return shapes, marks
 
     def east(g: shapely.Geometry) -> shapely.Geometry:

@@ -19,6 +19,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from citysynth.skeletons.degrees import in_degrees
+
 SAME_PLACE = 0.05   # m: outlines this close everywhere are one block re-drawn
 _M_PER_DEG = 111_320.0   # metres a degree of latitude spans (and of longitude at 0°)
 
@@ -85,7 +87,7 @@ def _metres(shapes: dict, crs: str | None) -> dict:
     out = {}
     for k, g in shapes.items():
         x0, y0, x1, y1 = g.bounds
-        if -180 <= x0 <= x1 <= 180 and -90 <= y0 <= y1 <= 90:
+        if in_degrees(x0, y0, x1, y1):
             east = _M_PER_DEG * math.cos(math.radians((y0 + y1) / 2))
             g = shapely.transform(g, lambda xy, e=east: xy * [e, _M_PER_DEG])
         out[k] = g
