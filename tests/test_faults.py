@@ -775,3 +775,36 @@ def test_a_failed_rewrite_leaves_the_earlier_result_whole(tmp_path, monkeypatch,
     after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert after.keys() == before.keys()
     assert [k for k in before if after[k] != before[k]] == []
+
+
+@pytest.mark.parametrize("found", ["report.json", "city.png", "manifest.json"])
+def test_a_folder_that_is_no_run_keeps_its_files(clean, tmp_path, capsys, found):
+    """``-o`` on a folder that is not a city run (a project folder with a report.json of
+    its own, a web app's manifest.json): the run wrote its own over the file without a
+    word. Refused before anything is written; the folder is left as it was."""
+    streets, _ref, _snap = clean
+    out = tmp_path / "project"
+    out.mkdir()
+    (out / found).write_text('{"mine": true}\n')
+    capsys.readouterr()
+    assert main(city_args(streets, out, "--workers", "1")) == 2
+    err = said(capsys.readouterr().err)
+    assert ("not the manifest of a citysynth city run" in err if found == "manifest.json"
+            else f"not the folder of a citysynth city run (it has no manifest.json), and "
+                 f"the run would write over its {found}" in err), err
+    assert "give a new or empty -o folder" in err, err
+    assert sorted(p.name for p in out.iterdir()) == [found]
+    assert (out / found).read_text() == '{"mine": true}\n'
+
+
+def test_a_run_folder_and_a_first_run_killed_early_are_still_run_into(clean, tmp_path):
+    """The guard above passes a run's own folder (it has its manifest) and one a first
+    run left before its manifest (blocks only)."""
+    streets, ref, _snap = clean
+    again = tmp_path / "again"
+    shutil.copytree(ref, again)
+    assert main(city_args(streets, again, "--workers", "1")) == 0
+    early = tmp_path / "early"
+    shutil.copytree(ref / "blocks", early / "blocks")
+    assert main(city_args(streets, early, "--workers", "1")) == 0
+    assert (early / "manifest.json").is_file()

@@ -180,7 +180,7 @@ def test_lonlat_is_told_from_metres_by_one_rule_at_its_edges():
     assert in_degrees(np.array([24.9, 385000.0]), np.array([60.2, 6672000.0])).tolist() \
         == [True, False]
     # a city.toml origin past the range is refused with its value
-    with pytest.raises(ValueError, match="must be \[lon, lat\] in degrees, got"):
+    with pytest.raises(ValueError, match=r"must be \[lon, lat\] in degrees, got"):
         from citysynth.pipeline.city.config import _origin
 
         def err(key, why):

@@ -43,6 +43,36 @@ def misplaced(out: str) -> str | None:
     return None
 
 
+def not_a_run(out: str) -> str | None:
+    """What in an existing folder ``out`` that is not a citysynth run the run would
+    write over: a ``manifest.json`` of something else (a web app's), or, with no
+    manifest, a file by one of the names the run writes (its ``report.json``, a
+    ``city.png``). Said before anything is written: such a folder lost its file without
+    a word. A run's own folder always has its manifest once it holds any of them (the
+    manifest is written first), and a first run killed before it holds none. None when
+    the run may write there."""
+    from citysynth.pipeline.errors import UsageError
+    from citysynth.solver.safe_read import read_json
+
+    root = Path(out)
+    manifest = root / MANIFEST
+    fix = "give a new or empty -o folder, or the folder of an earlier citysynth city run"
+    if manifest.is_file():
+        try:
+            data = read_json(manifest, "manifest", UsageError)
+        except UsageError:
+            data = None
+        if not (isinstance(data, dict) and data.get("schema") == RUN_SCHEMA):
+            return (f"{manifest}: not the manifest of a citysynth city run, and the run "
+                    f"would write its own over it; {fix}")
+        return None
+    ours = [n for n in (REPORT, BLOCKS_GEOJSON, *CITY_FILES) if (root / n).is_file()]
+    if ours:
+        return (f"{root}: not the folder of a citysynth city run (it has no {MANIFEST}), "
+                f"and the run would write over its {', '.join(ours)}; {fix}")
+    return None
+
+
 def input_in_outputs(out: str, inputs: "list[str | None]") -> str | None:
     """What input file (``FILE`` or ``FILE::LAYER``) is one the run writes in ``out``:
     ``--footprints run/blocks.geojson -o run`` replaced the user's file with the run's

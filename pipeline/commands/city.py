@@ -79,9 +79,9 @@ def run(args) -> int:
             + ", and more than "
             f"{MAX_WORKERS_PER_CORE} per core only wait for each other; use at most "
             f"{MAX_WORKERS_PER_CORE * cpu_count()} (or --scheduler for a cluster)")
-    from citysynth.pipeline.city.folder import input_in_outputs, misplaced
+    from citysynth.pipeline.city.folder import input_in_outputs, misplaced, not_a_run
     wrong = misplaced(args.out) or input_in_outputs(
-        args.out, [args.streets, args.footprints, args.config])
+        args.out, [args.streets, args.footprints, args.config]) or not_a_run(args.out)
     if wrong:
         raise UsageError(wrong)
     from citysynth.pipeline.city.process import check_not_running
