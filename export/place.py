@@ -856,11 +856,11 @@ class _Placer:
                 half = self._beside(i, s, t, mass)
                 if half is None:
                     continue
-            elif self._cuts_covered(i, t, medial, mass):
+            elif self._covered_cut(i, t, medial, mass) is not None:
                 half = medial
             else:       # the fallback, made only then
                 half = self._short_of_sliver(i, s, t, medial, mass)
-                if not self._cuts_covered(i, t, half, mass):
+                if self._covered_cut(i, t, half, mass) is None:
                     continue
             assert half is not None
             placed.halves.append(half)
@@ -875,7 +875,7 @@ class _Placer:
         sides, neither did (27 m²). Of the plane across both facades midway between
         their joints and the plane of t's joint (giving up all t's extension covers),
         the one that takes off the most of what the others cover
-        (:meth:`_cuts_covered`): midway, a module deeper than t's keeps the strip behind
+        (:meth:`_covered_cut`): midway, a module deeper than t's keeps the strip behind
         t's, and t's module, cut midway after it, stood in its half. None where s and
         t are not so, their extensions do not meet, or neither plane is covered."""
         reach = [g for _k, g in self._reach.get(t, [])]
@@ -902,8 +902,10 @@ class _Placer:
         if joint is not None:
             planes.append(HalfPlane(tuple(-np.asarray(joint.normal)), joint.point,
                                     extends=False))
-        covered = [h for h in planes if self._cuts_covered(i, t, h, ext)]
-        return max(covered, key=lambda h: self._past(i, h, ext).area, default=None)
+        cuts = [(h, self._covered_cut(i, t, h, ext)) for h in planes]
+        best = max(((h, c) for h, c in cuts if c is not None), key=lambda hc: hc[1].area,
+                   default=None)
+        return None if best is None else best[0]
 
     def _joint_plane(self, t: int, start: bool) -> HalfPlane | None:
         """The plane of the mitre joint at stage t's start (or end) keeping t's side,
@@ -916,14 +918,17 @@ class _Placer:
         before, after, _how, _trim = joint_halves(self.kxy[j], *self._turn(s_in, s_out))
         return after[0] if start else before[0]
 
-    def _cuts_covered(self, i: int, t: int, half: HalfPlane | None,
-                      ext: BaseGeometry) -> bool:
-        """Whether ``half`` is a new plane for module i that takes off some of it (with
-        its extension ``ext``) and only what others cover (:meth:`_covered_by_others`)."""
+    def _covered_cut(self, i: int, t: int, half: HalfPlane | None,
+                     ext: BaseGeometry) -> BaseGeometry | None:
+        """What ``half`` takes off module i (with its extension ``ext``), where it is a
+        new plane for it that takes off some of it and only what others cover
+        (:meth:`_covered_by_others`); else None. Returned, so that choosing among
+        planes by what they take off measures it once."""
         if half is None or half in self.placed[i].halves:
-            return False
+            return None
         past = self._past(i, half, ext)
-        return past.area > MEDIAL_MIN_AREA and self._covered_by_others(i, t, past)
+        return past if past.area > MEDIAL_MIN_AREA and self._covered_by_others(i, t, past) \
+            else None
 
     def _short_of_sliver(self, i: int, s: int, t: int, medial: HalfPlane | None,
                          ground: BaseGeometry) -> HalfPlane | None:
